@@ -1,0 +1,489 @@
+//! The JPL inchworm actuator plant (SPEC section 2): plain Rust, no FFI, no I/O.
+
+pub mod analog;
+pub mod hysteresis;
+pub mod linear;
+pub mod params;
+mod state_bytes;
+
+use std::sync::Arc;
+
+use hysteresis::Hysteresis;
+use linear::{ix, Chain, Propagators, Vector, TICK};
+pub use params::{ParamError, PlantParams, N_PLAYS};
+
+/// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Hold = 1,
+    Locked = 2,
+    Drive = 3,
+    Free = 4,
+}
+
+/// DAC output volts driving the three channels, valid range 0–10 V.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Dac {
+    pub earth: f64,
+    pub nonearth: f64,
+    pub extension: f64,
+}
+
+/// What the plant shows at the current communication point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outputs {
+    pub encoder_counts: i64,
+    /// encoder_counts × q_enc (m)
+    pub encoder_position: f64,
+    /// true runner position x4 − L_r (m)
+    pub runner_position: f64,
+    /// stack elongation x3 − L_p (m)
+    pub extension: f64,
+    pub voltage_earth: f64,
+    pub voltage_nonearth: f64,
+    pub voltage_extension: f64,
+    pub mode: Mode,
+    pub earth_closed: bool,
+    pub nonearth_closed: bool,
+    /// Number of entries into FREE since the start.
+    pub slip_events: u32,
+}
+
+/// What happened during one `Plant::step`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// Brake threshold crossings handled.
+    pub brake_events: u32,
+    /// Entries into FREE (the runner slipped: not nominal).
+    pub slips: u32,
+}
+
+
+impl Mode {
+    /// The mode the two brakes make (SPEC 2.2 table).
+    pub fn from_brakes(earth_closed: bool, nonearth_closed: bool) -> Mode {
+        match (earth_closed, nonearth_closed) {
+            (true, false) => Mode::Hold,
+            (true, true) => Mode::Locked,
+            (false, true) => Mode::Drive,
+            (false, false) => Mode::Free,
+        }
+    }
+
+    fn index(self) -> usize {
+        self as usize - 1
+    }
+}
+
+/// Longest piece propagated without looking for events: 2^14 ticks = 15.3 µs, a 16th of the
+/// period of the fastest mode that moves node 3 (the ~4 kHz stack-on-flexure mode in HOLD),
+/// so `ξ̇` changes sign at most once inside a piece.
+const MAX_PIECE_LEVEL: usize = 14;
+
+/// A step that needs more events than this is pathological (chattering at a threshold):
+/// event detection is suspended for the rest of that step and the step reports it.
+const MAX_EVENTS_PER_STEP: u32 = 100_000;
+
+/// Propagators of one configuration, shared between clones of a plant.
+type ConfigTable = Arc<Propagators<{ linear::N }>>;
+
+/// The inchworm plant of SPEC section 2, advanced by exact piecewise-linear propagation
+/// between located events (see `linear`).
+#[derive(Clone, Debug)]
+pub struct Plant {
+    params: PlantParams,
+    time: f64,
+    z: Vector,
+    earth: Chain,
+    nonearth: Chain,
+    earth_closed: bool,
+    nonearth_closed: bool,
+    mode: Mode,
+    hysteresis: Hysteresis,
+    /// Runner offset `x4 − x3` frozen at the last entry into DRIVE.
+    drive_offset: f64,
+    slip_events: u32,
+    encoder_counts: i64,
+    rng: u64,
+    chain: Arc<Propagators<4>>,
+    /// Lazily built propagators, indexed by mode and sliding set.
+    configs: Vec<Option<ConfigTable>>,
+}
+
+/// What the event loop watches during one piece, frozen at its start.
+struct Watch {
+    vth: f64,
+    earth_closed: bool,
+    nonearth_closed: bool,
+    xi_row: Vector,
+    rate_row: Vector,
+    direction: f64,
+    up: f64,
+    down: f64,
+}
+
+impl Watch {
+    fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
+        (e[2] < self.vth) != self.earth_closed || (n[2] >= self.vth) != self.nonearth_closed
+    }
+
+    fn play_event(&self, z: &Vector) -> bool {
+        let xi = self.xi_row.dot(z);
+        if self.direction != 0.0 {
+            self.direction * self.rate_row.dot(z) <= 0.0
+                || (self.direction > 0.0 && xi >= self.up)
+                || (self.direction < 0.0 && xi <= self.down)
+        } else {
+            xi >= self.up || xi <= self.down
+        }
+    }
+
+    fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
+        self.brakes_changed(e, n) || self.play_event(z)
+    }
+}
+
+impl Plant {
+    /// A plant at rest (SPEC 2.7) at time 0; the parameters are validated.
+    pub fn new(params: PlantParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        let mut z = Vector::zeros();
+        z[ix::ONE] = 1.0;
+        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), |m| m.exp()));
+        let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
+        let rng = params.noise_seed;
+        Ok(Plant {
+            params,
+            time: 0.0,
+            z,
+            earth: Chain::zeros(),
+            nonearth: Chain::zeros(),
+            earth_closed: true,
+            nonearth_closed: false,
+            mode: Mode::Hold,
+            hysteresis,
+            drive_offset: 0.0,
+            slip_events: 0,
+            encoder_counts: 0,
+            rng,
+            chain,
+            configs: vec![None; 4 << linear_n_plays_bits()],
+        })
+    }
+
+    pub fn params(&self) -> &PlantParams {
+        &self.params
+    }
+
+    /// Simulated time (s).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Play memories (V), for inspection and tests.
+    pub fn play_memories(&self) -> [f64; N_PLAYS] {
+        self.hysteresis.memory
+    }
+
+    /// Advances by `h` seconds with the DAC volts held (zero-order hold). Volts outside
+    /// 0–10 V are clamped and a non-finite value counts as 0 V; the FMU layer refuses
+    /// those before they get here. A non-positive or non-finite `h` does nothing.
+    pub fn step(&mut self, dac: Dac, h: f64) -> StepReport {
+        let mut report = StepReport::default();
+        if !(h > 0.0 && h.is_finite()) {
+            return report;
+        }
+        let volts = |v: f64| if v.is_finite() { v.clamp(0.0, 10.0) } else { 0.0 };
+        self.z[ix::UX] = volts(dac.extension);
+        self.earth[3] = volts(dac.earth);
+        self.nonearth[3] = volts(dac.nonearth);
+        self.sync_hysteresis();
+
+        let exact = h / TICK;
+        let mut left = exact.floor() as u64;
+        let rest = (exact - exact.floor()) * TICK;
+        let mut events = 0u32;
+        while left > 0 {
+            let level = (63 - left.leading_zeros() as usize).min(MAX_PIECE_LEVEL);
+            let watch_events = events < MAX_EVENTS_PER_STEP;
+            let (consumed, event) = self.piece(level, watch_events, &mut report);
+            events += u32::from(event);
+            left -= consumed;
+        }
+        if rest > 0.0 {
+            let cfg = self.config();
+            self.z = cfg.advance(self.z, 0, rest);
+            self.earth = self.chain.advance(self.earth, 0, rest);
+            self.nonearth = self.chain.advance(self.nonearth, 0, rest);
+        }
+        if self.mode == Mode::Drive {
+            // The runner rides on node 3: remove the rounding drift of the two equal rows.
+            self.z[ix::Y4] = self.z[ix::Y3] + self.drive_offset;
+            self.z[ix::V4] = self.z[ix::V3];
+        }
+        self.time += h;
+        self.sample_encoder();
+        report
+    }
+
+    /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
+    /// Returns the ticks consumed and whether an event was handled.
+    fn piece(&mut self, level: usize, watch_events: bool, report: &mut StepReport) -> (u64, bool) {
+        let cfg = self.config();
+        let chain = self.chain.clone();
+        let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
+        let z1 = cfg.phi[level] * z0;
+        let e1 = chain.phi[level] * e0;
+        let n1 = chain.phi[level] * n0;
+        if !watch_events {
+            (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+            return (1 << level, false);
+        }
+        let watch = self.watch();
+        let hit = watch.event(&z1, &e1, &n1);
+        // With no play sliding, ξ may cross a threshold and come back inside the piece:
+        // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
+        let rate0 = watch.rate_row.dot(&z0);
+        let rate1 = watch.rate_row.dot(&z1);
+        let mut extremum = false;
+        if !hit && watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+            let xi0 = watch.xi_row.dot(&z0);
+            let xi1 = watch.xi_row.dot(&z1);
+            let dt = TICK * (1u64 << level) as f64;
+            let reach = dt * (rate0.abs() + rate1.abs()) * watch.xi_row[ix::VX];
+            extremum = xi0.max(xi1) + reach >= watch.up || xi0.min(xi1) - reach <= watch.down;
+        }
+        if !hit && !extremum {
+            (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+            return (1 << level, false);
+        }
+        let stop = |z: &Vector, e: &Chain, n: &Chain| {
+            watch.event(z, e, n) || (extremum && watch.rate_row.dot(z) * rate0 <= 0.0)
+        };
+        let (mut z, mut e, mut n) = (z0, e0, n0);
+        let mut offset = 0u64;
+        for l in (0..level).rev() {
+            let (zc, ec, nc) = (cfg.phi[l] * z, chain.phi[l] * e, chain.phi[l] * n);
+            if !stop(&zc, &ec, &nc) {
+                (z, e, n) = (zc, ec, nc);
+                offset += 1 << l;
+            }
+        }
+        // The first tick at which the stop condition holds.
+        let (z, e, n) = (cfg.phi[0] * z, chain.phi[0] * e, chain.phi[0] * n);
+        (self.z, self.earth, self.nonearth) = (z, e, n);
+        let event = watch.event(&z, &e, &n);
+        if event {
+            self.handle_event(offset + 1, report);
+        }
+        (offset + 1, event)
+    }
+
+    fn watch(&self) -> Watch {
+        let (up, down) = self.hysteresis.next_thresholds();
+        Watch {
+            vth: self.params.v_th,
+            earth_closed: self.earth_closed,
+            nonearth_closed: self.nonearth_closed,
+            xi_row: linear::xi_row(&self.params, self.hysteresis.sliding_weight()),
+            rate_row: linear::drive_rate_row(&self.params, self.mode),
+            direction: f64::from(self.hysteresis.direction) * f64::from(u8::from(self.hysteresis.sliding != 0)),
+            up,
+            down,
+        }
+    }
+
+    /// Applies the brake switches and the hysteresis changes found at the current state.
+    fn handle_event(&mut self, _ticks_into_piece: u64, report: &mut StepReport) {
+        let vth = self.params.v_th;
+        let earth_closed = self.earth[2] < vth;
+        let nonearth_closed = self.nonearth[2] >= vth;
+        report.brake_events += u32::from(earth_closed != self.earth_closed) + u32::from(nonearth_closed != self.nonearth_closed);
+        self.earth_closed = earth_closed;
+        self.nonearth_closed = nonearth_closed;
+        let mode = Mode::from_brakes(earth_closed, nonearth_closed);
+        if mode != self.mode {
+            self.switch_mode(mode);
+            if mode == Mode::Free {
+                report.slips += 1;
+            }
+        }
+        self.sync_hysteresis();
+    }
+
+    /// The jump conditions of SPEC 2.2.
+    fn switch_mode(&mut self, mode: Mode) {
+        let z = &mut self.z;
+        match mode {
+            Mode::Locked => {
+                for i in [ix::V1, ix::V2, ix::V3, ix::V4] {
+                    z[i] = 0.0;
+                }
+            }
+            Mode::Drive => {
+                let m3 = linear::masses(&self.params).m3;
+                let m_r = self.params.m_r;
+                self.drive_offset = z[ix::Y4] - z[ix::Y3];
+                let v = (m3 * z[ix::V3] + m_r * z[ix::V4]) / (m3 + m_r);
+                z[ix::V3] = v;
+                z[ix::V4] = v;
+            }
+            Mode::Hold => z[ix::V4] = 0.0,
+            Mode::Free => self.slip_events += 1,
+        }
+        self.mode = mode;
+    }
+
+    /// Brings the play memories and the sliding set up to the current `ξ` and its direction,
+    /// and writes the resulting offset `c0` into the state.
+    fn sync_hysteresis(&mut self) {
+        let xi = linear::xi_row(&self.params, self.hysteresis.sliding_weight()).dot(&self.z);
+        let rate = linear::drive_rate_row(&self.params, self.mode).dot(&self.z);
+        let sign = if rate > 0.0 {
+            1
+        } else if rate < 0.0 {
+            -1
+        } else {
+            0
+        };
+        self.hysteresis.sync(xi, sign);
+        self.z[ix::C0] = self.hysteresis.offset();
+    }
+
+    fn config(&mut self) -> ConfigTable {
+        let key = (self.mode.index() << N_PLAYS) | usize::from(self.hysteresis.sliding);
+        if let Some(t) = &self.configs[key] {
+            return t.clone();
+        }
+        let a = linear::system_matrix(&self.params, self.mode, self.hysteresis.sliding_weight());
+        let t = Arc::new(Propagators::new(a, |m| m.exp()));
+        self.configs[key] = Some(t.clone());
+        t
+    }
+
+    fn sample_encoder(&mut self) {
+        let mut x = self.z[ix::Y4];
+        if self.params.encoder_noise > 0.0 {
+            x += self.params.encoder_noise * gaussian(&mut self.rng);
+        }
+        // f64::round rounds half away from zero, as SPEC 2.6 asks.
+        self.encoder_counts = (x / self.params.q_enc).round() as i64;
+    }
+
+    pub fn outputs(&self) -> Outputs {
+        let p = &self.params;
+        Outputs {
+            encoder_counts: self.encoder_counts,
+            encoder_position: self.encoder_counts as f64 * p.q_enc,
+            runner_position: self.z[ix::Y4],
+            extension: self.z[ix::Y3],
+            voltage_earth: self.earth[2],
+            voltage_nonearth: self.nonearth[2],
+            voltage_extension: self.z[ix::VX],
+            mode: self.mode,
+            earth_closed: self.earth_closed,
+            nonearth_closed: self.nonearth_closed,
+            slip_events: self.slip_events,
+        }
+    }
+
+    /// Absolute node positions `x1..x4` (m), as SPEC 2.3 writes them.
+    pub fn positions(&self) -> [f64; 4] {
+        let l = self.params.l_p / 3.0;
+        [
+            l + self.z[ix::Y1],
+            2.0 * l + self.z[ix::Y2],
+            3.0 * l + self.z[ix::Y3],
+            self.params.l_r + self.z[ix::Y4],
+        ]
+    }
+
+    /// Velocities `v1..v4` (m/s).
+    pub fn velocities(&self) -> [f64; 4] {
+        [self.z[ix::V1], self.z[ix::V2], self.z[ix::V3], self.z[ix::V4]]
+    }
+
+    /// Appends the complete dynamic state (not the parameters) to `out`.
+    pub fn save_state(&self, out: &mut Vec<u8>) {
+        let mut w = state_bytes::Writer(out);
+        w.f64(self.time);
+        for v in self.z.iter().chain(self.earth.iter()).chain(self.nonearth.iter()) {
+            w.f64(*v);
+        }
+        w.u8(u8::from(self.earth_closed));
+        w.u8(u8::from(self.nonearth_closed));
+        w.u8(self.mode as u8);
+        for m in self.hysteresis.memory {
+            w.f64(m);
+        }
+        w.u8(self.hysteresis.sliding);
+        w.u8(self.hysteresis.direction as u8);
+        w.f64(self.drive_offset);
+        w.u64(u64::from(self.slip_events));
+        w.u64(self.encoder_counts as u64);
+        w.u64(self.rng);
+    }
+
+    /// Restores a state written by `save_state`; on error the plant is unchanged.
+    pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = state_bytes::Reader::new(bytes);
+        let mut next = self.clone();
+        next.time = r.f64()?;
+        for v in next.z.iter_mut().chain(next.earth.iter_mut()).chain(next.nonearth.iter_mut()) {
+            *v = r.f64()?;
+        }
+        next.earth_closed = r.bool()?;
+        next.nonearth_closed = r.bool()?;
+        next.mode = match r.u8()? {
+            1 => Mode::Hold,
+            2 => Mode::Locked,
+            3 => Mode::Drive,
+            4 => Mode::Free,
+            m => return Err(format!("plant state: invalid mode {m}")),
+        };
+        for m in next.hysteresis.memory.iter_mut() {
+            *m = r.f64()?;
+        }
+        next.hysteresis.sliding = r.u8()?;
+        next.hysteresis.direction = r.u8()? as i8;
+        next.drive_offset = r.f64()?;
+        next.slip_events = u32::try_from(r.u64()?).map_err(|_| "plant state: slip count out of range")?;
+        next.encoder_counts = r.u64()? as i64;
+        next.rng = r.u64()?;
+        r.finish()?;
+        if next.hysteresis.sliding >= 1 << N_PLAYS || !(-1..=1).contains(&next.hysteresis.direction) {
+            return Err("plant state: invalid hysteresis flags".into());
+        }
+        if Mode::from_brakes(next.earth_closed, next.nonearth_closed) != next.mode {
+            return Err("plant state: mode disagrees with the brakes".into());
+        }
+        if !next.z.iter().all(|v| v.is_finite()) || !next.time.is_finite() {
+            return Err("plant state: non-finite value".into());
+        }
+        *self = next;
+        Ok(())
+    }
+}
+
+const fn linear_n_plays_bits() -> usize {
+    N_PLAYS
+}
+
+/// Standard normal deviate from a splitmix64 stream (Box–Muller): seeded and portable,
+/// so a noisy run replays exactly.
+fn gaussian(state: &mut u64) -> f64 {
+    let mut next = || {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut x = *state;
+        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        x ^= x >> 31;
+        ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    let (u1, u2) = (next(), next());
+    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+}

@@ -1,0 +1,202 @@
+//! Plant parameters (SPEC 2.8), SI units throughout.
+
+use std::fmt;
+
+/// Number of play operators in the Prandtl–Ishlinskii hysteresis.
+pub const N_PLAYS: usize = 5;
+
+/// Every parameter of the plant. Field names follow the FMU parameter names
+/// (`L_p` → `l_p`, `T_em` → `t_em`, `C` → `c`, `play_radius[i]` → `play_radius[i-1]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlantParams {
+    /// Extension PZT mass (kg).
+    pub m_p: f64,
+    /// Extension PZT short-circuit stiffness (N/m).
+    pub k_p: f64,
+    /// Extension PZT damping (N s/m).
+    pub c_p: f64,
+    /// Non-earth brake mass carried by node 3 (kg).
+    pub m_b: f64,
+    /// Flexure stiffness (N/m).
+    pub k_f: f64,
+    /// Flexure damping (N s/m).
+    pub c_f: f64,
+    /// Runner mass (kg).
+    pub m_r: f64,
+    /// Environment stiffness acting on the runner (N/m).
+    pub k_e: f64,
+    /// Environment damping (N s/m).
+    pub c_e: f64,
+    /// PZT rest length (m).
+    pub l_p: f64,
+    /// Runner rest position (m).
+    pub l_r: f64,
+    /// Electromechanical transformer ratio (N/V).
+    pub t_em: f64,
+    /// PZT capacitance (F).
+    pub c: f64,
+    /// Play operator radii (V), strictly increasing.
+    pub play_radius: [f64; N_PLAYS],
+    /// Play operator weights (dimensionless).
+    pub play_weight: [f64; N_PLAYS],
+    /// Brake disturbance force at zero environment load (N).
+    pub f_d0: f64,
+    /// Growth of the brake disturbance with environment load (dimensionless).
+    pub gamma: f64,
+    /// Brake threshold voltage (V).
+    pub v_th: f64,
+    /// Bessel filter -3 dB frequency (Hz).
+    pub f_bessel: f64,
+    /// PZT amplifier gain (V/V).
+    pub amp_gain: f64,
+    /// PZT amplifier roll-off frequency (Hz).
+    pub f_amp: f64,
+    /// Encoder resolution (m per count).
+    pub q_enc: f64,
+    /// Standard deviation of the additive encoder noise (m); 0 = off.
+    pub encoder_noise: f64,
+    /// Seed of the encoder noise generator.
+    pub noise_seed: u64,
+    /// Relative tolerance of the integration (event location, hysteresis sub-steps).
+    pub rel_tol: f64,
+}
+
+/// A parameter value that the model cannot run with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamError {
+    /// FMU name of the offending parameter, e.g. `play_radius[3]`.
+    pub field: String,
+    pub reason: String,
+}
+
+impl fmt::Display for ParamError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "parameter {}: {}", self.field, self.reason)
+    }
+}
+
+impl std::error::Error for ParamError {}
+
+impl Default for PlantParams {
+    fn default() -> Self {
+        Self::fia20()
+    }
+}
+
+impl PlantParams {
+    /// The 20-µm device (SPEC 2.8 default).
+    pub fn fia20() -> Self {
+        PlantParams {
+            m_p: 0.025,
+            k_p: 3.0e7,
+            c_p: 15.0,
+            m_b: 0.040,
+            k_f: 5.0e6,
+            c_f: 20.0,
+            m_r: 0.150,
+            k_e: 2.0e4,
+            c_e: 10.0,
+            l_p: 0.036,
+            l_r: 0.0,
+            t_em: 8.8,
+            c: 4.0e-6,
+            play_radius: [10.0, 20.0, 30.0, 40.0, 50.0],
+            play_weight: [0.08, 0.07, 0.06, 0.05, 0.04],
+            f_d0: 175.0,
+            gamma: 0.0,
+            v_th: 50.0,
+            f_bessel: 300.0,
+            amp_gain: 10.0,
+            f_amp: 475.0,
+            q_enc: 1.2e-9,
+            encoder_noise: 0.0,
+            noise_seed: 1,
+            rel_tol: 1e-8,
+        }
+    }
+
+    /// The 6-µm device: weaker transducer and brake disturbance.
+    pub fn fia6() -> Self {
+        PlantParams {
+            t_em: 2.5,
+            f_d0: 105.0,
+            ..Self::fia20()
+        }
+    }
+
+    /// Checks every value; the error names the first offending parameter.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        fn err(field: impl Into<String>, reason: impl Into<String>) -> Result<(), ParamError> {
+            Err(ParamError { field: field.into(), reason: reason.into() })
+        }
+        let positive = [
+            ("m_p", self.m_p),
+            ("k_p", self.k_p),
+            ("m_b", self.m_b),
+            ("k_f", self.k_f),
+            ("m_r", self.m_r),
+            ("L_p", self.l_p),
+            ("T_em", self.t_em),
+            ("C", self.c),
+            ("V_th", self.v_th),
+            ("f_bessel", self.f_bessel),
+            ("amp_gain", self.amp_gain),
+            ("f_amp", self.f_amp),
+            ("q_enc", self.q_enc),
+            ("rel_tol", self.rel_tol),
+        ];
+        let non_negative = [
+            ("c_p", self.c_p),
+            ("c_f", self.c_f),
+            ("k_e", self.k_e),
+            ("c_e", self.c_e),
+            ("gamma", self.gamma),
+            ("encoder_noise", self.encoder_noise),
+        ];
+        let finite = [("L_r", self.l_r), ("F_d0", self.f_d0)];
+        for (name, v) in positive.iter().chain(non_negative.iter()).chain(finite.iter()) {
+            if !v.is_finite() {
+                return err(*name, format!("must be finite, got {v}"));
+            }
+        }
+        for (name, v) in positive {
+            if v <= 0.0 {
+                return err(name, format!("must be > 0, got {v}"));
+            }
+        }
+        for (name, v) in non_negative {
+            if v < 0.0 {
+                return err(name, format!("must be >= 0, got {v}"));
+            }
+        }
+        if self.rel_tol > 1e-3 {
+            return err("rel_tol", format!("must be <= 1e-3, got {}", self.rel_tol));
+        }
+        for i in 0..N_PLAYS {
+            let (r, w) = (self.play_radius[i], self.play_weight[i]);
+            let rname = format!("play_radius[{}]", i + 1);
+            let wname = format!("play_weight[{}]", i + 1);
+            if !r.is_finite() || r <= 0.0 {
+                return err(rname, format!("must be finite and > 0, got {r}"));
+            }
+            if i > 0 && r <= self.play_radius[i - 1] {
+                return err(
+                    rname,
+                    format!("play radii must be strictly increasing, got {r} after {}", self.play_radius[i - 1]),
+                );
+            }
+            if !w.is_finite() || w < 0.0 {
+                return err(wname, format!("must be finite and >= 0, got {w}"));
+            }
+        }
+        // The mechanism's 2.1 kHz and 18 kHz modes need the analog chain to be a low-pass well below them;
+        // faster filters are allowed but the solver's step control assumes they stay below 1 MHz.
+        if self.f_bessel > 1e6 {
+            return err("f_bessel", format!("must be <= 1e6 Hz, got {}", self.f_bessel));
+        }
+        if self.f_amp > 1e6 {
+            return err("f_amp", format!("must be <= 1e6 Hz, got {}", self.f_amp));
+        }
+        Ok(())
+    }
+}
