@@ -28,17 +28,11 @@ pub fn chain_rows(p: &PlantParams) -> [[f64; 4]; 3] {
 mod tests {
     use super::*;
 
-    /// |H(j2πf)| of the whole chain, from the rows, to check the −3 dB point.
+    /// |H_b(j2πf)| = |3w² / (3w² − ω² + j 3wω)|.
     fn bessel_gain(p: &PlantParams, f: f64) -> f64 {
         let w = bessel_w(p);
-        let s = num_complex_mag(2.0 * std::f64::consts::PI * f, w);
-        s
-    }
-
-    fn num_complex_mag(om: f64, w: f64) -> f64 {
-        // H_b(jω) = 3w² / (3w² − ω² + j 3wω)
-        let re = 3.0 * w * w - om * om;
-        let im = 3.0 * w * om;
+        let om = 2.0 * std::f64::consts::PI * f;
+        let (re, im) = (3.0 * w * w - om * om, 3.0 * w * om);
         3.0 * w * w / (re * re + im * im).sqrt()
     }
 

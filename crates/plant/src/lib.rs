@@ -9,7 +9,7 @@ mod state_bytes;
 use std::sync::Arc;
 
 use hysteresis::Hysteresis;
-use linear::{ix, Chain, Propagators, Vector, TICK};
+use linear::{ix, Chain, Propagators, Vector, FINE_LEVEL, SCAN_POINTS, TICK};
 pub use params::{ParamError, PlantParams, N_PLAYS};
 
 /// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
@@ -75,11 +75,6 @@ impl Mode {
     }
 }
 
-/// Longest piece propagated without looking for events: 2^14 ticks = 15.3 µs, a 16th of the
-/// period of the fastest mode that moves node 3 (the ~4 kHz stack-on-flexure mode in HOLD),
-/// so `ξ̇` changes sign at most once inside a piece.
-const MAX_PIECE_LEVEL: usize = 14;
-
 /// A step that needs more events than this is pathological (chattering at a threshold):
 /// event detection is suspended for the rest of that step and the step reports it.
 const MAX_EVENTS_PER_STEP: u32 = 100_000;
@@ -128,14 +123,25 @@ impl Watch {
     }
 
     fn play_event(&self, z: &Vector) -> bool {
-        let xi = self.xi_row.dot(z);
+        self.play_event_at(self.xi_row.dot(z), self.rate_row.dot(z))
+    }
+
+    /// `rate` has the sign of `ξ̇`.
+    fn play_event_at(&self, xi: f64, rate: f64) -> bool {
         if self.direction != 0.0 {
-            self.direction * self.rate_row.dot(z) <= 0.0
+            self.direction * rate <= 0.0
                 || (self.direction > 0.0 && xi >= self.up)
                 || (self.direction < 0.0 && xi <= self.down)
         } else {
             xi >= self.up || xi <= self.down
         }
+    }
+
+    /// Whether `ξ`, turning round between two points `dt` apart, may reach a threshold in
+    /// between: its excursion beyond the end values is below `dt · max|ξ̇|`.
+    fn extremum_may_cross(&self, xi0: f64, xi1: f64, rate0: f64, rate1: f64, dt: f64) -> bool {
+        let reach = dt * (rate0.abs() + rate1.abs()) * self.xi_row[ix::VX];
+        xi0.max(xi1) + reach >= self.up || xi0.min(xi1) - reach <= self.down
     }
 
     fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
@@ -149,7 +155,9 @@ impl Plant {
         params.validate()?;
         let mut z = Vector::zeros();
         z[ix::ONE] = 1.0;
-        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), |m| m.exp()));
+        let mut volts = Chain::zeros();
+        volts[2] = 1.0;
+        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], |m| m.exp()));
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
         Ok(Plant {
@@ -167,7 +175,7 @@ impl Plant {
             encoder_counts: 0,
             rng,
             chain,
-            configs: vec![None; 4 << linear_n_plays_bits()],
+            configs: vec![None; 4 << N_PLAYS],
         })
     }
 
@@ -207,12 +215,31 @@ impl Plant {
         let mut left = exact.floor() as u64;
         let rest = (exact - exact.floor()) * TICK;
         let mut events = 0u32;
+        let fine = 1u64 << FINE_LEVEL;
         while left > 0 {
-            let level = (63 - left.leading_zeros() as usize).min(MAX_PIECE_LEVEL);
-            let watch_events = events < MAX_EVENTS_PER_STEP;
-            let (consumed, event) = self.piece(level, watch_events, &mut report);
-            events += u32::from(event);
-            left -= consumed;
+            let watching = events < MAX_EVENTS_PER_STEP;
+            if left >= fine {
+                let points = ((left >> FINE_LEVEL) as usize).min(SCAN_POINTS);
+                let clear = if watching { self.scan(points) } else { points };
+                if clear > 0 {
+                    let cfg = self.config();
+                    let ticks = (clear as u64) << FINE_LEVEL;
+                    self.z = cfg.advance(self.z, ticks, 0.0);
+                    self.earth = self.chain.advance(self.earth, ticks, 0.0);
+                    self.nonearth = self.chain.advance(self.nonearth, ticks, 0.0);
+                    left -= ticks;
+                }
+                if clear < points {
+                    let (consumed, event) = self.piece(FINE_LEVEL, &mut report);
+                    events += u32::from(event);
+                    left -= consumed;
+                }
+            } else {
+                let level = 63 - left.leading_zeros() as usize;
+                let (consumed, event) = if watching { self.piece(level, &mut report) } else { self.blind(level) };
+                events += u32::from(event);
+                left -= consumed;
+            }
         }
         if rest > 0.0 {
             let cfg = self.config();
@@ -232,17 +259,13 @@ impl Plant {
 
     /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
     /// Returns the ticks consumed and whether an event was handled.
-    fn piece(&mut self, level: usize, watch_events: bool, report: &mut StepReport) -> (u64, bool) {
+    fn piece(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
         let cfg = self.config();
         let chain = self.chain.clone();
         let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
         let z1 = cfg.phi[level] * z0;
         let e1 = chain.phi[level] * e0;
         let n1 = chain.phi[level] * n0;
-        if !watch_events {
-            (self.z, self.earth, self.nonearth) = (z1, e1, n1);
-            return (1 << level, false);
-        }
         let watch = self.watch();
         let hit = watch.event(&z1, &e1, &n1);
         // With no play sliding, ξ may cross a threshold and come back inside the piece:
@@ -254,8 +277,7 @@ impl Plant {
             let xi0 = watch.xi_row.dot(&z0);
             let xi1 = watch.xi_row.dot(&z1);
             let dt = TICK * (1u64 << level) as f64;
-            let reach = dt * (rate0.abs() + rate1.abs()) * watch.xi_row[ix::VX];
-            extremum = xi0.max(xi1) + reach >= watch.up || xi0.min(xi1) - reach <= watch.down;
+            extremum = watch.extremum_may_cross(xi0, xi1, rate0, rate1, dt);
         }
         if !hit && !extremum {
             (self.z, self.earth, self.nonearth) = (z1, e1, n1);
@@ -266,21 +288,68 @@ impl Plant {
         };
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
-        for l in (0..level).rev() {
+        for l in (self.resolution_level()..level).rev() {
             let (zc, ec, nc) = (cfg.phi[l] * z, chain.phi[l] * e, chain.phi[l] * n);
             if !stop(&zc, &ec, &nc) {
                 (z, e, n) = (zc, ec, nc);
                 offset += 1 << l;
             }
         }
-        // The first tick at which the stop condition holds.
-        let (z, e, n) = (cfg.phi[0] * z, chain.phi[0] * e, chain.phi[0] * n);
+        // The first resolution interval at whose end the stop condition holds.
+        let r = self.resolution_level().min(level);
+        let (z, e, n) = (cfg.phi[r] * z, chain.phi[r] * e, chain.phi[r] * n);
         (self.z, self.earth, self.nonearth) = (z, e, n);
         let event = watch.event(&z, &e, &n);
         if event {
-            self.handle_event(offset + 1, report);
+            self.handle_event(report);
         }
-        (offset + 1, event)
+        (offset + (1 << r), event)
+    }
+
+    /// Propagates `2^level` ticks without looking for events (event budget exhausted).
+    fn blind(&mut self, level: usize) -> (u64, bool) {
+        let cfg = self.config();
+        self.z = cfg.phi[level] * self.z;
+        self.earth = self.chain.phi[level] * self.earth;
+        self.nonearth = self.chain.phi[level] * self.nonearth;
+        (1 << level, false)
+    }
+
+    /// Scans up to `points` scan intervals ahead for anything the event loop must stop at,
+    /// using only the tabulated functionals. Returns how many intervals are clear.
+    fn scan(&mut self, points: usize) -> usize {
+        let cfg = self.config();
+        let chain = &self.chain;
+        let watch = self.watch();
+        let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
+        let dt = TICK * (1u64 << FINE_LEVEL) as f64;
+        let mut xi_prev = watch.xi_row.dot(z);
+        let mut rate_prev = watch.rate_row.dot(z);
+        for k in 1..=points {
+            let ve = chain.scanned(k, 0, e);
+            let vn = chain.scanned(k, 0, n);
+            let xi = cfg.scanned(k, 0, z);
+            let rate = cfg.scanned(k, 1, z);
+            let stop = (ve < watch.vth) != watch.earth_closed
+                || (vn >= watch.vth) != watch.nonearth_closed
+                || watch.play_event_at(xi, rate)
+                || (watch.direction == 0.0
+                    && rate * rate_prev < 0.0
+                    && watch.extremum_may_cross(xi_prev, xi, rate_prev, rate, dt));
+            if stop {
+                return k - 1;
+            }
+            xi_prev = xi;
+            rate_prev = rate;
+        }
+        points
+    }
+
+    /// Finest bisection level: event times are located to `rel_tol` seconds of simulated
+    /// time (1 ns by default, SPEC 2.2 asks for 10 ns or better).
+    fn resolution_level(&self) -> usize {
+        let ticks = (self.params.rel_tol / TICK).max(1.0);
+        (ticks.log2().floor() as usize).min(FINE_LEVEL)
     }
 
     fn watch(&self) -> Watch {
@@ -298,7 +367,7 @@ impl Plant {
     }
 
     /// Applies the brake switches and the hysteresis changes found at the current state.
-    fn handle_event(&mut self, _ticks_into_piece: u64, report: &mut StepReport) {
+    fn handle_event(&mut self, report: &mut StepReport) {
         let vth = self.params.v_th;
         let earth_closed = self.earth[2] < vth;
         let nonearth_closed = self.nonearth[2] >= vth;
@@ -359,8 +428,10 @@ impl Plant {
         if let Some(t) = &self.configs[key] {
             return t.clone();
         }
-        let a = linear::system_matrix(&self.params, self.mode, self.hysteresis.sliding_weight());
-        let t = Arc::new(Propagators::new(a, |m| m.exp()));
+        let w_s = self.hysteresis.sliding_weight();
+        let a = linear::system_matrix(&self.params, self.mode, w_s);
+        let watched = vec![linear::xi_row(&self.params, w_s), linear::drive_rate_row(&self.params, self.mode)];
+        let t = Arc::new(Propagators::new(a, watched, |m| m.exp()));
         self.configs[key] = Some(t.clone());
         t
     }
@@ -467,10 +538,6 @@ impl Plant {
         *self = next;
         Ok(())
     }
-}
-
-const fn linear_n_plays_bits() -> usize {
-    N_PLAYS
 }
 
 /// Standard normal deviate from a splitmix64 stream (Box–Muller): seeded and portable,

@@ -57,7 +57,8 @@ pub struct PlantParams {
     pub encoder_noise: f64,
     /// Seed of the encoder noise generator.
     pub noise_seed: u64,
-    /// Relative tolerance of the integration (event location, hysteresis sub-steps).
+    /// Event location tolerance: brake switches and play events are located to `rel_tol`
+    /// seconds (the propagation between events is exact).
     pub rel_tol: f64,
 }
 
@@ -111,7 +112,7 @@ impl PlantParams {
             q_enc: 1.2e-9,
             encoder_noise: 0.0,
             noise_seed: 1,
-            rel_tol: 1e-8,
+            rel_tol: 1e-9,
         }
     }
 
@@ -169,8 +170,8 @@ impl PlantParams {
                 return err(name, format!("must be >= 0, got {v}"));
             }
         }
-        if self.rel_tol > 1e-3 {
-            return err("rel_tol", format!("must be <= 1e-3, got {}", self.rel_tol));
+        if !(1e-12..=1e-6).contains(&self.rel_tol) {
+            return err("rel_tol", format!("must be within [1e-12, 1e-6] (event time resolution in s), got {}", self.rel_tol));
         }
         for i in 0..N_PLAYS {
             let (r, w) = (self.play_radius[i], self.play_weight[i]);

@@ -58,8 +58,12 @@ fn check_values_and_trace_match_the_reference() {
     let out = run(PlantParams::fia20(), &rows);
 
     let mut worst = (0i64, 0.0);
+    let mut worst_runner = (0.0f64, 0.0);
     let mut mode_mismatch = Vec::new();
-    for (r, (c, m, _)) in rows.iter().zip(&out) {
+    for (r, (c, m, x)) in rows.iter().zip(&out) {
+        if (x - r.runner).abs() > worst_runner.0 {
+            worst_runner = ((x - r.runner).abs(), r.time);
+        }
         let d = (c - r.counts).abs();
         if d > worst.0 {
             worst = (d, r.time);
@@ -69,6 +73,7 @@ fn check_values_and_trace_match_the_reference() {
         }
     }
     eprintln!("worst encoder deviation {} counts at t = {} s", worst.0, worst.1);
+    eprintln!("worst runner position deviation {:.3e} m at t = {} s", worst_runner.0, worst_runner.1);
 
     let expect_ext = [18.210, 19.383, -19.342, 6.633, -6.690];
     let expect_bd = [4.685, 4.853, 3.902, 4.687, 4.244];
@@ -89,5 +94,11 @@ fn check_values_and_trace_match_the_reference() {
     }
     assert!(mode_mismatch.is_empty(), "mode differs from the reference at t = {mode_mismatch:?}");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(
+        worst_runner.0 <= 2.4e-9,
+        "runner position differs from the reference trace by {:.3e} m at t = {} s (tolerance 2.4e-9 m)",
+        worst_runner.0,
+        worst_runner.1
+    );
     assert!(worst.0 <= 2, "encoder differs from the reference trace by {} counts at t = {} s (tolerance 2)", worst.0, worst.1);
 }
