@@ -56,6 +56,11 @@ pub struct StepReport {
     pub brake_events: u32,
     /// Entries into FREE (the runner slipped: not nominal).
     pub slips: u32,
+    /// Time (s) of the first brake switch in this step.
+    pub first_brake_event: Option<f64>,
+    /// The step needed more events than a step may have (chattering at a threshold), so
+    /// the rest of it ran without looking for events.
+    pub event_budget_exhausted: bool,
 }
 
 
@@ -216,7 +221,10 @@ impl Plant {
         let rest = (exact - exact.floor()) * TICK;
         let mut events = 0u32;
         let fine = 1u64 << FINE_LEVEL;
+        let total = left;
+        let t0 = self.time;
         while left > 0 {
+            let brakes_before = report.brake_events;
             let watching = events < MAX_EVENTS_PER_STEP;
             if left >= fine {
                 let points = ((left >> FINE_LEVEL) as usize).min(SCAN_POINTS);
@@ -240,7 +248,11 @@ impl Plant {
                 events += u32::from(event);
                 left -= consumed;
             }
+            if report.brake_events > brakes_before && report.first_brake_event.is_none() {
+                report.first_brake_event = Some(t0 + (total - left) as f64 * TICK);
+            }
         }
+        report.event_budget_exhausted = events >= MAX_EVENTS_PER_STEP;
         if rest > 0.0 {
             let cfg = self.config();
             self.z = cfg.advance(self.z, 0, rest);
@@ -471,6 +483,11 @@ impl Plant {
             3.0 * l + self.z[ix::Y3],
             self.params.l_r + self.z[ix::Y4],
         ]
+    }
+
+    /// `ξ`, the PZT charge in volts (SPEC 2.4).
+    pub fn charge_voltage(&self) -> f64 {
+        linear::xi_row(&self.params, self.hysteresis.sliding_weight()).dot(&self.z)
     }
 
     /// Velocities `v1..v4` (m/s).
