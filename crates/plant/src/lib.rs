@@ -9,7 +9,7 @@ mod state_bytes;
 use std::sync::Arc;
 
 use hysteresis::Hysteresis;
-use linear::{ix, Chain, Propagators, Vector, FINE_LEVEL, SCAN_POINTS, TICK};
+use linear::{ix, Chain, Propagators, Vector, TICK};
 pub use params::{ParamError, PlantParams, N_PLAYS};
 
 /// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
@@ -162,7 +162,8 @@ impl Plant {
         z[ix::ONE] = 1.0;
         let mut volts = Chain::zeros();
         volts[2] = 1.0;
-        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], |m| m.exp()));
+        let scan_level = linear::scan_level(params.rel_tol);
+        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], scan_level, |m| m.exp()));
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
         Ok(Plant {
@@ -220,25 +221,26 @@ impl Plant {
         let mut left = exact.floor() as u64;
         let rest = (exact - exact.floor()) * TICK;
         let mut events = 0u32;
-        let fine = 1u64 << FINE_LEVEL;
+        let scan_level = self.chain.scan_level;
+        let fine = 1u64 << scan_level;
         let total = left;
         let t0 = self.time;
         while left > 0 {
             let brakes_before = report.brake_events;
             let watching = events < MAX_EVENTS_PER_STEP;
             if left >= fine {
-                let points = ((left >> FINE_LEVEL) as usize).min(SCAN_POINTS);
+                let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
                 let clear = if watching { self.scan(points) } else { points };
                 if clear > 0 {
                     let cfg = self.config();
-                    let ticks = (clear as u64) << FINE_LEVEL;
+                    let ticks = (clear as u64) << scan_level;
                     self.z = cfg.advance(self.z, ticks, 0.0);
                     self.earth = self.chain.advance(self.earth, ticks, 0.0);
                     self.nonearth = self.chain.advance(self.nonearth, ticks, 0.0);
                     left -= ticks;
                 }
                 if clear < points {
-                    let (consumed, event) = self.piece(FINE_LEVEL, &mut report);
+                    let (consumed, event) = self.piece(scan_level, &mut report);
                     events += u32::from(event);
                     left -= consumed;
                 }
@@ -334,7 +336,7 @@ impl Plant {
         let chain = &self.chain;
         let watch = self.watch();
         let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
-        let dt = TICK * (1u64 << FINE_LEVEL) as f64;
+        let dt = TICK * (1u64 << chain.scan_level) as f64;
         let mut xi_prev = watch.xi_row.dot(z);
         let mut rate_prev = watch.rate_row.dot(z);
         for k in 1..=points {
@@ -361,7 +363,7 @@ impl Plant {
     /// time (1 ns by default, SPEC 2.2 asks for 10 ns or better).
     fn resolution_level(&self) -> usize {
         let ticks = (self.params.rel_tol / TICK).max(1.0);
-        (ticks.log2().floor() as usize).min(FINE_LEVEL)
+        (ticks.log2().floor() as usize).min(self.chain.scan_level)
     }
 
     fn watch(&self) -> Watch {
@@ -443,7 +445,7 @@ impl Plant {
         let w_s = self.hysteresis.sliding_weight();
         let a = linear::system_matrix(&self.params, self.mode, w_s);
         let watched = vec![linear::xi_row(&self.params, w_s), linear::drive_rate_row(&self.params, self.mode)];
-        let t = Arc::new(Propagators::new(a, watched, |m| m.exp()));
+        let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level, |m| m.exp()));
         self.configs[key] = Some(t.clone());
         t
     }

@@ -18,12 +18,17 @@ use crate::Mode;
 pub const TICK: f64 = 1.0 / (1u64 << 40) as f64;
 /// Table levels: level `l` propagates `2^l` ticks; the top level is 2⁻⁹ s = 1.95 ms.
 pub const LEVELS: usize = 32;
-/// The scan interval: 2²⁴ ticks = 15.3 µs, a 16th of the period of the fastest mode that
-/// moves node 3 (the ~4 kHz stack-on-flexure mode in HOLD), so `ξ̇` changes sign at most
-/// once between two scan points.
-pub const FINE_LEVEL: usize = 24;
-/// Scan points per top-level piece.
-pub const SCAN_POINTS: usize = 1 << (LEVELS - 1 - FINE_LEVEL);
+/// The scan interval at the default tolerance: 2²⁴ ticks = 15.3 µs, a 16th of the period of
+/// the fastest mode that moves node 3 appreciably (the ~4 kHz stack-on-flexure mode in
+/// HOLD), so `ξ̇` changes sign at most once between two scan points.
+pub const DEFAULT_SCAN_LEVEL: usize = 24;
+
+/// Scan level for an event tolerance: each decade below 1 ns halves the scan interval (down
+/// to 1.9 µs), so a tighter run also resolves faster turns of `ξ`.
+pub fn scan_level(rel_tol: f64) -> usize {
+    let decades = (1e-9 / rel_tol).log10().round().max(0.0) as usize;
+    DEFAULT_SCAN_LEVEL - decades.min(3)
+}
 
 pub const N: usize = 14;
 pub type Vector = SVector<f64, N>;
@@ -64,6 +69,9 @@ pub struct Propagators<const D: usize> {
     pub a: SMatrix<f64, D, D>,
     pub phi: [SMatrix<f64, D, D>; LEVELS],
     pub watched: Vec<SVector<f64, D>>,
+    /// The scan interval Δ is `2^scan_level` ticks; a top-level piece has `scan_points` of them.
+    pub scan_level: usize,
+    pub scan_points: usize,
     /// `scan[k * watched.len() + o]` = `watched[o]ᵀ e^{A (k+1) Δ}`.
     pub scan: Vec<SVector<f64, D>>,
 }
@@ -73,21 +81,23 @@ impl<const D: usize> Propagators<D> {
     pub fn new(
         a: SMatrix<f64, D, D>,
         watched: Vec<SVector<f64, D>>,
+        scan_level: usize,
         exp: impl Fn(SMatrix<f64, D, D>) -> SMatrix<f64, D, D>,
     ) -> Self {
         // Every level from its own exponential: squaring the finest one 31 times would
         // double its rounding error at each level.
         let phi: [SMatrix<f64, D, D>; LEVELS] = std::array::from_fn(|l| exp(a * (TICK * (1u64 << l) as f64)));
-        let step = phi[FINE_LEVEL];
-        let mut scan = Vec::with_capacity(SCAN_POINTS * watched.len());
+        let step = phi[scan_level];
+        let scan_points = 1 << (LEVELS - 1 - scan_level);
+        let mut scan = Vec::with_capacity(scan_points * watched.len());
         let mut rows: Vec<SVector<f64, D>> = watched.clone();
-        for _ in 0..SCAN_POINTS {
+        for _ in 0..scan_points {
             for r in rows.iter_mut() {
                 *r = step.transpose() * *r;
                 scan.push(*r);
             }
         }
-        Propagators { a, phi, watched, scan }
+        Propagators { a, phi, watched, scan_level, scan_points, scan }
     }
 
     /// Exact propagation over `ticks`, plus the sub-tick remainder `rest` seconds (< 1 tick)

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Installs what the build and the tests need on a fresh Debian machine with the Rust
+# toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
+# fonts-dejavu-core (the plot labels), and a Python venv in .venv with FMPy and pytest.
+# Idempotent: it only reaches the package registries for what is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need=()
+for pkg in libclang-dev fonts-dejavu-core; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if [ ${#need[@]} -gt 0 ]; then
+    echo "setup: installing Debian packages: ${need[*]}"
+    SUDO=""
+    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
+fi
+
+PY_REQS="fmpy==0.3.32 pytest==9.2.0"
+if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest" 2>/dev/null; then
+    echo "setup: creating .venv with $PY_REQS"
+    python3 -m venv .venv
+    .venv/bin/pip install -q --disable-pip-version-check $PY_REQS
+fi
