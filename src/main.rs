@@ -1,0 +1,202 @@
+//! `inchworm`: command-line co-simulation master of the inchworm actuator FMUs.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand};
+
+use inchworm::fmu::{CsFmu, FmuError};
+use inchworm::gait::{self, CHECK_TOLERANCE_UM, CHECK_VALUES};
+use inchworm::plant::{mode_name, GaitRun, Plant};
+use inchworm::plot;
+
+#[derive(Parser)]
+#[command(
+    name = "inchworm",
+    version,
+    about = "Co-simulation of JPL's inchworm actuator: runs its FMI 2.0 FMUs, writes CSV and plots"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Drive the plant FMU open loop with the SPEC 2.9 gait sequence (steps of amplitude
+    /// +1, +1, −1, +0.3, −0.3, 100 samples of 2 ms each), write <out>/gait.csv and
+    /// <out>/gait.png, and print the SPEC 3.3 raw measurements beside the SPEC 2.9 check
+    /// values.
+    ///
+    /// gait.csv has one row per 2 ms communication point from t = 0: the DAC volts held
+    /// from that time over the next sample, and the plant outputs at that time, in SI
+    /// units (s, V, m; mode 1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE).
+    Gait(GaitArgs),
+}
+
+#[derive(Args)]
+struct GaitArgs {
+    /// The plant FMU (built by `cargo run --release -p fmu-build`).
+    #[arg(long, default_value = "dist/InchwormPlant.fmu")]
+    fmu: PathBuf,
+    /// Output directory for gait.csv and gait.png (created if missing).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Run the five-step sequence this many times back to back (the check values apply to
+    /// the first run, which starts from rest).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    repeat: u32,
+    /// TrueType font for the plot labels.
+    #[arg(long, default_value = plot::DEFAULT_FONT)]
+    font: PathBuf,
+    /// Turn on the FMU's debug logging (fmi2 loggingOn) and print its info messages.
+    #[arg(long)]
+    fmi_logging: bool,
+}
+
+/// Prints the FMU's logger messages (which the `fmi` crate forwards as `log` records,
+/// with the instance name as target) and the import layer's own warnings on stderr.
+struct StderrLogger;
+
+impl log::Log for StderrLogger {
+    fn enabled(&self, metadata: &log::Metadata) -> bool {
+        metadata.level() <= log::max_level()
+    }
+    fn log(&self, record: &log::Record) {
+        if self.enabled(record.metadata()) {
+            eprintln!("[{}] {}: {}", record.level(), record.target(), record.args());
+        }
+    }
+    fn flush(&self) {}
+}
+
+static LOGGER: StderrLogger = StderrLogger;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Gait(args) => {
+            let level = if args.fmi_logging {
+                log::LevelFilter::Info
+            } else {
+                log::LevelFilter::Warn
+            };
+            // Only fails if a logger is already installed, which nothing in this binary does.
+            let _ = log::set_logger(&LOGGER);
+            log::set_max_level(level);
+            match run_gait(&args) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+    }
+}
+
+fn load_plant(path: &Path, logging: bool) -> Result<Plant, String> {
+    let fmu = CsFmu::load(path, "plant", logging).map_err(|e| match e {
+        FmuError::Missing(_) => format!("{e}: build it first with `cargo run --release -p fmu-build`"),
+        e => e.to_string(),
+    })?;
+    Plant::new(fmu).map_err(|e| e.to_string())
+}
+
+fn run_gait(args: &GaitArgs) -> Result<(), String> {
+    // Fail on a missing font or output directory before the run, not after it.
+    plot::load_font(&args.font)?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
+
+    let mut plant = load_plant(&args.fmu, args.fmi_logging)?;
+    let steps = gait::check_sequence(args.repeat as usize);
+    let wall = Instant::now();
+    let run = GaitRun::run(&mut plant, &steps).map_err(|e| e.to_string())?;
+    let wall = wall.elapsed().as_secs_f64();
+    plant.terminate().map_err(|e| e.to_string())?;
+
+    let csv_path = args.out.join("gait.csv");
+    let file = std::fs::File::create(&csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    run.write_csv(&mut w)
+        .and_then(|_| std::io::Write::flush(&mut w))
+        .map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let png_path = args.out.join("gait.png");
+    plot::gait_png(&run, &png_path).map_err(|e| format!("{}: cannot draw the plot: {e}", png_path.display()))?;
+
+    print_measurements(&run);
+    let last = run.samples.last().expect("a run has at least its initial point");
+    let sim_time = last.time;
+    println!(
+        "\n{:.3} s simulated in {:.3} s of wall time ({:.0}x real time); {} slip events (entries into FREE); final mode {}",
+        sim_time,
+        wall,
+        sim_time / wall,
+        last.out.slip_events,
+        mode_name(last.out.mode)
+    );
+    println!("wrote {} and {}", csv_path.display(), png_path.display());
+    Ok(())
+}
+
+/// The SPEC 3.3 raw measurements of every step, in µm, beside the SPEC 2.9 check values
+/// for the first five (the check run starts from rest with the default `fia20` parameters).
+fn print_measurements(run: &GaitRun) {
+    println!("SPEC 3.3 raw measurements from the encoder (µm); [SPEC 2.9 check value] and deviation, tolerance ±{CHECK_TOLERANCE_UM} µm");
+    let head = |name: &str| format!("{name:>9} {:>9} {:>7} ", "[check]", "Δ");
+    println!(
+        "{:>4} {:>5} {:>8}  {}  {}  {}",
+        "step",
+        "y",
+        "EXT_cmd",
+        head("EXT_moved"),
+        head("BD"),
+        head("s7")
+    );
+    let mut worst: Option<(f64, String)> = None;
+    let mut outside = 0;
+    let mut checked = 0;
+    for (i, step) in run.steps.iter().enumerate() {
+        let m = run.measurements(i);
+        let got = [m.ext_moved * 1e6, m.bd * 1e6, m.position_after() * 1e6];
+        let mut cols = Vec::with_capacity(3);
+        for (j, &g) in got.iter().enumerate() {
+            match CHECK_VALUES.get(i) {
+                Some(c) => {
+                    let want = [c.ext_moved_um, c.bd_um, c.position_after_um][j];
+                    let d = g - want;
+                    checked += 1;
+                    let within = d.abs() <= CHECK_TOLERANCE_UM;
+                    if !within {
+                        outside += 1;
+                    }
+                    let mark = if within { " " } else { "!" };
+                    let name = ["EXT_moved", "BD", "s7"][j];
+                    if worst.as_ref().is_none_or(|w| d.abs() > w.0) {
+                        worst = Some((d.abs(), format!("step {} {name}", i + 1)));
+                    }
+                    cols.push(format!("{g:>9.4} [{want:>7.3}] {d:>+7.4}{mark}"));
+                }
+                None => cols.push(format!("{g:>9.4}{:19}", "")),
+            }
+        }
+        println!(
+            "{:>4} {:>+5.1} {:>8.4}  {}  {}  {}",
+            i + 1,
+            step.amplitude(),
+            m.ext_cmd,
+            cols[0],
+            cols[1],
+            cols[2]
+        );
+    }
+    if let Some((d, at)) = worst {
+        let verdict = if outside == 0 { "all within" } else { "NOT all within" };
+        println!(
+            "check values: {} of {checked} within {CHECK_TOLERANCE_UM} µm ({verdict} tolerance; largest deviation {d:.4} µm, {at})",
+            checked - outside
+        );
+    }
+}

@@ -1,0 +1,179 @@
+//! PNG plots with `plotters`' bitmap backend.
+//!
+//! Text is rendered by `ab_glyph` from a TrueType file read at run time, so the build needs
+//! no system font libraries (fontconfig, freetype); the default file is Debian's
+//! `fonts-dejavu-core`.
+
+use std::error::Error;
+use std::path::Path;
+
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+use crate::gait::{SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
+use crate::plant::{mode_name, GaitRun};
+
+/// Where Debian's `fonts-dejavu-core` puts its sans-serif face.
+pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+
+const FONT: &str = "sans-serif";
+
+/// Reads a TrueType/OpenType font and registers it as the face every plot uses.
+pub fn load_font(path: &Path) -> Result<(), String> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        format!(
+            "{}: cannot read the plot font: {e} (on Debian: apt-get install fonts-dejavu-core, or pass --font)",
+            path.display()
+        )
+    })?;
+    // plotters keeps registered fonts for the life of the process and wants them 'static;
+    // one font per process, so leaking it is the intended use.
+    let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+    register_font(FONT, FontStyle::Normal, bytes)
+        .map_err(|_| format!("{}: not a TrueType/OpenType font", path.display()))
+}
+
+fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
+    let pad = ((hi - lo) * 0.05).max(0.5);
+    (lo - pad)..(hi + pad)
+}
+
+/// Runner position, extension and mode of a gait run in three stacked panels sharing
+/// the time axis; the `s7` averages are marked on the runner trace and each step's
+/// amplitude is written above it.
+pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
+    let (w, h) = (1400u32, 1000u32);
+    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(
+        &format!(
+            "InchwormPlant: open-loop gait, {} steps of {SAMPLES_PER_STEP} samples of {} ms",
+            run.steps.len(),
+            SAMPLE_PERIOD_S * 1e3
+        ),
+        (FONT, 26),
+    )?;
+    let (top, rest) = root.split_vertically(h * 42 / 100);
+    let (mid, bottom) = rest.split_vertically(h * 30 / 100);
+
+    let t_end = run.samples.last().map_or(1.0, |s| s.time);
+    let step_starts: Vec<f64> = (0..run.steps.len())
+        .map(|i| (i * SAMPLES_PER_STEP) as f64 * SAMPLE_PERIOD_S)
+        .collect();
+    let um = |m: f64| m * 1e6;
+    let grid = RGBColor(200, 200, 200);
+
+    // Runner position.
+    let runner: Vec<(f64, f64)> = run
+        .samples
+        .iter()
+        .map(|s| (s.time, um(s.out.runner_position)))
+        .collect();
+    let (lo, hi) = runner.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p.1), hi.max(p.1))
+    });
+    let y_range = padded(lo, hi);
+    let label_y = y_range.end - (y_range.end - y_range.start) * 0.04;
+    let mut chart = ChartBuilder::on(&top)
+        .margin(12)
+        .x_label_area_size(28)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, y_range)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .y_desc("runner position (µm)")
+        .label_style((FONT, 16))
+        .draw()?;
+    for &t in &step_starts[1..] {
+        chart.draw_series(LineSeries::new([(t, lo - 1e3), (t, hi + 1e3)], grid))?;
+    }
+    chart
+        .draw_series(LineSeries::new(runner, BLUE.stroke_width(2)))?
+        .label("runner position")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLUE.stroke_width(2)));
+    let s7: Vec<(f64, f64)> = (0..run.steps.len())
+        .map(|i| {
+            // Middle of the s7 window (samples 95–99): the end of sample 97.
+            let t = ((i * SAMPLES_PER_STEP + 97) as f64) * SAMPLE_PERIOD_S;
+            (t, um(run.measurements(i).position_after()))
+        })
+        .collect();
+    chart
+        .draw_series(s7.iter().map(|&p| Circle::new(p, 5, RED.filled())))?
+        .label("s7 (encoder, position after the step)")
+        .legend(|(x, y)| Circle::new((x + 10, y), 5, RED.filled()));
+    if run.steps.len() <= 20 {
+        chart.draw_series(run.steps.iter().zip(&step_starts).map(|(s, &t)| {
+            Text::new(
+                format!("y = {:+}", s.amplitude()),
+                (t + 0.01, label_y),
+                (FONT, 16).into_font(),
+            )
+        }))?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 15))
+        .draw()?;
+
+    // Extension stack elongation.
+    let ext: Vec<(f64, f64)> = run.samples.iter().map(|s| (s.time, um(s.out.extension))).collect();
+    let (lo, hi) = ext.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p.1), hi.max(p.1))
+    });
+    let mut chart = ChartBuilder::on(&mid)
+        .margin(12)
+        .x_label_area_size(28)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .y_desc("extension (µm)")
+        .label_style((FONT, 16))
+        .draw()?;
+    for &t in &step_starts[1..] {
+        chart.draw_series(LineSeries::new([(t, lo - 1e3), (t, hi + 1e3)], grid))?;
+    }
+    chart.draw_series(LineSeries::new(ext, RGBColor(0, 140, 0).stroke_width(2)))?;
+
+    // Mode, held over each sample.
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, 0i32..5i32)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .y_labels(6)
+        // 0 and 5 only frame the four modes.
+        .y_label_formatter(&|m: &i32| {
+            if (1..=4).contains(m) {
+                mode_name(*m).to_owned()
+            } else {
+                String::new()
+            }
+        })
+        .x_desc("time (s)")
+        .y_desc("mode")
+        .label_style((FONT, 16))
+        .draw()?;
+    for &t in &step_starts[1..] {
+        chart.draw_series(LineSeries::new([(t, 0), (t, 5)], grid))?;
+    }
+    let mut steps = Vec::with_capacity(2 * run.samples.len());
+    for pair in run.samples.windows(2) {
+        let m = pair[0].out.mode;
+        steps.push((pair[0].time, m));
+        steps.push((pair[1].time, m));
+    }
+    chart.draw_series(LineSeries::new(steps, BLACK.stroke_width(2)))?;
+
+    root.present()?;
+    Ok(())
+}
