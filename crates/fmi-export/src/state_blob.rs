@@ -1,0 +1,111 @@
+//! The serialized FMU state: a frame around the model's bytes that makes a corrupt,
+//! truncated or foreign blob recognisable before any of it is trusted.
+//!
+//! Layout, little-endian: magic `IWFS` (4) | format version u16 | reserved u16 |
+//! GUID length u16 + GUID bytes | FMI state u16 | time f64 | start time f64 |
+//! stop time f64 (NaN = none) | payload length u64 | payload | CRC-32 of all before (u32).
+
+use crate::instance::State;
+
+const MAGIC: &[u8; 4] = b"IWFS";
+pub const FORMAT_VERSION: u16 = 1;
+
+pub struct Header {
+    pub state: State,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+}
+
+pub fn encode(guid: &str, h: &Header, payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(64 + guid.len() + payload.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&0u16.to_le_bytes());
+    out.extend_from_slice(&(guid.len() as u16).to_le_bytes());
+    out.extend_from_slice(guid.as_bytes());
+    out.extend_from_slice(&(h.state as u16).to_le_bytes());
+    out.extend_from_slice(&h.time.to_le_bytes());
+    out.extend_from_slice(&h.start_time.to_le_bytes());
+    out.extend_from_slice(&h.stop_time.unwrap_or(f64::NAN).to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(payload);
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), String> {
+    if blob.len() < 4 + 2 + 2 + 2 + 4 || &blob[..4] != MAGIC {
+        return Err("not a serialized state of this FMU (no IWFS header)".into());
+    }
+    let (body, crc) = blob.split_at(blob.len() - 4);
+    let crc = u32::from_le_bytes(crc.try_into().expect("4 bytes"));
+    if crc32fast::hash(body) != crc {
+        return Err("serialized state is corrupt (CRC-32 mismatch)".into());
+    }
+    let mut pos = 4;
+    let mut take = |n: usize| -> Result<&'a [u8], String> {
+        let s = body.get(pos..pos + n).ok_or("serialized state is truncated")?;
+        pos += n;
+        Ok(s)
+    };
+    let u16_at = |b: &[u8]| u16::from_le_bytes([b[0], b[1]]);
+    let f64_at = |b: &[u8]| f64::from_le_bytes(b.try_into().expect("8 bytes"));
+    let version = u16_at(take(2)?);
+    if version != FORMAT_VERSION {
+        return Err(format!("serialized state has format version {version}, this FMU reads version {FORMAT_VERSION}"));
+    }
+    take(2)?;
+    let glen = u16_at(take(2)?) as usize;
+    let g = take(glen)?;
+    if g != guid.as_bytes() {
+        return Err(format!(
+            "serialized state belongs to another FMU (GUID {}, this FMU is {guid})",
+            String::from_utf8_lossy(g)
+        ));
+    }
+    let state = match u16_at(take(2)?) {
+        s if s == State::Instantiated as u16 => State::Instantiated,
+        s if s == State::InitializationMode as u16 => State::InitializationMode,
+        s if s == State::StepComplete as u16 => State::StepComplete,
+        s if s == State::StepFailed as u16 => State::StepFailed,
+        s if s == State::StepCanceled as u16 => State::StepCanceled,
+        s if s == State::Terminated as u16 => State::Terminated,
+        s => return Err(format!("serialized state has an invalid FMI state {s}")),
+    };
+    let time = f64_at(take(8)?);
+    let start_time = f64_at(take(8)?);
+    let stop = f64_at(take(8)?);
+    let len = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes")) as usize;
+    let payload = take(len)?;
+    if pos != body.len() {
+        return Err("serialized state has trailing bytes".into());
+    }
+    if !time.is_finite() || !start_time.is_finite() {
+        return Err("serialized state has a non-finite time".into());
+    }
+    Ok((Header { state, time, start_time, stop_time: (!stop.is_nan()).then_some(stop) }, payload))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_and_every_kind_of_damage_is_refused() {
+        let h = Header { state: State::StepComplete, time: 1.5, start_time: 0.0, stop_time: None };
+        let blob = encode("{guid-a}", &h, b"payload bytes");
+        let (back, payload) = decode("{guid-a}", &blob).unwrap();
+        assert_eq!((back.state, back.time, back.stop_time, payload), (State::StepComplete, 1.5, None, &b"payload bytes"[..]));
+        assert!(decode("{guid-b}", &blob).unwrap_err().contains("another FMU"));
+        for i in 0..blob.len() {
+            let mut bad = blob.clone();
+            bad[i] ^= 0x40;
+            assert!(decode("{guid-a}", &bad).is_err(), "flipped byte {i} accepted");
+        }
+        for n in 0..blob.len() {
+            assert!(decode("{guid-a}", &blob[..n]).is_err(), "truncation to {n} bytes accepted");
+        }
+    }
+}

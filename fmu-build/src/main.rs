@@ -1,0 +1,115 @@
+//! `cargo run --release -p fmu-build`: builds each FMU's shared library, generates its
+//! `modelDescription.xml` and documentation from the variable table, writes the committed
+//! copy in `modelDescription/` and packages `dist/<Model>.fmu`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+use inchworm_fmi_export::{model_description, Model};
+
+/// One FMU to package: its model, the cargo package of its cdylib and the library stem.
+struct Fmu {
+    identifier: &'static str,
+    package: &'static str,
+    lib_stem: &'static str,
+    model_description: fn() -> String,
+    documentation: fn() -> String,
+}
+
+fn fmu<M: Model>(package: &'static str, lib_stem: &'static str) -> Fmu {
+    Fmu {
+        identifier: M::info().model_identifier,
+        package,
+        lib_stem,
+        model_description: model_description::model_description::<M>,
+        documentation: model_description::documentation::<M>,
+    }
+}
+
+/// FMI platform folder and shared-library naming of the host; another platform is a line here.
+fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
+    match (std::env::consts::OS, std::env::consts::ARCH) {
+        ("linux", "x86_64") => Ok(("linux64", "lib", "so")),
+        ("linux", "x86") => Ok(("linux32", "lib", "so")),
+        ("macos", _) => Ok(("darwin64", "lib", "dylib")),
+        ("windows", "x86_64") => Ok(("win64", "", "dll")),
+        ("windows", "x86") => Ok(("win32", "", "dll")),
+        (os, arch) => Err(format!("no FMI 2.0 platform folder for {os}/{arch}")),
+    }
+}
+
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("fmu-build lives in the workspace").to_path_buf()
+}
+
+fn target_dir(root: &Path) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).map(|p| if p.is_absolute() { p } else { root.join(p) }).unwrap_or_else(|| root.join("target"))
+}
+
+fn build(root: &Path, fmus: &[Fmu]) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(root).args(["build", "--release", "--lib"]);
+    for f in fmus {
+        cmd.args(["-p", f.package]);
+    }
+    let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!("cargo build of the FMU libraries failed ({status})"));
+    }
+    Ok(())
+}
+
+fn package(root: &Path, f: &Fmu) -> Result<PathBuf, String> {
+    let (platform, prefix, ext) = platform()?;
+    let lib = target_dir(root).join("release").join(format!("{prefix}{}.{ext}", f.lib_stem));
+    let binary = std::fs::read(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
+    let xml = (f.model_description)();
+    let md_dir = root.join("modelDescription");
+    std::fs::create_dir_all(&md_dir).map_err(|e| format!("{}: {e}", md_dir.display()))?;
+    let md_path = md_dir.join(format!("{}.xml", f.identifier));
+    std::fs::write(&md_path, &xml).map_err(|e| format!("{}: {e}", md_path.display()))?;
+
+    let dist = root.join("dist");
+    std::fs::create_dir_all(&dist).map_err(|e| format!("{}: {e}", dist.display()))?;
+    let out = dist.join(format!("{}.fmu", f.identifier));
+    let tmp = dist.join(format!(".{}.fmu.partial", f.identifier));
+    let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    let mut zip = zip::ZipWriter::new(file);
+    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let docs = (f.documentation)();
+    let entries: [(String, &[u8]); 3] = [
+        ("modelDescription.xml".into(), xml.as_bytes()),
+        (format!("binaries/{platform}/{}.{ext}", f.identifier), &binary),
+        ("documentation/index.html".into(), docs.as_bytes()),
+    ];
+    for (name, data) in entries {
+        zip.start_file(name.as_str(), opts).map_err(|e| format!("{}: {e}", out.display()))?;
+        zip.write_all(data).map_err(|e| format!("{}: {e}", out.display()))?;
+    }
+    zip.finish().map_err(|e| format!("{}: {e}", out.display()))?;
+    // Replace atomically, so a master never loads a half-written FMU.
+    std::fs::rename(&tmp, &out).map_err(|e| format!("{}: {e}", out.display()))?;
+    Ok(out)
+}
+
+fn main() -> ExitCode {
+    let root = workspace_root();
+    let fmus = [fmu::<inchworm_plant_fmu::PlantFmu>("inchworm-plant-fmu", "inchworm_plant_fmu")];
+    let run = || -> Result<(), String> {
+        build(&root, &fmus)?;
+        for f in &fmus {
+            let out = package(&root, f)?;
+            println!("fmu-build: wrote {}", out.display());
+        }
+        Ok(())
+    };
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("fmu-build: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
