@@ -171,8 +171,8 @@ unsafe fn log_without_instance(functions: *const fmi2CallbackFunctions, name: fm
             (*functions).componentEnvironment,
             name,
             fmi2Error,
-            b"logStatusError\0".as_ptr() as *const c_char,
-            b"%s\0".as_ptr() as *const c_char,
+            c"logStatusError".as_ptr(),
+            c"%s".as_ptr(),
             msg.as_ptr(),
         );
     }
