@@ -4,6 +4,7 @@ pub mod analog;
 pub mod hysteresis;
 pub mod linear;
 pub mod params;
+pub mod rk4;
 mod state_bytes;
 
 use std::sync::Arc;
