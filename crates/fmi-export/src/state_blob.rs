@@ -10,6 +10,7 @@ use crate::instance::State;
 const MAGIC: &[u8; 4] = b"IWFS";
 pub const FORMAT_VERSION: u16 = 1;
 
+#[derive(Debug)]
 pub struct Header {
     pub state: State,
     pub time: f64,
