@@ -1,0 +1,413 @@
+//! The inchworm controller of SPEC sections 3 and 4 (the paper's section 3): stepping
+//! gait, raw measurements, asynchronous compensator with prefilter and feedforward,
+//! Kalman estimator of the inverse scale factor and the brake disturbance, waveform
+//! generation. Plain Rust: no FFI, no globals, no I/O; the per-sample path does not
+//! allocate (buffers are sized at construction), so it can move into board firmware.
+//!
+//! # Timing
+//! The controller samples every `T_s` = 2 ms. [`Controller::tick`] at communication
+//! point `t` receives the encoder count that holds at `t` and returns the DAC sample to
+//! hold during `[t + T_s, t + 2 T_s)`: the sample held during `[t, t + T_s)` was returned
+//! by the previous tick (a digital controller's one-sample delay, so a plain Jacobi master
+//! at 2 ms closes the loop correctly). Sample 1 of every step is all zeros in both gaits,
+//! so the move can be chosen while it is out: at the tick where sample 1 of a new step is
+//! being held, the encoder reads `w_enc(n)` of the finished step; the estimator update for
+//! that step runs first, then, if a move has just ended, the control iteration with
+//! `y_k = s7` of that step, and the tick returns sample 2 of the new step.
+
+pub mod basis;
+pub mod compensator;
+pub mod estimator;
+pub mod gait;
+pub mod measurements;
+mod state_bytes;
+pub mod waveform;
+
+use basis::Basis;
+use compensator::{Gains, Loop};
+use estimator::{Estimator, Noise};
+use gait::{Direction, Timing};
+use waveform::Plan;
+
+/// Controller sample period (s).
+pub const SAMPLE_PERIOD: f64 = 0.002;
+/// Full scale of the 16-bit DACs (V).
+pub const DAC_FULL_SCALE: f64 = 10.0;
+pub const DAC_MAX_CODE: u16 = u16::MAX;
+
+/// Estimates the estimator converges to on the fia20 plant in regulation (weights of the
+/// inverse scale factor at the default basis peaks, and the brake disturbance in m). See
+/// docs/controller-design.md for the run that produced them and how to redo it.
+pub const CALIBRATED_WEIGHTS: [f64; 10] = NOMINAL_WEIGHTS;
+pub const CALIBRATED_DISTURBANCE: f64 = 0.0;
+
+/// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
+pub const NOMINAL_WEIGHTS: [f64; 10] = [-1.2, -0.8, -0.4, -0.15, -0.05, 0.05, 0.15, 0.4, 0.8, 1.2];
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub feedforward: bool,
+    pub prefilter: bool,
+    pub use_scale_factor_estimate: bool,
+    pub use_disturbance_estimate: bool,
+    /// No step while |reference − position| is below this (m); 0 = always step.
+    pub deadband: f64,
+    pub samples_per_step: u32,
+    pub gains: Gains,
+    pub noise: Noise,
+    pub basis_peaks: [f64; 10],
+    pub scale_weights_start: [f64; 10],
+    pub disturbance_start: f64,
+    /// Encoder resolution (m per count).
+    pub q_enc: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            feedforward: true,
+            prefilter: false,
+            use_scale_factor_estimate: true,
+            use_disturbance_estimate: true,
+            deadband: 0.0,
+            samples_per_step: 100,
+            gains: Gains::default(),
+            noise: Noise::default(),
+            basis_peaks: basis::FIA20_PEAKS,
+            scale_weights_start: CALIBRATED_WEIGHTS,
+            disturbance_start: CALIBRATED_DISTURBANCE,
+            q_enc: 1.2e-9,
+        }
+    }
+}
+
+impl Params {
+    /// Checks every value; the error names the parameter.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |name: &str, v: f64| if v.is_finite() { Ok(()) } else { Err(format!("{name} must be finite, got {v}")) };
+        let positive = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be > 0, got {v}")) };
+        if !(self.deadband.is_finite() && self.deadband >= 0.0) {
+            return Err(format!("deadband must be >= 0, got {}", self.deadband));
+        }
+        if !(7..=10_000).contains(&self.samples_per_step) {
+            return Err(format!("samples_per_step must be within 7..10000, got {}", self.samples_per_step));
+        }
+        positive("compensator_gain", self.gains.k)?;
+        if !(0.0..1.0).contains(&self.gains.a) {
+            return Err(format!("compensator_zero must be in [0, 1), got {}", self.gains.a));
+        }
+        if !(0.0..1.0).contains(&self.gains.prefilter_pole) {
+            return Err(format!("prefilter_pole must be in [0, 1), got {}", self.gains.prefilter_pole));
+        }
+        let n = &self.noise;
+        for (name, v) in [
+            ("weight_prior", n.weight_prior),
+            ("disturbance_prior", n.disturbance_prior),
+            ("weight_process_noise", n.weight_process),
+            ("disturbance_process_noise", n.disturbance_process),
+            ("ext_cmd_noise", n.ext_cmd_measurement),
+            ("bd_noise", n.bd_measurement),
+        ] {
+            positive(name, v)?;
+        }
+        Basis::new(self.basis_peaks).map_err(|e| format!("basis_peak: {e}"))?;
+        for (i, w) in self.scale_weights_start.iter().enumerate() {
+            finite(&format!("scale_weights_start[{}]", i + 1), *w)?;
+        }
+        finite("disturbance_start", self.disturbance_start)?;
+        positive("q_enc", self.q_enc)?;
+        Ok(())
+    }
+}
+
+/// What the controller drives during one step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum StepKind {
+    /// Parked: all samples zero (deadband, or before the first move).
+    Idle,
+    Gait { direction: Direction, amplitude: f64 },
+}
+
+/// What one tick returns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Quantized DAC volts (earth, non-earth, extension) to hold over the next interval.
+    pub dac: [f64; 3],
+    pub codes: [u16; 3],
+    /// reference − encoder position (m).
+    pub servo_error: f64,
+    pub disturbance_estimate: f64,
+    pub step_forward: f64,
+    pub step_backward: f64,
+    pub n_steps: u32,
+    pub fraction: f64,
+    pub scale_weights: [f64; 10],
+    pub moving: bool,
+    /// A control iteration ran at this tick.
+    pub iterated: bool,
+    /// The inverse scale factor had no root in its bracket at this iteration.
+    pub no_root: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Controller {
+    params: Params,
+    basis: Basis,
+    timing: Timing,
+    estimator: Estimator,
+    feedback: Loop,
+    /// Sample (1-based) of the current step held during the current interval.
+    sample: usize,
+    current: StepKind,
+    /// Whether the current step is the first tick's pseudo-step (nothing to measure).
+    first: bool,
+    /// `w_enc(k)` (m) and `w_ext(k)` of the current step.
+    enc: Vec<f64>,
+    ext: Vec<f64>,
+    full_steps_left: u32,
+    move_direction: Direction,
+    fraction_left: Option<f64>,
+    plan: Option<Plan>,
+    iterations: u64,
+}
+
+fn quantize(v: f64) -> (f64, u16) {
+    let code = (v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE)).round().clamp(0.0, f64::from(DAC_MAX_CODE)) as u16;
+    (f64::from(code) * DAC_FULL_SCALE / f64::from(DAC_MAX_CODE), code)
+}
+
+impl Controller {
+    pub fn new(params: Params) -> Result<Controller, String> {
+        params.validate()?;
+        let basis = Basis::new(params.basis_peaks)?;
+        let n = params.samples_per_step as usize;
+        let estimator = Estimator::new(params.scale_weights_start, params.disturbance_start, &params.noise);
+        Ok(Controller {
+            timing: Timing::new(n),
+            basis,
+            estimator,
+            feedback: Loop::default(),
+            sample: 1,
+            current: StepKind::Idle,
+            first: true,
+            enc: vec![0.0; n],
+            ext: vec![0.0; n],
+            full_steps_left: 0,
+            move_direction: Direction::Forward,
+            fraction_left: None,
+            plan: None,
+            iterations: 0,
+            params,
+        })
+    }
+
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    pub fn estimator(&self) -> &Estimator {
+        &self.estimator
+    }
+
+    /// Control iterations run so far.
+    pub fn iterations(&self) -> u64 {
+        self.iterations
+    }
+
+    /// The weights and disturbance the waveform generator uses, per the flags.
+    fn estimates(&self) -> ([f64; 10], f64) {
+        let theta = if self.params.use_scale_factor_estimate { self.estimator.weights() } else { self.params.scale_weights_start };
+        let bd = if self.params.use_disturbance_estimate { self.estimator.disturbance() } else { 0.0 };
+        (theta, bd)
+    }
+
+    /// One 2 ms tick: `encoder_counts` holds now; returns the sample for the next interval.
+    pub fn tick(&mut self, encoder_counts: i64, reference: f64) -> Sample {
+        let n = self.timing.samples;
+        let y_now = encoder_counts as f64 * self.params.q_enc;
+        let mut iterated = false;
+        let mut no_root = false;
+        if self.sample == 1 {
+            // The encoder reads w_enc(n) of the step that just finished.
+            let mut y_measured = y_now;
+            if !self.first {
+                self.enc[n - 1] = y_now;
+                let direction = match self.current {
+                    StepKind::Gait { direction, .. } => Some(direction),
+                    StepKind::Idle => None,
+                };
+                let raw = measurements::raw(&self.timing, direction.unwrap_or(Direction::Forward), &self.enc, &self.ext);
+                if direction.is_some() {
+                    let t_step = n as f64 * SAMPLE_PERIOD;
+                    self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
+                }
+                y_measured = raw.s[6];
+            }
+            self.first = false;
+            if self.full_steps_left == 0 && self.fraction_left.is_none() {
+                let d = self.feedback.iterate(
+                    &self.params.gains,
+                    reference,
+                    y_measured,
+                    self.params.prefilter,
+                    self.params.feedforward,
+                    self.params.deadband,
+                );
+                self.iterations += 1;
+                iterated = true;
+                if d != 0.0 || self.params.deadband == 0.0 {
+                    let (theta, bd) = self.estimates();
+                    let plan = waveform::plan(&self.basis, &theta, bd, d);
+                    no_root = plan.no_root;
+                    self.full_steps_left = plan.n_steps;
+                    self.move_direction = if plan.direction >= 0 { Direction::Forward } else { Direction::Backward };
+                    self.fraction_left = Some(plan.fraction);
+                    self.plan = Some(plan);
+                }
+            }
+            self.current = if self.full_steps_left > 0 {
+                self.full_steps_left -= 1;
+                StepKind::Gait { direction: self.move_direction, amplitude: 1.0 }
+            } else if let Some(f) = self.fraction_left.take() {
+                let direction = if f >= 0.0 { Direction::Forward } else { Direction::Backward };
+                StepKind::Gait { direction, amplitude: f.abs() }
+            } else {
+                StepKind::Idle
+            };
+            self.ext[0] = 0.0;
+        } else {
+            self.enc[self.sample - 2] = y_now;
+        }
+
+        // The sample for the next interval.
+        let next = if self.sample == n { 1 } else { self.sample + 1 };
+        let volts = match (next, self.current) {
+            (1, _) | (_, StepKind::Idle) => [0.0; 3],
+            (k, StepKind::Gait { direction, amplitude }) => self.timing.volts(direction, amplitude, k),
+        };
+        if next > 1 {
+            self.ext[next - 1] = volts[2] / DAC_FULL_SCALE;
+        }
+        self.sample = next;
+
+        let q = volts.map(quantize);
+        let plan = self.plan.unwrap_or(Plan {
+            step_forward: None,
+            step_backward: None,
+            n_steps: 0,
+            direction: 1,
+            fraction: 0.0,
+            no_root: false,
+        });
+        Sample {
+            dac: q.map(|(v, _)| v),
+            codes: q.map(|(_, c)| c),
+            servo_error: reference - y_now,
+            disturbance_estimate: self.estimator.disturbance(),
+            step_forward: plan.step_forward.unwrap_or(0.0),
+            step_backward: plan.step_backward.unwrap_or(0.0),
+            n_steps: plan.n_steps,
+            fraction: plan.fraction,
+            scale_weights: self.estimator.weights(),
+            moving: matches!(self.current, StepKind::Gait { .. }),
+            iterated,
+            no_root,
+        }
+    }
+
+    /// Appends the complete dynamic state (not the parameters).
+    pub fn save_state(&self, out: &mut Vec<u8>) {
+        let mut w = state_bytes::Writer(out);
+        for v in self.estimator.x.iter().chain(self.estimator.p.iter()) {
+            w.f64(*v);
+        }
+        self.feedback.save(&mut w);
+        w.u64(self.sample as u64);
+        match self.current {
+            StepKind::Idle => {
+                w.u8(0);
+                w.f64(0.0);
+            }
+            StepKind::Gait { direction, amplitude } => {
+                w.u8(if direction == Direction::Forward { 1 } else { 2 });
+                w.f64(amplitude);
+            }
+        }
+        w.u8(u8::from(self.first));
+        for v in self.enc.iter().chain(self.ext.iter()) {
+            w.f64(*v);
+        }
+        w.u64(u64::from(self.full_steps_left));
+        w.u8(if self.move_direction == Direction::Forward { 1 } else { 2 });
+        match self.fraction_left {
+            None => w.u8(0),
+            Some(f) => {
+                w.u8(1);
+                w.f64(f);
+            }
+        }
+        match self.plan {
+            None => w.u8(0),
+            Some(p) => {
+                w.u8(1);
+                w.f64(p.step_forward.unwrap_or(f64::NAN));
+                w.f64(p.step_backward.unwrap_or(f64::NAN));
+                w.u64(u64::from(p.n_steps));
+                w.u8(p.direction as u8);
+                w.f64(p.fraction);
+                w.u8(u8::from(p.no_root));
+            }
+        }
+        w.u64(self.iterations);
+    }
+
+    /// Restores what `save_state` wrote, for a controller with the same parameters; on
+    /// error the controller is unchanged.
+    pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = state_bytes::Reader::new(bytes);
+        let mut next = self.clone();
+        for v in next.estimator.x.iter_mut() {
+            *v = r.f64()?;
+        }
+        for v in next.estimator.p.iter_mut() {
+            *v = r.f64()?;
+        }
+        next.feedback = Loop::load(&mut r)?;
+        next.sample = r.u64()? as usize;
+        let kind = r.u8()?;
+        let amplitude = r.f64()?;
+        next.current = match kind {
+            0 => StepKind::Idle,
+            1 => StepKind::Gait { direction: Direction::Forward, amplitude },
+            2 => StepKind::Gait { direction: Direction::Backward, amplitude },
+            k => return Err(format!("controller state: invalid step kind {k}")),
+        };
+        next.first = r.bool()?;
+        for v in next.enc.iter_mut().chain(next.ext.iter_mut()) {
+            *v = r.f64()?;
+        }
+        next.full_steps_left = u32::try_from(r.u64()?).map_err(|_| "controller state: step count out of range")?;
+        next.move_direction = if r.u8()? == 1 { Direction::Forward } else { Direction::Backward };
+        next.fraction_left = if r.bool()? { Some(r.f64()?) } else { None };
+        next.plan = if r.bool()? {
+            let opt = |v: f64| (!v.is_nan()).then_some(v);
+            Some(Plan {
+                step_forward: opt(r.f64()?),
+                step_backward: opt(r.f64()?),
+                n_steps: u32::try_from(r.u64()?).map_err(|_| "controller state: n_steps out of range")?,
+                direction: r.u8()? as i8,
+                fraction: r.f64()?,
+                no_root: r.bool()?,
+            })
+        } else {
+            None
+        };
+        next.iterations = r.u64()?;
+        r.finish()?;
+        if !(1..=self.timing.samples).contains(&next.sample) {
+            return Err(format!("controller state: sample {} outside the step", next.sample));
+        }
+        *self = next;
+        Ok(())
+    }
+}
