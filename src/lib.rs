@@ -6,6 +6,7 @@
 //! * [`plant`]: the `InchwormPlant` FMU's interface (SPEC 5) and an open-loop gait run through it;
 //! * [`plot`]: PNG plots.
 
+pub mod closed_loop;
 pub mod fmu;
 pub mod gait;
 pub mod plant;

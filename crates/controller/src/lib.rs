@@ -38,8 +38,9 @@ pub const DAC_MAX_CODE: u16 = u16::MAX;
 /// Estimates the estimator converges to on the fia20 plant in regulation (weights of the
 /// inverse scale factor at the default basis peaks, and the brake disturbance in m). See
 /// docs/controller-design.md for the run that produced them and how to redo it.
-pub const CALIBRATED_WEIGHTS: [f64; 10] = NOMINAL_WEIGHTS;
-pub const CALIBRATED_DISTURBANCE: f64 = 0.0;
+pub const CALIBRATED_WEIGHTS: [f64; 10] =
+    [-1.281184, -0.798710, -0.362067, -0.121618, -0.039168, 0.032832, 0.122618, 0.352949, 0.799790, 1.297726];
+pub const CALIBRATED_DISTURBANCE: f64 = 4.3814e-6;
 
 /// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
 pub const NOMINAL_WEIGHTS: [f64; 10] = [-1.2, -0.8, -0.4, -0.15, -0.05, 0.05, 0.15, 0.4, 0.8, 1.2];
