@@ -96,7 +96,10 @@ fn package(root: &Path, f: &Fmu) -> Result<PathBuf, String> {
 
 fn main() -> ExitCode {
     let root = workspace_root();
-    let fmus = [fmu::<inchworm_plant_fmu::PlantFmu>("inchworm-plant-fmu", "inchworm_plant_fmu")];
+    let fmus = [
+        fmu::<inchworm_fmu_models::PlantFmu>("inchworm-plant-fmu", "inchworm_plant_fmu"),
+        fmu::<inchworm_fmu_models::ControllerFmu>("inchworm-controller-fmu", "inchworm_controller_fmu"),
+    ];
     let run = || -> Result<(), String> {
         build(&root, &fmus)?;
         for f in &fmus {

@@ -116,6 +116,12 @@ impl Variable {
         }
     }
 
+    /// Piecewise constant: changes only at communication points.
+    pub const fn discrete(mut self) -> Self {
+        self.variability = Variability::Discrete;
+        self
+    }
+
     pub const fn with_range(mut self, min: f64, max: f64) -> Self {
         self.min = Some(min);
         self.max = Some(max);

@@ -8,7 +8,7 @@ use std::sync::Mutex;
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_plant_fmu as fmu;
-use inchworm_plant_fmu::PlantFmu;
+use inchworm_fmu_models::PlantFmu;
 
 const DAC_EARTH: u32 = 1;
 const DAC_NONEARTH: u32 = 2;

@@ -1,0 +1,2 @@
+//! `InchwormController.so`: the FMI 2.0 Co-Simulation entry points of the controller model.
+inchworm_fmi_export::export_fmi2!(inchworm_fmu_models::ControllerFmu);

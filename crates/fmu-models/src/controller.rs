@@ -1,0 +1,431 @@
+//! The `InchwormController` FMU: the controller of SPEC sections 3 and 4 behind the FMI
+//! 2.0 Co-Simulation interface of SPEC section 5.
+//!
+//! Timing contract: the sample period is 2 ms. `fmi2DoStep(t, h)` accepts `h = k × 2 ms`
+//! (k ≥ 1, inputs held over the k samples) and refuses other step sizes; afterwards the
+//! `dac_*` outputs are the sample to hold during `[t + h, t + h + 2 ms)`, computed from the
+//! `encoder_counts` input that held at `t`: a digital controller's one-sample delay, so a
+//! plain Jacobi master at 2 ms runs the loop correctly.
+
+use inchworm_controller::{Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD};
+use inchworm_fmi_export::{Causality, Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable};
+
+mod vr {
+    pub const ENCODER_COUNTS: u32 = 1;
+    pub const REFERENCE: u32 = 2;
+    pub const DAC_EARTH: u32 = 10;
+    pub const DAC_NONEARTH: u32 = 11;
+    pub const DAC_EXTENSION: u32 = 12;
+    pub const DAC_EARTH_CODE: u32 = 13;
+    pub const DAC_NONEARTH_CODE: u32 = 14;
+    pub const DAC_EXTENSION_CODE: u32 = 15;
+    pub const SERVO_ERROR: u32 = 16;
+    pub const DISTURBANCE_ESTIMATE: u32 = 17;
+    pub const STEP_FORWARD: u32 = 18;
+    pub const STEP_BACKWARD: u32 = 19;
+    pub const N_STEPS: u32 = 20;
+    pub const FRACTION: u32 = 21;
+    pub const MOVING: u32 = 22;
+    pub const SCALE_WEIGHTS: u32 = 30; // ..=39
+    pub const FEEDFORWARD: u32 = 100;
+    pub const PREFILTER: u32 = 101;
+    pub const USE_SCALE_FACTOR_ESTIMATE: u32 = 102;
+    pub const USE_DISTURBANCE_ESTIMATE: u32 = 103;
+    pub const DEADBAND: u32 = 104;
+    pub const SAMPLES_PER_STEP: u32 = 105;
+    pub const COMPENSATOR_GAIN: u32 = 106;
+    pub const COMPENSATOR_ZERO: u32 = 107;
+    pub const PREFILTER_POLE: u32 = 108;
+    pub const WEIGHT_PRIOR: u32 = 109;
+    pub const DISTURBANCE_PRIOR: u32 = 110;
+    pub const WEIGHT_PROCESS_NOISE: u32 = 111;
+    pub const DISTURBANCE_PROCESS_NOISE: u32 = 112;
+    pub const EXT_CMD_NOISE: u32 = 113;
+    pub const BD_NOISE: u32 = 114;
+    pub const Q_ENC: u32 = 115;
+    pub const DISTURBANCE_START: u32 = 116;
+    pub const BASIS_PEAK: u32 = 120; // ..=129
+    pub const SCALE_WEIGHTS_START: u32 = 130; // ..=139
+}
+
+const V: Option<&str> = Some("V");
+const M: Option<&str> = Some("m");
+
+const fn param(name: &'static str, vr: u32, start: f64, unit: Option<&'static str>, description: &'static str) -> Variable {
+    Variable::parameter(name, vr, start, unit, description)
+}
+
+static VARIABLES: [Variable; 62] = [
+    Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
+    Variable::input("encoder_counts", vr::ENCODER_COUNTS, 0.0, None, "Encoder reading of the plant (counts of q_enc)").with_kind_start(Kind::Integer, Start::Integer(0)).discrete(),
+    Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
+    Variable::output("dac_nonearth", vr::DAC_NONEARTH, Kind::Real, V, "Non-earth-brake DAC volts (16-bit quantized)").discrete(),
+    Variable::output("dac_extension", vr::DAC_EXTENSION, Kind::Real, V, "Extension DAC volts (16-bit quantized)").discrete(),
+    Variable::output("dac_earth_code", vr::DAC_EARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_earth"),
+    Variable::output("dac_nonearth_code", vr::DAC_NONEARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_nonearth"),
+    Variable::output("dac_extension_code", vr::DAC_EXTENSION_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_extension"),
+    Variable::output("servo_error", vr::SERVO_ERROR, Kind::Real, M, "reference - encoder position").discrete(),
+    Variable::output("disturbance_estimate", vr::DISTURBANCE_ESTIMATE, Kind::Real, M, "Kalman estimate of the brake disturbance per step").discrete(),
+    Variable::output("step_forward", vr::STEP_FORWARD, Kind::Real, M, "Estimated full forward step (with the disturbance)").discrete(),
+    Variable::output("step_backward", vr::STEP_BACKWARD, Kind::Real, M, "Estimated full backward step (negative)").discrete(),
+    Variable::output("n_steps", vr::N_STEPS, Kind::Integer, None, "Full steps of the current move"),
+    Variable::output("fraction", vr::FRACTION, Kind::Real, None, "Amplitude of the current move's fractional step (-1..1)").discrete(),
+    Variable::output("moving", vr::MOVING, Kind::Boolean, None, "A step is being executed"),
+    Variable::output("scale_weights[1]", vr::SCALE_WEIGHTS + 0, Kind::Real, None, "Estimated inverse scale factor weight 1").discrete(),
+    Variable::output("scale_weights[2]", vr::SCALE_WEIGHTS + 1, Kind::Real, None, "Estimated inverse scale factor weight 2").discrete(),
+    Variable::output("scale_weights[3]", vr::SCALE_WEIGHTS + 2, Kind::Real, None, "Estimated inverse scale factor weight 3").discrete(),
+    Variable::output("scale_weights[4]", vr::SCALE_WEIGHTS + 3, Kind::Real, None, "Estimated inverse scale factor weight 4").discrete(),
+    Variable::output("scale_weights[5]", vr::SCALE_WEIGHTS + 4, Kind::Real, None, "Estimated inverse scale factor weight 5").discrete(),
+    Variable::output("scale_weights[6]", vr::SCALE_WEIGHTS + 5, Kind::Real, None, "Estimated inverse scale factor weight 6").discrete(),
+    Variable::output("scale_weights[7]", vr::SCALE_WEIGHTS + 6, Kind::Real, None, "Estimated inverse scale factor weight 7").discrete(),
+    Variable::output("scale_weights[8]", vr::SCALE_WEIGHTS + 7, Kind::Real, None, "Estimated inverse scale factor weight 8").discrete(),
+    Variable::output("scale_weights[9]", vr::SCALE_WEIGHTS + 8, Kind::Real, None, "Estimated inverse scale factor weight 9").discrete(),
+    Variable::output("scale_weights[10]", vr::SCALE_WEIGHTS + 9, Kind::Real, None, "Estimated inverse scale factor weight 10").discrete(),
+    Variable::parameter("feedforward", vr::FEEDFORWARD, 0.0, None, "Feed the reference increment forward (feedback sees it one iteration later)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    Variable::parameter("prefilter", vr::PREFILTER, 0.0, None, "Prefilter the reference").with_kind_start(Kind::Boolean, Start::Boolean(false)),
+    Variable::parameter("use_scale_factor_estimate", vr::USE_SCALE_FACTOR_ESTIMATE, 0.0, None, "Use the estimated inverse scale factor (else scale_weights_start)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    Variable::parameter("use_disturbance_estimate", vr::USE_DISTURBANCE_ESTIMATE, 0.0, None, "Use the estimated brake disturbance (else 0)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    param("deadband", vr::DEADBAND, 0.0, M, "No step while |reference - position| is below this (0 = always step)"),
+    Variable::parameter("samples_per_step", vr::SAMPLES_PER_STEP, 0.0, None, "Samples of 2 ms per step (7..10000)").with_kind_start(Kind::Integer, Start::Integer(100)),
+    param("compensator_gain", vr::COMPENSATOR_GAIN, 0.36, None, "K of C(z) = K (z - a)/(z - 1)"),
+    param("compensator_zero", vr::COMPENSATOR_ZERO, 0.8, None, "a of C(z) = K (z - a)/(z - 1)"),
+    param("prefilter_pole", vr::PREFILTER_POLE, 0.8, None, "Prefilter r_f <- p r_f + (1 - p) r"),
+    param("weight_prior", vr::WEIGHT_PRIOR, 0.05, None, "Prior 1-sigma of each scale-factor weight"),
+    param("disturbance_prior", vr::DISTURBANCE_PRIOR, 5e-6, M, "Prior 1-sigma of the disturbance"),
+    param("weight_process_noise", vr::WEIGHT_PROCESS_NOISE, 1e-3, None, "Process noise of the weights per sqrt(s)"),
+    param("disturbance_process_noise", vr::DISTURBANCE_PROCESS_NOISE, 0.1e-6, M, "Process noise of the disturbance per sqrt(s)"),
+    param("ext_cmd_noise", vr::EXT_CMD_NOISE, 5e-3, None, "Measurement noise of EXT_cmd"),
+    param("bd_noise", vr::BD_NOISE, 0.05e-6, M, "Measurement noise of BD"),
+    param("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
+    param("disturbance_start", vr::DISTURBANCE_START, CALIBRATED_DISTURBANCE, M, "Initial disturbance estimate (fia20 calibration)"),
+    param("basis_peak[1]", vr::BASIS_PEAK + 0, -2.4e-05, M, "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[2]", vr::BASIS_PEAK + 1, -1.6e-05, M, "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[3]", vr::BASIS_PEAK + 2, -8e-06, M, "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[4]", vr::BASIS_PEAK + 3, -3e-06, M, "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[5]", vr::BASIS_PEAK + 4, -1e-06, M, "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[6]", vr::BASIS_PEAK + 5, 1e-06, M, "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[7]", vr::BASIS_PEAK + 6, 3e-06, M, "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[8]", vr::BASIS_PEAK + 7, 8e-06, M, "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[9]", vr::BASIS_PEAK + 8, 1.6e-05, M, "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("basis_peak[10]", vr::BASIS_PEAK + 9, 2.4e-05, M, "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    param("scale_weights_start[1]", vr::SCALE_WEIGHTS_START + 0, CALIBRATED_WEIGHTS[0], None, "Initial inverse scale factor weight 1 (fia20 calibration)"),
+    param("scale_weights_start[2]", vr::SCALE_WEIGHTS_START + 1, CALIBRATED_WEIGHTS[1], None, "Initial inverse scale factor weight 2 (fia20 calibration)"),
+    param("scale_weights_start[3]", vr::SCALE_WEIGHTS_START + 2, CALIBRATED_WEIGHTS[2], None, "Initial inverse scale factor weight 3 (fia20 calibration)"),
+    param("scale_weights_start[4]", vr::SCALE_WEIGHTS_START + 3, CALIBRATED_WEIGHTS[3], None, "Initial inverse scale factor weight 4 (fia20 calibration)"),
+    param("scale_weights_start[5]", vr::SCALE_WEIGHTS_START + 4, CALIBRATED_WEIGHTS[4], None, "Initial inverse scale factor weight 5 (fia20 calibration)"),
+    param("scale_weights_start[6]", vr::SCALE_WEIGHTS_START + 5, CALIBRATED_WEIGHTS[5], None, "Initial inverse scale factor weight 6 (fia20 calibration)"),
+    param("scale_weights_start[7]", vr::SCALE_WEIGHTS_START + 6, CALIBRATED_WEIGHTS[6], None, "Initial inverse scale factor weight 7 (fia20 calibration)"),
+    param("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
+    param("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
+    param("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
+];
+
+static UNITS: [Unit; 2] = [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 }];
+
+static INFO: ModelInfo = ModelInfo {
+    model_name: "InchwormController",
+    model_identifier: "InchwormController",
+    description: "JPL flight inchworm actuator controller: stepping gait, asynchronous compensator with prefilter and feedforward, Kalman estimator of the inverse scale factor and brake disturbance",
+    version: env!("CARGO_PKG_VERSION"),
+    default_start_time: 0.0,
+    default_stop_time: 1.0,
+    default_step_size: 0.002,
+    default_tolerance: 1e-9,
+    units: &UNITS,
+    documentation_html: include_str!("controller.html"),
+};
+
+#[derive(Clone, Debug)]
+pub struct ControllerFmu {
+    params: Params,
+    encoder_counts: i32,
+    reference: f64,
+    controller: Option<Controller>,
+    last: Option<Sample>,
+}
+
+fn real_param(p: &mut Params, r: u32) -> Option<&mut f64> {
+    Some(match r {
+        vr::DEADBAND => &mut p.deadband,
+        vr::COMPENSATOR_GAIN => &mut p.gains.k,
+        vr::COMPENSATOR_ZERO => &mut p.gains.a,
+        vr::PREFILTER_POLE => &mut p.gains.prefilter_pole,
+        vr::WEIGHT_PRIOR => &mut p.noise.weight_prior,
+        vr::DISTURBANCE_PRIOR => &mut p.noise.disturbance_prior,
+        vr::WEIGHT_PROCESS_NOISE => &mut p.noise.weight_process,
+        vr::DISTURBANCE_PROCESS_NOISE => &mut p.noise.disturbance_process,
+        vr::EXT_CMD_NOISE => &mut p.noise.ext_cmd_measurement,
+        vr::BD_NOISE => &mut p.noise.bd_measurement,
+        vr::Q_ENC => &mut p.q_enc,
+        vr::DISTURBANCE_START => &mut p.disturbance_start,
+        r if (vr::BASIS_PEAK..vr::BASIS_PEAK + 10).contains(&r) => &mut p.basis_peaks[(r - vr::BASIS_PEAK) as usize],
+        r if (vr::SCALE_WEIGHTS_START..vr::SCALE_WEIGHTS_START + 10).contains(&r) => &mut p.scale_weights_start[(r - vr::SCALE_WEIGHTS_START) as usize],
+        _ => return None,
+    })
+}
+
+fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
+    Some(match r {
+        vr::FEEDFORWARD => &mut p.feedforward,
+        vr::PREFILTER => &mut p.prefilter,
+        vr::USE_SCALE_FACTOR_ESTIMATE => &mut p.use_scale_factor_estimate,
+        vr::USE_DISTURBANCE_ESTIMATE => &mut p.use_disturbance_estimate,
+        _ => return None,
+    })
+}
+
+fn name_of(r: u32) -> &'static str {
+    VARIABLES.iter().find(|v| v.vr == r).map_or("?", |v| v.name)
+}
+
+impl ControllerFmu {
+    /// The outputs before the first step: the parked sample, estimates at their start.
+    fn sample(&self) -> Sample {
+        self.last.unwrap_or(Sample {
+            dac: [0.0; 3],
+            codes: [0; 3],
+            servo_error: self.reference - f64::from(self.encoder_counts) * self.params.q_enc,
+            disturbance_estimate: self.params.disturbance_start,
+            step_forward: 0.0,
+            step_backward: 0.0,
+            n_steps: 0,
+            fraction: 0.0,
+            scale_weights: self.params.scale_weights_start,
+            moving: false,
+            iterated: false,
+            no_root: false,
+        })
+    }
+}
+
+impl Model for ControllerFmu {
+    fn info() -> &'static ModelInfo {
+        &INFO
+    }
+
+    fn variables() -> &'static [Variable] {
+        &VARIABLES
+    }
+
+    fn new() -> Self {
+        ControllerFmu { params: Params::default(), encoder_counts: 0, reference: 0.0, controller: None, last: None }
+    }
+
+    fn get_real(&self, r: u32) -> Result<f64, String> {
+        let s = self.sample();
+        Ok(match r {
+            vr::REFERENCE => self.reference,
+            vr::DAC_EARTH => s.dac[0],
+            vr::DAC_NONEARTH => s.dac[1],
+            vr::DAC_EXTENSION => s.dac[2],
+            vr::SERVO_ERROR => s.servo_error,
+            vr::DISTURBANCE_ESTIMATE => s.disturbance_estimate,
+            vr::STEP_FORWARD => s.step_forward,
+            vr::STEP_BACKWARD => s.step_backward,
+            vr::FRACTION => s.fraction,
+            r if (vr::SCALE_WEIGHTS..vr::SCALE_WEIGHTS + 10).contains(&r) => s.scale_weights[(r - vr::SCALE_WEIGHTS) as usize],
+            _ => {
+                let mut p = self.params.clone();
+                *real_param(&mut p, r).ok_or_else(|| format!("no Real variable with value reference {r}"))?
+            }
+        })
+    }
+
+    fn get_integer(&self, r: u32) -> Result<i32, String> {
+        let s = self.sample();
+        Ok(match r {
+            vr::ENCODER_COUNTS => self.encoder_counts,
+            vr::DAC_EARTH_CODE => i32::from(s.codes[0]),
+            vr::DAC_NONEARTH_CODE => i32::from(s.codes[1]),
+            vr::DAC_EXTENSION_CODE => i32::from(s.codes[2]),
+            vr::N_STEPS => s.n_steps.min(i32::MAX as u32) as i32,
+            vr::SAMPLES_PER_STEP => self.params.samples_per_step as i32,
+            _ => return Err(format!("no Integer variable with value reference {r}")),
+        })
+    }
+
+    fn get_boolean(&self, r: u32) -> Result<bool, String> {
+        match r {
+            vr::MOVING => Ok(self.sample().moving),
+            _ => {
+                let mut p = self.params.clone();
+                bool_param(&mut p, r).map(|b| *b).ok_or_else(|| format!("no Boolean variable with value reference {r}"))
+            }
+        }
+    }
+
+    fn set_real(&mut self, r: u32, value: f64) -> SetResult {
+        let name = name_of(r);
+        if !value.is_finite() {
+            let keep = self.get_real(r).unwrap_or(f64::NAN);
+            return Err(format!("{name} = {value} refused: must be finite; keeping {keep}"));
+        }
+        if r == vr::REFERENCE {
+            self.reference = value;
+            return Ok(None);
+        }
+        // Parameters are validated together at fmi2ExitInitializationMode.
+        *real_param(&mut self.params, r).ok_or_else(|| format!("no settable Real variable with value reference {r}"))? = value;
+        Ok(None)
+    }
+
+    fn set_integer(&mut self, r: u32, value: i32) -> SetResult {
+        match r {
+            vr::ENCODER_COUNTS => self.encoder_counts = value,
+            vr::SAMPLES_PER_STEP => self.params.samples_per_step = value.max(0) as u32,
+            _ => return Err(format!("no settable Integer variable with value reference {r}")),
+        }
+        Ok(None)
+    }
+
+    fn set_boolean(&mut self, r: u32, value: bool) -> SetResult {
+        *bool_param(&mut self.params, r).ok_or_else(|| format!("no settable Boolean variable with value reference {r}"))? = value;
+        Ok(None)
+    }
+
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+        if self.params.samples_per_step == 0 || self.params.samples_per_step > i32::MAX as u32 {
+            return Err(format!("invalid parameter samples_per_step: {}", self.params.samples_per_step));
+        }
+        let c = Controller::new(self.params.clone()).map_err(|e| format!("invalid parameter {e}"))?;
+        self.controller = Some(c);
+        Ok(())
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String> {
+        let samples = (h / SAMPLE_PERIOD).round();
+        if samples < 1.0 || (samples * SAMPLE_PERIOD - h).abs() > 1e-9 * h.max(SAMPLE_PERIOD) {
+            return Err(format!(
+                "communicationStepSize {h} s is not a whole number of 2 ms samples (the controller samples every 2 ms; use h = k * 0.002)"
+            ));
+        }
+        let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
+        let mut messages = Vec::new();
+        for _ in 0..samples as u64 {
+            let s = c.tick(i64::from(self.encoder_counts), self.reference);
+            if s.no_root {
+                messages.push(Message::Warning(format!(
+                    "at t = {t} s the estimated inverse scale factor has no root for a full step in its bracket (non-monotone map): no full steps this move"
+                )));
+            }
+            if s.iterated {
+                messages.push(Message::Event(format!(
+                    "control iteration near t = {t} s: {} full step(s) and fraction {:.4}, disturbance estimate {:.4} um",
+                    s.n_steps,
+                    s.fraction,
+                    s.disturbance_estimate * 1e6
+                )));
+            }
+            self.last = Some(s);
+        }
+        Ok(messages)
+    }
+
+    fn save(&self, out: &mut Vec<u8>) {
+        let mut p = self.params.clone();
+        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+            let x = match v.kind {
+                Kind::Real => *real_param(&mut p, v.vr).expect("table and accessors agree"),
+                Kind::Boolean => f64::from(u8::from(*bool_param(&mut p, v.vr).expect("table and accessors agree"))),
+                Kind::Integer => f64::from(p.samples_per_step),
+            };
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        out.extend_from_slice(&f64::from(self.encoder_counts).to_le_bytes());
+        out.extend_from_slice(&self.reference.to_le_bytes());
+        match &self.last {
+            None => out.push(0),
+            Some(s) => {
+                out.push(1);
+                for v in s.dac.iter().chain([s.servo_error, s.disturbance_estimate, s.step_forward, s.step_backward, s.fraction].iter()).chain(s.scale_weights.iter()) {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
+                for c in s.codes {
+                    out.extend_from_slice(&c.to_le_bytes());
+                }
+                out.extend_from_slice(&s.n_steps.to_le_bytes());
+                out.extend_from_slice(&[u8::from(s.moving), u8::from(s.iterated), u8::from(s.no_root)]);
+            }
+        }
+        match &self.controller {
+            None => out.push(0),
+            Some(c) => {
+                out.push(1);
+                c.save_state(out);
+            }
+        }
+    }
+
+    fn load(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = Bytes { b: bytes, pos: 0 };
+        let mut next = ControllerFmu::new();
+        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+            let x = r.f64()?;
+            match v.kind {
+                Kind::Real => *real_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x,
+                Kind::Boolean => *bool_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x != 0.0,
+                Kind::Integer => next.params.samples_per_step = x as u32,
+            }
+        }
+        next.encoder_counts = r.f64()? as i32;
+        next.reference = r.f64()?;
+        if r.u8()? == 1 {
+            let mut f = [0.0; 18];
+            for v in f.iter_mut() {
+                *v = r.f64()?;
+            }
+            let codes = [r.u16()?, r.u16()?, r.u16()?];
+            let n_steps = u32::from_le_bytes(r.take(4)?.try_into().expect("4 bytes"));
+            let flags = r.take(3)?;
+            next.last = Some(Sample {
+                dac: [f[0], f[1], f[2]],
+                codes,
+                servo_error: f[3],
+                disturbance_estimate: f[4],
+                step_forward: f[5],
+                step_backward: f[6],
+                fraction: f[7],
+                scale_weights: std::array::from_fn(|i| f[8 + i]),
+                n_steps,
+                moving: flags[0] != 0,
+                iterated: flags[1] != 0,
+                no_root: flags[2] != 0,
+            });
+        }
+        match r.u8()? {
+            0 if r.pos == bytes.len() => {}
+            1 => {
+                let mut c = Controller::new(next.params.clone()).map_err(|e| format!("state holds invalid parameters: {e}"))?;
+                c.load_state(&bytes[r.pos..])?;
+                next.controller = Some(c);
+            }
+            _ => return Err("controller FMU state: bad marker or trailing bytes".into()),
+        }
+        *self = next;
+        Ok(())
+    }
+}
+
+struct Bytes<'a> {
+    b: &'a [u8],
+    pos: usize,
+}
+
+impl Bytes<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+        let s = self.b.get(self.pos..self.pos + n).ok_or("controller FMU state truncated")?;
+        self.pos += n;
+        Ok(s)
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
+    }
+    fn u16(&mut self) -> Result<u16, String> {
+        Ok(u16::from_le_bytes(self.take(2)?.try_into().expect("2 bytes")))
+    }
+    fn u8(&mut self) -> Result<u8, String> {
+        Ok(self.take(1)?[0])
+    }
+}
+
+

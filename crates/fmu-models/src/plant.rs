@@ -1,0 +1,495 @@
+//! The `InchwormPlant` FMU: the plant of SPEC section 2 behind the FMI 2.0 Co-Simulation
+//! interface of SPEC section 5. This file is the variable table and the mapping of value
+//! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
+
+use inchworm_fmi_export::{
+    Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable,
+};
+use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, N_PLAYS};
+
+/// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
+mod vr {
+    pub const DAC_EARTH: u32 = 1;
+    pub const DAC_NONEARTH: u32 = 2;
+    pub const DAC_EXTENSION: u32 = 3;
+    pub const ENCODER_COUNTS: u32 = 10;
+    pub const ENCODER_POSITION: u32 = 11;
+    pub const RUNNER_POSITION: u32 = 12;
+    pub const EXTENSION: u32 = 13;
+    pub const VOLTAGE_EARTH: u32 = 14;
+    pub const VOLTAGE_NONEARTH: u32 = 15;
+    pub const VOLTAGE_EXTENSION: u32 = 16;
+    pub const MODE: u32 = 17;
+    pub const EARTH_CLOSED: u32 = 18;
+    pub const NONEARTH_CLOSED: u32 = 19;
+    pub const SLIP_EVENTS: u32 = 20;
+    pub const M_P: u32 = 100;
+    pub const K_P: u32 = 101;
+    pub const C_P: u32 = 102;
+    pub const M_B: u32 = 103;
+    pub const K_F: u32 = 104;
+    pub const C_F: u32 = 105;
+    pub const M_R: u32 = 106;
+    pub const K_E: u32 = 107;
+    pub const C_E: u32 = 108;
+    pub const L_P: u32 = 109;
+    pub const L_R: u32 = 110;
+    pub const T_EM: u32 = 111;
+    pub const C: u32 = 112;
+    pub const PLAY_RADIUS: u32 = 113; // ..=117
+    pub const PLAY_WEIGHT: u32 = 118; // ..=122
+    pub const F_D0: u32 = 123;
+    pub const GAMMA: u32 = 124;
+    pub const V_TH: u32 = 125;
+    pub const F_BESSEL: u32 = 126;
+    pub const AMP_GAIN: u32 = 127;
+    pub const F_AMP: u32 = 128;
+    pub const Q_ENC: u32 = 129;
+    pub const REL_TOL: u32 = 130;
+    pub const ENCODER_NOISE: u32 = 131;
+    pub const NOISE_SEED: u32 = 132;
+}
+
+const V: Option<&str> = Some("V");
+const M: Option<&str> = Some("m");
+
+const fn param(
+    name: &'static str,
+    vr: u32,
+    start: f64,
+    unit: Option<&'static str>,
+    description: &'static str,
+) -> Variable {
+    Variable::parameter(name, vr, start, unit, description)
+}
+
+static VARIABLES: [Variable; 47] = [
+    Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
+    Variable::input("dac_nonearth", vr::DAC_NONEARTH, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
+    Variable::input("dac_extension", vr::DAC_EXTENSION, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
+    Variable::output("encoder_counts", vr::ENCODER_COUNTS, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero"),
+    Variable::output("encoder_position", vr::ENCODER_POSITION, Kind::Real, M, "encoder_counts * q_enc"),
+    Variable::output("runner_position", vr::RUNNER_POSITION, Kind::Real, M, "True runner position x4 - L_r"),
+    Variable::output("extension", vr::EXTENSION, Kind::Real, M, "Extension stack elongation x3 - L_p"),
+    Variable::output("voltage_earth", vr::VOLTAGE_EARTH, Kind::Real, V, "Earth-brake PZT voltage after Bessel filter and amplifier"),
+    Variable::output("voltage_nonearth", vr::VOLTAGE_NONEARTH, Kind::Real, V, "Non-earth-brake PZT voltage after Bessel filter and amplifier"),
+    Variable::output("voltage_extension", vr::VOLTAGE_EXTENSION, Kind::Real, V, "Extension PZT voltage after Bessel filter and amplifier"),
+    Variable::output("mode", vr::MODE, Kind::Integer, None, "1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE"),
+    Variable::output("earth_closed", vr::EARTH_CLOSED, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)"),
+    Variable::output("nonearth_closed", vr::NONEARTH_CLOSED, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)"),
+    Variable::output("slip_events", vr::SLIP_EVENTS, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)"),
+    param("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass"),
+    param("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness"),
+    param("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping"),
+    param("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3"),
+    param("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness"),
+    param("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping"),
+    param("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass"),
+    param("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner"),
+    param("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner"),
+    param("L_p", vr::L_P, 0.036, M, "Extension PZT rest length"),
+    param("L_r", vr::L_R, 0.0, M, "Runner rest position"),
+    param("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio"),
+    param("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance"),
+    param("play_radius[1]", vr::PLAY_RADIUS, 10.0, V, "Play operator radius 1 (radii strictly increasing)"),
+    param("play_radius[2]", vr::PLAY_RADIUS + 1, 20.0, V, "Play operator radius 2"),
+    param("play_radius[3]", vr::PLAY_RADIUS + 2, 30.0, V, "Play operator radius 3"),
+    param("play_radius[4]", vr::PLAY_RADIUS + 3, 40.0, V, "Play operator radius 4"),
+    param("play_radius[5]", vr::PLAY_RADIUS + 4, 50.0, V, "Play operator radius 5"),
+    param("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Play operator weight 1"),
+    param("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Play operator weight 2"),
+    param("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Play operator weight 3"),
+    param("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Play operator weight 4"),
+    param("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Play operator weight 5"),
+    param("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE"),
+    param("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load"),
+    param("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage"),
+    param("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency"),
+    param("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain"),
+    param("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency"),
+    param("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
+    param("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event location tolerance: brake switches and play events located to this time (1e-12..1e-6)"),
+    param("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)"),
+    Variable::parameter("noise_seed", vr::NOISE_SEED, 0.0, None, "Seed of the encoder noise generator").with_kind_start(Kind::Integer, Start::Integer(1)),
+];
+
+static UNITS: [Unit; 10] = [
+    Unit { name: "s", kg: 0, m: 0, s: 1, a: 0 },
+    Unit {
+        name: "m",
+        kg: 0,
+        m: 1,
+        s: 0,
+        a: 0,
+    },
+    Unit {
+        name: "V",
+        kg: 1,
+        m: 2,
+        s: -3,
+        a: -1,
+    },
+    Unit {
+        name: "kg",
+        kg: 1,
+        m: 0,
+        s: 0,
+        a: 0,
+    },
+    Unit {
+        name: "N",
+        kg: 1,
+        m: 1,
+        s: -2,
+        a: 0,
+    },
+    Unit {
+        name: "N/m",
+        kg: 1,
+        m: 0,
+        s: -2,
+        a: 0,
+    },
+    Unit {
+        name: "N.s/m",
+        kg: 1,
+        m: 0,
+        s: -1,
+        a: 0,
+    },
+    Unit {
+        name: "N/V",
+        kg: 0,
+        m: -1,
+        s: 1,
+        a: 1,
+    },
+    Unit {
+        name: "F",
+        kg: -1,
+        m: -2,
+        s: 4,
+        a: 2,
+    },
+    Unit {
+        name: "Hz",
+        kg: 0,
+        m: 0,
+        s: -1,
+        a: 0,
+    },
+];
+
+static INFO: ModelInfo = ModelInfo {
+    model_name: "InchwormPlant",
+    model_identifier: "InchwormPlant",
+    description: "JPL flight inchworm actuator: driver-board analog chain, three-element PZT with Prandtl-Ishlinskii hysteresis, brakes with events at V_th, flexure, runner, brake disturbance, 1.2 nm encoder",
+    version: env!("CARGO_PKG_VERSION"),
+    default_start_time: 0.0,
+    default_stop_time: 1.0,
+    default_step_size: 0.002,
+    default_tolerance: 1e-9,
+    units: &UNITS,
+    documentation_html: include_str!("plant.html"),
+};
+
+/// The FMU's model: parameters and inputs as set by the master, and the plant once
+/// initialization has validated the parameters.
+#[derive(Clone, Debug)]
+pub struct PlantFmu {
+    params: PlantParams,
+    dac: Dac,
+    plant: Option<Plant>,
+}
+
+/// Outputs before the plant exists (instantiated / initialization mode): at rest, SPEC 2.7.
+const REST: Outputs = Outputs {
+    encoder_counts: 0,
+    encoder_position: 0.0,
+    runner_position: 0.0,
+    extension: 0.0,
+    voltage_earth: 0.0,
+    voltage_nonearth: 0.0,
+    voltage_extension: 0.0,
+    mode: Mode::Hold,
+    earth_closed: true,
+    nonearth_closed: false,
+    slip_events: 0,
+};
+
+impl PlantFmu {
+    fn outputs(&self) -> Outputs {
+        self.plant.as_ref().map_or(REST, Plant::outputs)
+    }
+
+    fn param_mut(&mut self, vr: u32) -> Option<&mut f64> {
+        param_field(&mut self.params, vr)
+    }
+
+    fn dac_mut(&mut self, vr: u32) -> Option<&mut f64> {
+        dac_field(&mut self.dac, vr)
+    }
+}
+
+/// The parameter behind a value reference: one mapping serves get, set, save and load.
+fn param_field(p: &mut PlantParams, vr: u32) -> Option<&mut f64> {
+    Some(match vr {
+        vr::M_P => &mut p.m_p,
+        vr::K_P => &mut p.k_p,
+        vr::C_P => &mut p.c_p,
+        vr::M_B => &mut p.m_b,
+        vr::K_F => &mut p.k_f,
+        vr::C_F => &mut p.c_f,
+        vr::M_R => &mut p.m_r,
+        vr::K_E => &mut p.k_e,
+        vr::C_E => &mut p.c_e,
+        vr::L_P => &mut p.l_p,
+        vr::L_R => &mut p.l_r,
+        vr::T_EM => &mut p.t_em,
+        vr::C => &mut p.c,
+        r if (vr::PLAY_RADIUS..vr::PLAY_RADIUS + N_PLAYS as u32).contains(&r) => {
+            &mut p.play_radius[(r - vr::PLAY_RADIUS) as usize]
+        }
+        r if (vr::PLAY_WEIGHT..vr::PLAY_WEIGHT + N_PLAYS as u32).contains(&r) => {
+            &mut p.play_weight[(r - vr::PLAY_WEIGHT) as usize]
+        }
+        vr::F_D0 => &mut p.f_d0,
+        vr::GAMMA => &mut p.gamma,
+        vr::V_TH => &mut p.v_th,
+        vr::F_BESSEL => &mut p.f_bessel,
+        vr::AMP_GAIN => &mut p.amp_gain,
+        vr::F_AMP => &mut p.f_amp,
+        vr::Q_ENC => &mut p.q_enc,
+        vr::REL_TOL => &mut p.rel_tol,
+        vr::ENCODER_NOISE => &mut p.encoder_noise,
+        _ => return None,
+    })
+}
+
+fn dac_field(d: &mut Dac, vr: u32) -> Option<&mut f64> {
+    match vr {
+        vr::DAC_EARTH => Some(&mut d.earth),
+        vr::DAC_NONEARTH => Some(&mut d.nonearth),
+        vr::DAC_EXTENSION => Some(&mut d.extension),
+        _ => None,
+    }
+}
+
+fn name_of(vr: u32) -> &'static str {
+    VARIABLES
+        .iter()
+        .find(|v| v.vr == vr)
+        .map_or("?", |v| v.name)
+}
+
+impl Model for PlantFmu {
+    fn info() -> &'static ModelInfo {
+        &INFO
+    }
+
+    fn variables() -> &'static [Variable] {
+        &VARIABLES
+    }
+
+    fn new() -> Self {
+        PlantFmu {
+            params: PlantParams::fia20(),
+            dac: Dac::default(),
+            plant: None,
+        }
+    }
+
+    fn get_real(&self, r: u32) -> Result<f64, String> {
+        let o = self.outputs();
+        Ok(match r {
+            vr::ENCODER_POSITION => o.encoder_position,
+            vr::RUNNER_POSITION => o.runner_position,
+            vr::EXTENSION => o.extension,
+            vr::VOLTAGE_EARTH => o.voltage_earth,
+            vr::VOLTAGE_NONEARTH => o.voltage_nonearth,
+            vr::VOLTAGE_EXTENSION => o.voltage_extension,
+            _ => {
+                let (mut dac, mut params) = (self.dac, self.params.clone());
+                match dac_field(&mut dac, r).or_else(|| param_field(&mut params, r)) {
+                    Some(v) => *v,
+                    None => return Err(format!("no Real variable with value reference {r}")),
+                }
+            }
+        })
+    }
+
+    fn get_integer(&self, r: u32) -> Result<i32, String> {
+        let o = self.outputs();
+        match r {
+            // The encoder is a 32-bit counter on the board: ±2.5 m at 1.2 nm, far beyond
+            // the stroke, so saturation here only guards nonsense parameters.
+            vr::ENCODER_COUNTS => {
+                Ok(o.encoder_counts.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
+            }
+            vr::MODE => Ok(o.mode as i32),
+            vr::SLIP_EVENTS => Ok(o.slip_events.min(i32::MAX as u32) as i32),
+            vr::NOISE_SEED => Ok(self.params.noise_seed as i32),
+            _ => Err(format!("no Integer variable with value reference {r}")),
+        }
+    }
+
+    fn get_boolean(&self, r: u32) -> Result<bool, String> {
+        let o = self.outputs();
+        match r {
+            vr::EARTH_CLOSED => Ok(o.earth_closed),
+            vr::NONEARTH_CLOSED => Ok(o.nonearth_closed),
+            _ => Err(format!("no Boolean variable with value reference {r}")),
+        }
+    }
+
+    fn set_real(&mut self, r: u32, value: f64) -> SetResult {
+        let name = name_of(r);
+        if let Some(slot) = self.dac_mut(r) {
+            if !value.is_finite() {
+                return Err(format!(
+                    "{name} = {value} refused: DAC volts must be finite; keeping {} V",
+                    *slot
+                ));
+            }
+            let clamped = value.clamp(0.0, 10.0);
+            *slot = clamped;
+            return Ok((clamped != value).then(|| {
+                format!(
+                    "{name} = {value} V is outside the DAC range 0-10 V, clamped to {clamped} V"
+                )
+            }));
+        }
+        if let Some(slot) = self.param_mut(r) {
+            if !value.is_finite() {
+                return Err(format!(
+                    "{name} = {value} refused: parameters must be finite"
+                ));
+            }
+            // Validated as a whole at fmi2ExitInitializationMode, where the relations
+            // between parameters (sorted play radii) can be checked.
+            *slot = value;
+            return Ok(None);
+        }
+        Err(format!(
+            "no settable Real variable with value reference {r}"
+        ))
+    }
+
+    fn set_integer(&mut self, r: u32, value: i32) -> SetResult {
+        match r {
+            vr::NOISE_SEED => {
+                self.params.noise_seed = value as u32 as u64;
+                Ok(None)
+            }
+            _ => Err(format!(
+                "no settable Integer variable with value reference {r}"
+            )),
+        }
+    }
+
+    fn set_boolean(&mut self, r: u32, _value: bool) -> SetResult {
+        Err(format!(
+            "no settable Boolean variable with value reference {r}"
+        ))
+    }
+
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+        let plant = Plant::new(self.params.clone()).map_err(|e| format!("invalid {e}"))?;
+        self.plant = Some(plant);
+        Ok(())
+    }
+
+    fn do_step(&mut self, _t: f64, h: f64) -> Result<Vec<Message>, String> {
+        let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
+        let before = plant.mode();
+        let report = plant.step(self.dac, h);
+        let mut messages = Vec::new();
+        if report.brake_events > 0 {
+            messages.push(Message::Event(format!(
+                "{} brake switch(es) in the step ending at t = {} s, first at {:?} s; mode {:?} -> {:?}",
+                report.brake_events,
+                plant.time(),
+                report.first_brake_event,
+                before,
+                plant.mode()
+            )));
+        }
+        if report.slips > 0 {
+            messages.push(Message::Warning(format!(
+                "both brakes open: the runner slipped (FREE entered {} time(s), {} in all) before t = {} s",
+                report.slips,
+                plant.outputs().slip_events,
+                plant.time()
+            )));
+        }
+        if report.event_budget_exhausted {
+            messages.push(Message::Warning(format!("event detection suspended in the step ending at t = {} s: too many events (chattering at a threshold)", plant.time())));
+        }
+        Ok(messages)
+    }
+
+    fn save(&self, out: &mut Vec<u8>) {
+        // Parameters in table order, then inputs, then the plant (if initialized).
+        for v in VARIABLES
+            .iter()
+            .filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
+        {
+            let x = match v.kind {
+                Kind::Real => self.get_real(v.vr).unwrap_or(f64::NAN),
+                _ => self.params.noise_seed as f64,
+            };
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        for x in [self.dac.earth, self.dac.nonearth, self.dac.extension] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+        match &self.plant {
+            None => out.push(0),
+            Some(p) => {
+                out.push(1);
+                p.save_state(out);
+            }
+        }
+    }
+
+    fn load(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut next = PlantFmu::new();
+        let mut pos = 0;
+        let f64_next = |pos: &mut usize| -> Result<f64, String> {
+            let b = bytes
+                .get(*pos..*pos + 8)
+                .ok_or("plant FMU state truncated")?;
+            *pos += 8;
+            Ok(f64::from_le_bytes(b.try_into().expect("8 bytes")))
+        };
+        for v in VARIABLES
+            .iter()
+            .filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
+        {
+            let x = f64_next(&mut pos)?;
+            match v.kind {
+                Kind::Real => *next.param_mut(v.vr).ok_or("parameter table mismatch")? = x,
+                _ => next.params.noise_seed = x as u64,
+            }
+        }
+        next.dac = Dac {
+            earth: f64_next(&mut pos)?,
+            nonearth: f64_next(&mut pos)?,
+            extension: f64_next(&mut pos)?,
+        };
+        match bytes.get(pos) {
+            Some(0) if pos + 1 == bytes.len() => {}
+            Some(1) => {
+                let mut plant = Plant::new(next.params.clone())
+                    .map_err(|e| format!("state holds invalid {e}"))?;
+                plant.load_state(&bytes[pos + 1..])?;
+                next.plant = Some(plant);
+            }
+            _ => return Err("plant FMU state: bad plant marker or trailing bytes".into()),
+        }
+        *self = next;
+        Ok(())
+    }
+}
+
+
