@@ -2,8 +2,12 @@
 //! exchange DAC volts and encoder counts every 2 ms as a Jacobi master would, the
 //! controller's output at `t` being the sample for `[t + h, t + 2h)`.
 
+use std::path::Path;
+
 use inchworm_controller::{Controller, Params, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Plant, PlantParams};
+
+use crate::fmu::{CsFmu, FmuError, VarType};
 
 /// One row per communication point `t_k = k h`, k ≥ 1: the plant outputs at `t_k` and the
 /// DAC volts that were held during `[t_{k-1}, t_k)`.
@@ -51,7 +55,93 @@ pub fn run(plant: PlantParams, controller: Params, reference: impl Fn(f64) -> f6
     Ok(tr)
 }
 
+/// The same loop through the two FMUs (any FMI 2.0 CS master would do the same): a
+/// Jacobi coupling at 2 ms, plant parameters at their fia20 defaults, the controller's
+/// flags, deadband and start estimates set from `controller`.
+pub fn run_fmus(plant_fmu: &Path, controller_fmu: &Path, controller: &Params, reference: impl Fn(f64) -> f64, duration: f64) -> Result<Trace, FmuError> {
+    let mut plant = CsFmu::load(plant_fmu, "plant", false)?;
+    let mut ctrl = CsFmu::load(controller_fmu, "controller", false)?;
+    let h = SAMPLE_PERIOD;
+    plant.enter_initialization(None, 0.0, None)?;
+    ctrl.enter_initialization(None, 0.0, None)?;
+    let flags = ctrl.vrs_of(&["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"], VarType::Boolean)?;
+    ctrl.set_boolean(&flags, &[controller.feedforward, controller.prefilter, controller.use_scale_factor_estimate, controller.use_disturbance_estimate])?;
+    let mut names = vec!["deadband".to_string(), "disturbance_start".to_string()];
+    names.extend((1..=10).map(|i| format!("scale_weights_start[{i}]")));
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let vrs = ctrl.vrs_of(&names, VarType::Real)?;
+    let mut values = vec![controller.deadband, controller.disturbance_start];
+    values.extend(controller.scale_weights_start);
+    ctrl.set_real(&vrs, &values)?;
+    plant.exit_initialization()?;
+    ctrl.exit_initialization()?;
+
+    let dac_names = ["dac_earth", "dac_nonearth", "dac_extension"];
+    let plant_dac = plant.vrs_of(&dac_names, VarType::Real)?;
+    let ctrl_dac = ctrl.vrs_of(&dac_names, VarType::Real)?;
+    let plant_enc = plant.vrs_of(&["encoder_counts"], VarType::Integer)?;
+    let plant_runner = plant.vrs_of(&["runner_position"], VarType::Real)?;
+    let ctrl_enc = ctrl.vrs_of(&["encoder_counts"], VarType::Integer)?;
+    let ctrl_ref = ctrl.vrs_of(&["reference"], VarType::Real)?;
+    let ctrl_out = ctrl.vrs_of(&["disturbance_estimate", "fraction"], VarType::Real)?;
+    let ctrl_steps = ctrl.vrs_of(&["n_steps"], VarType::Integer)?;
+    let weight_names: Vec<String> = (1..=10).map(|i| format!("scale_weights[{i}]")).collect();
+    let weight_names: Vec<&str> = weight_names.iter().map(String::as_str).collect();
+    let ctrl_weights = ctrl.vrs_of(&weight_names, VarType::Real)?;
+
+    let n = (duration / h).round() as usize;
+    let mut tr = Trace { q_enc: 1.2e-9, ..Trace::default() };
+    let (mut enc, mut dac, mut runner, mut out, mut steps) = ([0i32], [0.0; 3], [0.0], [0.0; 2], [0i32]);
+    let mut previous_steps = None;
+    for k in 0..n {
+        let t = k as f64 * h;
+        // Jacobi: both FMUs get the other's outputs at t, then both step.
+        plant.get_integer(&plant_enc, &mut enc)?;
+        ctrl.get_real(&ctrl_dac, &mut dac)?;
+        plant.set_real(&plant_dac, &dac)?;
+        ctrl.set_integer(&ctrl_enc, &enc)?;
+        ctrl.set_real(&ctrl_ref, &[reference(t)])?;
+        plant.do_step(h)?;
+        ctrl.do_step(h)?;
+        plant.get_integer(&plant_enc, &mut enc)?;
+        plant.get_real(&plant_runner, &mut runner)?;
+        ctrl.get_real(&ctrl_out, &mut out)?;
+        ctrl.get_integer(&ctrl_steps, &mut steps)?;
+        tr.time.push((k + 1) as f64 * h);
+        tr.reference.push(reference((k + 1) as f64 * h));
+        tr.encoder_counts.push(i64::from(enc[0]));
+        tr.runner_position.push(runner[0]);
+        tr.dac.push(dac);
+        tr.disturbance_estimate.push(out[0]);
+        tr.fraction.push(out[1]);
+        tr.n_steps.push(steps[0] as u32);
+        // The FMU has no "iterated" output; a new plan shows as a change of its outputs.
+        tr.iterated.push(previous_steps != Some((steps[0], out[1].to_bits())));
+        previous_steps = Some((steps[0], out[1].to_bits()));
+    }
+    let mut w = [0.0; 10];
+    ctrl.get_real(&ctrl_weights, &mut w)?;
+    tr.scale_weights = w;
+    plant.terminate()?;
+    ctrl.terminate()?;
+    Ok(tr)
+}
+
 impl Trace {
+    /// CSV of the run: one row per communication point.
+    pub fn write_csv(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
+        writeln!(w, "time,reference,encoder_counts,runner_position,dac_earth,dac_nonearth,dac_extension,disturbance_estimate,n_steps,fraction")?;
+        for i in 0..self.time.len() {
+            let d = self.dac[i];
+            writeln!(
+                w,
+                "{},{:e},{},{:e},{},{},{},{:e},{},{}",
+                self.time[i], self.reference[i], self.encoder_counts[i], self.runner_position[i], d[0], d[1], d[2], self.disturbance_estimate[i], self.n_steps[i], self.fraction[i]
+            )?;
+        }
+        Ok(())
+    }
+
     /// Indices of the parked samples (SPEC 4.1): all three DAC outputs zero for the
     /// previous 8 samples.
     pub fn parked(&self) -> Vec<usize> {

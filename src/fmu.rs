@@ -297,6 +297,19 @@ impl CsFmu {
         self.check("fmi2GetInteger", r).map(drop)
     }
 
+    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
+        assert_eq!(vrs.len(), values.len(), "set_integer: value references and values differ in length");
+        let r = Common::set_integer(&mut self.instance, vrs, values);
+        self.check("fmi2SetInteger", r).map(drop)
+    }
+
+    pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
+        assert_eq!(vrs.len(), values.len(), "set_boolean: value references and values differ in length");
+        let values: Vec<i32> = values.iter().map(|&b| i32::from(b)).collect();
+        let r = Common::set_boolean(&mut self.instance, vrs, &values);
+        self.check("fmi2SetBoolean", r).map(drop)
+    }
+
     /// Reads one Real variable by name (parameters included).
     pub fn real(&mut self, name: &str) -> Result<f64, FmuError> {
         let vr = self.var_of(name, VarType::Real)?.vr;
