@@ -33,6 +33,26 @@ enum Command {
     /// from that time over the next sample, and the plant outputs at that time, in SI
     /// units (s, V, m; mode 1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE).
     Gait(GaitArgs),
+    /// Run a named closed-loop scenario of the paper (fig5, staircase, calibration) through
+    /// the two FMUs (or the crates, with --direct), write <out>/<name>.csv and
+    /// <out>/<name>.png, and print settle times, RMS and estimates.
+    Scenario(ScenarioArgs),
+}
+
+#[derive(Args)]
+struct ScenarioArgs {
+    /// fig5 | staircase | calibration
+    name: String,
+    /// Folder holding InchwormPlant.fmu and InchwormController.fmu.
+    #[arg(long, default_value = "dist")]
+    dist: PathBuf,
+    /// Couple the plant and controller crates directly instead of loading the FMUs.
+    #[arg(long)]
+    direct: bool,
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    #[arg(long, default_value = plot::DEFAULT_FONT)]
+    font: PathBuf,
 }
 
 #[derive(Args)]
@@ -93,7 +113,58 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Command::Scenario(args) => {
+            let _ = log::set_logger(&LOGGER);
+            log::set_max_level(log::LevelFilter::Warn);
+            match run_scenario(&args) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
     }
+}
+
+fn run_scenario(args: &ScenarioArgs) -> Result<(), String> {
+    let s = inchworm::scenario::by_name(&args.name)
+        .ok_or_else(|| format!("unknown scenario `{}`; known: {}", args.name, inchworm::scenario::NAMES.join(", ")))?;
+    plot::load_font(&args.font)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
+    let wall = Instant::now();
+    let runs = inchworm::scenario::run_scenario(&s, (!args.direct).then_some(args.dist.as_path()))?;
+    let wall = wall.elapsed().as_secs_f64();
+    let via = if args.direct { "plant and controller crates coupled directly" } else { "InchwormPlant.fmu + InchwormController.fmu, Jacobi 2 ms" };
+    println!("{} ({via})", s.title);
+    let mut written = Vec::new();
+    for (v, r) in s.variants.iter().zip(&runs) {
+        let settle = r.settle_time(1e-6).map_or("does not settle within 1 µm".into(), |t| format!("settles within 1 µm at {t:.3} s"));
+        let rms: Vec<String> = s.regulation.iter().map(|&(a, b)| format!("{:.3}", r.parked_rms(a, b) * 1e9)).collect();
+        println!(
+            "  {:<26} {settle}; parked RMS in regulation {} nm; final disturbance estimate {:.3} µm",
+            v.name,
+            rms.join(" / "),
+            r.disturbance_estimate.last().copied().unwrap_or(0.0) * 1e6
+        );
+        let slug: String = v.name.split(|c: char| !c.is_alphanumeric()).filter(|w| !w.is_empty()).collect::<Vec<_>>().join("_");
+        let file = format!("{}_{slug}.csv", s.name);
+        let path = args.out.join(file);
+        let f = std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut w = std::io::BufWriter::new(f);
+        r.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+    }
+    let png = args.out.join(format!("{}.png", s.name));
+    let names: Vec<&str> = s.variants.iter().map(|v| v.name).collect();
+    plot::closed_loop_png(s.title, &names, &runs, &png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    written.push(png);
+    let sim: f64 = s.duration * runs.len() as f64;
+    println!("{sim:.0} s simulated in {wall:.2} s ({:.0}x real time)", sim / wall);
+    for p in written {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
 }
 
 fn load_plant(path: &Path, logging: bool) -> Result<Plant, String> {

@@ -177,3 +177,47 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
     root.present()?;
     Ok(())
 }
+
+/// Closed-loop runs of one scenario: encoder position of each variant against the
+/// reference (parked samples marked), and the disturbance estimates.
+pub fn closed_loop_png(title: &str, names: &[&str], runs: &[crate::closed_loop::Trace], path: &Path) -> Result<(), Box<dyn Error>> {
+    let (w, h) = (1400u32, 900u32);
+    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (FONT, 24))?;
+    let (top, bottom) = root.split_vertically(h * 62 / 100);
+    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
+    let um = 1e6;
+    let pos = |r: &crate::closed_loop::Trace| -> Vec<(f64, f64)> {
+        r.time.iter().zip(&r.encoder_counts).map(|(&t, &c)| (t, c as f64 * r.q_enc * um)).collect()
+    };
+    let (lo, hi) = runs.iter().flat_map(|r| pos(r).into_iter().map(|p| p.1).chain(r.reference.iter().map(|x| x * um))).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let mut chart = ChartBuilder::on(&top).margin(12).x_label_area_size(30).y_label_area_size(80).build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
+    chart.configure_mesh().light_line_style(WHITE).y_desc("encoder position (µm)").label_style((FONT, 16)).draw()?;
+    if let Some(r) = runs.first() {
+        chart
+            .draw_series(LineSeries::new(r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * um)), BLACK.stroke_width(1)))?
+            .label("reference")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    }
+    for (i, (r, name)) in runs.iter().zip(names).enumerate() {
+        let c = colors[i % colors.len()];
+        let settle = r.settle_time(1e-6).map_or("not settled".to_string(), |t| format!("settled within 1 µm at {t:.2} s"));
+        chart
+            .draw_series(LineSeries::new(pos(r), c.stroke_width(2)))?
+            .label(format!("{name}: {settle}"))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart.configure_series_labels().position(SeriesLabelPosition::LowerRight).background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 15)).draw()?;
+
+    let (lo, hi) = runs.iter().flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let mut chart = ChartBuilder::on(&bottom).margin(12).x_label_area_size(40).y_label_area_size(80).build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
+    chart.configure_mesh().light_line_style(WHITE).x_desc("time (s)").y_desc("disturbance estimate (µm)").label_style((FONT, 16)).draw()?;
+    for (i, r) in runs.iter().enumerate() {
+        let c = colors[i % colors.len()];
+        chart.draw_series(LineSeries::new(r.time.iter().zip(&r.disturbance_estimate).map(|(&t, &x)| (t, x * um)), c.stroke_width(2)))?;
+    }
+    root.present()?;
+    Ok(())
+}

@@ -194,8 +194,8 @@ fn locked_stack_charge_traces_the_prandtl_ishlinskii_loop() {
     let m = plant.play_memories();
     let peak = m[0] + p.play_radius[0];
     assert!(peak >= xi && peak - xi < 1.0, "ξ peak {peak} V, final ξ {xi} V");
-    for i in 0..5 {
-        assert!((m[i] + p.play_radius[i] - peak).abs() < 1e-9, "play {} memory {} V after the rise, expected {} V", i + 1, m[i], peak - p.play_radius[i]);
+    for (i, (mi, r)) in m.iter().zip(p.play_radius).enumerate() {
+        assert!((mi + r - peak).abs() < 1e-9, "play {} memory {mi} V after the rise, expected {} V", i + 1, peak - r);
     }
     let h_sum = |m: [f64; 5], xi: f64| (0..5).map(|i| p.play_weight[i] * play(m[i], xi, p.play_radius[i])).sum::<f64>();
     let vx = plant.outputs().voltage_extension;
