@@ -571,6 +571,9 @@ pub unsafe fn fmi2DoStep<M: Model>(
                 return refuse(inst, FUNC, &format!("step to {} passes the stop time {stop} set in fmi2SetupExperiment", t + h));
             }
         }
+        if let Err(msg) = inst.model.check_step(t, h) {
+            return refuse(inst, FUNC, &msg);
+        }
         match inst.model.do_step(t, h) {
             Ok(messages) => {
                 // The master's clock is the reference: following it keeps t and the FMU

@@ -15,6 +15,7 @@ pub mod ffi;
 mod instance;
 pub mod model_description;
 mod state_blob;
+pub mod testing;
 mod table;
 
 pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable};
@@ -55,7 +56,14 @@ pub trait Model: Clone + Send + 'static {
     /// Called by `fmi2ExitInitializationMode`: validate parameters and build the model.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
 
-    /// One communication step from `t` of length `h` (both checked by the layer).
+    /// Refuses a step the model cannot take (e.g. a step size it does not support) before
+    /// anything runs; a refusal leaves the instance as it was.
+    fn check_step(&self, _t: f64, _h: f64) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// One communication step from `t` of length `h` (both checked by the layer). An `Err`
+    /// is a failure of the model and moves the instance to the Error state.
     /// `Ok` carries what to log: events (debug logging, category logEvents) and warnings
     /// (the step succeeded, with status fmi2Warning).
     fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String>;

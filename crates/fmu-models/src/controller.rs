@@ -292,13 +292,18 @@ impl Model for ControllerFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String> {
+    fn check_step(&self, _t: f64, h: f64) -> Result<(), String> {
         let samples = (h / SAMPLE_PERIOD).round();
         if samples < 1.0 || (samples * SAMPLE_PERIOD - h).abs() > 1e-9 * h.max(SAMPLE_PERIOD) {
             return Err(format!(
                 "communicationStepSize {h} s is not a whole number of 2 ms samples (the controller samples every 2 ms; use h = k * 0.002)"
             ));
         }
+        Ok(())
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String> {
+        let samples = (h / SAMPLE_PERIOD).round();
         let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
         let mut messages = Vec::new();
         for _ in 0..samples as u64 {

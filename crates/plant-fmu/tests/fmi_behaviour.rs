@@ -2,11 +2,12 @@
 //! messages, state handling and threads. The exported `fmi2*` functions are called
 //! in-process through the rlib, the same code the shared library exports.
 
-use std::ffi::{c_char, c_void, CStr, CString};
+use std::ffi::CString;
 use std::sync::Mutex;
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
+use inchworm_fmi_export::testing::{callbacks, Log};
 use inchworm_plant_fmu as fmu;
 use inchworm_fmu_models::PlantFmu;
 
@@ -20,20 +21,6 @@ const EARTH_CLOSED: u32 = 18;
 const M_P: u32 = 100;
 const PLAY_RADIUS_2: u32 = 114;
 
-/// Messages the instance logged, as "status|category|message".
-struct Log(Mutex<Vec<String>>);
-
-// Defined with the two arguments the FMU passes ("%s" and the text): a Rust function
-// cannot be variadic, and on the x86-64 and AArch64 Linux ABIs fixed pointer arguments
-// arrive where a variadic callee reads them.
-unsafe extern "C" fn logger(env: *mut c_void, _name: fmi2String, status: fmi2Status, category: fmi2String, fmt: fmi2String, arg: *const c_char) {
-    let log = &*(env as *const Log);
-    assert_eq!(CStr::from_ptr(fmt).to_str().unwrap(), "%s", "the message must be an argument, never the format");
-    let msg = CStr::from_ptr(arg).to_string_lossy();
-    let cat = CStr::from_ptr(category).to_string_lossy();
-    log.0.lock().unwrap().push(format!("{status}|{cat}|{msg}"));
-}
-
 struct Instance {
     c: fmi2Component,
     log: Box<Log>,
@@ -46,13 +33,7 @@ unsafe impl Send for Instance {}
 impl Instance {
     fn new(name: &str) -> Instance {
         let log = Box::new(Log(Mutex::new(Vec::new())));
-        let functions = Box::new(fmi2CallbackFunctions {
-            logger: Some(unsafe { std::mem::transmute::<*const (), fmi2CallbackLogger>(logger as *const ()) }),
-            allocateMemory: None,
-            freeMemory: None,
-            stepFinished: None,
-            componentEnvironment: &*log as *const Log as *mut c_void,
-        });
+        let functions = Box::new(callbacks(&log));
         let name = CString::new(name).unwrap();
         let guid = CString::new(model_description::guid::<PlantFmu>()).unwrap();
         let c = unsafe { fmu::fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &*functions, fmi2False, fmi2False) };
@@ -166,13 +147,7 @@ fn null_and_foreign_pointers_are_refused_without_a_crash() {
 #[test]
 fn instantiate_refuses_a_wrong_guid_or_model_exchange() {
     let log = Box::new(Log(Mutex::new(Vec::new())));
-    let functions = fmi2CallbackFunctions {
-        logger: Some(unsafe { std::mem::transmute::<*const (), fmi2CallbackLogger>(logger as *const ()) }),
-        allocateMemory: None,
-        freeMemory: None,
-        stepFinished: None,
-        componentEnvironment: &*log as *const Log as *mut c_void,
-    };
+    let functions = callbacks(&log);
     let guid = CString::new(model_description::guid::<PlantFmu>()).unwrap();
     let c = unsafe { fmu::fmi2Instantiate(c"x".as_ptr(), fmi2CoSimulation, c"{wrong}".as_ptr(), std::ptr::null(), &functions, 0, 0) };
     assert!(c.is_null());

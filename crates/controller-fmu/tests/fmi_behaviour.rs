@@ -1,0 +1,131 @@
+//! The FMI boundary of InchwormController: timing contract, bad inputs and parameters,
+//! state round trips, threads, and the committed modelDescription.
+
+use inchworm_fmi_export::ffi::*;
+use inchworm_fmi_export::model_description;
+use inchworm_fmi_export::testing::Harness;
+use inchworm_fmu_models::ControllerFmu;
+
+type H = Harness<ControllerFmu>;
+
+const ENCODER_COUNTS: u32 = 1;
+const REFERENCE: u32 = 2;
+const DAC_EARTH: u32 = 10;
+const DAC_NONEARTH: u32 = 11;
+const DAC_NONEARTH_CODE: u32 = 14;
+const N_STEPS: u32 = 20;
+const MOVING: u32 = 22;
+const FEEDFORWARD: u32 = 100;
+const SAMPLES_PER_STEP: u32 = 105;
+const BASIS_PEAK_5: u32 = 124;
+
+/// Drives the controller against a synthetic encoder (each forward extension sample moves
+/// it by 2 nm), returning the DAC codes sample by sample.
+fn drive(h: &H, k0: usize, samples: usize) -> Vec<(i32, f64, i32)> {
+    let mut out = Vec::new();
+    let mut counts = 0;
+    for k in k0..k0 + samples {
+        assert_eq!(h.set_integer(ENCODER_COUNTS, counts), fmi2OK);
+        assert_eq!(h.step(k as f64 * 0.002, 0.002), fmi2OK, "{:?}", h.logged());
+        let (_, dac_n) = h.real(DAC_NONEARTH);
+        let (_, code) = h.integer(DAC_NONEARTH_CODE);
+        counts += (dac_n > 5.0) as i32 * 2;
+        out.push((code, h.real(DAC_EARTH).1, h.integer(N_STEPS).1));
+    }
+    out
+}
+
+#[test]
+fn timing_contract_one_sample_delay_and_whole_samples_only() {
+    let h = H::init("timing");
+    assert_eq!(h.set_real(REFERENCE, 100e-6), fmi2OK);
+    // Before any step the outputs are the parked sample.
+    assert_eq!(h.real(DAC_NONEARTH), (fmi2OK, 0.0));
+    // doStep(0, 2 ms) chooses the move and outputs sample 2 (still parked).
+    assert_eq!(h.step(0.0, 0.002), fmi2OK);
+    assert_eq!(h.integer(N_STEPS), (fmi2OK, 4));
+    assert_eq!(h.boolean(MOVING), (fmi2OK, true));
+    assert_eq!(h.real(DAC_NONEARTH).1, 0.0);
+    // After the step ending at 13 × 2 ms the output is sample 15: non-earth powered.
+    assert_eq!(h.step(0.002, 0.024), fmi2OK, "12 samples in one call");
+    assert_eq!(h.real(DAC_NONEARTH).1, 0.0, "sample 14");
+    assert_eq!(h.step(0.026, 0.002), fmi2OK);
+    assert_eq!(h.real(DAC_NONEARTH).1, 10.0, "sample 15");
+    assert_eq!(h.integer(DAC_NONEARTH_CODE).1, 65535);
+    // A step size that is not a whole number of samples is refused, nothing changes.
+    assert_eq!(h.step(0.028, 0.003), fmi2Error);
+    assert!(h.saw(fmi2Error, &["fmi2DoStep", "0.003", "2 ms"]), "{:?}", h.logged());
+    assert_eq!(h.step(0.028, 0.002), fmi2OK);
+}
+
+#[test]
+fn bad_inputs_and_parameters_are_refused_with_a_message() {
+    let h = H::init("inputs");
+    assert_eq!(h.set_real(REFERENCE, 5e-6), fmi2OK);
+    assert_eq!(h.set_real(REFERENCE, f64::NAN), fmi2Error);
+    assert!(h.saw(fmi2Error, &["reference", "NaN", "keeping 0.000005"]), "{:?}", h.logged());
+    assert_eq!(h.real(REFERENCE), (fmi2OK, 5e-6));
+    assert_eq!(h.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
+    assert_eq!(h.real(999).0, fmi2Error);
+    assert_eq!(h.set_real(DAC_EARTH, 1.0), fmi2Error, "outputs cannot be set");
+    assert_eq!(h.set_boolean(FEEDFORWARD, false), fmi2Error, "fixed parameters cannot change after initialization");
+
+    for (what, set) in [
+        ("samples_per_step", Box::new(|h: &H| h.set_integer(SAMPLES_PER_STEP, 3)) as Box<dyn Fn(&H) -> fmi2Status>),
+        ("basis_peak", Box::new(|h: &H| h.set_real(BASIS_PEAK_5, 2e-6))),
+    ] {
+        let h = H::new("params");
+        assert_eq!(h.setup(), fmi2OK);
+        assert_eq!(set(&h), fmi2OK);
+        assert_eq!(h.enter(), fmi2OK);
+        assert_eq!(h.exit(), fmi2Error);
+        assert!(h.saw(fmi2Error, &["fmi2ExitInitializationMode", what]), "{what}: {:?}", h.logged());
+        assert_eq!(h.reset(), fmi2OK);
+    }
+}
+
+#[test]
+fn state_round_trips_replay_bit_for_bit() {
+    let a = H::init("a");
+    assert_eq!(a.set_real(REFERENCE, 60e-6), fmi2OK);
+    drive(&a, 0, 150);
+    let s = a.get_state();
+    let bytes = a.serialize();
+    let first = drive(&a, 150, 400);
+    assert_eq!(a.set_state(s), fmi2OK);
+    assert_eq!(drive(&a, 150, 400), first);
+    assert_eq!(a.free_state(s), fmi2OK);
+
+    let b = H::new("b");
+    assert_eq!(b.deserialize(&bytes), fmi2OK, "{:?}", b.logged());
+    assert_eq!(drive(&b, 150, 400), first);
+    let mut bad = bytes.clone();
+    bad[10] ^= 0x20;
+    assert_eq!(b.deserialize(&bad), fmi2Error);
+    assert!(b.saw(fmi2Error, &["fmi2DeSerializeFMUstate"]));
+}
+
+#[test]
+fn eight_instances_on_eight_threads_match_eight_serial_runs() {
+    let refs = [10e-6, 20e-6, 35e-6, 50e-6, -10e-6, -30e-6, 70e-6, 5e-6];
+    let go = |r: f64| {
+        let h = H::init("t");
+        assert_eq!(h.set_real(REFERENCE, r), fmi2OK);
+        drive(&h, 0, 600)
+    };
+    let serial: Vec<_> = refs.iter().map(|&r| go(r)).collect();
+    let threads: Vec<_> = refs.iter().map(|&r| std::thread::spawn(move || go(r))).collect();
+    let parallel: Vec<_> = threads.into_iter().map(|t| t.join().unwrap()).collect();
+    assert_eq!(serial, parallel);
+    assert_ne!(serial[0], serial[5]);
+}
+
+#[test]
+fn committed_model_description_matches_the_variable_table() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../modelDescription/InchwormController.xml");
+    let committed = std::fs::read_to_string(path).unwrap_or_default();
+    assert!(
+        committed == model_description::model_description::<ControllerFmu>(),
+        "{path} differs from the variable table: run `cargo run --release -p fmu-build` and commit modelDescription/"
+    );
+}
