@@ -204,9 +204,15 @@ pub fn closed_loop_png(title: &str, names: &[&str], runs: &[crate::closed_loop::
     for (i, (r, name)) in runs.iter().zip(names).enumerate() {
         let c = colors[i % colors.len()];
         let settle = r.settle_time(1e-6).map_or("not settled".to_string(), |t| format!("settled within 1 µm at {t:.2} s"));
+        // The whole trace faintly (the runner moves micrometres inside every step; on long
+        // runs that only paints a band), the parked samples, where the loop is judged, boldly.
+        if t_end <= 30.0 {
+            chart.draw_series(LineSeries::new(pos(r), c.mix(0.25)))?;
+        }
+        let parked: Vec<(f64, f64)> = r.parked().into_iter().map(|i| (r.time[i], r.encoder_counts[i] as f64 * r.q_enc * um)).collect();
         chart
-            .draw_series(LineSeries::new(pos(r), c.stroke_width(2)))?
-            .label(format!("{name}: {settle}"))
+            .draw_series(LineSeries::new(parked, c.stroke_width(2)))?
+            .label(format!("{name} (parked samples): {settle}"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
     }
     chart.configure_series_labels().position(SeriesLabelPosition::LowerRight).background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 15)).draw()?;
