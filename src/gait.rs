@@ -1,43 +1,20 @@
 //! The stepping gait of SPEC section 3 and its raw measurements, plus the SPEC 2.9 check
 //! sequence and values.
 //!
-//! This is the open-loop gait the `inchworm gait` command drives the plant FMU with. The
-//! controller crate will own the canonical gait once it exists; until then the table below
-//! is the one place the CLI takes it from.
+//! This is the open-loop gait the `inchworm gait` command drives the plant FMU with; the
+//! tables and the measurements are the controller crate's, so the CLI and the controller
+//! can never disagree about them.
+
+use inchworm_controller::gait::Timing;
+pub use inchworm_controller::gait::Direction;
+pub use inchworm_controller::measurements::Raw as RawMeasurements;
 
 /// Controller sample period `T_s` (s), SPEC 3.1.
-pub const SAMPLE_PERIOD_S: f64 = 0.002;
+pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
 /// Samples per step (`T_sp = 100 · T_s = 0.2 s`), SPEC 3.1.
 pub const SAMPLES_PER_STEP: usize = 100;
 /// Full-scale DAC output (V).
-pub const DAC_FULL_SCALE_V: f64 = 10.0;
-
-/// First sample (1-based) of each of the seven segments, SPEC 3.2.
-pub const SEGMENT_STARTS: [usize; 7] = [1, 15, 30, 44, 59, 72, 87];
-
-/// Averaging windows (1-based, inclusive) giving `s1..s7` and `e1..e7`, SPEC 3.3.
-pub const MEASUREMENT_WINDOWS: [(usize, usize); 7] =
-    [(9, 13), (24, 28), (38, 42), (53, 57), (66, 70), (81, 85), (95, 99)];
-
-/// Per-segment levels of SPEC 3.2 as fractions of full scale. Brakes are 0 or 1; the
-/// extension column is multiplied by `y` (forward) or `|y|` (backward).
-struct Table {
-    earth: [f64; 7],
-    nonearth: [f64; 7],
-    extension: [f64; 7],
-}
-
-const FORWARD: Table = Table {
-    earth: [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0],
-    nonearth: [0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0],
-    extension: [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0],
-};
-
-const BACKWARD: Table = Table {
-    earth: [0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0],
-    nonearth: [0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0],
-    extension: [0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
-};
+pub const DAC_FULL_SCALE_V: f64 = inchworm_controller::DAC_FULL_SCALE;
 
 /// DAC output volts of the three channels, held over one sample.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -54,13 +31,6 @@ impl Dac {
         nonearth: 0.0,
         extension: 0.0,
     };
-}
-
-/// Direction of a step: the sign of its amplitude picks the gait.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Direction {
-    Forward,
-    Backward,
 }
 
 /// One step of the gait with amplitude `y` in [−1, 1] (a full step is ±1).
@@ -91,72 +61,23 @@ impl Step {
         }
     }
 
-    /// Segment (0-based) of 1-based sample `k`.
-    fn segment(k: usize) -> usize {
-        assert!(
-            (1..=SAMPLES_PER_STEP).contains(&k),
-            "sample {k} is outside 1..={SAMPLES_PER_STEP}"
-        );
-        SEGMENT_STARTS
-            .iter()
-            .rposition(|&s| s <= k)
-            .expect("segment 1 starts at sample 1")
-    }
-
     /// Commanded extension fraction `w_ext(k)` of 1-based sample `k`: DAC volts / 10,
     /// before quantization, positive in both gaits (SPEC 3.1, 4).
     pub fn extension_fraction(&self, k: usize) -> f64 {
-        let seg = Self::segment(k);
-        match self.direction() {
-            Direction::Forward => FORWARD.extension[seg] * self.amplitude,
-            Direction::Backward => BACKWARD.extension[seg] * self.amplitude.abs(),
-        }
+        self.dac(k).extension / DAC_FULL_SCALE_V
     }
 
     /// DAC volts held during 1-based sample `k` of this step (SPEC 3.2, unquantized).
     pub fn dac(&self, k: usize) -> Dac {
-        let seg = Self::segment(k);
-        let table = match self.direction() {
-            Direction::Forward => &FORWARD,
-            Direction::Backward => &BACKWARD,
-        };
-        Dac {
-            earth: table.earth[seg] * DAC_FULL_SCALE_V,
-            nonearth: table.nonearth[seg] * DAC_FULL_SCALE_V,
-            extension: self.extension_fraction(k) * DAC_FULL_SCALE_V,
-        }
+        assert!((1..=SAMPLES_PER_STEP).contains(&k), "sample {k} is outside 1..={SAMPLES_PER_STEP}");
+        let [earth, nonearth, extension] = Timing::new(SAMPLES_PER_STEP).volts(self.direction(), self.amplitude, k);
+        Dac { earth, nonearth, extension }
     }
 
     /// The 100 DAC samples of this step, sample 1 first.
     pub fn samples(&self) -> impl Iterator<Item = Dac> + '_ {
         (1..=SAMPLES_PER_STEP).map(|k| self.dac(k))
     }
-}
-
-/// The raw measurements of one step (SPEC 3.3), in the unit of the encoder samples given.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RawMeasurements {
-    /// Segment averages `s1..s7` of the encoder.
-    pub s: [f64; 7],
-    /// Segment averages `e1..e7` of the commanded extension fraction.
-    pub e: [f64; 7],
-    /// Commanded extension: forward `e4 − e3`, backward `e5 − e4` (negative).
-    pub ext_cmd: f64,
-    /// Measured extension: forward `s4 − s3`, backward `s5 − s4`.
-    pub ext_moved: f64,
-    /// Brake disturbance: `(s7 − s1) − EXT_moved`.
-    pub bd: f64,
-}
-
-impl RawMeasurements {
-    /// The runner position after the step (the `s7` average).
-    pub fn position_after(&self) -> f64 {
-        self.s[6]
-    }
-}
-
-fn window_averages(samples: &[f64]) -> [f64; 7] {
-    MEASUREMENT_WINDOWS.map(|(a, b)| samples[a - 1..b].iter().sum::<f64>() / (b - a + 1) as f64)
 }
 
 /// SPEC 3.3 from the encoder samples `w_enc(1..=100)` of one step (`enc[k − 1]` is the
@@ -168,23 +89,7 @@ pub fn raw_measurements(step: &Step, enc: &[f64]) -> RawMeasurements {
         "raw_measurements needs the {SAMPLES_PER_STEP} samples of one step"
     );
     let ext: Vec<f64> = (1..=SAMPLES_PER_STEP).map(|k| step.extension_fraction(k)).collect();
-    let s = window_averages(enc);
-    let e = window_averages(&ext);
-    // The runner rides on the non-earth brake (DRIVE: earth open, non-earth closed) while
-    // the extension changes: it rises between the s3 and s4 windows forward and falls
-    // between s4 and s5 backward. The rest of s7 − s1 comes from the brake events: the
-    // brake disturbance.
-    let (ext_cmd, ext_moved) = match step.direction() {
-        Direction::Forward => (e[3] - e[2], s[3] - s[2]),
-        Direction::Backward => (e[4] - e[3], s[4] - s[3]),
-    };
-    RawMeasurements {
-        s,
-        e,
-        ext_cmd,
-        ext_moved,
-        bd: (s[6] - s[0]) - ext_moved,
-    }
+    inchworm_controller::measurements::raw(&Timing::new(SAMPLES_PER_STEP), step.direction(), enc, &ext)
 }
 
 /// SPEC 2.9: the five step amplitudes of the check run (fia20, from rest).
@@ -243,15 +148,6 @@ pub fn check_sequence(repeat: usize) -> Vec<Step> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn segments_start_where_spec_3_2_says() {
-        let starts: Vec<usize> = (1..=SAMPLES_PER_STEP)
-            .filter(|&k| k == 1 || Step::segment(k) != Step::segment(k - 1))
-            .collect();
-        assert_eq!(starts, SEGMENT_STARTS);
-        assert_eq!(Step::segment(100), 6);
-    }
 
     #[test]
     fn both_gaits_start_and_end_parked() {

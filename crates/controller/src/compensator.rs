@@ -65,14 +65,14 @@ impl Loop {
 }
 
 impl Loop {
-    pub(crate) fn save(&self, w: &mut crate::state_bytes::Writer) {
+    pub(crate) fn save(&self, w: &mut inchworm_state_bytes::Writer) {
         w.u8(u8::from(self.started));
         for v in [self.prefiltered, self.previous_reference, self.previous_error, self.feedback] {
             w.f64(v);
         }
     }
 
-    pub(crate) fn load(r: &mut crate::state_bytes::Reader) -> Result<Loop, String> {
+    pub(crate) fn load(r: &mut inchworm_state_bytes::Reader) -> Result<Loop, String> {
         Ok(Loop { started: r.bool()?, prefiltered: r.f64()?, previous_reference: r.f64()?, previous_error: r.f64()?, feedback: r.f64()? })
     }
 }

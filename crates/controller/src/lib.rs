@@ -20,7 +20,6 @@ pub mod compensator;
 pub mod estimator;
 pub mod gait;
 pub mod measurements;
-mod state_bytes;
 pub mod waveform;
 
 use basis::Basis;
@@ -318,7 +317,7 @@ impl Controller {
 
     /// Appends the complete dynamic state (not the parameters).
     pub fn save_state(&self, out: &mut Vec<u8>) {
-        let mut w = state_bytes::Writer(out);
+        let mut w = inchworm_state_bytes::Writer(out);
         for v in self.estimator.x.iter().chain(self.estimator.p.iter()) {
             w.f64(*v);
         }
@@ -365,7 +364,7 @@ impl Controller {
     /// Restores what `save_state` wrote, for a controller with the same parameters; on
     /// error the controller is unchanged.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = state_bytes::Reader::new(bytes);
+        let mut r = inchworm_state_bytes::Reader::new(bytes, "controller state");
         let mut next = self.clone();
         for v in next.estimator.x.iter_mut() {
             *v = r.f64()?;

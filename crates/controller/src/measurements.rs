@@ -15,6 +15,13 @@ pub struct Raw {
     pub bd: f64,
 }
 
+impl Raw {
+    /// The runner position after the step (the `s7` average).
+    pub fn position_after(&self) -> f64 {
+        self.s[6]
+    }
+}
+
 /// `enc[k-1]` is `w_enc(k)` in metres, `ext[k-1]` is `w_ext(k)`.
 pub fn raw(timing: &Timing, direction: Direction, enc: &[f64], ext: &[f64]) -> Raw {
     let avg = |v: &[f64], (a, b): (usize, usize)| v[a - 1..b].iter().sum::<f64>() / (b - a + 1) as f64;

@@ -5,7 +5,6 @@ pub mod hysteresis;
 pub mod linear;
 pub mod params;
 pub mod rk4;
-mod state_bytes;
 
 use std::sync::Arc;
 
@@ -500,7 +499,7 @@ impl Plant {
 
     /// Appends the complete dynamic state (not the parameters) to `out`.
     pub fn save_state(&self, out: &mut Vec<u8>) {
-        let mut w = state_bytes::Writer(out);
+        let mut w = inchworm_state_bytes::Writer(out);
         w.f64(self.time);
         for v in self.z.iter().chain(self.earth.iter()).chain(self.nonearth.iter()) {
             w.f64(*v);
@@ -521,7 +520,7 @@ impl Plant {
 
     /// Restores a state written by `save_state`; on error the plant is unchanged.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = state_bytes::Reader::new(bytes);
+        let mut r = inchworm_state_bytes::Reader::new(bytes, "plant state");
         let mut next = self.clone();
         next.time = r.f64()?;
         for v in next.z.iter_mut().chain(next.earth.iter_mut()).chain(next.nonearth.iter_mut()) {

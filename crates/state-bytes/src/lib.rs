@@ -1,4 +1,5 @@
-//! Little-endian byte encoding of the controller state, for FMU state serialization.
+//! Little-endian byte encoding of a model's state (plant, controller), for FMU state
+//! serialization: the readers name what they read in every error.
 
 pub struct Writer<'a>(pub &'a mut Vec<u8>);
 
@@ -17,15 +18,17 @@ impl Writer<'_> {
 pub struct Reader<'a> {
     bytes: &'a [u8],
     pos: usize,
+    what: &'static str,
 }
 
 impl<'a> Reader<'a> {
-    pub fn new(bytes: &'a [u8]) -> Self {
-        Reader { bytes, pos: 0 }
+    /// `what` names the state in error messages, e.g. "plant state".
+    pub fn new(bytes: &'a [u8], what: &'static str) -> Self {
+        Reader { bytes, pos: 0, what }
     }
     fn take<const K: usize>(&mut self) -> Result<[u8; K], String> {
         let end = self.pos + K;
-        let s = self.bytes.get(self.pos..end).ok_or_else(|| format!("controller state truncated at byte {}", self.pos))?;
+        let s = self.bytes.get(self.pos..end).ok_or_else(|| format!("{} truncated at byte {}", self.what, self.pos))?;
         self.pos = end;
         Ok(s.try_into().expect("slice has length K"))
     }
@@ -42,14 +45,14 @@ impl<'a> Reader<'a> {
         match self.u8()? {
             0 => Ok(false),
             1 => Ok(true),
-            b => Err(format!("controller state: invalid flag {b}")),
+            b => Err(format!("{}: invalid flag {b}", self.what)),
         }
     }
     pub fn finish(&self) -> Result<(), String> {
         if self.pos == self.bytes.len() {
             Ok(())
         } else {
-            Err(format!("controller state: {} trailing bytes", self.bytes.len() - self.pos))
+            Err(format!("{}: {} trailing bytes", self.what, self.bytes.len() - self.pos))
         }
     }
 }
