@@ -16,12 +16,21 @@ FORWARD = [True, True, False, True, False]
 WINDOWS = [(9, 13), (24, 28), (38, 42), (53, 57), (66, 70), (81, 85), (95, 99)]
 
 
-@pytest.fixture(scope="session")
-def plant_fmu():
-    path = DIST / "InchwormPlant.fmu"
+def built_fmu(name):
+    path = DIST / f"{name}.fmu"
     if not path.exists():
         pytest.fail(f"{path} is missing: run `cargo run --release -p fmu-build` first")
     return str(path)
+
+
+@pytest.fixture(scope="session")
+def plant_fmu():
+    return built_fmu("InchwormPlant")
+
+
+@pytest.fixture(scope="session")
+def controller_fmu():
+    return built_fmu("InchwormController")
 
 
 @pytest.fixture(scope="session")

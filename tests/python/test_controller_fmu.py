@@ -3,15 +3,6 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-from conftest import DIST
-
-
-@pytest.fixture(scope="session")
-def controller_fmu():
-    path = DIST / "InchwormController.fmu"
-    if not path.exists():
-        pytest.fail(f"{path} is missing: run `cargo run --release -p fmu-build` first")
-    return str(path)
 
 
 def test_validates_without_problems(controller_fmu):
