@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need on a fresh Debian machine with the Rust
 # toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
-# fonts-dejavu-core (the plot labels), and a Python venv in .venv with FMPy and pytest.
+# fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), and a
+# Python venv in .venv with FMPy and pytest.
 # Idempotent: it only reaches the package registries for what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
