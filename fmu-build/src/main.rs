@@ -8,6 +8,8 @@ use std::process::{Command, ExitCode};
 
 use inchworm_fmi_export::{model_description, Model};
 
+mod ssp;
+
 /// One FMU to package: its model, the cargo package of its cdylib and the library stem.
 struct Fmu {
     identifier: &'static str,
@@ -74,23 +76,50 @@ fn package(root: &Path, f: &Fmu) -> Result<PathBuf, String> {
     let dist = root.join("dist");
     std::fs::create_dir_all(&dist).map_err(|e| format!("{}: {e}", dist.display()))?;
     let out = dist.join(format!("{}.fmu", f.identifier));
-    let tmp = dist.join(format!(".{}.fmu.partial", f.identifier));
-    let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    let mut zip = zip::ZipWriter::new(file);
-    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     let docs = (f.documentation)();
     let entries: [(String, &[u8]); 3] = [
         ("modelDescription.xml".into(), xml.as_bytes()),
         (format!("binaries/{platform}/{}.{ext}", f.identifier), &binary),
         ("documentation/index.html".into(), docs.as_bytes()),
     ];
+    write_zip(&out, &entries)?;
+    Ok(out)
+}
+
+/// Writes `zip` entries to `out` through a temporary file renamed at the end, so a master
+/// never reads a half-written archive.
+fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
+    let tmp = out.with_extension("partial");
+    let file = std::fs::File::create(&tmp).map_err(|e| err(&e))?;
+    let mut zip = zip::ZipWriter::new(file);
+    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
     for (name, data) in entries {
-        zip.start_file(name.as_str(), opts).map_err(|e| format!("{}: {e}", out.display()))?;
-        zip.write_all(data).map_err(|e| format!("{}: {e}", out.display()))?;
+        zip.start_file(name.as_str(), opts).map_err(|e| err(&e))?;
+        zip.write_all(data).map_err(|e| err(&e))?;
     }
-    zip.finish().map_err(|e| format!("{}: {e}", out.display()))?;
-    // Replace atomically, so a master never loads a half-written FMU.
-    std::fs::rename(&tmp, &out).map_err(|e| format!("{}: {e}", out.display()))?;
+    zip.finish().map_err(|e| err(&e))?;
+    std::fs::rename(&tmp, out).map_err(|e| err(&e))
+}
+
+/// `dist/InchwormSystem.ssp` from the packaged FMUs.
+fn package_system(root: &Path) -> Result<PathBuf, String> {
+    let dist = root.join("dist");
+    let read = |name: &str| std::fs::read(dist.join(name)).map_err(|e| format!("{}: {e}", dist.join(name).display()));
+    let plant = read("InchwormPlant.fmu")?;
+    let controller = read("InchwormController.fmu")?;
+    let ssd = ssp::system_description();
+    let sets = ssp::parameter_sets();
+    let mut entries: Vec<(String, &[u8])> = vec![
+        ("SystemStructure.ssd".into(), ssd.as_bytes()),
+        ("resources/InchwormPlant.fmu".into(), &plant),
+        ("resources/InchwormController.fmu".into(), &controller),
+    ];
+    for (name, text) in &sets {
+        entries.push((format!("resources/{name}.ssv"), text.as_bytes()));
+    }
+    let out = dist.join("InchwormSystem.ssp");
+    write_zip(&out, &entries)?;
     Ok(out)
 }
 
@@ -106,6 +135,8 @@ fn main() -> ExitCode {
             let out = package(&root, f)?;
             println!("fmu-build: wrote {}", out.display());
         }
+        let ssp = package_system(&root)?;
+        println!("fmu-build: wrote {}", ssp.display());
         Ok(())
     };
     match run() {
