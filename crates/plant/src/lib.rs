@@ -108,6 +108,33 @@ pub struct Plant {
     chain: Arc<Propagators<4>>,
     /// Lazily built propagators, indexed by mode and sliding set.
     configs: Vec<Option<ConfigTable>>,
+    /// Propagators over the last sub-scan tail of a step, per configuration: a master's
+    /// steps repeat, so their tails do too.
+    remainders: Vec<Option<Remainder>>,
+    chain_remainder: Option<ChainRemainder>,
+}
+
+#[derive(Clone, Debug)]
+struct Remainder {
+    ticks: u64,
+    phi: linear::Matrix,
+}
+
+#[derive(Clone, Debug)]
+struct ChainRemainder {
+    ticks: u64,
+    phi: linear::ChainMatrix,
+}
+
+/// `e^{A ticks}` as the product of the dyadic table entries.
+fn product<const D: usize>(phi: &[nalgebra::SMatrix<f64, D, D>; linear::LEVELS], ticks: u64) -> nalgebra::SMatrix<f64, D, D> {
+    let mut m = nalgebra::SMatrix::<f64, D, D>::identity();
+    for (l, p) in phi.iter().enumerate() {
+        if ticks & (1 << l) != 0 {
+            m = p * m;
+        }
+    }
+    m
 }
 
 /// What the event loop watches during one piece, frozen at its start.
@@ -182,6 +209,8 @@ impl Plant {
             rng,
             chain,
             configs: vec![None; 4 << N_PLAYS],
+            remainders: vec![None; 4 << N_PLAYS],
+            chain_remainder: None,
         })
     }
 
@@ -244,6 +273,11 @@ impl Plant {
                     events += u32::from(event);
                     left -= consumed;
                 }
+            } else if events == 0 && self.remainder(left) {
+                // The tail below one scan interval in one product, when nothing happens in it.
+                // Only in steps without events so far: then the tail is the same for every
+                // step of this size and its product is cached, not recomputed.
+                left = 0;
             } else {
                 let level = 63 - left.leading_zeros() as usize;
                 let (consumed, event) = if watching { self.piece(level, &mut report) } else { self.blind(level) };
@@ -318,6 +352,37 @@ impl Plant {
             self.handle_event(report);
         }
         (offset + (1 << r), event)
+    }
+
+    /// Advances over `ticks` (less than one scan interval) with one cached propagator if no
+    /// event condition and no turn of `ξ` that could reach a threshold lies in it; returns
+    /// false (and changes nothing) otherwise, leaving the interval to the dyadic pieces.
+    fn remainder(&mut self, ticks: u64) -> bool {
+        let key = self.config_key();
+        let cfg = self.config();
+        let fresh = |c: &Option<Remainder>| c.as_ref().is_some_and(|r| r.ticks == ticks);
+        if !fresh(&self.remainders[key]) {
+            self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
+        }
+        if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
+            self.chain_remainder = Some(ChainRemainder { ticks, phi: product(&self.chain.phi, ticks) });
+        }
+        let phi = &self.remainders[key].as_ref().expect("just filled").phi;
+        let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
+        let (z1, e1, n1) = (phi * self.z, chain_phi * self.earth, chain_phi * self.nonearth);
+        let watch = self.watch();
+        if watch.event(&z1, &e1, &n1) {
+            return false;
+        }
+        let (rate0, rate1) = (watch.rate_row.dot(&self.z), watch.rate_row.dot(&z1));
+        if watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+            let (xi0, xi1) = (watch.xi_row.dot(&self.z), watch.xi_row.dot(&z1));
+            if watch.extremum_may_cross(xi0, xi1, rate0, rate1, TICK * ticks as f64) {
+                return false;
+            }
+        }
+        (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+        true
     }
 
     /// Propagates `2^level` ticks without looking for events (event budget exhausted).
@@ -437,8 +502,12 @@ impl Plant {
         self.z[ix::C0] = self.hysteresis.offset();
     }
 
+    fn config_key(&self) -> usize {
+        (self.mode.index() << N_PLAYS) | usize::from(self.hysteresis.sliding)
+    }
+
     fn config(&mut self) -> ConfigTable {
-        let key = (self.mode.index() << N_PLAYS) | usize::from(self.hysteresis.sliding);
+        let key = self.config_key();
         if let Some(t) = &self.configs[key] {
             return t.clone();
         }
