@@ -310,6 +310,34 @@ impl CsFmu {
         self.check("fmi2SetBoolean", r).map(drop)
     }
 
+    pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> Result<(), FmuError> {
+        assert_eq!(vrs.len(), values.len(), "get_boolean: value references and values differ in length");
+        let mut raw = vec![0i32; vrs.len()];
+        let r = Common::get_boolean(&mut self.instance, vrs, &mut raw);
+        self.check("fmi2GetBoolean", r)?;
+        for (v, r) in values.iter_mut().zip(raw) {
+            *v = r != 0;
+        }
+        Ok(())
+    }
+
+    /// Causality of a variable by name ("input", "output", "parameter", …).
+    pub fn causality(&self, name: &str) -> Option<String> {
+        self.import.model_description().model_variable_by_name(name).ok().map(|v| format!("{:?}", v.causality).to_lowercase())
+    }
+
+    /// Names of the variables with the given causality ("input", "output", …).
+    pub fn names_with_causality(&self, causality: &str) -> Vec<String> {
+        self.import
+            .model_description()
+            .model_variables
+            .variables
+            .iter()
+            .filter(|v| format!("{:?}", v.causality).eq_ignore_ascii_case(causality))
+            .map(|v| v.name.clone())
+            .collect()
+    }
+
     /// Reads one Real variable by name (parameters included).
     pub fn real(&mut self, name: &str) -> Result<f64, FmuError> {
         let vr = self.var_of(name, VarType::Real)?.vr;

@@ -13,3 +13,5 @@ pub mod gait;
 pub mod plant;
 pub mod plot;
 pub mod scenario;
+pub mod master;
+pub mod ssp;

@@ -37,6 +37,47 @@ enum Command {
     /// the two FMUs (or the crates, with --direct), write <out>/<name>.csv and
     /// <out>/<name>.png, and print settle times, RMS and estimates.
     Scenario(ScenarioArgs),
+    /// Run an SSP system (.ssp) or a single FMI 2.0 Co-Simulation FMU (.fmu) with a fixed
+    /// communication step, and write the chosen variables at every communication point as
+    /// CSV.
+    Run(RunArgs),
+}
+
+#[derive(Args)]
+struct RunArgs {
+    /// The system (.ssp) or FMU (.fmu).
+    file: PathBuf,
+    /// Stop time (s); default: the file's default experiment, else 1 s.
+    #[arg(long)]
+    stop_time: Option<f64>,
+    /// Communication step (s); default: the file's, else stop time / 500.
+    #[arg(long)]
+    step_size: Option<f64>,
+    #[arg(long, value_enum, default_value = "jacobi")]
+    coupling: CouplingArg,
+    /// A start value or parameter: component.variable=value (variable=value for an FMU).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// A parameter set of the SSP, by name (resources/<name>.ssv).
+    #[arg(long)]
+    parameter_set: Option<String>,
+    /// CSV `time,<input>,…` for the system's (or FMU's) unconnected inputs, held
+    /// piecewise constant.
+    #[arg(long)]
+    input: Option<PathBuf>,
+    /// A variable to record (component.variable, or a system output); repeatable;
+    /// default: the system's outputs.
+    #[arg(long = "output", value_name = "NAME")]
+    outputs: Vec<String>,
+    /// Where to write the results.
+    #[arg(long, default_value = "out/run.csv")]
+    out: PathBuf,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum CouplingArg {
+    Jacobi,
+    GaussSeidel,
 }
 
 #[derive(Args)]
@@ -120,6 +161,17 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Command::Run(args) => {
+            let _ = log::set_logger(&LOGGER);
+            log::set_max_level(log::LevelFilter::Warn);
+            match run_file(&args) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Command::Scenario(args) => {
             let _ = log::set_logger(&LOGGER);
             log::set_max_level(log::LevelFilter::Warn);
@@ -171,6 +223,55 @@ fn run_scenario(args: &ScenarioArgs) -> Result<(), String> {
     for p in written {
         println!("wrote {}", p.display());
     }
+    Ok(())
+}
+
+fn run_file(args: &RunArgs) -> Result<(), String> {
+    use inchworm::master::{Coupling, InputTable, Options};
+    use std::io::IsTerminal;
+    let input = match &args.input {
+        Some(p) => Some(InputTable::parse(&std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?).map_err(|e| format!("{}: {e}", p.display()))?),
+        None => None,
+    };
+    let params = args
+        .params
+        .iter()
+        .map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("--param {p}: expected NAME=VALUE")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let opts = Options {
+        stop_time: args.stop_time,
+        step_size: args.step_size,
+        coupling: match args.coupling {
+            CouplingArg::Jacobi => Coupling::Jacobi,
+            CouplingArg::GaussSeidel => Coupling::GaussSeidel,
+        },
+        params,
+        parameter_set: args.parameter_set.clone(),
+        input,
+        outputs: args.outputs.clone(),
+    };
+    let show = std::io::stderr().is_terminal();
+    let mut shown = 0;
+    let wall = Instant::now();
+    let results = inchworm::master::run(&args.file, &opts, |f| {
+        let pct = (f * 100.0) as u32;
+        if show && pct >= shown + 5 {
+            shown = pct;
+            eprint!("\r{pct:>3} %");
+        }
+    })?;
+    if show {
+        eprintln!();
+    }
+    let wall = wall.elapsed().as_secs_f64();
+    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let f = std::fs::File::create(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let mut w = std::io::BufWriter::new(f);
+    results.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let end = results.rows.last().map_or(0.0, |r| r.0);
+    println!("{end} s simulated in {wall:.3} s ({:.0}x real time); wrote {} ({} variables, {} rows)", end / wall, args.out.display(), results.names.len(), results.rows.len());
     Ok(())
 }
 

@@ -1,0 +1,225 @@
+//! Reading an SSP 1.0 file: the system structure (components, connectors, connections)
+//! and parameter sets, enough to run a flat system of FMI 2.0 Co-Simulation FMUs.
+//! Elements and attributes this master does not use (geometry, annotations of other
+//! tools, units) are skipped, not refused.
+
+use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use quick_xml::events::{BytesStart, Event};
+use quick_xml::Reader;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Component {
+    pub name: String,
+    /// Path of the FMU inside the SSP archive, e.g. `resources/Plant.fmu`.
+    pub source: String,
+}
+
+/// One end of a connection: an element's connector, or the system's (`element` None).
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct End {
+    pub element: Option<String>,
+    pub connector: String,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct System {
+    pub name: String,
+    pub components: Vec<Component>,
+    /// System connectors: (name, kind).
+    pub connectors: Vec<(String, String)>,
+    pub connections: Vec<(End, End)>,
+    pub stop_time: Option<f64>,
+    pub step_size: Option<f64>,
+}
+
+fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, String> {
+    for a in e.attributes() {
+        let a = a.map_err(|err| format!("malformed attribute: {err}"))?;
+        if a.key.local_name().into_inner() == name {
+            return a.normalized_value(quick_xml::XmlVersion::Implicit1_0).map(|v| Some(v.into_owned())).map_err(|err| format!("attribute {name}: {err}"));
+        }
+    }
+    Ok(None)
+}
+
+fn required(e: &BytesStart, name: &str) -> Result<String, String> {
+    attr(e, name)?.ok_or_else(|| format!("<{}> lacks the attribute {name}", e.local_name().into_inner()))
+}
+
+/// Parses `SystemStructure.ssd`. Nested systems are refused with a message: this master
+/// runs flat systems.
+pub fn parse_ssd(xml: &str) -> Result<System, String> {
+    let mut reader = Reader::from_str(xml);
+    let mut sys = System::default();
+    // Element path of local names, to know whose <Connector> this is.
+    let mut path: Vec<String> = Vec::new();
+    let mut systems = 0;
+    loop {
+        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error at byte {}: {e}", reader.buffer_position()))?;
+        let (e, empty) = match &ev {
+            Event::Start(e) => (e.clone(), false),
+            Event::Empty(e) => (e.clone(), true),
+            Event::End(_) => {
+                path.pop();
+                continue;
+            }
+            Event::Eof => break,
+            _ => continue,
+        };
+        let name = e.local_name().into_inner().to_owned();
+        let parent = path.last().map(String::as_str);
+        let grandparent = path.len().checked_sub(2).and_then(|i| path.get(i)).map(String::as_str);
+        match name.as_str() {
+            "System" => {
+                systems += 1;
+                if systems > 1 {
+                    return Err("SystemStructure.ssd: nested systems are not supported by this master; flatten the system".into());
+                }
+                sys.name = required(&e, "name")?;
+            }
+            "Component" => {
+                let kind = attr(&e, "type")?.unwrap_or_else(|| "application/x-fmu-sharedlibrary".into());
+                if kind != "application/x-fmu-sharedlibrary" {
+                    return Err(format!("component type {kind} is not supported (FMUs only)"));
+                }
+                sys.components.push(Component { name: required(&e, "name")?, source: required(&e, "source")? });
+            }
+            "Connector" if parent == Some("Connectors") && grandparent == Some("System") => {
+                sys.connectors.push((required(&e, "name")?, attr(&e, "kind")?.unwrap_or_default()));
+            }
+            "Connection" => {
+                let end = |el: &str, c: &str| -> Result<End, String> { Ok(End { element: attr(&e, el)?, connector: required(&e, c)? }) };
+                sys.connections.push((end("startElement", "startConnector")?, end("endElement", "endConnector")?));
+            }
+            "DefaultExperiment" => {
+                let num = |n: &str| -> Result<Option<f64>, String> {
+                    attr(&e, n)?.map(|v| v.trim().parse::<f64>().map_err(|_| format!("DefaultExperiment {n}=\"{v}\" is not a number"))).transpose()
+                };
+                sys.stop_time = num("stopTime")?;
+            }
+            // The project's own annotation carries the communication step.
+            "CommunicationStep" => {
+                if let Some(v) = attr(&e, "stepSize")? {
+                    sys.step_size = Some(v.trim().parse().map_err(|_| format!("stepSize \"{v}\" is not a number"))?);
+                }
+            }
+            _ => {}
+        }
+        if !empty {
+            path.push(name);
+        }
+    }
+    if systems == 0 {
+        return Err("SystemStructure.ssd has no <System>".into());
+    }
+    Ok(sys)
+}
+
+/// Parses an `.ssv` parameter set into `component.variable` → value text.
+pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
+    let mut reader = Reader::from_str(xml);
+    let mut out = BTreeMap::new();
+    let mut current: Option<String> = None;
+    loop {
+        match reader.read_event().map_err(|e| format!("parameter set: XML error: {e}"))? {
+            Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
+                "Parameter" => current = Some(required(&e, "name")?),
+                "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => {
+                    if let Some(name) = current.take() {
+                        out.insert(name, required(&e, "value")?);
+                    }
+                }
+                _ => {}
+            },
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// An SSP archive unpacked into a temporary directory (removed on drop).
+pub struct Archive {
+    pub dir: PathBuf,
+    pub system: System,
+}
+
+impl Archive {
+    pub fn open(path: &Path) -> Result<Archive, String> {
+        let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut zip = zip::ZipArchive::new(file).map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
+        // Unique per open archive: several may be open at once in one process.
+        static OPENED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = OPENED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let dir = std::env::temp_dir().join(format!("inchworm-ssp-{}-{n}-{stem}", std::process::id()));
+        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        zip.extract(&dir).map_err(|e| format!("{}: cannot unpack: {e}", path.display()))?;
+        let mut ssd = String::new();
+        std::fs::File::open(dir.join("SystemStructure.ssd"))
+            .and_then(|mut f| f.read_to_string(&mut ssd))
+            .map_err(|e| format!("{}: no readable SystemStructure.ssd at its root: {e}", path.display()))?;
+        let system = parse_ssd(&ssd).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(Archive { dir, system })
+    }
+
+    pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
+        let p = self.dir.join("resources").join(format!("{name}.ssv"));
+        let text = std::fs::read_to_string(&p).map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
+        parse_ssv(&text).map_err(|e| format!("parameter set {name}: {e}"))
+    }
+}
+
+impl Drop for Archive {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flat_system_with_foreign_annotations_parses() {
+        let xml = r#"<?xml version="1.0"?>
+<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" version="1.0" name="S">
+  <ssd:System name="S">
+    <ssd:Connectors><ssd:Connector name="u" kind="input"><ssc:Real/></ssd:Connector></ssd:Connectors>
+    <ssd:Elements>
+      <ssd:Component name="a" source="resources/A.fmu"><ssd:Connectors><ssd:Connector name="x" kind="output"/></ssd:Connectors>
+        <ssd:ElementGeometry x1="0" y1="0" x2="1" y2="1"/></ssd:Component>
+      <ssd:Component name="b" source="resources/B.fmu" type="application/x-fmu-sharedlibrary"/>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="a" startConnector="x" endElement="b" endConnector="y"/>
+      <ssd:Connection startConnector="u" endElement="a" endConnector="v"/>
+    </ssd:Connections>
+    <ssd:Annotations><ssc:Annotation type="com.vendor.gui"><gui:Layout xmlns:gui="urn:x" zoom="2"/></ssc:Annotation></ssd:Annotations>
+  </ssd:System>
+  <ssd:DefaultExperiment startTime="0" stopTime="3.5"/>
+</ssd:SystemStructureDescription>"#;
+        let s = parse_ssd(xml).unwrap();
+        assert_eq!(s.name, "S");
+        assert_eq!(s.components.len(), 2);
+        assert_eq!(s.connectors, vec![("u".to_string(), "input".to_string())]);
+        assert_eq!(s.connections[1].0, End { element: None, connector: "u".into() });
+        assert_eq!(s.stop_time, Some(3.5));
+        assert!(parse_ssd("<x/>").unwrap_err().contains("no <System>"));
+        assert!(parse_ssd("<ssd:System name='a'><ssd:Elements><ssd:System name='b'/></ssd:Elements></ssd:System>").unwrap_err().contains("nested"));
+        assert!(parse_ssd("<a><b></a>").is_err());
+    }
+
+    #[test]
+    fn parameter_set_values() {
+        let xml = r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="p">
+  <ssv:Parameters><ssv:Parameter name="plant.T_em"><ssv:Real value="2.5"/></ssv:Parameter>
+  <ssv:Parameter name="controller.prefilter"><ssv:Boolean value="true"/></ssv:Parameter></ssv:Parameters></ssv:ParameterSet>"#;
+        let p = parse_ssv(xml).unwrap();
+        assert_eq!(p["plant.T_em"], "2.5");
+        assert_eq!(p["controller.prefilter"], "true");
+    }
+}

@@ -1,0 +1,125 @@
+//! `inchworm run`'s master on the project's SSP and FMUs: the same trace as the direct
+//! coupling, parameter sets, Gauss–Seidel, and a clear error for every bad file or name.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use inchworm::closed_loop::run as direct;
+use inchworm::master::{run, Coupling, InputTable, Options};
+use inchworm_controller::Params;
+use inchworm_plant::PlantParams;
+
+fn dist(name: &str) -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
+    assert!(p.is_file(), "{} is missing: run `cargo run --release -p fmu-build` first", p.display());
+    p
+}
+
+fn options(parameter_set: Option<&str>, coupling: Coupling) -> Options {
+    Options {
+        stop_time: Some(10.0),
+        step_size: Some(0.002),
+        coupling,
+        params: vec![],
+        parameter_set: parameter_set.map(str::to_string),
+        input: Some(InputTable::parse("time,reference\n0,1e-4\n").unwrap()),
+        outputs: vec!["plant.encoder_counts".into(), "encoder_position".into()],
+    }
+}
+
+fn counts(r: &inchworm::master::Results) -> Vec<i64> {
+    r.column("plant.encoder_counts").unwrap()[1..].iter().map(|&c| c as i64).collect()
+}
+
+#[test]
+fn ssp_through_the_master_equals_the_direct_coupling() {
+    let ssp = dist("InchwormSystem.ssp");
+    let full = run(&ssp, &options(None, Coupling::Jacobi), |_| {}).unwrap();
+    let d = direct(PlantParams::fia20(), Params::default(), |_| 100e-6, 10.0).unwrap();
+    assert_eq!(counts(&full), d.encoder_counts, "full control");
+    let fb = run(&ssp, &options(Some("feedback-only"), Coupling::Jacobi), |_| {}).unwrap();
+    let d = direct(PlantParams::fia20(), Params { feedforward: false, use_scale_factor_estimate: false, use_disturbance_estimate: false, ..Params::default() }, |_| 100e-6, 10.0).unwrap();
+    assert_eq!(counts(&fb), d.encoder_counts, "feedback only");
+    // The system output connector carries the plant's encoder position.
+    let pos = full.column("encoder_position").unwrap();
+    assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6);
+}
+
+#[test]
+fn parameter_sets_and_params_reach_the_fmus() {
+    let ssp = dist("InchwormSystem.ssp");
+    let mut o = options(Some("fia6"), Coupling::Jacobi);
+    o.stop_time = Some(1.0);
+    let fia6 = run(&ssp, &o, |_| {}).unwrap();
+    let mut o = options(None, Coupling::Jacobi);
+    o.stop_time = Some(1.0);
+    let fia20 = run(&ssp, &o, |_| {}).unwrap();
+    // fia6's weaker transducer moves less per step: after the first step (0.2 s) the
+    // runner is nearer the start.
+    let at = |r: &inchworm::master::Results| r.column("plant.encoder_counts").unwrap()[100];
+    assert!(at(&fia6) < 0.8 * at(&fia20), "fia6 {} vs fia20 {} counts", at(&fia6), at(&fia20));
+    o.params = vec![("plant.T_em".into(), "2.5".into()), ("plant.F_d0".into(), "105".into())];
+    let by_param = run(&ssp, &o, |_| {}).unwrap();
+    assert_eq!(counts(&by_param), counts(&fia6));
+}
+
+#[test]
+fn gauss_seidel_closes_the_loop_too() {
+    let r = run(&dist("InchwormSystem.ssp"), &options(None, Coupling::GaussSeidel), |_| {}).unwrap();
+    let pos = r.column("encoder_position").unwrap();
+    assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6, "final position {}", pos.last().unwrap());
+    assert_ne!(counts(&r), counts(&run(&dist("InchwormSystem.ssp"), &options(None, Coupling::Jacobi), |_| {}).unwrap()));
+}
+
+fn error_of(path: &Path, o: &Options) -> String {
+    match run(path, o, |_| {}) {
+        Ok(_) => panic!("{} ran although it should not", path.display()),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn bad_files_names_and_values_are_refused_clearly() {
+    let ssp = dist("InchwormSystem.ssp");
+    let mut o = options(None, Coupling::Jacobi);
+    o.outputs = vec!["plant.no_such_thing".into()];
+    let e = error_of(&ssp, &o);
+    assert!(e.contains("no_such_thing") && e.contains("no variable"), "{e}");
+    let mut o = options(None, Coupling::Jacobi);
+    o.params = vec![("plant.T_em".into(), "lots".into())];
+    assert!(error_of(&ssp, &o).contains("not a number"));
+    let mut o = options(None, Coupling::Jacobi);
+    o.parameter_set = Some("nonexistent".into());
+    assert!(error_of(&ssp, &o).contains("parameter set nonexistent"));
+    let mut o = options(None, Coupling::Jacobi);
+    o.input = Some(InputTable::parse("time,refrence\n0,1\n").unwrap());
+    assert!(error_of(&ssp, &o).contains("refrence"));
+    assert!(InputTable::parse("t,x\n0,1\n").unwrap_err().contains("time"));
+    assert!(InputTable::parse("time,x\n1,1\n0,2\n").unwrap_err().contains("backwards"));
+
+    let dir = std::env::temp_dir().join(format!("inchworm-master-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Not a zip at all.
+    let corrupt = dir.join("corrupt.fmu");
+    std::fs::write(&corrupt, b"this is not an FMU").unwrap();
+    let e = error_of(&corrupt, &options(None, Coupling::Jacobi));
+    assert!(e.contains("corrupt.fmu"), "{e}");
+    // A real model description but no binary for this platform.
+    let nobin = dir.join("nobinary.fmu");
+    let md = {
+        let mut z = zip::ZipArchive::new(std::fs::File::open(dist("InchwormPlant.fmu")).unwrap()).unwrap();
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut z.by_name("modelDescription.xml").unwrap(), &mut s).unwrap();
+        s
+    };
+    let mut w = zip::ZipWriter::new(std::fs::File::create(&nobin).unwrap());
+    w.start_file("modelDescription.xml", zip::write::SimpleFileOptions::default()).unwrap();
+    w.write_all(md.as_bytes()).unwrap();
+    w.finish().unwrap();
+    let mut o = options(None, Coupling::Jacobi);
+    o.input = None;
+    o.outputs = vec![];
+    let e = error_of(&nobin, &o);
+    assert!(e.contains("nobinary.fmu"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
