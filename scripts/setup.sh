@@ -19,8 +19,8 @@ if [ ${#need[@]} -gt 0 ]; then
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
 fi
 
-PY_REQS="fmpy==0.3.32 pytest==9.2.0"
-if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest" 2>/dev/null; then
+PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0"
+if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest, pythonfmu" 2>/dev/null; then
     echo "setup: creating .venv with $PY_REQS"
     python3 -m venv .venv
     .venv/bin/pip install -q --disable-pip-version-check $PY_REQS
