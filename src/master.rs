@@ -100,6 +100,14 @@ struct Port {
     ty: VarType,
 }
 
+/// Where an input gets its value each step: the latest read of a component output, or a
+/// system input.
+#[derive(Clone, Copy, Debug)]
+enum Feed {
+    Latest(usize),
+    SystemInput(usize),
+}
+
 /// Where an input's value comes from.
 #[derive(Clone, Copy, Debug)]
 enum Source {
@@ -282,18 +290,32 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     }
 
     let input_value = |k: usize, t: f64| -> f64 { input_columns[k].map_or(0.0, |col| opts.input.as_ref().expect("has columns").value(col, t)) };
-    let mut outputs: BTreeMap<(usize, u32), f64> = BTreeMap::new();
-    let read_outputs = |components: &mut [Component], outputs: &mut BTreeMap<(usize, u32), f64>, only: Option<usize>| -> Result<(), String> {
-        for (_, s) in &wiring {
-            if let Source::Output(p) = s {
-                if only.is_none_or(|c| c == p.component) {
-                    outputs.insert((p.component, p.vr), get(components, *p)?);
-                }
+    // The component outputs that feed inputs, each read once per step into `latest`.
+    let mut sources: Vec<Port> = Vec::new();
+    let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); components.len()];
+    for (dst, src) in &wiring {
+        let feed = match src {
+            Source::Output(p) => {
+                let i = sources.iter().position(|q| q.component == p.component && q.vr == p.vr).unwrap_or_else(|| {
+                    sources.push(*p);
+                    sources.len() - 1
+                });
+                Feed::Latest(i)
+            }
+            Source::Input(i) => Feed::SystemInput(*i),
+        };
+        feeds[dst.component].push((*dst, feed));
+    }
+    let mut latest = vec![0.0; sources.len()];
+    let read = |components: &mut [Component], latest: &mut [f64], only: Option<usize>| -> Result<(), String> {
+        for (i, p) in sources.iter().enumerate() {
+            if only.is_none_or(|c| c == p.component) {
+                latest[i] = get(components, *p)?;
             }
         }
         Ok(())
     };
-    read_outputs(&mut components, &mut outputs, None)?;
+    read(&mut components, &mut latest, None)?;
     let n_steps = (stop / h).round().max(1.0) as u64;
     let mut rows = Vec::with_capacity(n_steps as usize + 1);
     let sample = |components: &mut [Component]| -> Result<Vec<f64>, String> { record.iter().map(|p| get(components, *p)).collect() };
@@ -301,24 +323,24 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     rows.push((0.0, sample(&mut components)?));
     for k in 0..n_steps {
         let t = k as f64 * h;
-        for ci in 0..components.len() {
-            for (dst, src) in wiring.iter().filter(|(d, _)| d.component == ci) {
-                let v = match src {
-                    Source::Output(p) => outputs[&(p.component, p.vr)],
-                    Source::Input(i) => input_value(*i, t),
+        for (ci, inputs) in feeds.iter().enumerate() {
+            for (dst, feed) in inputs {
+                let v = match feed {
+                    Feed::Latest(i) => latest[*i],
+                    Feed::SystemInput(i) => input_value(*i, t),
                 };
                 set(&mut components, *dst, v)?;
             }
             if opts.coupling == Coupling::GaussSeidel {
                 components[ci].fmu.do_step(h).map_err(err)?;
-                read_outputs(&mut components, &mut outputs, Some(ci))?;
+                read(&mut components, &mut latest, Some(ci))?;
             }
         }
         if opts.coupling == Coupling::Jacobi {
             for c in components.iter_mut() {
                 c.fmu.do_step(h).map_err(err)?;
             }
-            read_outputs(&mut components, &mut outputs, None)?;
+            read(&mut components, &mut latest, None)?;
         }
         rows.push(((k + 1) as f64 * h, sample(&mut components)?));
         progress((k + 1) as f64 / n_steps as f64);

@@ -1,0 +1,50 @@
+"""The closed loop of InchwormSystem stepped by a plain 2 ms Jacobi loop in FMPy, for the
+master benchmark (benches/closed_loop.rs runs it and compares). Prints
+`fmpy: <simulated s> <wall s> <final encoder count>`."""
+import sys
+import time
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+H = 0.002
+LEVELS = [100e-6, 60e-6, 250e-6, 245e-6, 130e-6, 131.5e-6, 20e-6]
+
+
+def load(path, name):
+    md = read_model_description(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def main(dist, duration):
+    plant, pv = load(f"{dist}/InchwormPlant.fmu", "plant")
+    ctrl, cv = load(f"{dist}/InchwormController.fmu", "controller")
+    for f in (plant, ctrl):
+        f.enterInitializationMode()
+    ctrl.setBoolean([cv["prefilter"]], [True])
+    for f in (plant, ctrl):
+        f.exitInitializationMode()
+    dac = ["dac_earth", "dac_nonearth", "dac_extension"]
+    pdac, cdac = [pv[n] for n in dac], [cv[n] for n in dac]
+    penc, cenc, cref = [pv["encoder_counts"]], [cv["encoder_counts"]], [cv["reference"]]
+    n = int(round(duration / H))
+    start = time.perf_counter()
+    for k in range(n):
+        t = k * H
+        enc = plant.getInteger(penc)
+        volts = ctrl.getReal(cdac)
+        plant.setReal(pdac, volts)
+        ctrl.setInteger(cenc, enc)
+        ctrl.setReal(cref, [LEVELS[min(int(t / 100.0), len(LEVELS) - 1)]])
+        plant.doStep(t, H)
+        ctrl.doStep(t, H)
+    wall = time.perf_counter() - start
+    final = plant.getInteger(penc)[0]
+    print(f"fmpy: {duration} {wall} {final}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], float(sys.argv[2]))
