@@ -58,20 +58,33 @@ pub fn run(plant: PlantParams, controller: Params, reference: impl Fn(f64) -> f6
 /// The same loop through the two FMUs (any FMI 2.0 CS master would do the same): a
 /// Jacobi coupling at 2 ms, plant parameters at their fia20 defaults, the controller's
 /// flags, deadband and start estimates set from `controller`.
-pub fn run_fmus(plant_fmu: &Path, controller_fmu: &Path, controller: &Params, reference: impl Fn(f64) -> f64, duration: f64) -> Result<Trace, FmuError> {
+pub fn run_fmus(
+    plant_fmu: &Path,
+    controller_fmu: &Path,
+    plant_params: &[(String, f64)],
+    controller: &Params,
+    reference: impl Fn(f64) -> f64,
+    duration: f64,
+) -> Result<Trace, FmuError> {
     let mut plant = CsFmu::load(plant_fmu, "plant", false)?;
     let mut ctrl = CsFmu::load(controller_fmu, "controller", false)?;
     let h = SAMPLE_PERIOD;
     plant.enter_initialization(None, 0.0, None)?;
     ctrl.enter_initialization(None, 0.0, None)?;
+    for (name, value) in plant_params {
+        let vr = plant.vrs_of(&[name.as_str()], VarType::Real)?;
+        plant.set_real(&vr, &[*value])?;
+    }
     let flags = ctrl.vrs_of(&["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"], VarType::Boolean)?;
     ctrl.set_boolean(&flags, &[controller.feedforward, controller.prefilter, controller.use_scale_factor_estimate, controller.use_disturbance_estimate])?;
     let mut names = vec!["deadband".to_string(), "disturbance_start".to_string()];
     names.extend((1..=10).map(|i| format!("scale_weights_start[{i}]")));
+    names.extend((1..=10).map(|i| format!("basis_peak[{i}]")));
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let vrs = ctrl.vrs_of(&names, VarType::Real)?;
     let mut values = vec![controller.deadband, controller.disturbance_start];
     values.extend(controller.scale_weights_start);
+    values.extend(controller.basis_peaks);
     ctrl.set_real(&vrs, &values)?;
     plant.exit_initialization()?;
     ctrl.exit_initialization()?;

@@ -82,7 +82,7 @@ enum CouplingArg {
 
 #[derive(Args)]
 struct ScenarioArgs {
-    /// fig5 | staircase | calibration
+    /// fig5 | staircase | calibration | fia6 | stall
     name: String,
     /// Folder holding InchwormPlant.fmu and InchwormController.fmu.
     #[arg(long, default_value = "dist")]
@@ -186,7 +186,41 @@ fn main() -> ExitCode {
     }
 }
 
+fn run_stall(args: &ScenarioArgs) -> Result<(), String> {
+    plot::load_font(&args.font)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
+    let gammas = [0.0, 10.0];
+    let runs = inchworm::scenario::open_loop_slew(&gammas, 200);
+    println!("Fig. 11: open-loop slew of 200 full forward steps (plant crate, fia20)");
+    let mut names = Vec::new();
+    for (g, r) in gammas.iter().zip(&runs) {
+        let per_step = |s: usize| (r.encoder_counts[(s + 1) * 100 - 1] - if s == 0 { 0 } else { r.encoder_counts[s * 100 - 1] }) as f64 * 1.2e-3;
+        println!(
+            "  gamma = {g:>4}: first step {:.2} µm, step 100 {:.2} µm, step 200 {:.2} µm, final position {:.1} µm",
+            per_step(0),
+            per_step(99),
+            per_step(199),
+            *r.encoder_counts.last().unwrap() as f64 * 1.2e-3
+        );
+        let path = args.out.join(format!("stall_gamma_{g}.csv"));
+        let f = std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut w = std::io::BufWriter::new(f);
+        r.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
+        names.push(format!("gamma = {g}"));
+    }
+    let png = args.out.join("stall.png");
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    plot::closed_loop_png("Fig. 11: open-loop slews stall when the brake disturbance falls with the environment load", &names, &runs, &png)
+        .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    println!("wrote {}", png.display());
+    Ok(())
+}
+
 fn run_scenario(args: &ScenarioArgs) -> Result<(), String> {
+    if args.name == "stall" {
+        return run_stall(args);
+    }
     let s = inchworm::scenario::by_name(&args.name)
         .ok_or_else(|| format!("unknown scenario `{}`; known: {}", args.name, inchworm::scenario::NAMES.join(", ")))?;
     plot::load_font(&args.font)?;

@@ -177,3 +177,15 @@ fn each_flag_changes_behaviour_as_the_paper_says() {
     assert!(parked_late > 2000, "with a 5 nm deadband the actuator should stay parked, {parked_late} parked samples after 15 s");
     assert!(db.parked().into_iter().filter(|&i| db.time[i] > 15.0).all(|i| db.error(i).abs() < 5e-9 + 1.2e-9));
 }
+
+#[test]
+fn fia6_device_settles_from_its_nominal_map() {
+    let s = inchworm::scenario::by_name("fia6").unwrap();
+    let tr = run(PlantParams::fia6(), inchworm::scenario::fia6_controller(), s.reference, s.duration).unwrap();
+    let t = tr.settle_time(UM).expect("fia6 settles within 1 µm");
+    let bd = *tr.disturbance_estimate.last().unwrap();
+    eprintln!("fia6: settles in {t:.2} s, disturbance estimate {:.3} µm", bd / UM);
+    assert!(t < 10.0, "fia6 settle time {t} s");
+    // F_d0 = 105 N against 175 N: the disturbance per step is about 0.6 of fia20's.
+    assert!((2.0 * UM..3.5 * UM).contains(&bd), "fia6 disturbance estimate {:.3} µm", bd / UM);
+}
