@@ -72,6 +72,11 @@ struct RunArgs {
     /// Where to write the results.
     #[arg(long, default_value = "out/run.csv")]
     out: PathBuf,
+    /// Also draw the recorded variables (the first six) into this PNG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[arg(long, default_value = plot::DEFAULT_FONT)]
+    font: PathBuf,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -304,6 +309,12 @@ fn run_file(args: &RunArgs) -> Result<(), String> {
     let f = std::fs::File::create(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let mut w = std::io::BufWriter::new(f);
     results.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    if let Some(png) = &args.plot {
+        plot::load_font(&args.font)?;
+        let title = format!("inchworm run {}", args.file.display());
+        plot::results_png(&title, &results, png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+        println!("wrote {}", png.display());
+    }
     let end = results.rows.last().map_or(0.0, |r| r.0);
     println!("{end} s simulated in {wall:.3} s ({:.0}x real time); wrote {} ({} variables, {} rows)", end / wall, args.out.display(), results.names.len(), results.rows.len());
     Ok(())

@@ -227,3 +227,28 @@ pub fn closed_loop_png(title: &str, names: &[&str], runs: &[crate::closed_loop::
     root.present()?;
     Ok(())
 }
+
+/// The recorded variables of an `inchworm run`, one panel each (at most 6), against time.
+pub fn results_png(title: &str, results: &crate::master::Results, path: &Path) -> Result<(), Box<dyn Error>> {
+    let n = results.names.len().clamp(1, 6);
+    let (w, h) = (1400u32, 220 * n as u32 + 60);
+    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (FONT, 22))?;
+    let panels = root.split_evenly((n, 1));
+    let t_end = results.rows.last().map_or(1.0, |r| r.0).max(1e-9);
+    for (i, (panel, name)) in panels.iter().zip(&results.names).enumerate() {
+        let series: Vec<(f64, f64)> = results.rows.iter().map(|(t, v)| (*t, v[i])).collect();
+        let (lo, hi) = series.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+        let pad = ((hi - lo) * 0.05).max(hi.abs().max(lo.abs()) * 1e-6).max(1e-12);
+        let mut chart = ChartBuilder::on(panel).margin(10).x_label_area_size(30).y_label_area_size(110).build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))?;
+        // Values in metres are micro-scale, encoder counts large: either needs exponents.
+        let big = hi.abs().max(lo.abs());
+        let sci = big != 0.0 && !(1e-2..1e5).contains(&big);
+        let fmt = |v: &f64| if sci { format!("{v:.3e}") } else { format!("{v}") };
+        chart.configure_mesh().light_line_style(WHITE).y_desc(name.as_str()).x_desc("time (s)").label_style((FONT, 14)).y_label_formatter(&fmt).draw()?;
+        chart.draw_series(LineSeries::new(series, BLUE.stroke_width(2)))?;
+    }
+    root.present()?;
+    Ok(())
+}
