@@ -148,45 +148,23 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
-    match cli.command {
-        Command::Gait(args) => {
-            let level = if args.fmi_logging {
-                log::LevelFilter::Info
-            } else {
-                log::LevelFilter::Warn
-            };
-            // Only fails if a logger is already installed, which nothing in this binary does.
-            let _ = log::set_logger(&LOGGER);
-            log::set_max_level(level);
-            match run_gait(&args) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
-        Command::Run(args) => {
-            let _ = log::set_logger(&LOGGER);
-            log::set_max_level(log::LevelFilter::Warn);
-            match run_file(&args) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
-        Command::Scenario(args) => {
-            let _ = log::set_logger(&LOGGER);
-            log::set_max_level(log::LevelFilter::Warn);
-            match run_scenario(&args) {
-                Ok(()) => ExitCode::SUCCESS,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            }
+    let level = match &cli.command {
+        Command::Gait(args) if args.fmi_logging => log::LevelFilter::Info,
+        _ => log::LevelFilter::Warn,
+    };
+    // Only fails if a logger is already installed, which nothing in this binary does.
+    let _ = log::set_logger(&LOGGER);
+    log::set_max_level(level);
+    let result = match cli.command {
+        Command::Gait(args) => run_gait(&args),
+        Command::Run(args) => run_file(&args),
+        Command::Scenario(args) => run_scenario(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
         }
     }
 }
