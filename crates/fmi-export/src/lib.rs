@@ -20,6 +20,11 @@ mod table;
 
 pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable};
 
+/// The name of the variable with value reference `vr`, for messages ("?" if none).
+pub fn variable_name(variables: &[Variable], vr: u32) -> &'static str {
+    variables.iter().find(|v| v.vr == vr).map_or("?", |v| v.name)
+}
+
 /// Outcome of setting one value: accepted, or accepted after a change the master should
 /// hear about (e.g. a voltage clamped into range).
 pub type SetResult = Result<Option<String>, String>;

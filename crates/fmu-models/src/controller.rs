@@ -51,9 +51,6 @@ mod vr {
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
-const fn param(name: &'static str, vr: u32, start: f64, unit: Option<&'static str>, description: &'static str) -> Variable {
-    Variable::parameter(name, vr, start, unit, description)
-}
 
 static VARIABLES: [Variable; 62] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
@@ -85,39 +82,39 @@ static VARIABLES: [Variable; 62] = [
     Variable::parameter("prefilter", vr::PREFILTER, 0.0, None, "Prefilter the reference").with_kind_start(Kind::Boolean, Start::Boolean(false)),
     Variable::parameter("use_scale_factor_estimate", vr::USE_SCALE_FACTOR_ESTIMATE, 0.0, None, "Use the estimated inverse scale factor (else scale_weights_start)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
     Variable::parameter("use_disturbance_estimate", vr::USE_DISTURBANCE_ESTIMATE, 0.0, None, "Use the estimated brake disturbance (else 0)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    param("deadband", vr::DEADBAND, 0.0, M, "No step while |reference - position| is below this (0 = always step)"),
+    Variable::parameter("deadband", vr::DEADBAND, 0.0, M, "No step while |reference - position| is below this (0 = always step)"),
     Variable::parameter("samples_per_step", vr::SAMPLES_PER_STEP, 0.0, None, "Samples of 2 ms per step (7..10000)").with_kind_start(Kind::Integer, Start::Integer(100)),
-    param("compensator_gain", vr::COMPENSATOR_GAIN, 0.36, None, "K of C(z) = K (z - a)/(z - 1)"),
-    param("compensator_zero", vr::COMPENSATOR_ZERO, 0.8, None, "a of C(z) = K (z - a)/(z - 1)"),
-    param("prefilter_pole", vr::PREFILTER_POLE, 0.8, None, "Prefilter r_f <- p r_f + (1 - p) r"),
-    param("weight_prior", vr::WEIGHT_PRIOR, 0.05, None, "Prior 1-sigma of each scale-factor weight"),
-    param("disturbance_prior", vr::DISTURBANCE_PRIOR, 5e-6, M, "Prior 1-sigma of the disturbance"),
-    param("weight_process_noise", vr::WEIGHT_PROCESS_NOISE, 1e-3, None, "Process noise of the weights per sqrt(s)"),
-    param("disturbance_process_noise", vr::DISTURBANCE_PROCESS_NOISE, 0.1e-6, M, "Process noise of the disturbance per sqrt(s)"),
-    param("ext_cmd_noise", vr::EXT_CMD_NOISE, 5e-3, None, "Measurement noise of EXT_cmd"),
-    param("bd_noise", vr::BD_NOISE, 0.05e-6, M, "Measurement noise of BD"),
-    param("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
-    param("disturbance_start", vr::DISTURBANCE_START, CALIBRATED_DISTURBANCE, M, "Initial disturbance estimate (fia20 calibration)"),
-    param("basis_peak[1]", vr::BASIS_PEAK, -2.4e-05, M, "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[2]", vr::BASIS_PEAK + 1, -1.6e-05, M, "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[3]", vr::BASIS_PEAK + 2, -8e-06, M, "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[4]", vr::BASIS_PEAK + 3, -3e-06, M, "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[5]", vr::BASIS_PEAK + 4, -1e-06, M, "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[6]", vr::BASIS_PEAK + 5, 1e-06, M, "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[7]", vr::BASIS_PEAK + 6, 3e-06, M, "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[8]", vr::BASIS_PEAK + 7, 8e-06, M, "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[9]", vr::BASIS_PEAK + 8, 1.6e-05, M, "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("basis_peak[10]", vr::BASIS_PEAK + 9, 2.4e-05, M, "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    param("scale_weights_start[1]", vr::SCALE_WEIGHTS_START, CALIBRATED_WEIGHTS[0], None, "Initial inverse scale factor weight 1 (fia20 calibration)"),
-    param("scale_weights_start[2]", vr::SCALE_WEIGHTS_START + 1, CALIBRATED_WEIGHTS[1], None, "Initial inverse scale factor weight 2 (fia20 calibration)"),
-    param("scale_weights_start[3]", vr::SCALE_WEIGHTS_START + 2, CALIBRATED_WEIGHTS[2], None, "Initial inverse scale factor weight 3 (fia20 calibration)"),
-    param("scale_weights_start[4]", vr::SCALE_WEIGHTS_START + 3, CALIBRATED_WEIGHTS[3], None, "Initial inverse scale factor weight 4 (fia20 calibration)"),
-    param("scale_weights_start[5]", vr::SCALE_WEIGHTS_START + 4, CALIBRATED_WEIGHTS[4], None, "Initial inverse scale factor weight 5 (fia20 calibration)"),
-    param("scale_weights_start[6]", vr::SCALE_WEIGHTS_START + 5, CALIBRATED_WEIGHTS[5], None, "Initial inverse scale factor weight 6 (fia20 calibration)"),
-    param("scale_weights_start[7]", vr::SCALE_WEIGHTS_START + 6, CALIBRATED_WEIGHTS[6], None, "Initial inverse scale factor weight 7 (fia20 calibration)"),
-    param("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
-    param("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
-    param("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
+    Variable::parameter("compensator_gain", vr::COMPENSATOR_GAIN, 0.36, None, "K of C(z) = K (z - a)/(z - 1)"),
+    Variable::parameter("compensator_zero", vr::COMPENSATOR_ZERO, 0.8, None, "a of C(z) = K (z - a)/(z - 1)"),
+    Variable::parameter("prefilter_pole", vr::PREFILTER_POLE, 0.8, None, "Prefilter r_f <- p r_f + (1 - p) r"),
+    Variable::parameter("weight_prior", vr::WEIGHT_PRIOR, 0.05, None, "Prior 1-sigma of each scale-factor weight"),
+    Variable::parameter("disturbance_prior", vr::DISTURBANCE_PRIOR, 5e-6, M, "Prior 1-sigma of the disturbance"),
+    Variable::parameter("weight_process_noise", vr::WEIGHT_PROCESS_NOISE, 1e-3, None, "Process noise of the weights per sqrt(s)"),
+    Variable::parameter("disturbance_process_noise", vr::DISTURBANCE_PROCESS_NOISE, 0.1e-6, M, "Process noise of the disturbance per sqrt(s)"),
+    Variable::parameter("ext_cmd_noise", vr::EXT_CMD_NOISE, 5e-3, None, "Measurement noise of EXT_cmd"),
+    Variable::parameter("bd_noise", vr::BD_NOISE, 0.05e-6, M, "Measurement noise of BD"),
+    Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
+    Variable::parameter("disturbance_start", vr::DISTURBANCE_START, CALIBRATED_DISTURBANCE, M, "Initial disturbance estimate (fia20 calibration)"),
+    Variable::parameter("basis_peak[1]", vr::BASIS_PEAK, -2.4e-05, M, "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[2]", vr::BASIS_PEAK + 1, -1.6e-05, M, "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[3]", vr::BASIS_PEAK + 2, -8e-06, M, "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[4]", vr::BASIS_PEAK + 3, -3e-06, M, "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[5]", vr::BASIS_PEAK + 4, -1e-06, M, "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[6]", vr::BASIS_PEAK + 5, 1e-06, M, "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[7]", vr::BASIS_PEAK + 6, 3e-06, M, "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[8]", vr::BASIS_PEAK + 7, 8e-06, M, "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[9]", vr::BASIS_PEAK + 8, 1.6e-05, M, "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[10]", vr::BASIS_PEAK + 9, 2.4e-05, M, "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("scale_weights_start[1]", vr::SCALE_WEIGHTS_START, CALIBRATED_WEIGHTS[0], None, "Initial inverse scale factor weight 1 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[2]", vr::SCALE_WEIGHTS_START + 1, CALIBRATED_WEIGHTS[1], None, "Initial inverse scale factor weight 2 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[3]", vr::SCALE_WEIGHTS_START + 2, CALIBRATED_WEIGHTS[2], None, "Initial inverse scale factor weight 3 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[4]", vr::SCALE_WEIGHTS_START + 3, CALIBRATED_WEIGHTS[3], None, "Initial inverse scale factor weight 4 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[5]", vr::SCALE_WEIGHTS_START + 4, CALIBRATED_WEIGHTS[4], None, "Initial inverse scale factor weight 5 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[6]", vr::SCALE_WEIGHTS_START + 5, CALIBRATED_WEIGHTS[5], None, "Initial inverse scale factor weight 6 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[7]", vr::SCALE_WEIGHTS_START + 6, CALIBRATED_WEIGHTS[6], None, "Initial inverse scale factor weight 7 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
 ];
 
 static UNITS: [Unit; 2] = [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 }];
@@ -174,9 +171,6 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
     })
 }
 
-fn name_of(r: u32) -> &'static str {
-    VARIABLES.iter().find(|v| v.vr == r).map_or("?", |v| v.name)
-}
 
 impl ControllerFmu {
     /// The outputs before the first step: the parked sample, estimates at their start.
@@ -255,7 +249,7 @@ impl Model for ControllerFmu {
     }
 
     fn set_real(&mut self, r: u32, value: f64) -> SetResult {
-        let name = name_of(r);
+        let name = inchworm_fmi_export::variable_name(&VARIABLES, r);
         if !value.is_finite() {
             let keep = self.get_real(r).unwrap_or(f64::NAN);
             return Err(format!("{name} = {value} refused: must be finite; keeping {keep}"));

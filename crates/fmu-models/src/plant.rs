@@ -53,15 +53,6 @@ mod vr {
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
-const fn param(
-    name: &'static str,
-    vr: u32,
-    start: f64,
-    unit: Option<&'static str>,
-    description: &'static str,
-) -> Variable {
-    Variable::parameter(name, vr, start, unit, description)
-}
 
 static VARIABLES: [Variable; 47] = [
     Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
@@ -78,38 +69,38 @@ static VARIABLES: [Variable; 47] = [
     Variable::output("earth_closed", vr::EARTH_CLOSED, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)"),
     Variable::output("nonearth_closed", vr::NONEARTH_CLOSED, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)"),
     Variable::output("slip_events", vr::SLIP_EVENTS, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)"),
-    param("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass"),
-    param("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness"),
-    param("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping"),
-    param("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3"),
-    param("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness"),
-    param("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping"),
-    param("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass"),
-    param("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner"),
-    param("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner"),
-    param("L_p", vr::L_P, 0.036, M, "Extension PZT rest length"),
-    param("L_r", vr::L_R, 0.0, M, "Runner rest position"),
-    param("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio"),
-    param("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance"),
-    param("play_radius[1]", vr::PLAY_RADIUS, 10.0, V, "Play operator radius 1 (radii strictly increasing)"),
-    param("play_radius[2]", vr::PLAY_RADIUS + 1, 20.0, V, "Play operator radius 2"),
-    param("play_radius[3]", vr::PLAY_RADIUS + 2, 30.0, V, "Play operator radius 3"),
-    param("play_radius[4]", vr::PLAY_RADIUS + 3, 40.0, V, "Play operator radius 4"),
-    param("play_radius[5]", vr::PLAY_RADIUS + 4, 50.0, V, "Play operator radius 5"),
-    param("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Play operator weight 1"),
-    param("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Play operator weight 2"),
-    param("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Play operator weight 3"),
-    param("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Play operator weight 4"),
-    param("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Play operator weight 5"),
-    param("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE"),
-    param("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load"),
-    param("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage"),
-    param("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency"),
-    param("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain"),
-    param("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency"),
-    param("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
-    param("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event location tolerance: brake switches and play events located to this time (1e-12..1e-6)"),
-    param("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)"),
+    Variable::parameter("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass"),
+    Variable::parameter("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness"),
+    Variable::parameter("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping"),
+    Variable::parameter("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3"),
+    Variable::parameter("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness"),
+    Variable::parameter("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping"),
+    Variable::parameter("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass"),
+    Variable::parameter("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner"),
+    Variable::parameter("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner"),
+    Variable::parameter("L_p", vr::L_P, 0.036, M, "Extension PZT rest length"),
+    Variable::parameter("L_r", vr::L_R, 0.0, M, "Runner rest position"),
+    Variable::parameter("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio"),
+    Variable::parameter("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance"),
+    Variable::parameter("play_radius[1]", vr::PLAY_RADIUS, 10.0, V, "Play operator radius 1 (radii strictly increasing)"),
+    Variable::parameter("play_radius[2]", vr::PLAY_RADIUS + 1, 20.0, V, "Play operator radius 2"),
+    Variable::parameter("play_radius[3]", vr::PLAY_RADIUS + 2, 30.0, V, "Play operator radius 3"),
+    Variable::parameter("play_radius[4]", vr::PLAY_RADIUS + 3, 40.0, V, "Play operator radius 4"),
+    Variable::parameter("play_radius[5]", vr::PLAY_RADIUS + 4, 50.0, V, "Play operator radius 5"),
+    Variable::parameter("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Play operator weight 1"),
+    Variable::parameter("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Play operator weight 2"),
+    Variable::parameter("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Play operator weight 3"),
+    Variable::parameter("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Play operator weight 4"),
+    Variable::parameter("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Play operator weight 5"),
+    Variable::parameter("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE"),
+    Variable::parameter("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load"),
+    Variable::parameter("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage"),
+    Variable::parameter("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency"),
+    Variable::parameter("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain"),
+    Variable::parameter("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency"),
+    Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
+    Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event location tolerance: brake switches and play events located to this time (1e-12..1e-6)"),
+    Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)"),
     Variable::parameter("noise_seed", vr::NOISE_SEED, 0.0, None, "Seed of the encoder noise generator").with_kind_start(Kind::Integer, Start::Integer(1)),
 ];
 
@@ -275,12 +266,6 @@ fn dac_field(d: &mut Dac, vr: u32) -> Option<&mut f64> {
     }
 }
 
-fn name_of(vr: u32) -> &'static str {
-    VARIABLES
-        .iter()
-        .find(|v| v.vr == vr)
-        .map_or("?", |v| v.name)
-}
 
 impl Model for PlantFmu {
     fn info() -> &'static ModelInfo {
@@ -343,7 +328,7 @@ impl Model for PlantFmu {
     }
 
     fn set_real(&mut self, r: u32, value: f64) -> SetResult {
-        let name = name_of(r);
+        let name = inchworm_fmi_export::variable_name(&VARIABLES, r);
         if let Some(slot) = self.dac_mut(r) {
             if !value.is_finite() {
                 return Err(format!(
