@@ -118,4 +118,47 @@ mod tests {
             assert_eq!(est.x[i], w0[i], "weight {i} not observed");
         }
     }
+
+    #[test]
+    fn update_between_two_peaks_shares_the_innovation_by_the_regressor() {
+        let basis = Basis::new(FIA20_PEAKS).unwrap();
+        let noise = Noise::default();
+        let w0 = basis.linear_weights(20e-6);
+        let mut est = Estimator::new(w0, 0.0, &noise);
+        // u = 4 µm lies between the 3 and 8 µm peaks: φ = 0.8, 0.2 there. With P = p I on
+        // the weights, S = p (0.8² + 0.2²) + R and the gain on weight i is p φ_i / S.
+        est.update(&basis, 0.2, 0.25, 4e-6, 0.0);
+        let p = 0.05f64.powi(2) + 1e-6 * 0.2;
+        let s = p * 0.68 + 25e-6;
+        let innovation = 0.25 - (0.8 * 0.15 + 0.2 * 0.4);
+        for (i, phi) in [(6, 0.8), (7, 0.2)] {
+            let expect = w0[i] + p * phi / s * innovation;
+            assert!((est.x[i] - expect).abs() < 1e-12, "weight {i}: {} vs {expect}", est.x[i]);
+            let p_ii = p - p * p * phi * phi / s;
+            assert!((est.p[(i, i)] - p_ii).abs() < 1e-15, "P[{i},{i}] {} vs {p_ii}", est.p[(i, i)]);
+        }
+        // The shared measurement correlates the two weights.
+        assert!((est.p[(6, 7)] + p * p * 0.16 / s).abs() < 1e-15, "P[6,7] {}", est.p[(6, 7)]);
+        assert_eq!(est.p[(6, 7)], est.p[(7, 6)]);
+        assert_eq!(est.p[(5, 6)], 0.0, "weights the regressor does not touch stay uncorrelated");
+    }
+
+    #[test]
+    fn steady_disturbance_gain_of_the_default_noise_levels_is_0_58() {
+        let basis = Basis::new(FIA20_PEAKS).unwrap();
+        let noise = Noise::default();
+        let mut est = Estimator::new(basis.linear_weights(20e-6), 0.0, &noise);
+        for _ in 0..500 {
+            est.update(&basis, 0.2, 1.0, 20e-6, 0.0);
+        }
+        let before = est.disturbance();
+        est.update(&basis, 0.2, 1.0, 20e-6, 1e-6);
+        let gain = (est.disturbance() - before) / 1e-6;
+        // Scalar random walk: P⁻ = (qT + √(q²T² + 4 qT R))/2, gain P⁻/(P⁻ + R).
+        let (qt, r): (f64, f64) = (1e-14 * 0.2, 2.5e-15);
+        let p_minus = (qt + (qt * qt + 4.0 * qt * r).sqrt()) / 2.0;
+        let expect = p_minus / (p_minus + r);
+        assert!((gain - expect).abs() < 1e-9, "steady gain {gain} vs closed form {expect}");
+        assert!((gain - 0.58).abs() < 0.005, "steady disturbance gain {gain:.4}, SPEC 4 prototype ≈ 0.58");
+    }
 }

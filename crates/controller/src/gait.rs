@@ -78,18 +78,40 @@ mod tests {
     }
 
     #[test]
-    fn ten_sample_gait_keeps_every_segment() {
+    fn ten_sample_gait_sample_by_sample() {
         let t = Timing::new(10);
+        // Starts 1, 15, 30, 44, 59, 72, 87 of 100 scale to 1, 2, 4, 5, 7, 8, 10; every
+        // segment keeps at least one sample and its window is its last sample.
         assert_eq!(t.starts, [1, 2, 4, 5, 7, 8, 10]);
-        for (i, (a, b)) in t.windows.iter().enumerate() {
-            assert!(a <= b && *a >= t.starts[i], "window {i}: {a}..{b}");
+        assert_eq!(t.windows, [(1, 1), (3, 3), (4, 4), (6, 6), (7, 7), (9, 9), (10, 10)]);
+        let fwd = |y: f64| {
+            [[0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 10.0, 10.0 * y], [10.0, 10.0, 10.0 * y], [0.0, 10.0, 10.0 * y], [0.0, 0.0, 10.0 * y], [0.0, 0.0, 10.0 * y], [0.0, 0.0, 0.0]]
+        };
+        let bwd = |a: f64| {
+            [[0.0, 0.0, 0.0], [0.0, 0.0, 10.0 * a], [0.0, 0.0, 10.0 * a], [0.0, 10.0, 10.0 * a], [10.0, 10.0, 10.0 * a], [10.0, 10.0, 10.0 * a], [10.0, 10.0, 0.0], [0.0, 10.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 0.0]]
+        };
+        for y in [1.0, 0.3] {
+            for k in 1..=10 {
+                assert_eq!(t.volts(Direction::Forward, y, k), fwd(y)[k - 1], "forward y = {y}, sample {k}");
+                assert_eq!(t.volts(Direction::Backward, -y, k), bwd(y)[k - 1], "backward a = {y}, sample {k}");
+            }
         }
-        let fwd: Vec<[f64; 3]> = (1..=10).map(|k| t.volts(Direction::Forward, 0.5, k)).collect();
-        assert_eq!(fwd[0], [0.0, 0.0, 0.0]);
-        assert_eq!(fwd[1], [0.0, 10.0, 0.0]);
-        assert_eq!(fwd[3], [10.0, 10.0, 0.0]);
-        assert_eq!(fwd[4], [10.0, 10.0, 5.0]);
-        assert_eq!(fwd[9], [0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn sample_one_is_parked_and_amplitudes_clamp_to_a_full_step() {
+        for n in [7, 10, 33, 100, 250] {
+            let t = Timing::new(n);
+            for d in [Direction::Forward, Direction::Backward] {
+                assert_eq!(t.volts(d, 1.0, 1), [0.0; 3], "n = {n}: sample 1 parked");
+                assert_eq!(t.volts(d, 1.0, n), [0.0; 3], "n = {n}: sample n parked");
+                // Every segment has a sample, in order.
+                assert!(t.starts.windows(2).all(|w| w[0] < w[1]), "n = {n}: {:?}", t.starts);
+            }
+        }
+        let t = Timing::new(100);
+        assert_eq!(t.volts(Direction::Forward, 1.7, 50)[2], 10.0, "DAC full scale is a full step");
+        assert_eq!(t.volts(Direction::Backward, -1.0, 20)[2], 10.0);
     }
 
     #[test]
@@ -113,9 +135,11 @@ mod tests {
             72..=86 => [0.0, 10.0, 0.0],
             _ => [0.0, 0.0, 0.0],
         };
-        for k in 1..=100 {
-            assert_eq!(t.volts(Direction::Forward, 0.3, k), expect_fwd(k, 0.3), "forward sample {k}");
-            assert_eq!(t.volts(Direction::Backward, -0.3, k), expect_bwd(k, 0.3), "backward sample {k}");
+        for y in [1.0, 0.3, 0.0] {
+            for k in 1..=100 {
+                assert_eq!(t.volts(Direction::Forward, y, k), expect_fwd(k, y), "forward y = {y}, sample {k}");
+                assert_eq!(t.volts(Direction::Backward, -y, k), expect_bwd(k, y), "backward a = {y}, sample {k}");
+            }
         }
     }
 }

@@ -5,21 +5,37 @@
 //! allocate (buffers are sized at construction), so it can move into board firmware.
 //!
 //! # Timing
-//! The controller samples every `T_s` = 2 ms. [`Controller::tick`] at communication
-//! point `t` receives the encoder count that holds at `t` and returns the DAC sample to
-//! hold during `[t + T_s, t + 2 T_s)`: the sample held during `[t, t + T_s)` was returned
-//! by the previous tick (a digital controller's one-sample delay, so a plain Jacobi master
-//! at 2 ms closes the loop correctly). Sample 1 of every step is all zeros in both gaits,
-//! so the move can be chosen while it is out: at the tick where sample 1 of a new step is
-//! being held, the encoder reads `w_enc(n)` of the finished step; the estimator update for
-//! that step runs first, then, if a move has just ended, the control iteration with
-//! `y_k = s7` of that step, and the tick returns sample 2 of the new step.
+//! The controller samples every `T_s` = 2 ms. Number the intervals `[j T_s, (j + 1) T_s)`,
+//! j = 0, 1, …, and call [`Controller::tick`] at communication point `t = j T_s` tick j.
+//! Tick j receives the encoder count that holds at `t`, which is the end of interval
+//! j − 1, and returns the DAC sample to hold during interval j + 1. The sample held during
+//! interval j was returned by tick j − 1 (interval 0 holds the parked sample a controller
+//! starts with). That is a digital controller's one-sample delay: a plain Jacobi master
+//! at 2 ms, which hands each side the other's outputs from the previous communication
+//! point, closes the loop correctly.
+//!
+//! A step of `n` samples whose sample 1 is held during interval m (sample k during
+//! interval m + k − 1):
+//!
+//! | tick | encoder holds | work | returns |
+//! |---|---|---|---|
+//! | m | `w_enc(n)` of the previous step | estimator update for the previous step; then, if its move is done, the control iteration with `y_k = s7` of that step | sample 2 |
+//! | m + k − 2, k = 3..n | `w_enc(k − 2)` | record | sample k |
+//! | m + n − 1 | `w_enc(n − 1)` | record | sample 1 (all zeros) of the next step |
+//!
+//! Sample 1 of every step is all zeros in both gaits, so it is returned before the move
+//! is known and the move is chosen while it is out. Tick 0 takes the parked interval 0 as
+//! sample 1 of the first step: nothing to measure yet, so it iterates from the encoder
+//! count at t = 0 (which also starts the prefilter and the feedforward's previous
+//! reference there).
 
 pub mod basis;
 pub mod compensator;
 pub mod estimator;
+pub mod feedforward;
 pub mod gait;
 pub mod measurements;
+pub mod prefilter;
 pub mod waveform;
 
 use basis::Basis;
@@ -27,6 +43,9 @@ use compensator::{Gains, Loop};
 use estimator::{Estimator, Noise};
 use gait::{Direction, Timing};
 use waveform::Plan;
+
+/// Layout version of [`Controller::save_state`]; raise it whenever the layout changes.
+pub const STATE_VERSION: u8 = 1;
 
 /// Controller sample period (s).
 pub const SAMPLE_PERIOD: f64 = 0.002;
@@ -315,9 +334,12 @@ impl Controller {
         }
     }
 
-    /// Appends the complete dynamic state (not the parameters).
+    /// Appends the complete dynamic state (not the parameters), little-endian, headed by
+    /// [`STATE_VERSION`] and the samples per step it was taken with.
     pub fn save_state(&self, out: &mut Vec<u8>) {
         let mut w = inchworm_state_bytes::Writer(out);
+        w.u8(STATE_VERSION);
+        w.u64(self.timing.samples as u64);
         for v in self.estimator.x.iter().chain(self.estimator.p.iter()) {
             w.f64(*v);
         }
@@ -365,6 +387,14 @@ impl Controller {
     /// error the controller is unchanged.
     pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let mut r = inchworm_state_bytes::Reader::new(bytes, "controller state");
+        let version = r.u8()?;
+        if version != STATE_VERSION {
+            return Err(format!("controller state has version {version}, this controller reads version {STATE_VERSION}"));
+        }
+        let samples = r.u64()?;
+        if samples != self.timing.samples as u64 {
+            return Err(format!("controller state was taken with samples_per_step = {samples}, this controller has {}", self.timing.samples));
+        }
         let mut next = self.clone();
         for v in next.estimator.x.iter_mut() {
             *v = r.f64()?;
@@ -387,7 +417,11 @@ impl Controller {
             *v = r.f64()?;
         }
         next.full_steps_left = u32::try_from(r.u64()?).map_err(|_| "controller state: step count out of range")?;
-        next.move_direction = if r.u8()? == 1 { Direction::Forward } else { Direction::Backward };
+        next.move_direction = match r.u8()? {
+            1 => Direction::Forward,
+            2 => Direction::Backward,
+            d => return Err(format!("controller state: invalid move direction {d}")),
+        };
         next.fraction_left = if r.bool()? { Some(r.f64()?) } else { None };
         next.plan = if r.bool()? {
             let opt = |v: f64| (!v.is_nan()).then_some(v);
@@ -409,5 +443,48 @@ impl Controller {
         }
         *self = next;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validate_names_the_field() {
+        assert_eq!(Params::default().validate(), Ok(()));
+        let d = Params::default;
+        let mut peaks = basis::FIA20_PEAKS;
+        peaks.swap(1, 2);
+        let mut weights = NOMINAL_WEIGHTS;
+        weights[3] = f64::NAN;
+        let cases: [(&str, Params); 11] = [
+            ("deadband", Params { deadband: -1e-9, ..d() }),
+            ("samples_per_step", Params { samples_per_step: 6, ..d() }),
+            ("compensator_gain", Params { gains: Gains { k: 0.0, ..Gains::default() }, ..d() }),
+            ("compensator_zero", Params { gains: Gains { a: 1.0, ..Gains::default() }, ..d() }),
+            ("prefilter_pole", Params { gains: Gains { prefilter_pole: -0.1, ..Gains::default() }, ..d() }),
+            ("weight_process_noise", Params { noise: Noise { weight_process: f64::INFINITY, ..Noise::default() }, ..d() }),
+            ("bd_noise", Params { noise: Noise { bd_measurement: 0.0, ..Noise::default() }, ..d() }),
+            ("basis_peak", Params { basis_peaks: peaks, ..d() }),
+            ("scale_weights_start[4]", Params { scale_weights_start: weights, ..d() }),
+            ("disturbance_start", Params { disturbance_start: f64::NAN, ..d() }),
+            ("q_enc", Params { q_enc: 0.0, ..d() }),
+        ];
+        for (field, p) in cases {
+            let e = p.validate().expect_err(field);
+            assert!(e.starts_with(field), "error for {field}: {e:?}");
+            assert!(Controller::new(p).is_err());
+        }
+    }
+
+    #[test]
+    fn dac_quantization_is_16_bit_over_10_v() {
+        assert_eq!(quantize(0.0), (0.0, 0));
+        assert_eq!(quantize(10.0), (10.0, 65535));
+        assert_eq!(quantize(12.0).1, 65535, "clamped to full scale");
+        let (v, c) = quantize(3.0);
+        assert_eq!(c, 19661, "3 V = 0.3 × 65535 = 19660.5, rounded half away from zero");
+        assert_eq!(v, 19661.0 * 10.0 / 65535.0);
     }
 }

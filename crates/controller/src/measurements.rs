@@ -62,4 +62,20 @@ mod tests {
         assert!((r.ext_moved + 17e-6).abs() < 1e-15);
         assert!((r.bd - 4e-6).abs() < 1e-15);
     }
+
+    #[test]
+    fn ten_sample_step_reads_single_sample_windows() {
+        let t = Timing::new(10);
+        // Backward step of amplitude 0.6 at 10 samples: the encoder reads 2 µm until
+        // DRIVE, 2 + 4.2 µm (disturbance) in segment 4, then −9.8 µm more when the
+        // extension retracts; ±0.6 µm of noise off the windows must not matter.
+        let enc = [2.0, 2.6, 2.0, 2.0, 6.2, 6.2, -3.6, -3.6, -3.6, -3.6].map(|u: f64| u * 1e-6);
+        let ext: Vec<f64> = (1..=10).map(|k| t.volts(Direction::Backward, -0.6, k)[2] / 10.0).collect();
+        let r = raw(&t, Direction::Backward, &enc, &ext);
+        assert_eq!(r.e, [0.0, 0.6, 0.6, 0.6, 0.0, 0.0, 0.0]);
+        assert!((r.ext_cmd + 0.6).abs() < 1e-15, "EXT_cmd = e5 − e4 = {}", r.ext_cmd);
+        assert!((r.ext_moved + 9.8e-6).abs() < 1e-15, "EXT_moved = s5 − s4 = {}", r.ext_moved);
+        assert!((r.bd - 4.2e-6).abs() < 1e-15, "BD = (s7 − s1) − EXT_moved = {}", r.bd);
+        assert!((r.position_after() + 3.6e-6).abs() < 1e-15);
+    }
 }
