@@ -1,12 +1,15 @@
 //! `inchworm`: runs the project's FMUs (or any FMI 2.0 Co-Simulation FMU) and writes results
 //! (CSV) and plots (PNG). The command-line front end is `src/main.rs`.
 //!
-//! * [`fmu`]: a small FMI 2.0 Co-Simulation import layer on the `fmi` crate;
+//! * [`fmu`]: FMI 2.0 Co-Simulation import (the project's own layer, `inchworm-fmi-import`, re-exported);
 //! * [`gait`]: the stepping gait of SPEC 3, its raw measurements and the SPEC 2.9 check values;
 //! * [`plant`]: the `InchwormPlant` FMU's interface (SPEC 5) and an open-loop gait run through it;
 //! * [`plot`]: PNG plots;
-//! * [`closed_loop`], [`scenario`]: the closed loop, direct or through the FMUs, and the paper's scenarios.
+//! * [`closed_loop`], [`scenario`]: the closed loop, direct or through the FMUs, and the paper's scenarios;
+//! * [`master`], [`ssp`]: the co-simulation master for SSP systems and single FMUs;
+//! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`).
 
+pub mod bridge;
 pub mod closed_loop;
 pub mod fmu;
 pub mod gait;

@@ -41,6 +41,79 @@ enum Command {
     /// communication step, and write the chosen variables at every communication point as
     /// CSV.
     Run(RunArgs),
+    /// The HIL bridge (docs/hil-protocol.md). `--role controller` runs the controller FMU
+    /// against a driver board (real, or a virtual one); `--role board` is the virtual
+    /// driver board: the plant FMU behind the protocol, for the controller bridge or a real
+    /// controller board. Real time at 500 Hz, or lock-step with --lockstep.
+    Bridge(BridgeArgs),
+    /// Re-run the controller FMU on a controller-side bridge log and report any sample
+    /// whose DAC codes differ from the logged ones.
+    Replay(ReplayArgs),
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum RoleArg {
+    Controller,
+    Board,
+}
+
+#[derive(Args)]
+struct BridgeArgs {
+    #[arg(long, value_enum)]
+    role: RoleArg,
+    /// Board: the UDP address to listen on. Controller: the board's address.
+    #[arg(long, default_value = "127.0.0.1:50500")]
+    addr: String,
+    /// Use a serial line (COBS frames) instead of UDP.
+    #[arg(long)]
+    serial: Option<PathBuf>,
+    #[arg(long, default_value_t = 921_600)]
+    baud: u32,
+    /// The FMU to run (default: dist/InchwormController.fmu or dist/InchwormPlant.fmu).
+    #[arg(long)]
+    fmu: Option<PathBuf>,
+    /// A start value or parameter of the FMU; repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    params: Vec<String>,
+    /// Lock-step: the controller drives each tick and the board answers at once; the
+    /// encoder trace equals the co-simulation's.
+    #[arg(long)]
+    lockstep: bool,
+    /// Controller: run this long (s). Board: stop after this long (default: until Ctrl-C).
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Controller: CSV `time,reference` (m), held piecewise constant; default 100 µm from t = 0.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Board: periods without a valid frame before the safe state latches.
+    #[arg(long, default_value_t = 3)]
+    watchdog: u32,
+    /// Controller: the largest tolerated gap in the encoder stream's sequence.
+    #[arg(long, default_value_t = 3)]
+    max_gap: u16,
+    /// Controller: real-time periods without an encoder frame before the link is dead.
+    #[arg(long, default_value_t = 10)]
+    dead_after: u32,
+    /// What a missed deadline does: soft (count, log, continue) or hard (fault to the safe state).
+    #[arg(long, default_value = "soft")]
+    overrun: inchworm_bridge::OverrunPolicy,
+    /// SCHED_FIFO priority to ask for (needs privileges; refused: a warning, and the run goes on).
+    #[arg(long, default_value_t = 80)]
+    rt_priority: i32,
+    /// The run log (every sample and event; crash-proof; `inchworm replay` reads it).
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Controller: the encoder trace as CSV.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct ReplayArgs {
+    /// A controller-side log written by `inchworm bridge --role controller --log`.
+    log: PathBuf,
+    #[arg(long, default_value = "dist/InchwormController.fmu")]
+    fmu: PathBuf,
 }
 
 #[derive(Args)]
@@ -121,8 +194,9 @@ struct GaitArgs {
     fmi_logging: bool,
 }
 
-/// Prints the FMU's logger messages (which the `fmi` crate forwards as `log` records,
-/// with the instance name as target) and the import layer's own warnings on stderr.
+/// Prints the FMU's logger messages (which the import layer, `inchworm-fmi-import`,
+/// forwards as `log` records with the instance name as target) and the layer's own
+/// warnings on stderr.
 struct StderrLogger;
 
 impl log::Log for StderrLogger {
@@ -150,6 +224,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let level = match &cli.command {
         Command::Gait(args) if args.fmi_logging => log::LevelFilter::Info,
+        Command::Bridge(_) => log::LevelFilter::Info,
         _ => log::LevelFilter::Warn,
     };
     // Only fails if a logger is already installed, which nothing in this binary does.
@@ -159,6 +234,8 @@ fn main() -> ExitCode {
         Command::Gait(args) => run_gait(&args),
         Command::Run(args) => run_file(&args),
         Command::Scenario(args) => run_scenario(&args),
+        Command::Bridge(args) => run_bridge(&args),
+        Command::Replay(args) => run_replay(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -250,11 +327,7 @@ fn run_file(args: &RunArgs) -> Result<(), String> {
         Some(p) => Some(InputTable::parse(&std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?).map_err(|e| format!("{}: {e}", p.display()))?),
         None => None,
     };
-    let params = args
-        .params
-        .iter()
-        .map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("--param {p}: expected NAME=VALUE")))
-        .collect::<Result<Vec<_>, _>>()?;
+    let params = parse_params(&args.params)?;
     let opts = Options {
         stop_time: args.stop_time,
         step_size: args.step_size,
@@ -400,5 +473,182 @@ fn print_measurements(run: &GaitRun) {
             "check values: {} of {checked} within {CHECK_TOLERANCE_UM} µm ({verdict} tolerance; largest deviation {d:.4} µm, {at})",
             checked - outside
         );
+    }
+}
+
+/// Set by SIGINT/SIGTERM: the bridge stops at the next period, the board side in its safe
+/// state, the logs flushed.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+extern "C" fn request_stop(_: libc::c_int) {
+    STOP.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
+    use inchworm_bridge::board::{run_board, Board, BoardConfig};
+    use inchworm_bridge::controller::{run_controller, ControllerConfig};
+    use inchworm_bridge::realtime::{enter_real_time, percentiles};
+    use inchworm_bridge::runlog::{LogWriter, Record};
+    use inchworm_bridge::transport::{open_serial, CobsTransport, Transport, UdpTransport};
+    use std::sync::atomic::Ordering;
+
+    // SAFETY: the handler only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, request_stop as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, request_stop as *const () as libc::sighandler_t);
+    }
+    let params = parse_params(&args.params)?;
+    let board_role = args.role == RoleArg::Board;
+    let fmu = args.fmu.clone().unwrap_or_else(|| PathBuf::from(if board_role { "dist/InchwormPlant.fmu" } else { "dist/InchwormController.fmu" }));
+    let mut transport: Box<dyn Transport> = match &args.serial {
+        Some(path) => {
+            let f = open_serial(path, args.baud).map_err(|e| format!("{}: {e}", path.display()))?;
+            Box::new(CobsTransport::new(f))
+        }
+        None if board_role => Box::new(UdpTransport::bind(&args.addr).map_err(|e| format!("cannot listen on {}: {e}", args.addr))?),
+        None => Box::new(UdpTransport::connect(&args.addr).map_err(|e| format!("board address {}: {e}", args.addr))?),
+    };
+    let mut log = match &args.log {
+        Some(p) => {
+            if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            }
+            Some(LogWriter::create(p).map_err(|e| format!("run log: {e}"))?)
+        }
+        None => None,
+    };
+    if !args.lockstep {
+        let rt = enter_real_time(args.rt_priority);
+        for w in &rt.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    let mode = if args.lockstep { "lock-step" } else { "real time, 500 Hz" };
+
+    if board_role {
+        let mechanism = inchworm::bridge::FmuMechanism::load(&fmu, &params)?;
+        let cfg = BoardConfig { lockstep: args.lockstep, watchdog_periods: args.watchdog.max(1), overrun: args.overrun, ..BoardConfig::default() };
+        let mut board = Board::new(mechanism, cfg, log.take())?;
+        let where_ = args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string());
+        println!("virtual board: {} on {where_} ({mode}, watchdog {} periods); Ctrl-C stops", fmu.display(), cfg.watchdog_periods);
+        if let Some(d) = args.duration {
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs_f64(d.max(0.0)));
+                STOP.store(true, Ordering::Relaxed);
+            });
+        }
+        let mut lateness = Vec::new();
+        let result = run_board(&mut board, &mut transport, &STOP, &mut lateness);
+        let c = &board.counters;
+        println!(
+            "board: {} steps; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} while unarmed, {} overruns; final state {:?}",
+            c.steps, c.frames, c.malformed, c.duplicates, c.stale, c.gaps, c.missing, c.unarmed, c.overruns, board.state()
+        );
+        for l in &board.latches {
+            println!("safe state at tick {} ({} periods after the last valid frame): {}", l.tick, l.tick.wrapping_sub(l.last_valid_tick), inchworm_bridge::describe_fault(&l.fault));
+        }
+        if !lateness.is_empty() {
+            let p = percentiles(&lateness);
+            println!("wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs", p.p50, p.p99, p.max);
+        }
+        return result.map_err(|e| format!("board: {e}"));
+    }
+
+    let duration = args.duration.unwrap_or(10.0);
+    if !(duration > 0.0 && duration.is_finite()) {
+        return Err(format!("--duration {duration}: must be a positive number of seconds"));
+    }
+    let table = match &args.reference {
+        Some(p) => {
+            let t = inchworm::master::InputTable::parse(&std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?).map_err(|e| format!("{}: {e}", p.display()))?;
+            let col = t.names.iter().position(|n| n == "reference").ok_or_else(|| format!("{}: no `reference` column", p.display()))?;
+            Some((t, col))
+        }
+        None => None,
+    };
+    let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
+    let mut comp = inchworm::bridge::FmuCompensator::load(&fmu, &params)?;
+    if let Some(l) = log.as_mut() {
+        let mut meta = format!("role=controller\nfmu={}\nlockstep={}\nduration={duration}\n", fmu.display(), args.lockstep);
+        for (n, v) in &params {
+            meta.push_str(&format!("param={n}={v}\n"));
+        }
+        l.write(&Record::Meta(meta)).map_err(|e| format!("run log: {e}"))?;
+    }
+    let cfg = ControllerConfig {
+        lockstep: args.lockstep,
+        ticks: (duration / inchworm_bridge::PERIOD.as_secs_f64()).round() as u64,
+        max_gap: args.max_gap,
+        dead_after: args.dead_after,
+        overrun: args.overrun,
+        ..ControllerConfig::default()
+    };
+    println!("controller bridge: {} → board at {} ({mode}), {duration} s", fmu.display(), args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string()));
+    let wall = Instant::now();
+    let report = run_controller(&mut comp, &mut transport, &reference, &cfg, log.as_mut(), &STOP)?;
+    let wall = wall.elapsed().as_secs_f64();
+    let c = &report.counters;
+    println!(
+        "{} ticks in {wall:.2} s; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} retransmits, {} overruns",
+        report.ticks, c.frames, c.malformed, c.duplicates, c.stale, c.gaps, c.missing, c.retransmits, c.overruns
+    );
+    if !report.lateness_us.is_empty() {
+        let p = percentiles(&report.lateness_us);
+        println!("wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs", p.p50, p.p99, p.max);
+    }
+    if !report.round_trip_us.is_empty() {
+        let p = percentiles(&report.round_trip_us);
+        println!("round trip (DAC frame → encoder frame echoing it): p50 {:.1} µs, p99 {:.1} µs", p.p50, p.p99);
+    }
+    if let Some(path) = &args.out {
+        let mut csv = String::from("time,encoder_counts\n");
+        for (k, c) in report.encoder.iter().enumerate() {
+            csv.push_str(&format!("{},{c}\n", (k + 1) as f64 * inchworm_bridge::PERIOD.as_secs_f64()));
+        }
+        std::fs::write(path, csv).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    if let Some((_, text)) = &report.fault {
+        return Err(format!("the run ended in a fault after {} ticks: {text}", report.ticks));
+    }
+    Ok(())
+}
+
+fn parse_params(params: &[String]) -> Result<Vec<(String, String)>, String> {
+    params
+        .iter()
+        .map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("--param {p}: expected NAME=VALUE")))
+        .collect()
+}
+
+fn run_replay(args: &ReplayArgs) -> Result<(), String> {
+    use inchworm_bridge::replay::{controller_samples, replay};
+    use inchworm_bridge::runlog::{read_log, Record};
+    let log = read_log(&args.log)?;
+    if let Some(at) = log.truncated_at {
+        eprintln!("warning: {}: the log ends inside a record at byte {at} (the writer stopped mid-write); replaying what is whole", args.log.display());
+    }
+    let meta = log.records.iter().find_map(|r| if let Record::Meta(m) = r { Some(m.clone()) } else { None }).unwrap_or_default();
+    if !meta.contains("role=controller") {
+        return Err(format!("{}: not a controller-side log (its meta says: {})", args.log.display(), meta.lines().next().unwrap_or("nothing")));
+    }
+    let samples = controller_samples(&log.records);
+    if samples.is_empty() {
+        return Err(format!("{}: no controller samples", args.log.display()));
+    }
+    let params = inchworm::bridge::params_from_meta(&meta);
+    let mut comp = inchworm::bridge::FmuCompensator::load(&args.fmu, &params)?;
+    let r = replay(&mut comp, &samples)?;
+    let events = log.records.iter().filter(|r| matches!(r, Record::Event { .. })).count();
+    println!("replayed {} samples ({} events, {} discontinuities) with {}", r.samples, events, r.discontinuities, args.fmu.display());
+    match r.first {
+        None => {
+            println!("no divergence: every tick's DAC codes are the logged ones");
+            Ok(())
+        }
+        Some((tick, logged, replayed)) => Err(format!(
+            "{} of {} samples diverge; first at tick {tick}: logged codes {logged:?}, replayed {replayed:?}",
+            r.divergent, r.samples
+        )),
     }
 }

@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::fmu::{CsFmu, FmuError, VarType};
+use crate::fmu::{CsFmu, FmuError, Var, VarType};
 use crate::ssp::{Archive, End};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -147,18 +147,23 @@ fn get(components: &mut [Component], p: Port) -> Result<f64, String> {
 }
 
 fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), String> {
-    let f = &mut components[p.component].fmu;
-    match p.ty {
-        VarType::Real => f.set_real(&[p.vr], &[value]),
-        VarType::Integer | VarType::Enumeration => f.set_integer(&[p.vr], &[value.round() as i32]),
-        VarType::Boolean => f.set_boolean(&[p.vr], &[value != 0.0]),
+    set_var(&mut components[p.component].fmu, Var { vr: p.vr, ty: p.ty }, value)
+}
+
+fn set_var(f: &mut CsFmu, v: Var, value: f64) -> Result<(), String> {
+    match v.ty {
+        VarType::Real => f.set_real(&[v.vr], &[value]),
+        VarType::Integer | VarType::Enumeration => f.set_integer(&[v.vr], &[value.round() as i32]),
+        VarType::Boolean => f.set_boolean(&[v.vr], &[value != 0.0]),
         VarType::String => return Err("String variables cannot be connected".into()),
     }
     .map_err(err)
 }
 
-fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), String> {
-    let value = match p.ty {
+/// A start value or parameter given as text (`--param`, an `.ssv`), checked against the
+/// variable's type.
+fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
+    let value = match ty {
         VarType::Boolean => match text.trim() {
             "true" | "1" => 1.0,
             "false" | "0" => 0.0,
@@ -166,10 +171,20 @@ fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Re
         },
         _ => text.trim().parse::<f64>().map_err(|_| format!("{name} = {text}: not a number"))?,
     };
-    if p.ty == VarType::Integer && value.fract() != 0.0 {
+    if ty == VarType::Integer && value.fract() != 0.0 {
         return Err(format!("{name} = {text}: not an integer"));
     }
-    set(components, p, value)
+    Ok(value)
+}
+
+fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), String> {
+    set(components, p, parse_value(p.ty, name, text)?)
+}
+
+/// Sets one variable of a single FMU by name from text, as `--param NAME=VALUE` does.
+pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), String> {
+    let v = fmu.var(name).map_err(err)?;
+    set_var(fmu, v, parse_value(v.ty, name, text)?)
 }
 
 /// Runs `path` (an `.ssp`, or a single `.fmu`).

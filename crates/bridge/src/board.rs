@@ -1,0 +1,436 @@
+//! The board side: what the driver board's firmware does, with a [`Mechanism`] in place of
+//! the DACs, amplifiers, PZTs and encoder.
+//!
+//! Real time: at every period boundary the board takes the frames that arrived during the
+//! period, closes the period in the watchdog, holds the codes the watchdog lets through for
+//! the next period (one mechanism step) and sends the encoder count at its end.
+//!
+//! Lock-step: the controller drives. A DAC frame for the board's current tick is applied
+//! at once (one step) and answered with the count at the end of the interval; a repeat of
+//! the previous tick (the controller lost the answer) gets the stored answer again without
+//! stepping, so retransmissions never step the plant twice. The watchdog still runs on the
+//! wall clock: no valid frame for N periods latches the safe state.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use inchworm_hil_protocol::{
+    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict,
+    Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
+};
+
+use crate::realtime::{now_ns, Pacer};
+use crate::runlog::{BoardSample, LogWriter, Record};
+use crate::transport::Transport;
+use crate::{describe_fault, Mechanism, OverrunPolicy};
+
+#[derive(Clone, Copy, Debug)]
+pub struct BoardConfig {
+    pub period: Duration,
+    pub watchdog_periods: u32,
+    pub lockstep: bool,
+    pub overrun: OverrunPolicy,
+}
+
+impl Default for BoardConfig {
+    fn default() -> Self {
+        BoardConfig {
+            period: crate::PERIOD,
+            watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS,
+            lockstep: false,
+            overrun: OverrunPolicy::Soft,
+        }
+    }
+}
+
+/// Frames received and what became of them.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct BoardCounters {
+    /// Valid frames of any type.
+    pub frames: u64,
+    /// Refused by the decoder: CRC, length, magic, version, type, stream.
+    pub malformed: u64,
+    pub duplicates: u64,
+    pub stale: u64,
+    /// Sequence gaps seen on the DAC stream, and the frames missing in them.
+    pub gaps: u64,
+    pub missing: u64,
+    /// DAC frames that arrived while the board was not armed (output stayed safe).
+    pub unarmed: u64,
+    /// Lock-step repeats of the previous tick, answered from the stored reply.
+    pub repeats: u64,
+    pub overruns: u64,
+    pub steps: u64,
+}
+
+/// One latch of the safe state, in board ticks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SafeLatch {
+    pub fault: Fault,
+    /// The tick at which the last valid DAC frame was taken.
+    pub last_valid_tick: u32,
+    /// The tick from which the safe codes were applied.
+    pub tick: u32,
+}
+
+pub struct Board<M> {
+    cfg: BoardConfig,
+    mech: M,
+    wd: Watchdog,
+    dac_seq: SeqTracker,
+    enc_seq: u16,
+    ctl_seq: u16,
+    requested: [u16; 3],
+    applied: [u16; 3],
+    last_dac_seq: u16,
+    tick: u32,
+    counts: i32,
+    reply: ([u8; MAX_FRAME], usize),
+    last_valid_tick: u32,
+    overrun_flag: bool,
+    pub counters: BoardCounters,
+    pub latches: Vec<SafeLatch>,
+    /// (tick, text) of everything notable, in order.
+    pub events: Vec<(u32, String)>,
+    log: Option<LogWriter>,
+}
+
+impl<M: Mechanism> Board<M> {
+    pub fn new(mut mech: M, cfg: BoardConfig, log: Option<LogWriter>) -> Result<Board<M>, String> {
+        let counts = mech.counts()?;
+        let mut board = Board {
+            cfg,
+            mech,
+            wd: Watchdog::new(cfg.watchdog_periods),
+            dac_seq: SeqTracker::new(),
+            enc_seq: 0,
+            ctl_seq: 0,
+            requested: SAFE_CODES,
+            applied: SAFE_CODES,
+            last_dac_seq: 0,
+            tick: 0,
+            counts,
+            reply: ([0; MAX_FRAME], 0),
+            last_valid_tick: 0,
+            overrun_flag: false,
+            counters: BoardCounters::default(),
+            latches: Vec::new(),
+            events: Vec::new(),
+            log,
+        };
+        board.write_log(Record::Meta(format!(
+            "role=board\nprotocol={VERSION}\nperiod_us={}\nwatchdog_periods={}\nlockstep={}\noverrun={:?}",
+            cfg.period.as_micros(),
+            cfg.watchdog_periods,
+            cfg.lockstep,
+            cfg.overrun
+        )));
+        Ok(board)
+    }
+
+    pub fn state(&self) -> BoardState {
+        self.wd.state()
+    }
+
+    pub fn tick(&self) -> u32 {
+        self.tick
+    }
+
+    /// The codes held during the last interval stepped (after the watchdog).
+    pub fn applied(&self) -> [u16; 3] {
+        self.applied
+    }
+
+    pub fn mechanism(&mut self) -> &mut M {
+        &mut self.mech
+    }
+
+    fn write_log(&mut self, record: Record) {
+        if let Some(log) = &mut self.log {
+            if let Err(e) = log.write(&record) {
+                // The run goes on; losing the log is reported once and the writer dropped.
+                self.events.push((self.tick, format!("log write failed, logging stopped: {e}")));
+                self.log = None;
+            }
+        }
+    }
+
+    fn event(&mut self, text: String) {
+        log::info!(target: "board", "tick {}: {text}", self.tick);
+        self.write_log(Record::Event { tick: self.tick, text: text.clone() });
+        self.events.push((self.tick, text));
+    }
+
+    fn send(&mut self, frame: Frame, tx: &mut dyn Transport) -> io::Result<()> {
+        let seq = match frame {
+            Frame::Encoder(_) => {
+                self.enc_seq = self.enc_seq.wrapping_add(1);
+                self.enc_seq
+            }
+            _ => {
+                self.ctl_seq = self.ctl_seq.wrapping_add(1);
+                self.ctl_seq
+            }
+        };
+        let mut buf = [0u8; MAX_FRAME];
+        let n = encode(&Packet { seq, frame }, &mut buf).map_err(|e| io::Error::other(e.to_string()))?;
+        if matches!(frame, Frame::Encoder(_)) {
+            self.reply = (buf, n);
+        }
+        tx.send(&buf[..n])
+    }
+
+    fn status(&self) -> u16 {
+        let mut s = self.wd.status_bits();
+        if self.cfg.lockstep {
+            s |= status::LOCKSTEP;
+        }
+        if self.overrun_flag {
+            s |= status::OVERRUN;
+        }
+        s
+    }
+
+    fn send_encoder(&mut self, tx: &mut dyn Transport) -> io::Result<()> {
+        let e = EncoderSample { tick: self.tick, counts: self.counts, status: self.status(), echo_seq: self.last_dac_seq };
+        self.overrun_flag = false;
+        self.send(Frame::Encoder(e), tx)
+    }
+
+    fn latch(&mut self, fault: Fault, tx: &mut dyn Transport) -> io::Result<()> {
+        self.latches.push(SafeLatch { fault, last_valid_tick: self.last_valid_tick, tick: self.tick });
+        self.event(format!("safe state latched: {}; re-arm required", describe_fault(&fault)));
+        // Tell the controller why, so its report names the cause and not only the symptom.
+        self.send(Frame::Fault(fault), tx)
+    }
+
+    /// One interval with the codes the watchdog lets through.
+    fn step(&mut self) -> io::Result<()> {
+        self.applied = self.wd.output(self.requested);
+        self.counts = self.mech.step(self.applied).map_err(|e| io::Error::other(format!("the mechanism failed at tick {}: {e}", self.tick)))?;
+        self.tick = self.tick.wrapping_add(1);
+        self.counters.steps += 1;
+        let s = BoardSample { tick: self.tick, codes: self.applied, counts: self.counts, status: self.status(), dac_seq: self.last_dac_seq };
+        self.write_log(Record::Board(s));
+        Ok(())
+    }
+
+    /// Handles one received frame; replies go out through `tx`.
+    pub fn handle(&mut self, bytes: &[u8], tx: &mut dyn Transport) -> io::Result<()> {
+        let packet = match decode(bytes) {
+            Ok(p) => p,
+            Err(e) => {
+                self.counters.malformed += 1;
+                if self.counters.malformed.is_power_of_two() {
+                    self.event(format!("malformed frame refused ({e}); {} so far", self.counters.malformed));
+                }
+                return Ok(());
+            }
+        };
+        self.counters.frames += 1;
+        match packet.frame {
+            Frame::Hello(h) => self.hello(h, tx),
+            Frame::Arm => {
+                let was = self.wd.state();
+                self.wd.arm();
+                // The ARM is the first valid frame of the session: silence counts from it.
+                self.wd.frame_received();
+                self.requested = SAFE_CODES;
+                self.dac_seq.reset();
+                self.last_valid_tick = self.tick;
+                self.event(format!("armed (was {was:?})"));
+                // The controller learns the tick and count it starts from.
+                self.send_encoder(tx)
+            }
+            Frame::Disarm if self.wd.state() == BoardState::Disarmed => Ok(()),
+            Frame::Disarm => {
+                self.wd.disarm();
+                self.event("disarmed by the controller: safe codes".into());
+                Ok(())
+            }
+            Frame::Fault(f) => {
+                let first = !matches!(self.wd.state(), BoardState::Safe(_));
+                self.wd.fault(f);
+                if first {
+                    self.latches.push(SafeLatch { fault: f, last_valid_tick: self.last_valid_tick, tick: self.tick });
+                }
+                self.event(format!("the controller reported a fault, safe state: {}", describe_fault(&f)));
+                Ok(())
+            }
+            Frame::Dac(d) => self.dac(packet.seq, d, tx),
+            Frame::Encoder(_) => {
+                self.counters.malformed += 1;
+                self.event("an encoder frame came in; only the board sends those".into());
+                Ok(())
+            }
+        }
+    }
+
+    fn hello(&mut self, h: Hello, tx: &mut dyn Transport) -> io::Result<()> {
+        let period_us = self.cfg.period.as_micros() as u32;
+        let mismatch = if h.version != VERSION {
+            Some((format!("protocol version {} (board speaks {VERSION})", h.version), u32::from(h.version)))
+        } else if h.role != Role::Controller {
+            Some(("the peer says it is a board".to_string(), h.role as u32))
+        } else if h.lockstep != self.cfg.lockstep {
+            Some((format!("lock-step {} (board: {})", h.lockstep, self.cfg.lockstep), u32::from(h.lockstep)))
+        } else if h.period_us != period_us {
+            Some((format!("period {} µs (board: {period_us} µs)", h.period_us), h.period_us))
+        } else {
+            None
+        };
+        if let Some((why, detail)) = mismatch {
+            self.event(format!("HELLO refused: {why}"));
+            return self.send(Frame::Fault(Fault { reason: FaultReason::ProtocolMismatch, detail }), tx);
+        }
+        self.event(format!("HELLO from a controller (protocol {VERSION}, {period_us} µs, lock-step {})", h.lockstep));
+        let reply = Hello { version: VERSION, role: Role::Board, period_us, watchdog_periods: self.cfg.watchdog_periods.min(255) as u8, lockstep: self.cfg.lockstep };
+        self.send(Frame::Hello(reply), tx)
+    }
+
+    fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {
+        match self.dac_seq.accept(seq) {
+            SeqVerdict::Duplicate => {
+                self.counters.duplicates += 1;
+                return Ok(());
+            }
+            SeqVerdict::Stale { .. } => {
+                self.counters.stale += 1;
+                return Ok(());
+            }
+            SeqVerdict::Gap { missing } => {
+                self.counters.gaps += 1;
+                self.counters.missing += u64::from(missing);
+            }
+            SeqVerdict::First | SeqVerdict::Next => {}
+        }
+        if self.wd.state() != BoardState::Armed {
+            // Frames never unlatch the safe state; only ARM does.
+            self.counters.unarmed += 1;
+            if self.counters.unarmed.is_power_of_two() {
+                let state = self.wd.state();
+                self.event(format!("DAC frame while {state:?}: output stays safe until ARM ({} such frames)", self.counters.unarmed));
+            }
+            return if self.cfg.lockstep { self.send_encoder(tx) } else { Ok(()) };
+        }
+        if !self.cfg.lockstep {
+            self.requested = d.codes;
+            self.last_dac_seq = seq;
+            self.last_valid_tick = self.tick;
+            self.wd.frame_received();
+            return Ok(());
+        }
+        if d.tick == self.tick {
+            self.requested = d.codes;
+            self.last_dac_seq = seq;
+            self.last_valid_tick = self.tick;
+            // The frame closes a watchdog period of its own: silence is counted from here.
+            self.wd.frame_received();
+            let _ = self.wd.period_elapsed();
+            self.step()?;
+            self.send_encoder(tx)
+        } else if d.tick.wrapping_add(1) == self.tick {
+            self.counters.repeats += 1;
+            self.wd.frame_received();
+            let _ = self.wd.period_elapsed();
+            let (buf, n) = self.reply;
+            tx.send(&buf[..n])
+        } else {
+            self.counters.stale += 1;
+            Ok(())
+        }
+    }
+
+    /// The end of a real-time period: watchdog, one step, the encoder frame.
+    pub fn period(&mut self, overrun_us: Option<u64>, tx: &mut dyn Transport) -> io::Result<()> {
+        if let Some(late) = overrun_us {
+            self.counters.overruns += 1;
+            self.overrun_flag = true;
+            if self.cfg.overrun == OverrunPolicy::Hard && self.wd.state() == BoardState::Armed {
+                let f = Fault { reason: FaultReason::Overrun, detail: late.min(u64::from(u32::MAX)) as u32 };
+                self.wd.fault(f);
+                self.latch(f, tx)?;
+            }
+        }
+        if let Some(f) = self.wd.period_elapsed() {
+            self.latch(f, tx)?;
+        }
+        self.step()?;
+        self.send_encoder(tx)
+    }
+
+    /// A lock-step period of the wall clock without a valid frame.
+    pub fn silent_period(&mut self, tx: &mut dyn Transport) -> io::Result<()> {
+        if let Some(f) = self.wd.period_elapsed() {
+            self.latch(f, tx)?;
+        }
+        Ok(())
+    }
+
+    /// Forces the log to disk (end of run, or after a fault).
+    pub fn sync_log(&mut self) {
+        if let Some(log) = &mut self.log {
+            let _ = log.sync();
+        }
+    }
+}
+
+/// Runs the board until `stop` is set. Real time: one step per period. Lock-step: one step
+/// per DAC frame, the watchdog counting wall-clock periods of silence. `lateness_us`
+/// receives the wake-up lateness of every real-time period.
+pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, stop: &AtomicBool, lateness_us: &mut Vec<f64>) -> io::Result<()> {
+    let mut buf = [0u8; 256];
+    let period_ns = board.cfg.period.as_nanos() as u64;
+    // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
+    let drain = |board: &mut Board<M>, tx: &mut dyn Transport, buf: &mut [u8]| -> io::Result<()> {
+        loop {
+            match tx.recv(buf, Duration::ZERO) {
+                Ok(Some(n)) => board.handle(&buf[..n], tx)?,
+                Ok(None) => return Ok(()),
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.malformed += 1,
+                Err(e) => return Err(e),
+            }
+        }
+    };
+    let result = if board.cfg.lockstep {
+        let mut boundary = now_ns() + period_ns;
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                break drain(board, tx, &mut buf);
+            }
+            let now = now_ns();
+            if now >= boundary {
+                board.silent_period(tx)?;
+                boundary += period_ns;
+                continue;
+            }
+            match tx.recv(&mut buf, Duration::from_nanos(boundary - now)) {
+                Ok(Some(n)) => {
+                    let before = board.counters.steps + board.counters.repeats;
+                    board.handle(&buf[..n], tx)?;
+                    if board.counters.steps + board.counters.repeats != before {
+                        boundary = now_ns() + period_ns;
+                    }
+                }
+                Ok(None) => {}
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.malformed += 1,
+                Err(e) => break Err(e),
+            }
+        }
+    } else {
+        let mut pacer = Pacer::new(board.cfg.period);
+        loop {
+            if stop.load(Ordering::Relaxed) {
+                break drain(board, tx, &mut buf);
+            }
+            let wake = pacer.wait();
+            lateness_us.push(wake.lateness_ns as f64 / 1e3);
+            drain(board, tx, &mut buf)?;
+            let overrun = wake.overrun.then(|| (wake.lateness_ns + wake.skipped * period_ns) / 1000);
+            board.period(overrun, tx)?;
+        }
+    };
+    board.sync_log();
+    result
+}

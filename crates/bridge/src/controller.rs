@@ -1,0 +1,377 @@
+//! The controller side: handshake, arming, then one DAC frame per tick.
+//!
+//! A tick uses the encoder count that holds at its start and sends the codes for the
+//! interval that starts there, as a Jacobi co-simulation master couples the two FMUs. In
+//! lock-step the count at the end of the interval comes back in the answer to the DAC
+//! frame, so the loop is the co-simulation exactly; in real time it is the newest count
+//! the board has sent.
+//!
+//! The run ends in a fault, reported with its reason, when the encoder stream skips more
+//! than `max_gap` frames, when nothing valid arrives for `dead_after` periods (real time)
+//! or after `max_retransmits` unanswered repeats (lock-step), when the board reports its
+//! safe state, and on an overrun under the hard policy. The board is told (FAULT) so it
+//! latches its safe state at once instead of waiting for its watchdog.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use inchworm_hil_protocol::{
+    decode, encode, status, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict, MAX_FRAME, VERSION,
+};
+
+use crate::realtime::{now_ns, Pacer};
+use crate::runlog::{ControllerSample, LogWriter, Record};
+use crate::transport::Transport;
+use crate::{describe_fault, Compensator, OverrunPolicy};
+
+#[derive(Clone, Copy, Debug)]
+pub struct ControllerConfig {
+    pub period: Duration,
+    pub lockstep: bool,
+    /// Ticks to run.
+    pub ticks: u64,
+    /// The largest sequence gap on the encoder stream that is still tolerated.
+    pub max_gap: u16,
+    /// Real time: periods without a valid encoder frame before the link counts as dead.
+    pub dead_after: u32,
+    /// Lock-step: wait this long for an answer before repeating the DAC frame.
+    pub retransmit_after: Duration,
+    /// Lock-step: unanswered repeats before the link counts as dead.
+    pub max_retransmits: u32,
+    pub overrun: OverrunPolicy,
+    /// How long to wait for the board's HELLO and ARM answers.
+    pub handshake_timeout: Duration,
+}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        ControllerConfig {
+            period: crate::PERIOD,
+            lockstep: false,
+            ticks: 0,
+            max_gap: 3,
+            dead_after: 10,
+            retransmit_after: Duration::from_millis(2),
+            max_retransmits: 25,
+            overrun: OverrunPolicy::Soft,
+            handshake_timeout: Duration::from_secs(5),
+        }
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ControllerCounters {
+    pub frames: u64,
+    pub malformed: u64,
+    pub duplicates: u64,
+    pub stale: u64,
+    pub gaps: u64,
+    pub missing: u64,
+    pub retransmits: u64,
+    pub overruns: u64,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct ControllerReport {
+    /// Ticks completed.
+    pub ticks: u64,
+    /// The board's tick when the run started.
+    pub first_tick: u32,
+    /// The encoder count at the end of each completed tick's interval (lock-step: exactly
+    /// the co-simulation's trace; real time: the newest count at the next tick).
+    pub encoder: Vec<i32>,
+    /// Why the run ended early, if it did.
+    pub fault: Option<(Fault, String)>,
+    pub counters: ControllerCounters,
+    /// Wake-up lateness per real-time period (µs).
+    pub lateness_us: Vec<f64>,
+    /// DAC frame sent → encoder frame echoing it received (µs).
+    pub round_trip_us: Vec<f64>,
+    pub events: Vec<(u64, String)>,
+}
+
+struct Link<'a> {
+    tx: &'a mut dyn Transport,
+    dac_seq: u16,
+    ctl_seq: u16,
+    enc: SeqTracker,
+    buf: [u8; 256],
+    sent_at: Vec<u64>,
+    counters: ControllerCounters,
+}
+
+enum Incoming {
+    Encoder(EncoderSample),
+    Fault(Fault),
+    Hello(Hello),
+    Nothing,
+}
+
+impl Link<'_> {
+    fn send(&mut self, frame: Frame) -> io::Result<u16> {
+        let seq = if matches!(frame, Frame::Dac(_)) {
+            self.dac_seq = self.dac_seq.wrapping_add(1);
+            self.sent_at[usize::from(self.dac_seq)] = now_ns();
+            self.dac_seq
+        } else {
+            self.ctl_seq = self.ctl_seq.wrapping_add(1);
+            self.ctl_seq
+        };
+        let mut out = [0u8; MAX_FRAME];
+        let n = encode(&Packet { seq, frame }, &mut out).map_err(|e| io::Error::other(e.to_string()))?;
+        self.tx.send(&out[..n])?;
+        Ok(seq)
+    }
+
+    /// One frame or nothing within `timeout`; sequence bookkeeping on the encoder stream.
+    /// A gap larger than `max_gap` comes back as a fault.
+    fn recv(&mut self, timeout: Duration, max_gap: u16) -> io::Result<Incoming> {
+        let n = match self.tx.recv(&mut self.buf, timeout) {
+            Ok(Some(n)) => n,
+            Ok(None) => return Ok(Incoming::Nothing),
+            Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                self.counters.malformed += 1;
+                return self.recv(Duration::ZERO, max_gap);
+            }
+            Err(e) => return Err(e),
+        };
+        let packet = match decode(&self.buf[..n]) {
+            Ok(p) => p,
+            Err(_) => {
+                self.counters.malformed += 1;
+                return self.recv(Duration::ZERO, max_gap);
+            }
+        };
+        self.counters.frames += 1;
+        Ok(match packet.frame {
+            Frame::Encoder(e) => match self.enc.accept(packet.seq) {
+                SeqVerdict::Duplicate => {
+                    self.counters.duplicates += 1;
+                    self.recv(Duration::ZERO, max_gap)?
+                }
+                SeqVerdict::Stale { .. } => {
+                    self.counters.stale += 1;
+                    self.recv(Duration::ZERO, max_gap)?
+                }
+                SeqVerdict::Gap { missing } => {
+                    self.counters.gaps += 1;
+                    self.counters.missing += u64::from(missing);
+                    if missing > max_gap {
+                        Incoming::Fault(Fault { reason: FaultReason::SequenceGap, detail: u32::from(missing) })
+                    } else {
+                        Incoming::Encoder(e)
+                    }
+                }
+                SeqVerdict::First | SeqVerdict::Next => Incoming::Encoder(e),
+            },
+            Frame::Fault(f) => Incoming::Fault(f),
+            Frame::Hello(h) => Incoming::Hello(h),
+            _ => {
+                self.counters.malformed += 1;
+                Incoming::Nothing
+            }
+        })
+    }
+}
+
+/// Runs the controller side for `cfg.ticks` ticks (or until `stop`). `Err` is for what
+/// stops the bridge itself (a socket or model error); link and board faults end the run
+/// with `report.fault` set.
+pub fn run_controller<C: Compensator>(
+    comp: &mut C,
+    tx: &mut dyn Transport,
+    reference: &dyn Fn(f64) -> f64,
+    cfg: &ControllerConfig,
+    mut log: Option<&mut LogWriter>,
+    stop: &AtomicBool,
+) -> Result<ControllerReport, String> {
+    let mut link = Link { tx, dac_seq: 0, ctl_seq: 0, enc: SeqTracker::new(), buf: [0; 256], sent_at: vec![0; 1 << 16], counters: ControllerCounters::default() };
+    let mut report = ControllerReport::default();
+    let io = |e: io::Error| format!("link: {e}");
+    let log_record = |log: &mut Option<&mut LogWriter>, r: Record| -> Result<(), String> {
+        match log {
+            Some(l) => l.write(&r).map_err(|e| format!("run log: {e}")),
+            None => Ok(()),
+        }
+    };
+
+    // HELLO until the board answers in kind.
+    let hello = Hello {
+        version: VERSION,
+        role: Role::Controller,
+        period_us: cfg.period.as_micros() as u32,
+        watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS as u8,
+        lockstep: cfg.lockstep,
+    };
+    let deadline = now_ns() + cfg.handshake_timeout.as_nanos() as u64;
+    'hello: loop {
+        link.send(Frame::Hello(hello)).map_err(io)?;
+        let retry = now_ns() + 100_000_000;
+        while now_ns() < retry {
+            match link.recv(Duration::from_millis(20), cfg.max_gap).map_err(io)? {
+                Incoming::Hello(h) if h.role == Role::Board && h.version == VERSION => break 'hello,
+                Incoming::Fault(f) if f.reason == FaultReason::ProtocolMismatch => {
+                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
+                }
+                _ => {}
+            }
+        }
+        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
+            return Err(format!("no HELLO answer from the board within {:.1} s", cfg.handshake_timeout.as_secs_f64()));
+        }
+    }
+
+    // ARM until an encoder frame says armed: it carries the tick and count to start from.
+    link.enc.reset();
+    let start = 'arm: loop {
+        link.send(Frame::Arm).map_err(io)?;
+        let retry = now_ns() + 100_000_000;
+        while now_ns() < retry {
+            if let Incoming::Encoder(e) = link.recv(Duration::from_millis(20), u16::MAX).map_err(io)? {
+                if e.status & status::ARMED != 0 {
+                    break 'arm e;
+                }
+            }
+        }
+        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
+            return Err(format!("the board did not arm within {:.1} s", cfg.handshake_timeout.as_secs_f64()));
+        }
+    };
+    report.first_tick = start.tick;
+    report.events.push((0, format!("armed at board tick {}, encoder {}", start.tick, start.counts)));
+    let h = cfg.period.as_secs_f64();
+
+    let mut counts = start.counts;
+    let mut board_status = start.status;
+    let fault = if cfg.lockstep {
+        'run: {
+            for k in 0..cfg.ticks {
+                if stop.load(Ordering::Relaxed) {
+                    break 'run Some(Fault { reason: FaultReason::Operator, detail: 0 });
+                }
+                let tick = start.tick.wrapping_add(k as u32);
+                let t = k as f64 * h;
+                let r = reference(t);
+                let codes = comp.codes()?;
+                let first_seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
+                let mut seq = first_seq;
+                let mut tries = 0;
+                let mut wait_until = now_ns() + cfg.retransmit_after.as_nanos() as u64;
+                let answer = loop {
+                    let now = now_ns();
+                    let timeout = Duration::from_nanos(wait_until.saturating_sub(now));
+                    match link.recv(timeout, cfg.max_gap).map_err(io)? {
+                        Incoming::Encoder(e) if e.status & status::SAFE != 0 => {
+                            break 'run Some(Fault { reason: FaultReason::Silence, detail: 0 });
+                        }
+                        Incoming::Encoder(e) if e.tick == tick.wrapping_add(1) => {
+                            let sent = link.sent_at[usize::from(e.echo_seq)];
+                            if e.echo_seq == seq || e.echo_seq == first_seq {
+                                report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
+                            }
+                            break e;
+                        }
+                        Incoming::Encoder(_) => link.counters.stale += 1,
+                        Incoming::Fault(f) => break 'run Some(f),
+                        Incoming::Hello(_) => {}
+                        Incoming::Nothing => {
+                            if now_ns() >= wait_until {
+                                tries += 1;
+                                if tries > cfg.max_retransmits {
+                                    break 'run Some(Fault { reason: FaultReason::LinkDead, detail: tries });
+                                }
+                                link.counters.retransmits += 1;
+                                seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
+                                wait_until = now_ns() + cfg.retransmit_after.as_nanos() as u64;
+                            }
+                        }
+                    }
+                };
+                comp.step(counts, r)?;
+                log_record(&mut log, Record::Controller(ControllerSample { tick, time: t, reference: r, counts, codes, status: board_status, seq }))?;
+                counts = answer.counts;
+                board_status = answer.status;
+                report.encoder.push(counts);
+                report.ticks += 1;
+            }
+            None
+        }
+    } else {
+        'run: {
+            let mut pacer = Pacer::new(cfg.period);
+            let mut last_heard: u64 = 0;
+            for k in 0..cfg.ticks {
+                if stop.load(Ordering::Relaxed) {
+                    break 'run Some(Fault { reason: FaultReason::Operator, detail: 0 });
+                }
+                let wake = pacer.wait();
+                report.lateness_us.push(wake.lateness_ns as f64 / 1e3);
+                if wake.overrun {
+                    link.counters.overruns += 1;
+                    let late_us = (wake.lateness_ns + wake.skipped * cfg.period.as_nanos() as u64) / 1000;
+                    report.events.push((k, format!("deadline missed ({} periods skipped)", wake.skipped)));
+                    if cfg.overrun == OverrunPolicy::Hard {
+                        break 'run Some(Fault { reason: FaultReason::Overrun, detail: late_us as u32 });
+                    }
+                }
+                loop {
+                    match link.recv(Duration::ZERO, cfg.max_gap).map_err(io)? {
+                        Incoming::Encoder(e) => {
+                            if e.status & status::SAFE != 0 {
+                                break 'run Some(Fault { reason: FaultReason::Silence, detail: 0 });
+                            }
+                            if e.echo_seq != 0 {
+                                let sent = link.sent_at[usize::from(e.echo_seq)];
+                                if sent != 0 {
+                                    report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
+                                    link.sent_at[usize::from(e.echo_seq)] = 0;
+                                }
+                            }
+                            counts = e.counts;
+                            board_status = e.status;
+                            last_heard = k;
+                        }
+                        Incoming::Fault(f) => break 'run Some(f),
+                        Incoming::Hello(_) => {}
+                        Incoming::Nothing => break,
+                    }
+                }
+                if k - last_heard > u64::from(cfg.dead_after) {
+                    break 'run Some(Fault { reason: FaultReason::LinkDead, detail: (k - last_heard) as u32 });
+                }
+                let tick = start.tick.wrapping_add(k as u32);
+                let t = k as f64 * h;
+                let r = reference(t);
+                let codes = comp.codes()?;
+                let seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
+                comp.step(counts, r)?;
+                log_record(&mut log, Record::Controller(ControllerSample { tick, time: t, reference: r, counts, codes, status: board_status, seq }))?;
+                report.encoder.push(counts);
+                report.ticks += 1;
+            }
+            None
+        }
+    };
+
+    match fault {
+        Some(f) => {
+            let text = describe_fault(&f);
+            // Tell the board, so it latches the safe state now rather than by its watchdog.
+            let _ = link.send(Frame::Fault(f));
+            log_record(&mut log, Record::Event { tick: start.tick.wrapping_add(report.ticks as u32), text: format!("fault: {text}") })?;
+            report.fault = Some((f, text));
+        }
+        None => {
+            // Twice: a lost DISARM would leave the board to its watchdog, which also ends safe.
+            let _ = link.send(Frame::Disarm);
+            let _ = link.send(Frame::Disarm);
+            log_record(&mut log, Record::Event { tick: start.tick.wrapping_add(report.ticks as u32), text: "disarmed: end of run".into() })?;
+        }
+    }
+    if let Some(l) = log.as_mut() {
+        let _ = l.sync();
+    }
+    report.counters = link.counters;
+    Ok(report)
+}

@@ -1,0 +1,91 @@
+//! The HIL bridge: the controller FMU in front of a driver board, or the plant FMU behind
+//! the board's protocol (the virtual board, also the plant-in-the-loop bridge for a real
+//! controller board), over the wire protocol of `inchworm-hil-protocol`.
+//!
+//! * [`board`]: the board side. Applies DAC codes through the watchdog, steps the
+//!   mechanism once per period (real time) or once per DAC frame (lock-step), answers with
+//!   the encoder count and status.
+//! * [`controller`]: the controller side. Handshake, arming, one DAC frame per tick, the
+//!   sequence-gap and dead-link faults.
+//! * [`realtime`]: absolute-deadline pacing, SCHED_FIFO and locked memory when permitted.
+//! * [`transport`]: UDP datagrams, or COBS frames on a serial line.
+//! * [`faults`]: seeded fault injection for the tests.
+//! * [`runlog`]: the crash-proof run log; [`replay`] re-runs a controller on it.
+//!
+//! The two sides see the models only through [`Mechanism`] and [`Compensator`], so the
+//! same loops drive the FMUs (in the `inchworm` CLI) and the plain-Rust crates (in tests).
+
+pub mod board;
+pub mod controller;
+pub mod faults;
+pub mod realtime;
+pub mod replay;
+pub mod runlog;
+pub mod transport;
+
+use std::time::Duration;
+
+pub use inchworm_hil_protocol as protocol;
+
+/// The communication period of SPEC 5: 500 Hz.
+pub const PERIOD: Duration = Duration::from_millis(2);
+
+/// The DAC's transfer function, 16 bits over 0–10 V. Written as the controller writes its
+/// quantized volts (`code · 10 / 65535`), so the virtual board hands the plant the same
+/// bits a co-simulation master copies across, and lock-step runs reproduce it exactly.
+pub fn code_to_volts(code: u16) -> f64 {
+    f64::from(code) * 10.0 / 65535.0
+}
+
+/// The plant side as the board sees it: DAC codes held for one period in, encoder count out.
+pub trait Mechanism {
+    /// The encoder count now (before any step).
+    fn counts(&mut self) -> Result<i32, String>;
+    /// Holds `codes` for one period; returns the encoder count at its end.
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String>;
+}
+
+/// The controller as the bridge drives it.
+pub trait Compensator {
+    /// The DAC codes for the interval that starts now.
+    fn codes(&mut self) -> Result<[u16; 3], String>;
+    /// One tick: the encoder count that holds now and the reference; afterwards
+    /// [`codes`](Compensator::codes) gives the next interval's codes.
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String>;
+}
+
+/// What a missed deadline does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OverrunPolicy {
+    /// Count it, log it, go on.
+    Soft,
+    /// Fault to the safe state.
+    Hard,
+}
+
+impl std::str::FromStr for OverrunPolicy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "soft" => Ok(OverrunPolicy::Soft),
+            "hard" => Ok(OverrunPolicy::Hard),
+            other => Err(format!("overrun policy `{other}`: use soft (log and continue) or hard (fault to the safe state)")),
+        }
+    }
+}
+
+/// A fault as people read it.
+pub fn describe_fault(f: &protocol::Fault) -> String {
+    use protocol::FaultReason::*;
+    let what = match f.reason {
+        Silence if f.detail == 0 => "the board reports its latched safe state".to_string(),
+        Silence => format!("no valid DAC frame for {} periods (watchdog)", f.detail),
+        SequenceGap => format!("{} frames missing in a row", f.detail),
+        LinkDead => format!("no answer from the peer for {} periods", f.detail),
+        Corrupt => format!("{} malformed frames", f.detail),
+        Overrun => format!("deadline missed by {} µs under the hard real-time policy", f.detail),
+        Operator => "stopped by the operator".to_string(),
+        ProtocolMismatch => format!("protocol mismatch (detail {})", f.detail),
+    };
+    format!("{:?}: {what}", f.reason)
+}

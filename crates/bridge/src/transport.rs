@@ -1,0 +1,227 @@
+//! Transports carry whole frames: a UDP datagram is one frame; a byte stream (a serial
+//! line, a socket pair in tests) carries COBS-encoded frames delimited by 0x00, so a lost
+//! or corrupted byte costs one frame and the receiver resynchronises at the next delimiter.
+
+use std::io::{self, Read, Write};
+use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
+use std::os::fd::{AsRawFd, RawFd};
+use std::time::Duration;
+
+use inchworm_hil_protocol::{cobs, MAX_FRAME};
+
+/// One frame out, one frame in. `recv` returns `Ok(None)` when nothing arrived in time and
+/// `Err(InvalidData)` for bytes that cannot be a frame (the caller counts them as malformed).
+pub trait Transport: Send {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()>;
+    /// Waits up to `timeout` (zero: only what has already arrived).
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>>;
+}
+
+impl<T: Transport + ?Sized> Transport for Box<T> {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        (**self).send(frame)
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        (**self).recv(buf, timeout)
+    }
+}
+
+/// Blocks until `fd` is readable or `timeout` passes; nanosecond resolution (ppoll), so a
+/// 2 ms period is not rounded to whole milliseconds as poll(2) would.
+fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
+    let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
+    let ts = libc::timespec { tv_sec: timeout.as_secs() as libc::time_t, tv_nsec: timeout.subsec_nanos() as libc::c_long };
+    loop {
+        // SAFETY: one valid pollfd, a valid timespec, no signal mask.
+        let r = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
+        if r >= 0 {
+            return Ok(r > 0);
+        }
+        let e = io::Error::last_os_error();
+        if e.kind() != io::ErrorKind::Interrupted {
+            return Err(e);
+        }
+    }
+}
+
+/// UDP: the controller side connects to the board; the board side binds and answers the
+/// first peer that sends it a frame (datagrams from any other address are dropped).
+pub struct UdpTransport {
+    socket: UdpSocket,
+    peer: Option<SocketAddr>,
+    foreign: u64,
+}
+
+impl UdpTransport {
+    pub fn bind(local: impl ToSocketAddrs) -> io::Result<UdpTransport> {
+        let socket = UdpSocket::bind(local)?;
+        socket.set_nonblocking(true)?;
+        Ok(UdpTransport { socket, peer: None, foreign: 0 })
+    }
+
+    pub fn connect(remote: impl ToSocketAddrs) -> io::Result<UdpTransport> {
+        let remote = remote
+            .to_socket_addrs()?
+            .next()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "the board address resolves to nothing"))?;
+        let local: SocketAddr = if remote.is_ipv4() { "0.0.0.0:0".parse().unwrap() } else { "[::]:0".parse().unwrap() };
+        let socket = UdpSocket::bind(local)?;
+        socket.set_nonblocking(true)?;
+        Ok(UdpTransport { socket, peer: Some(remote), foreign: 0 })
+    }
+
+    pub fn local_addr(&self) -> io::Result<SocketAddr> {
+        self.socket.local_addr()
+    }
+
+    /// Datagrams dropped because they came from another address than the peer.
+    pub fn foreign_datagrams(&self) -> u64 {
+        self.foreign
+    }
+}
+
+impl Transport for UdpTransport {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        let Some(peer) = self.peer else {
+            return Err(io::Error::new(io::ErrorKind::NotConnected, "no peer yet: nothing has been received"));
+        };
+        match self.socket.send_to(frame, peer) {
+            Ok(_) => Ok(()),
+            // A full socket buffer or an ICMP port-unreachable from a peer that is not up
+            // yet is a lost frame, which the protocol tolerates; it is not a reason to stop.
+            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::ConnectionRefused) => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        let mut waited = false;
+        loop {
+            match self.socket.recv_from(buf) {
+                Ok((n, from)) => match self.peer {
+                    Some(p) if p != from => {
+                        self.foreign += 1;
+                        continue;
+                    }
+                    _ => {
+                        self.peer = Some(from);
+                        return Ok(Some(n));
+                    }
+                },
+                Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    if waited || timeout.is_zero() || !wait_readable(self.socket.as_raw_fd(), timeout)? {
+                        return Ok(None);
+                    }
+                    waited = true;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+/// COBS frames over a byte stream. The stream must be in non-blocking mode.
+pub struct CobsTransport<S> {
+    stream: S,
+    pending: Vec<u8>,
+    encoded: Vec<u8>,
+}
+
+/// A frame larger than this between two delimiters is line noise, not a frame.
+const MAX_ENCODED: usize = cobs::max_encoded_len(MAX_FRAME) + 1;
+
+impl<S: Read + Write + AsRawFd + Send> CobsTransport<S> {
+    pub fn new(stream: S) -> CobsTransport<S> {
+        CobsTransport { stream, pending: Vec::with_capacity(4 * MAX_ENCODED), encoded: vec![0; MAX_ENCODED] }
+    }
+
+    /// Takes one delimited chunk out of `pending`, if a whole one is there.
+    fn take_frame(&mut self, buf: &mut [u8]) -> Option<io::Result<usize>> {
+        let end = self.pending.iter().position(|&b| b == 0)?;
+        let chunk: Vec<u8> = self.pending.drain(..=end).collect();
+        let chunk = &chunk[..end];
+        if chunk.is_empty() {
+            // Back-to-back delimiters: a sender flushing the line; not a frame.
+            return self.take_frame(buf);
+        }
+        Some(cobs::decode(chunk, buf).map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("COBS: {e}"))))
+    }
+}
+
+impl<S: Read + Write + AsRawFd + Send> Transport for CobsTransport<S> {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        let n = cobs::encode(frame, &mut self.encoded).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        self.encoded[n] = 0;
+        // A leading delimiter closes any partial frame a restarted peer left on the line.
+        self.stream.write_all(&[0])?;
+        self.stream.write_all(&self.encoded[..=n])
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
+        let mut waited = false;
+        loop {
+            if let Some(r) = self.take_frame(buf) {
+                return r.map(Some);
+            }
+            if self.pending.len() > MAX_ENCODED {
+                // No delimiter within a frame's length: drop the noise, keep the link.
+                self.pending.clear();
+                return Err(io::Error::new(io::ErrorKind::InvalidData, "COBS: no delimiter within a frame's length"));
+            }
+            let mut chunk = [0u8; 256];
+            match self.stream.read(&mut chunk) {
+                Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the serial stream closed")),
+                Ok(n) => self.pending.extend_from_slice(&chunk[..n]),
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                    if waited || timeout.is_zero() || !wait_readable(self.stream.as_raw_fd(), timeout)? {
+                        return Ok(None);
+                    }
+                    waited = true;
+                }
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+/// Opens a serial device raw (8N1, no flow control, no echo) at `baud`, non-blocking.
+pub fn open_serial(path: &std::path::Path, baud: u32) -> io::Result<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(libc::O_NOCTTY | libc::O_NONBLOCK)
+        .open(path)?;
+    let speed = match baud {
+        115_200 => libc::B115200,
+        230_400 => libc::B230400,
+        460_800 => libc::B460800,
+        921_600 => libc::B921600,
+        1_000_000 => libc::B1000000,
+        2_000_000 => libc::B2000000,
+        other => {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!("unsupported baud rate {other}: use 115200, 230400, 460800, 921600, 1000000 or 2000000"),
+            ))
+        }
+    };
+    // SAFETY: tcgetattr/tcsetattr on an open descriptor with a zeroed termios they fill.
+    unsafe {
+        let mut tio: libc::termios = std::mem::zeroed();
+        if libc::tcgetattr(file.as_raw_fd(), &mut tio) != 0 {
+            return Err(io::Error::last_os_error());
+        }
+        libc::cfmakeraw(&mut tio);
+        libc::cfsetispeed(&mut tio, speed);
+        libc::cfsetospeed(&mut tio, speed);
+        tio.c_cflag |= libc::CLOCAL | libc::CREAD;
+        tio.c_cflag &= !libc::CRTSCTS;
+        if libc::tcsetattr(file.as_raw_fd(), libc::TCSANOW, &tio) != 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    Ok(file)
+}

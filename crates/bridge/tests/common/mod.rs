@@ -1,0 +1,123 @@
+//! The plain-Rust plant and controller behind the bridge's traits, a virtual board on a
+//! loopback socket in a thread, and the co-simulation the lock-step runs must equal.
+#![allow(dead_code)]
+
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::thread::JoinHandle;
+
+use inchworm_bridge::board::{run_board, Board, BoardConfig};
+use inchworm_bridge::faults::{FaultPlan, FaultyTransport};
+use inchworm_bridge::transport::{Transport, UdpTransport};
+use inchworm_bridge::{code_to_volts, Compensator, Mechanism};
+use inchworm_controller::{Controller, Params};
+use inchworm_plant::{Dac, Plant, PlantParams};
+
+pub const H: f64 = 0.002;
+
+/// The tests that run against the wall clock take this, so two of them never compete for
+/// the machine's cores and miss deadlines the bridge would meet on its own.
+pub fn real_time_slot() -> std::sync::MutexGuard<'static, ()> {
+    static SLOT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    SLOT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+pub struct DirectPlant(pub Plant);
+
+impl DirectPlant {
+    pub fn new() -> DirectPlant {
+        DirectPlant(Plant::new(PlantParams::default()).unwrap())
+    }
+}
+
+impl Mechanism for DirectPlant {
+    fn counts(&mut self) -> Result<i32, String> {
+        Ok(self.0.outputs().encoder_counts as i32)
+    }
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
+        self.0.step(Dac { earth: code_to_volts(codes[0]), nonearth: code_to_volts(codes[1]), extension: code_to_volts(codes[2]) }, H);
+        self.counts()
+    }
+}
+
+pub struct DirectController {
+    pub ctrl: Controller,
+    pub codes: [u16; 3],
+}
+
+impl DirectController {
+    pub fn new() -> DirectController {
+        DirectController { ctrl: Controller::new(Params::default()).unwrap(), codes: [0; 3] }
+    }
+}
+
+impl Compensator for DirectController {
+    fn codes(&mut self) -> Result<[u16; 3], String> {
+        Ok(self.codes)
+    }
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        self.codes = self.ctrl.tick(i64::from(counts), reference).codes;
+        Ok(())
+    }
+}
+
+/// A step to 30 µm at 0.1 s, then back to 10 µm at 1 s: moves, settles, parks.
+pub fn reference(t: f64) -> f64 {
+    if t < 0.1 {
+        0.0
+    } else if t < 1.0 {
+        30e-6
+    } else {
+        10e-6
+    }
+}
+
+/// The co-simulation (Jacobi, 2 ms) of the same plant and controller: the encoder count
+/// at the end of each interval.
+pub fn cosimulation(ticks: usize) -> Vec<i32> {
+    let mut plant = DirectPlant::new();
+    let mut ctrl = DirectController::new();
+    let mut counts = plant.counts().unwrap();
+    let mut out = Vec::with_capacity(ticks);
+    for k in 0..ticks {
+        let codes = ctrl.codes().unwrap();
+        ctrl.step(counts, reference(k as f64 * H)).unwrap();
+        counts = plant.step(codes).unwrap();
+        out.push(counts);
+    }
+    out
+}
+
+pub struct BoardThread {
+    pub addr: SocketAddr,
+    pub stop: Arc<AtomicBool>,
+    pub handle: JoinHandle<(Board<DirectPlant>, Vec<f64>)>,
+}
+
+impl BoardThread {
+    pub fn finish(self) -> (Board<DirectPlant>, Vec<f64>) {
+        self.stop.store(true, Ordering::Relaxed);
+        self.handle.join().expect("board thread")
+    }
+}
+
+/// A virtual board on 127.0.0.1, its replies passed through `faults` when given.
+pub fn spawn_board(cfg: BoardConfig, faults: Option<FaultPlan>) -> BoardThread {
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = mpsc::channel();
+    let s = Arc::clone(&stop);
+    let handle = std::thread::spawn(move || {
+        let udp = UdpTransport::bind("127.0.0.1:0").unwrap();
+        tx.send(udp.local_addr().unwrap()).unwrap();
+        let mut transport: Box<dyn Transport> = match faults {
+            Some(plan) => Box::new(FaultyTransport::new(udp, plan)),
+            None => Box::new(udp),
+        };
+        let mut board = Board::new(DirectPlant::new(), cfg, None).unwrap();
+        let mut lateness = Vec::new();
+        run_board(&mut board, &mut transport, &s, &mut lateness).expect("board loop");
+        (board, lateness)
+    });
+    BoardThread { addr: rx.recv().unwrap(), stop, handle }
+}

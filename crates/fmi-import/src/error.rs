@@ -1,0 +1,248 @@
+//! Errors: [`ImportError`] for everything between the file and a live instance,
+//! [`FmuError`] for the calls after that, and [`Status`], the FMI 2.0 status of a call.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use crate::VarType;
+
+/// What went wrong unpacking the archive, reading `modelDescription.xml` or loading the binary.
+#[derive(Debug)]
+pub enum ImportError {
+    /// Reading the file or writing the unpacked copy failed.
+    Io { what: String, source: std::io::Error },
+    /// The file is not a zip archive (or a damaged one).
+    NotZip(zip::result::ZipError),
+    /// An archive entry would land outside the unpack directory (`..`, an absolute path).
+    UnsafePath(String),
+    /// The archive has no `modelDescription.xml` at its root.
+    NoModelDescription,
+    /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
+    Description {
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    /// `fmiVersion` is not 2.x.
+    UnsupportedVersion(String),
+    /// No `binaries/<platform>/<modelIdentifier>.<ext>` for this platform.
+    NoBinary {
+        platform: &'static str,
+        expected: String,
+        available: Vec<String>,
+    },
+    /// `dlopen` (or `LoadLibrary`) refused the binary (`library`: its path inside the FMU).
+    Load { library: PathBuf, message: String },
+    /// The binary lacks a required `fmi2*` function (`library`: its path inside the FMU).
+    MissingSymbol { library: PathBuf, symbol: &'static str },
+    /// `fmi2GetTypesPlatform` is not "default".
+    TypesPlatform(String),
+    /// `fmi2GetVersion` is not 2.x.
+    BinaryVersion(String),
+    /// `fmi2Instantiate` returned NULL.
+    Instantiate { instance: String },
+    /// A string for the C side holds a NUL byte.
+    Nul { what: &'static str },
+}
+
+impl fmt::Display for ImportError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ImportError::Io { what, source } => write!(f, "{what}: {source}"),
+            ImportError::NotZip(e) => write!(f, "not an FMU: the file is not a zip archive ({e})"),
+            ImportError::UnsafePath(p) => {
+                write!(
+                    f,
+                    "the archive entry `{p}` points outside the FMU (absolute or `..` path): refused"
+                )
+            }
+            ImportError::NoModelDescription => write!(f, "the archive has no modelDescription.xml at its root"),
+            ImportError::Description { line, column, message } => {
+                write!(f, "modelDescription.xml line {line}, column {column}: {message}")
+            }
+            ImportError::UnsupportedVersion(v) => {
+                write!(
+                    f,
+                    "modelDescription.xml has fmiVersion=\"{v}\": only FMI 2.0 FMUs are supported"
+                )
+            }
+            ImportError::NoBinary {
+                platform,
+                expected,
+                available,
+            } => {
+                write!(f, "the FMU has no binary for {platform} (expected {expected}")?;
+                if available.is_empty() {
+                    write!(f, "; it carries no binaries at all: a source-only FMU?)")
+                } else {
+                    write!(f, "; it carries: {})", available.join(", "))
+                }
+            }
+            ImportError::Load { library, message } => {
+                write!(f, "cannot load the FMU's binary {}: {message}", library.display())
+            }
+            ImportError::MissingSymbol { library, symbol } => {
+                write!(f, "the FMU's binary {} does not export {symbol}", library.display())
+            }
+            ImportError::TypesPlatform(p) => {
+                write!(f, "fmi2GetTypesPlatform returned \"{p}\", expected \"default\"")
+            }
+            ImportError::BinaryVersion(v) => {
+                write!(f, "the binary's fmi2GetVersion returned \"{v}\", expected 2.x")
+            }
+            ImportError::Instantiate { instance } => write!(
+                f,
+                "fmi2Instantiate returned NULL for instance `{instance}` (the FMU's log messages above say why)"
+            ),
+            ImportError::Nul { what } => write!(f, "{what} contains a NUL byte"),
+        }
+    }
+}
+
+impl std::error::Error for ImportError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ImportError::Io { source, .. } => Some(source),
+            ImportError::NotZip(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// The status an `fmi2*` call returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Status {
+    Ok,
+    Warning,
+    Discard,
+    Error,
+    Fatal,
+    Pending,
+    /// A value outside the `fmi2Status` enum (a broken FMU).
+    Invalid(i32),
+}
+
+impl Status {
+    pub fn from_raw(s: i32) -> Status {
+        match s {
+            0 => Status::Ok,
+            1 => Status::Warning,
+            2 => Status::Discard,
+            3 => Status::Error,
+            4 => Status::Fatal,
+            5 => Status::Pending,
+            s => Status::Invalid(s),
+        }
+    }
+}
+
+impl fmt::Display for Status {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Status::Ok => f.write_str("fmi2OK"),
+            Status::Warning => f.write_str("fmi2Warning"),
+            Status::Discard => f.write_str("fmi2Discard"),
+            Status::Error => f.write_str("fmi2Error"),
+            Status::Fatal => f.write_str("fmi2Fatal"),
+            Status::Pending => f.write_str("fmi2Pending"),
+            Status::Invalid(s) => write!(f, "the invalid status {s}"),
+        }
+    }
+}
+
+impl std::error::Error for Status {}
+
+/// Everything that can go wrong between a path on disk and a finished step.
+#[derive(Debug)]
+pub enum FmuError {
+    /// The FMU file is not there (the usual cause: it has not been built yet).
+    Missing(PathBuf),
+    /// The archive could not be unpacked, its `modelDescription.xml` parsed or its binary loaded.
+    Import { path: PathBuf, source: ImportError },
+    /// The FMU offers no Co-Simulation interface.
+    NotCoSimulation { model: String },
+    /// No variable of that name in `modelDescription.xml`.
+    UnknownVariable { model: String, name: String },
+    /// The variable exists but has another type than the call needs.
+    WrongType {
+        model: String,
+        name: String,
+        expected: VarType,
+        found: VarType,
+    },
+    /// An `fmi2*` call returned `fmi2Discard`, `fmi2Error`, `fmi2Fatal` or `fmi2Pending`.
+    Call {
+        model: String,
+        function: &'static str,
+        time: f64,
+        status: Status,
+    },
+    /// A call after an earlier one returned `fmi2Fatal`: FMI 2.0 forbids any further call.
+    AfterFatal {
+        model: String,
+        function: &'static str,
+        fatal_in: &'static str,
+    },
+    /// An argument the C side cannot take (a string with a NUL byte).
+    InvalidArgument {
+        model: String,
+        function: &'static str,
+        message: String,
+    },
+}
+
+impl fmt::Display for FmuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FmuError::Missing(p) => write!(f, "{}: no such FMU file", p.display()),
+            FmuError::Import { path, source } => write!(f, "{}: cannot import the FMU: {source}", path.display()),
+            FmuError::NotCoSimulation { model } => write!(
+                f,
+                "{model}: the FMU has no Co-Simulation interface (modelDescription.xml lacks <CoSimulation>)"
+            ),
+            FmuError::UnknownVariable { model, name } => {
+                write!(f, "{model}: no variable named `{name}` in modelDescription.xml")
+            }
+            FmuError::WrongType {
+                model,
+                name,
+                expected,
+                found,
+            } => {
+                write!(f, "{model}: variable `{name}` is {found}, expected {expected}")
+            }
+            FmuError::Call {
+                model,
+                function,
+                time,
+                status,
+            } => write!(
+                f,
+                "{model}: {function} returned {status} at t = {time} s (the FMU's log messages above say why)"
+            ),
+            FmuError::AfterFatal {
+                model,
+                function,
+                fatal_in,
+            } => write!(
+                f,
+                "{model}: {function} refused: {fatal_in} returned fmi2Fatal earlier, after which FMI 2.0 allows no call"
+            ),
+            FmuError::InvalidArgument {
+                model,
+                function,
+                message,
+            } => write!(f, "{model}: {function}: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for FmuError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            FmuError::Import { source, .. } => Some(source),
+            FmuError::Call { status, .. } => Some(status),
+            _ => None,
+        }
+    }
+}

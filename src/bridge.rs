@@ -1,0 +1,95 @@
+//! The FMUs behind the bridge: the plant FMU as the virtual board's mechanism, the
+//! controller FMU as the controller side's compensator, both through the same import layer
+//! the master uses, with the same `--param NAME=VALUE` start values.
+
+use std::path::Path;
+
+use inchworm_bridge::{code_to_volts, Compensator, Mechanism, PERIOD};
+
+use crate::fmu::{CsFmu, VarType};
+use crate::master::set_param;
+
+fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, String> {
+    let mut fmu = CsFmu::load(path, instance, false).map_err(|e| e.to_string())?;
+    fmu.enter_initialization(None, 0.0, None).map_err(|e| e.to_string())?;
+    for (name, value) in params {
+        set_param(&mut fmu, name, value).map_err(|e| format!("{}: parameter `{name}`: {e}", path.display()))?;
+    }
+    fmu.exit_initialization().map_err(|e| e.to_string())?;
+    Ok(fmu)
+}
+
+/// `InchwormPlant.fmu` (or any FMU with its interface) as the board's mechanism.
+pub struct FmuMechanism {
+    fmu: CsFmu,
+    dac: Vec<u32>,
+    encoder: Vec<u32>,
+}
+
+impl FmuMechanism {
+    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuMechanism, String> {
+        let fmu = start(path, "plant", params)?;
+        let dac = fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).map_err(|e| e.to_string())?;
+        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
+        Ok(FmuMechanism { fmu, dac, encoder })
+    }
+}
+
+impl Mechanism for FmuMechanism {
+    fn counts(&mut self) -> Result<i32, String> {
+        let mut c = [0];
+        self.fmu.get_integer(&self.encoder, &mut c).map_err(|e| e.to_string())?;
+        Ok(c[0])
+    }
+
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
+        self.fmu.set_real(&self.dac, &codes.map(code_to_volts)).map_err(|e| e.to_string())?;
+        self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())?;
+        self.counts()
+    }
+}
+
+/// `InchwormController.fmu` as the bridge's compensator: its `dac_*_code` outputs go on
+/// the wire, the board's count goes into `encoder_counts`.
+pub struct FmuCompensator {
+    fmu: CsFmu,
+    codes: Vec<u32>,
+    encoder: Vec<u32>,
+    reference: Vec<u32>,
+}
+
+impl FmuCompensator {
+    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuCompensator, String> {
+        let fmu = start(path, "controller", params)?;
+        let codes = fmu.vrs_of(&["dac_earth_code", "dac_nonearth_code", "dac_extension_code"], VarType::Integer).map_err(|e| e.to_string())?;
+        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
+        let reference = fmu.vrs_of(&["reference"], VarType::Real).map_err(|e| e.to_string())?;
+        Ok(FmuCompensator { fmu, codes, encoder, reference })
+    }
+}
+
+impl Compensator for FmuCompensator {
+    fn codes(&mut self) -> Result<[u16; 3], String> {
+        let mut c = [0i32; 3];
+        self.fmu.get_integer(&self.codes, &mut c).map_err(|e| e.to_string())?;
+        let mut out = [0u16; 3];
+        for (o, v) in out.iter_mut().zip(c) {
+            *o = u16::try_from(v).map_err(|_| format!("the controller FMU gave DAC code {v}, outside 0–65535"))?;
+        }
+        Ok(out)
+    }
+
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        self.fmu.set_integer(&self.encoder, &[counts]).map_err(|e| e.to_string())?;
+        self.fmu.set_real(&self.reference, &[reference]).map_err(|e| e.to_string())?;
+        self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())
+    }
+}
+
+/// The `param=NAME=VALUE` lines of a log's meta record, to replay with the same start values.
+pub fn params_from_meta(meta: &str) -> Vec<(String, String)> {
+    meta.lines()
+        .filter_map(|l| l.strip_prefix("param="))
+        .filter_map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())))
+        .collect()
+}

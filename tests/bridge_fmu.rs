@@ -1,0 +1,174 @@
+//! The HIL bridge with the packaged FMUs: the controller FMU on the controller side, the
+//! plant FMU in the virtual board, over UDP loopback. In lock-step the encoder trace is the
+//! co-simulation's (`run_fmus`, the Jacobi master) sample for sample; the `inchworm`
+//! binary does the same as two processes; `inchworm replay` finds no divergence in its
+//! log and finds a changed one.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use inchworm::bridge::{FmuCompensator, FmuMechanism};
+use inchworm::closed_loop::run_fmus;
+use inchworm_bridge::board::{run_board, Board, BoardConfig};
+use inchworm_bridge::controller::{run_controller, ControllerConfig};
+use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
+use inchworm_bridge::transport::UdpTransport;
+use inchworm_controller::Params;
+
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
+const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
+
+fn fmu(name: &str) -> PathBuf {
+    let p = Path::new(DIST).join(name);
+    assert!(p.is_file(), "build the FMUs first: cargo run --release -p fmu-build");
+    p
+}
+
+fn reference(t: f64) -> f64 {
+    if t < 2.0 {
+        100e-6
+    } else {
+        40e-6
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("iw-bridge-fmu-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
+    let seconds = 4.0;
+    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), reference, seconds).unwrap();
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let s = Arc::clone(&stop);
+    let board = std::thread::spawn(move || {
+        let mut udp = UdpTransport::bind("127.0.0.1:0").unwrap();
+        tx.send(udp.local_addr().unwrap()).unwrap();
+        let mech = FmuMechanism::load(&fmu("InchwormPlant.fmu"), &[]).unwrap();
+        // A generous watchdog: this test is about exactness on a machine busy with others.
+        let mut board = Board::new(mech, BoardConfig { lockstep: true, watchdog_periods: 50, ..BoardConfig::default() }, None).unwrap();
+        run_board(&mut board, &mut udp, &s, &mut Vec::new()).unwrap();
+        board.counters.clone()
+    });
+    let mut udp = UdpTransport::connect(rx.recv().unwrap()).unwrap();
+    let dir = scratch("lockstep");
+    let log_path = dir.join("controller.log");
+    let mut log = LogWriter::create(&log_path).unwrap();
+    log.write(&Record::Meta("role=controller\n".into())).unwrap();
+    let mut comp = FmuCompensator::load(&fmu("InchwormController.fmu"), &[]).unwrap();
+    let cfg = ControllerConfig { lockstep: true, ticks: (seconds / 0.002) as u64, ..ControllerConfig::default() };
+    let report = run_controller(&mut comp, &mut udp, &reference, &cfg, Some(&mut log), &AtomicBool::new(false)).unwrap();
+    stop.store(true, Ordering::Relaxed);
+    let board_counters = board.join().unwrap();
+    assert!(report.fault.is_none(), "{:?}", report.fault);
+
+    let bridge: Vec<i64> = report.encoder.iter().map(|&c| i64::from(c)).collect();
+    assert_eq!(bridge.len(), cosim.encoder_counts.len());
+    let first = bridge.iter().zip(&cosim.encoder_counts).position(|(a, b)| a != b);
+    assert_eq!(first, None, "the bridge's encoder trace leaves the co-simulation's at sample {first:?}");
+    assert!(cosim.settle_time(1e-6).is_some(), "the scenario moves and settles");
+    assert_eq!(board_counters.steps, cfg.ticks);
+
+    // The log replays through a fresh controller FMU without a single divergent code.
+    let out = Command::new(BIN).args(["replay", log_path.to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains(&format!("replayed {} samples", cfg.ticks)) && text.contains("no divergence"), "{text}");
+
+    // A log whose encoder counts were changed (CRCs recomputed, so it reads as intact)
+    // replays with divergences, and the command says where.
+    let contents = read_log(&log_path).unwrap();
+    let mut w = LogWriter::create(&dir.join("changed.log")).unwrap();
+    for r in contents.records {
+        let r = match r {
+            Record::Controller(mut s) if (500..600).contains(&s.tick) => {
+                s.counts += 200;
+                Record::Controller(s)
+            }
+            other => other,
+        };
+        w.write(&r).unwrap();
+    }
+    drop(w);
+    let out = Command::new(BIN).args(["replay", dir.join("changed.log").to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success());
+    assert!(text.contains("samples diverge; first at tick"), "{text}");
+
+    // A log cut short by a crash replays what is whole, with a warning.
+    let bytes = std::fs::read(&log_path).unwrap();
+    std::fs::write(dir.join("cut.log"), &bytes[..bytes.len() - 7]).unwrap();
+    let out = Command::new(BIN).args(["replay", dir.join("cut.log").to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && text.contains("ends inside a record"), "{text}");
+    assert!(bytes.starts_with(MAGIC));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
+    let seconds = 2.0;
+    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), |_| 100e-6, seconds).unwrap();
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let addr = format!("127.0.0.1:{port}");
+    let dir = scratch("processes");
+    let board = Command::new(BIN)
+        .args(["bridge", "--role", "board", "--lockstep", "--watchdog", "50", "--addr", &addr, "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .args(["--log", dir.join("board.log").to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let csv = dir.join("encoder.csv");
+    let out = Command::new(BIN)
+        .args(["bridge", "--role", "controller", "--lockstep", "--addr", &addr, "--duration", &seconds.to_string()])
+        .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap(), "--out", csv.to_str().unwrap()])
+        .output()
+        .unwrap();
+    // SIGTERM: the board stops at its next period and flushes its log.
+    unsafe { libc::kill(board.id() as i32, libc::SIGTERM) };
+    let board_out = board.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{text}");
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    assert!(board_out.status.success(), "{board_text}");
+    assert!(board_text.contains(&format!("board: {} steps", (seconds / 0.002) as u64)), "{board_text}");
+    let counts: Vec<i64> = std::fs::read_to_string(&csv).unwrap().lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    assert_eq!(counts, cosim.encoder_counts);
+    // The board's log holds one sample per step, each with the codes it applied.
+    let log = read_log(&dir.join("board.log")).unwrap();
+    let samples = log.records.iter().filter(|r| matches!(r, Record::Board(_))).count();
+    assert_eq!(samples as f64, seconds / 0.002);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_bridge_arguments_are_refused_clearly() {
+    let run = |args: &[&str]| {
+        let out = Command::new(BIN).args(args).output().unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let e = run(&["bridge", "--role", "board", "--fmu", "/nonexistent/Plant.fmu", "--addr", "127.0.0.1:0"]);
+    assert!(e.contains("/nonexistent/Plant.fmu"), "{e}");
+    let e = run(&["bridge", "--role", "controller", "--addr", "no-such-host.invalid:1", "--duration", "1"]);
+    assert!(e.contains("board address no-such-host.invalid:1"), "{e}");
+    let e = run(&["bridge", "--role", "board", "--param", "F_d0", "--addr", "127.0.0.1:0"]);
+    assert!(e.contains("--param F_d0: expected NAME=VALUE"), "{e}");
+    let e = run(&["bridge", "--role", "board", "--param", "no_such=1", "--addr", "127.0.0.1:0", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()]);
+    assert!(e.contains("no_such"), "{e}");
+    let e = run(&["bridge", "--role", "controller", "--overrun", "maybe"]);
+    assert!(e.contains("overrun policy `maybe`"), "{e}");
+    let dir = scratch("args");
+    std::fs::write(dir.join("x.log"), b"not a log").unwrap();
+    let e = run(&["replay", dir.join("x.log").to_str().unwrap()]);
+    assert!(e.contains("not an inchworm bridge log"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
