@@ -5,4 +5,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cargo run --release -q -p fmu-build
-cargo run --release -q -- scenario fig5 --dist dist --out out
+cargo run --release -q -p inchworm -- scenario fig5 --dist dist --out out

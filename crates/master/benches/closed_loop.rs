@@ -17,7 +17,8 @@ use inchworm_plant::PlantParams;
 const DURATION: f64 = 600.0;
 
 fn main() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // The workspace root: dist/ and .venv/ live there.
+    let root = &Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let dist = root.join("dist");
     let ssp = dist.join("InchwormSystem.ssp");
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
@@ -42,7 +43,7 @@ fn main() {
     let direct_final = *d.encoder_counts.last().unwrap();
 
     let python = root.join(".venv/bin/python");
-    let out = Command::new(&python).arg(root.join("benches/fmpy_jacobi.py")).arg(&dist).arg(DURATION.to_string()).output();
+    let out = Command::new(&python).arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/fmpy_jacobi.py")).arg(&dist).arg(DURATION.to_string()).output();
     let fmpy = out.ok().filter(|o| o.status.success()).and_then(|o| {
         let s = String::from_utf8_lossy(&o.stdout).to_string();
         let f: Vec<f64> = s.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect();

@@ -171,7 +171,7 @@ mod tests {
     fn check_sequence_reproduces_the_reference_trace_inputs() {
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../shared/reference/plant-check-trace-fia20.csv"
+            "/../../../shared/reference/plant-check-trace-fia20.csv"
         );
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
         let rows: Vec<Vec<f64>> = text
