@@ -172,3 +172,43 @@ fn bad_bridge_arguments_are_refused_clearly() {
     assert!(e.contains("not an inchworm bridge log"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
+    // Real time, two processes. The controller is killed (SIGKILL: no clean-up at all)
+    // after about a second: its log must read back whole up to the kill and replay without
+    // divergence, and the board must latch its safe state within 3 periods of silence.
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let addr = format!("127.0.0.1:{port}");
+    let dir = scratch("killed");
+    let board = Command::new(BIN)
+        .args(["bridge", "--role", "board", "--addr", &addr, "--duration", "2.5", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = dir.join("controller.log");
+    let mut controller = Command::new(BIN)
+        .args(["bridge", "--role", "controller", "--addr", &addr, "--duration", "30", "--log", log.to_str().unwrap()])
+        .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1200));
+    controller.kill().unwrap();
+    controller.wait().unwrap();
+    let board_out = board.wait_with_output().unwrap();
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    assert!(board_out.status.success(), "{board_text}");
+    let latch = board_text.lines().find(|l| l.starts_with("safe state at tick")).unwrap_or_else(|| panic!("no latch reported:\n{board_text}"));
+    assert!(latch.contains("(3 periods after the last valid frame): Silence"), "{latch}");
+
+    let contents = read_log(&log).unwrap();
+    let samples = contents.records.iter().filter(|r| matches!(r, Record::Controller(_))).count();
+    assert!(samples > 200, "{samples} samples logged before the kill");
+    let out = Command::new(BIN).args(["replay", log.to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && text.contains("no divergence"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

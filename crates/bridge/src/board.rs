@@ -89,6 +89,8 @@ pub struct Board<M> {
     reply: ([u8; MAX_FRAME], usize),
     last_valid_tick: u32,
     overrun_flag: bool,
+    /// A controller has spoken: until then there is nobody to send encoder frames to.
+    session: bool,
     pub counters: BoardCounters,
     pub latches: Vec<SafeLatch>,
     /// (tick, text) of everything notable, in order.
@@ -114,6 +116,7 @@ impl<M: Mechanism> Board<M> {
             reply: ([0; MAX_FRAME], 0),
             last_valid_tick: 0,
             overrun_flag: false,
+            session: false,
             counters: BoardCounters::default(),
             latches: Vec::new(),
             events: Vec::new(),
@@ -229,6 +232,7 @@ impl<M: Mechanism> Board<M> {
             }
         };
         self.counters.frames += 1;
+        self.session = true;
         match packet.frame {
             Frame::Hello(h) => self.hello(h, tx),
             Frame::Arm => {
@@ -357,7 +361,11 @@ impl<M: Mechanism> Board<M> {
             self.latch(f, tx)?;
         }
         self.step()?;
-        self.send_encoder(tx)
+        // The mechanism runs from power-on; the encoder stream starts with a session.
+        if self.session {
+            self.send_encoder(tx)?;
+        }
+        Ok(())
     }
 
     /// A lock-step period of the wall clock without a valid frame.

@@ -33,6 +33,7 @@ fn board_cfg(lockstep: bool) -> BoardConfig {
 
 #[test]
 fn dac_codes_become_the_volts_the_controller_holds() {
+    let _slot = real_time_slot();
     // The board must hand the plant the very bits the controller's quantizer produces.
     for code in [0u16, 1, 19661, 32768, 65534, 65535] {
         let v = f64::from(code) * inchworm_controller::DAC_FULL_SCALE / 65535.0;
@@ -42,6 +43,7 @@ fn dac_codes_become_the_volts_the_controller_holds() {
 
 #[test]
 fn lockstep_reproduces_the_cosimulation_exactly() {
+    let _slot = real_time_slot();
     let ticks = 1000;
     let board = spawn_board(board_cfg(true), None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
@@ -54,11 +56,13 @@ fn lockstep_reproduces_the_cosimulation_exactly() {
     assert!(expected.iter().any(|&c| c > 20_000), "the run moved the runner: {:?}", expected.last());
     assert_eq!(board.counters.steps, ticks);
     assert_eq!(board.state(), BoardState::Disarmed, "DISARM at the end of the run");
-    assert_eq!(report.counters.retransmits + board.counters.malformed + board.counters.gaps, 0);
+    // A loaded machine may delay an answer past the 2 ms repeat; nothing may be lost or bad.
+    assert_eq!((board.counters.malformed, board.counters.gaps, report.counters.malformed), (0, 0, 0));
 }
 
 #[test]
 fn lockstep_rides_through_injected_faults_and_stays_exact() {
+    let _slot = real_time_slot();
     let ticks = 1500;
     let plan = |seed| FaultPlan { seed, drop: 0.03, duplicate: 0.03, reorder: 0.03, delay: 0.02, delay_frames: 3, corrupt: 0.03, ..FaultPlan::default() };
     // Faults on both directions: DAC frames and the board's answers.
@@ -82,6 +86,7 @@ fn lockstep_rides_through_injected_faults_and_stays_exact() {
 
 #[test]
 fn sequence_numbers_wrap_without_false_gaps() {
+    let _slot = real_time_slot();
     // 70 000 frames each way: both 16-bit sequences wrap once.
     let ticks = 70_000;
     let board = spawn_board(board_cfg(true), None);
@@ -170,7 +175,8 @@ fn a_corrupt_frame_stream_ends_in_the_safe_state() {
 fn the_controller_faults_on_a_sequence_gap_larger_than_k() {
     let _slot = real_time_slot();
     // The board's encoder frames 100..104 are lost: a gap of 5 > K = 3.
-    let board = spawn_board(board_cfg(false), Some(FaultPlan { silence: Some((100, 5)), only_type: Some(0x11), ..FaultPlan::default() }));
+    // The board's watchdog gets 10 periods: the subject is the controller's gap policy.
+    let board = spawn_board(BoardConfig { watchdog_periods: 10, ..board_cfg(false) }, Some(FaultPlan { silence: Some((100, 5)), only_type: Some(0x11), ..FaultPlan::default() }));
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut ctrl = DirectController::new();
     let report = run_controller(&mut ctrl, &mut udp, &reference, &realtime(400), None, &AtomicBool::new(false)).unwrap();
@@ -188,7 +194,8 @@ fn the_controller_faults_on_a_sequence_gap_larger_than_k() {
 #[test]
 fn the_controller_faults_on_a_dead_link() {
     let _slot = real_time_slot();
-    let board = spawn_board(board_cfg(false), None);
+    // The board's watchdog gets 10 periods: the subject is the controller's dead-link policy.
+    let board = spawn_board(BoardConfig { watchdog_periods: 10, ..board_cfg(false) }, None);
     let addr = board.addr;
     let mut udp = UdpTransport::connect(addr).unwrap();
     let stopper = std::thread::spawn(move || {
@@ -236,7 +243,9 @@ fn the_hard_overrun_policy_faults_to_the_safe_state() {
             self.0.step(counts, reference)
         }
     }
-    let board = spawn_board(board_cfg(false), None);
+    // The 7 ms stall is 3.5 periods: the board's watchdog gets 10, so what ends the run is
+    // the controller's policy, not the board's silence detection.
+    let board = spawn_board(BoardConfig { watchdog_periods: 10, ..board_cfg(false) }, None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut soft = Slow(DirectController::new(), 0);
     let report = run_controller(&mut soft, &mut udp, &reference, &realtime(100), None, &AtomicBool::new(false)).unwrap();
@@ -251,11 +260,12 @@ fn the_hard_overrun_policy_faults_to_the_safe_state() {
     let (fault, text) = report.fault.expect("hard policy");
     assert_eq!(fault.reason, FaultReason::Overrun, "{text}");
     assert!(fault.detail >= 3000, "late by {} µs", fault.detail);
-    assert!(matches!(board.state(), BoardState::Safe(f) if f.reason == FaultReason::Overrun));
+    assert!(matches!(board.state(), BoardState::Safe(f) if f.reason == FaultReason::Overrun), "{:?}", board.events);
 }
 
 #[test]
 fn malformed_frames_of_every_kind_are_refused_without_harm() {
+    let _slot = real_time_slot();
     let board = spawn_board(board_cfg(true), None);
     let mut raw = UdpTransport::connect(board.addr).unwrap();
     let mut good = [0u8; MAX_FRAME];
@@ -278,6 +288,7 @@ fn malformed_frames_of_every_kind_are_refused_without_harm() {
 
 #[test]
 fn cobs_over_a_byte_stream_gives_the_same_trace() {
+    let _slot = real_time_slot();
     let (a, b) = std::os::unix::net::UnixStream::pair().unwrap();
     a.set_nonblocking(true).unwrap();
     b.set_nonblocking(true).unwrap();
@@ -303,6 +314,7 @@ fn cobs_over_a_byte_stream_gives_the_same_trace() {
 
 #[test]
 fn the_log_replays_without_divergence_and_a_changed_sample_is_found() {
+    let _slot = real_time_slot();
     let dir = std::env::temp_dir().join(format!("iw-bridge-log-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("controller.log");
@@ -337,6 +349,7 @@ fn the_log_replays_without_divergence_and_a_changed_sample_is_found() {
 
 #[test]
 fn hello_with_another_mode_is_refused_with_the_reason() {
+    let _slot = real_time_slot();
     // A real-time controller against a lock-step board.
     let board = spawn_board(board_cfg(true), None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();

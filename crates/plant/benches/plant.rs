@@ -6,7 +6,12 @@
 //!   and the real-time factor;
 //! * its encoder trace against the same solver at a 100× tighter tolerance;
 //! * a plain fixed-step RK4 of the same equations at the largest of a few step sizes that
-//!   stays within 2 counts of that tight trace, its cost, and the ratio.
+//!   stays within 2 counts of that tight trace, its cost, and the ratio;
+//! * the quiet-step scan bound against the full scan of every point (the solver before the
+//!   bound, kept callable as `Plant::set_scan_always`), on the gait sequence and on a
+//!   regulation sequence (each second of gaits followed by 5 s of parked, constant volts):
+//!   per-step median and p99, real-time factor, the ratio, and a check that both paths
+//!   give the same bits.
 
 use std::time::Instant;
 
@@ -26,24 +31,101 @@ fn sequence() -> (Vec<Dac>, Vec<i64>) {
     (one.iter().cycle().take(one.len() * REPEATS).copied().collect(), counts)
 }
 
+/// Regulation: each second of the five gaits followed by 5 s of the parked (all-zero)
+/// volts a controller in its deadband holds, 10 times (60 s).
+fn regulation(gaits: &[Dac]) -> Vec<Dac> {
+    let one = &gaits[..500];
+    let mut seq = Vec::new();
+    for _ in 0..10 {
+        seq.extend_from_slice(one);
+        seq.extend(std::iter::repeat(Dac::default()).take(2500));
+    }
+    seq
+}
+
 struct Run {
     counts: Vec<i64>,
     step_us: Vec<f64>,
     total_s: f64,
+    /// Every step's runner position and state bits, folded: equal for bit-identical runs.
+    bits: u64,
+    skipped: u64,
+    scanned: u64,
 }
 
 fn run_exact(rel_tol: f64, seq: &[Dac]) -> Run {
+    run_exact_path(rel_tol, seq, false)
+}
+
+fn run_exact_path(rel_tol: f64, seq: &[Dac], scan_always: bool) -> Run {
     let mut plant = Plant::new(PlantParams { rel_tol, ..PlantParams::fia20() }).unwrap();
+    plant.set_scan_always(scan_always);
     let mut counts = Vec::with_capacity(seq.len());
     let mut step_us = Vec::with_capacity(seq.len());
+    let mut bits = 0u64;
     let start = Instant::now();
     for d in seq {
         let t = Instant::now();
         plant.step(*d, H);
         step_us.push(t.elapsed().as_secs_f64() * 1e6);
-        counts.push(plant.outputs().encoder_counts);
+        let o = plant.outputs();
+        counts.push(o.encoder_counts);
+        bits = bits.rotate_left(5)
+            ^ o.runner_position.to_bits()
+            ^ o.extension.to_bits().rotate_left(17)
+            ^ o.voltage_extension.to_bits().rotate_left(31);
     }
-    Run { counts, step_us, total_s: start.elapsed().as_secs_f64() }
+    let total_s = start.elapsed().as_secs_f64();
+    let mut state = Vec::new();
+    plant.save_state(&mut state);
+    for b in state {
+        bits = bits.rotate_left(3) ^ u64::from(b);
+    }
+    let stats = plant.scan_stats();
+    Run { counts, step_us, total_s, bits, skipped: stats.skipped, scanned: stats.scanned }
+}
+
+fn summary(r: &Run, sim_s: f64) -> String {
+    let mut sorted = r.step_us.clone();
+    sorted.sort_by(f64::total_cmp);
+    format!(
+        "median {:>5.2} us | p99 {:>5.2} us | mean {:>5.2} us | {:>5.0}x",
+        percentile(&sorted, 0.5),
+        percentile(&sorted, 0.99),
+        r.total_s / r.step_us.len() as f64 * 1e6,
+        sim_s / r.total_s
+    )
+}
+
+fn compare_paths(gaits: &[Dac]) {
+    println!("quiet-step scan bound vs the full scan of every point (rel_tol 1e-9, best of 3 alternating runs):");
+    let reg = regulation(gaits);
+    for (name, seq) in [("gait 60 s", gaits), ("regulation 60 s", &reg[..])] {
+        let sim_s = seq.len() as f64 * H;
+        let mut full = Vec::new();
+        let mut bound = Vec::new();
+        for _ in 0..3 {
+            full.push(run_exact_path(1e-9, seq, true));
+            bound.push(run_exact_path(1e-9, seq, false));
+        }
+        let pick = |v: Vec<Run>| v.into_iter().min_by(|a, b| a.total_s.total_cmp(&b.total_s)).unwrap();
+        let (full, bound) = (pick(full), pick(bound));
+        let long = bound.skipped + bound.scanned;
+        println!("  {name:<16} full scan | {}", summary(&full, sim_s));
+        println!(
+            "  {:<16} bound     | {} | long scans skipped {}/{long} ({:.0} %)",
+            "",
+            summary(&bound, sim_s),
+            bound.skipped,
+            100.0 * bound.skipped as f64 / long.max(1) as f64
+        );
+        println!(
+            "  {:<16} ratio {:.2}x faster (mean step), results {}",
+            "",
+            full.total_s / bound.total_s,
+            if full.bits == bound.bits && full.counts == bound.counts { "bit-identical" } else { "DIFFER (bug)" }
+        );
+    }
 }
 
 fn run_rk4(h: f64, seq: &[Dac]) -> Run {
@@ -54,7 +136,7 @@ fn run_rk4(h: f64, seq: &[Dac]) -> Run {
         plant.step(*d, H);
         counts.push(plant.encoder_counts());
     }
-    Run { counts, step_us: Vec::new(), total_s: start.elapsed().as_secs_f64() }
+    Run { counts, step_us: Vec::new(), total_s: start.elapsed().as_secs_f64(), bits: 0, skipped: 0, scanned: 0 }
 }
 
 fn max_dev(a: &[i64], b: &[i64]) -> i64 {
@@ -92,6 +174,8 @@ fn main() {
         max_dev(&exact.counts, &tight.counts)
     );
     println!("  vs the SPEC 2.9 reference trace (first 1 s): max |diff| {} counts", max_dev(&exact.counts, &reference));
+    println!();
+    compare_paths(&seq);
     println!();
     println!("fixed-step RK4 of the same equations (memories updated per step, brake switches bisected to 1 ns):");
     println!("  step    | vs reference (1 s) | vs tight trace (60 s) | per 2 ms step | real time");

@@ -112,7 +112,24 @@ pub struct Plant {
     /// steps repeat, so their tails do too.
     remainders: Vec<Option<Remainder>>,
     chain_remainder: Option<ChainRemainder>,
+    /// Always scan every point (the solver before the quiet-step bound); results are
+    /// bit-identical either way. For benchmarks and tests.
+    scan_always: bool,
+    /// Scans of `MIN_BOUND_POINTS` or more points: how many were run, how many the bound
+    /// proved clear.
+    scan_stats: ScanStats,
 }
+
+/// How many long scans ran and how many the bound proved clear without scanning.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScanStats {
+    pub scanned: u64,
+    pub skipped: u64,
+}
+
+/// A scan of fewer points than this is cheaper than the bound that could skip it.
+const MIN_BOUND_POINTS: usize = 16;
 
 #[derive(Clone, Debug)]
 struct Remainder {
@@ -211,6 +228,8 @@ impl Plant {
             configs: vec![None; 4 << N_PLAYS],
             remainders: vec![None; 4 << N_PLAYS],
             chain_remainder: None,
+            scan_always: false,
+            scan_stats: ScanStats::default(),
         })
     }
 
@@ -225,6 +244,20 @@ impl Plant {
 
     pub fn mode(&self) -> Mode {
         self.mode
+    }
+
+    /// With `true`, every scan looks at every point, as the solver did before the
+    /// quiet-step bound; the results are bit-identical either way (the golden-trace test
+    /// holds both paths to the same hash). For benchmarks and tests.
+    #[doc(hidden)]
+    pub fn set_scan_always(&mut self, on: bool) {
+        self.scan_always = on;
+    }
+
+    /// Counts of long scans run and skipped so far. For benchmarks and tests.
+    #[doc(hidden)]
+    pub fn scan_stats(&self) -> ScanStats {
+        self.scan_stats
     }
 
     /// Play memories (V), for inspection and tests.
@@ -398,8 +431,21 @@ impl Plant {
     /// using only the tabulated functionals. Returns how many intervals are clear.
     fn scan(&mut self, points: usize) -> usize {
         let cfg = self.config();
-        let chain = &self.chain;
         let watch = self.watch();
+        if points >= MIN_BOUND_POINTS && !self.scan_always {
+            if self.provably_clear(&cfg, &watch) {
+                debug_assert_eq!(self.full_scan(&cfg, &watch, points), points, "the scan bound missed an event");
+                self.scan_stats.skipped += 1;
+                return points;
+            }
+            self.scan_stats.scanned += 1;
+        }
+        self.full_scan(&cfg, &watch, points)
+    }
+
+    /// `scan` looking at every point.
+    fn full_scan(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch, points: usize) -> usize {
+        let chain = &self.chain;
         let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
         let dt = TICK * (1u64 << chain.scan_level) as f64;
         let mut xi_prev = watch.xi_row.dot(z);
@@ -422,6 +468,54 @@ impl Plant {
             rate_prev = rate;
         }
         points
+    }
+
+    /// Whether the scan of any number of points (up to a whole top-level piece) from the
+    /// current state is certain to find every point clear, from the bounds of the watched
+    /// functionals over all scan points (`linear::ScanBound`). The test mirrors every
+    /// condition of `scan` on intervals that hold the very values `scan` would compute,
+    /// so `true` means `scan` would return all points; in doubt it says `false`.
+    fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
+        let chain = &self.chain;
+        let brake = |state: &Chain, closed_below: bool| -> bool {
+            let Some((lo, hi)) = chain.split(state).and_then(|s| chain.range(0, &s)) else {
+                return false;
+            };
+            if closed_below {
+                hi < watch.vth
+            } else {
+                lo >= watch.vth
+            }
+        };
+        // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
+        // stays on its side of V_th, as does V_N.
+        if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed) {
+            return false;
+        }
+        debug_assert!(cfg.watched[0] == watch.xi_row && cfg.watched[1] == watch.rate_row);
+        let Some(s) = cfg.split(&self.z) else {
+            return false;
+        };
+        let (Some((xi_lo, xi_hi)), Some((rate_lo, rate_hi))) = (cfg.range(0, &s), cfg.range(1, &s)) else {
+            return false;
+        };
+        if watch.direction > 0.0 {
+            // Sliding up: ξ̇ stays positive and ξ below the next onset.
+            rate_lo > 0.0 && xi_hi < watch.up
+        } else if watch.direction < 0.0 {
+            rate_hi < 0.0 && xi_lo > watch.down
+        } else {
+            // Nothing slides: ξ stays between the onsets, and so does any turn of ξ between
+            // two points. The same floating-point operations as `extremum_may_cross` on
+            // bounds of its arguments: rounding is monotone, so these bound its results.
+            if !(watch.xi_row[ix::VX] >= 0.0) {
+                return false;
+            }
+            let rate_max = rate_lo.abs().max(rate_hi.abs());
+            let dt = TICK * (1u64 << chain.scan_level) as f64;
+            let reach = dt * (rate_max + rate_max) * watch.xi_row[ix::VX];
+            xi_hi + reach < watch.up && xi_lo - reach > watch.down
+        }
     }
 
     /// Finest bisection level: event times are located to `rel_tol` seconds of simulated

@@ -74,6 +74,98 @@ pub struct Propagators<const D: usize> {
     pub scan_points: usize,
     /// `scan[k * watched.len() + o]` = `watched[o]ᵀ e^{A (k+1) Δ}`.
     pub scan: Vec<SVector<f64, D>>,
+    /// Bounds of every watched functional over all scan points of a piece, from the state
+    /// alone (see [`ScanBound`]); `None` if the configuration's long-time propagator isn't finite.
+    pub bound: Option<ScanBound<D>>,
+}
+
+/// Squarings of the top-level propagator (1.95 ms) that give the settling matrix
+/// `P̂ = e^{A T}`, T = 2¹² · 1.95 ms = 8 s: every mode of the nominal devices has decayed
+/// by e⁻²⁰⁰ or more by then, so `P̂` maps a state to its equilibrium for the held inputs.
+/// (The bounds below are rigorous for any `P̂`; a good one only makes them tight.)
+const SETTLE_SQUARINGS: usize = 12;
+
+/// Relative slack that covers every floating-point rounding of the scan and of the bound
+/// (each is a dot product or a sum of ≤ 14 terms, error ≤ 14 u ≈ 3.1e-15 of the sum of
+/// the magnitudes; 1e-12 is 300× that).
+const BOUND_SLACK: f64 = 1e-12;
+
+/// Rigorous bounds of the watched functionals over every scan point of a piece, without
+/// scanning: the rows `r_k = cᵀ e^{A k Δ}` (k = 0 … `scan_points`) change with `k` only on
+/// the part of the state that hasn't settled. With `P̂` (≈ the projector onto the
+/// equilibria) and `v = z − P̂ z`,
+///
+/// `r_k z = (r_k P̂) z + r_k v  ∈  [Σ_i min(lo_i z_i, hi_i z_i), Σ_i max(…)] ± ρ·|v|`,
+///
+/// with `lo`, `hi` the componentwise range of the tabulated `r_k P̂` over `k` and
+/// `ρ = max_k |r_k|` componentwise, plus a rounding slack (`BOUND_SLACK`) over
+/// `(ρ + ρ|P̂|)·|z|`. The bound holds for the *computed* values the scan would compare,
+/// whatever `P̂` is; when the state has settled (`v` small) it is tight, and a quiet step
+/// can skip the scan and still take exactly the decision the scan would have taken.
+#[derive(Clone, Debug)]
+pub struct ScanBound<const D: usize> {
+    settle: SMatrix<f64, D, D>,
+    functionals: Vec<FunctionalBound<D>>,
+}
+
+#[derive(Clone, Debug)]
+struct FunctionalBound<const D: usize> {
+    lo: SVector<f64, D>,
+    hi: SVector<f64, D>,
+    rho: SVector<f64, D>,
+    /// `ρ + ρ|P̂|`: weights of `|z|` in the rounding slack.
+    slack: SVector<f64, D>,
+}
+
+/// A state split against the settling matrix, ready for [`Propagators::range`].
+pub struct Split<const D: usize> {
+    z: SVector<f64, D>,
+    z_abs: SVector<f64, D>,
+    v_abs: SVector<f64, D>,
+}
+
+impl<const D: usize> ScanBound<D> {
+    fn new(
+        top: &SMatrix<f64, D, D>,
+        watched: &[SVector<f64, D>],
+        scan: &[SVector<f64, D>],
+        scan_points: usize,
+    ) -> Option<Self> {
+        let mut settle = *top;
+        for _ in 0..SETTLE_SQUARINGS {
+            settle = settle * settle;
+        }
+        if !settle.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let settle_abs = settle.abs();
+        let w = watched.len();
+        let mut functionals = Vec::with_capacity(w);
+        for o in 0..w {
+            let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
+            let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
+            let mut rho = SVector::<f64, D>::zeros();
+            for k in 0..=scan_points {
+                let r = if k == 0 { watched[o] } else { scan[(k - 1) * w + o] };
+                // (r P̂) as a column.
+                let t = settle.transpose() * r;
+                for i in 0..D {
+                    if !(t[i].is_finite() && r[i].is_finite()) {
+                        return None;
+                    }
+                    lo[i] = lo[i].min(t[i]);
+                    hi[i] = hi[i].max(t[i]);
+                    rho[i] = rho[i].max(r[i].abs());
+                }
+            }
+            let slack = rho + settle_abs.transpose() * rho;
+            if !slack.iter().all(|x| x.is_finite()) {
+                return None;
+            }
+            functionals.push(FunctionalBound { lo, hi, rho, slack });
+        }
+        Some(ScanBound { settle, functionals })
+    }
 }
 
 impl<const D: usize> Propagators<D> {
@@ -97,7 +189,43 @@ impl<const D: usize> Propagators<D> {
                 scan.push(*r);
             }
         }
-        Propagators { a, phi, watched, scan_level, scan_points, scan }
+        let bound = ScanBound::new(&phi[LEVELS - 1], &watched, &scan, scan_points);
+        Propagators { a, phi, watched, scan_level, scan_points, scan, bound }
+    }
+
+    /// Splits `z` for [`Self::range`]; `None` if this table has no bound.
+    #[inline]
+    pub fn split(&self, z: &SVector<f64, D>) -> Option<Split<D>> {
+        let b = self.bound.as_ref()?;
+        let v = z - b.settle * z;
+        Some(Split { z: *z, z_abs: z.abs(), v_abs: v.abs() })
+    }
+
+    /// An interval that holds the computed value of watched functional `o` at every scan
+    /// point `k = 0 … scan_points` of a piece starting at the split state: `scanned(k, o, z)`
+    /// for `k ≥ 1`, `watched[o].dot(z)` for `k = 0`. `None` if it isn't finite.
+    #[inline]
+    pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
+        let f = &self.bound.as_ref()?.functionals[o];
+        let (mut lo, mut hi, mut moving, mut weight) = (0.0, 0.0, 0.0, 0.0);
+        for i in 0..D {
+            let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
+            lo += a.min(b);
+            hi += a.max(b);
+            moving += f.rho[i] * s.v_abs[i];
+            weight += f.slack[i] * s.z_abs[i];
+        }
+        let margin = moving * (1.0 + BOUND_SLACK) + BOUND_SLACK * weight + 1e-300;
+        let (lo, hi) = (lo - margin, hi + margin);
+        let finite = lo.is_finite() && hi.is_finite() && weight.is_finite();
+        #[cfg(debug_assertions)]
+        if finite {
+            for k in 0..=self.scan_points {
+                let v = if k == 0 { self.watched[o].dot(&s.z) } else { self.scanned(k, o, &s.z) };
+                assert!(lo <= v && v <= hi, "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]");
+            }
+        }
+        finite.then_some((lo, hi))
     }
 
     /// Exact propagation over `ticks`, plus the sub-tick remainder `rest` seconds (< 1 tick)
@@ -108,10 +236,10 @@ impl<const D: usize> Propagators<D> {
             z = self.phi[LEVELS - 1] * z;
             ticks -= top;
         }
-        for l in 0..LEVELS {
-            if ticks & (1 << l) != 0 {
-                z = self.phi[l] * z;
-            }
+        // The set bits in increasing order, as a loop over all levels would take them.
+        while ticks != 0 {
+            z = self.phi[ticks.trailing_zeros() as usize] * z;
+            ticks &= ticks - 1;
         }
         if rest > 0.0 {
             let az = self.a * z;
@@ -121,7 +249,7 @@ impl<const D: usize> Propagators<D> {
     }
 
     /// Watched functional `o` at scan point `k` (1-based) from the state `z` at scan point 0.
-    #[inline]
+    #[inline(always)]
     pub fn scanned(&self, k: usize, o: usize, z: &SVector<f64, D>) -> f64 {
         self.scan[(k - 1) * self.watched.len() + o].dot(z)
     }

@@ -16,8 +16,9 @@ use inchworm_plant::{Dac, Plant, PlantParams};
 
 pub const H: f64 = 0.002;
 
-/// The tests that run against the wall clock take this, so two of them never compete for
-/// the machine's cores and miss deadlines the bridge would meet on its own.
+/// Every bridge test runs against the wall clock (real-time periods, or the board's
+/// watchdog in lock-step) and takes this, so two of them never compete for the machine's
+/// cores and miss deadlines the bridge would meet on its own.
 pub fn real_time_slot() -> std::sync::MutexGuard<'static, ()> {
     static SLOT: std::sync::Mutex<()> = std::sync::Mutex::new(());
     SLOT.lock().unwrap_or_else(|e| e.into_inner())
