@@ -124,28 +124,6 @@ fn err(e: FmuError) -> String {
     e.to_string()
 }
 
-fn get(components: &mut [Component], p: Port) -> Result<f64, String> {
-    let f = &mut components[p.component].fmu;
-    Ok(match p.ty {
-        VarType::Real => {
-            let mut v = [0.0];
-            f.get_real(&[p.vr], &mut v).map_err(err)?;
-            v[0]
-        }
-        VarType::Integer | VarType::Enumeration => {
-            let mut v = [0];
-            f.get_integer(&[p.vr], &mut v).map_err(err)?;
-            f64::from(v[0])
-        }
-        VarType::Boolean => {
-            let mut v = [false];
-            f.get_boolean(&[p.vr], &mut v).map_err(err)?;
-            f64::from(u8::from(v[0]))
-        }
-        VarType::String => return Err("String variables cannot be connected or recorded".into()),
-    })
-}
-
 fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), String> {
     set_var(&mut components[p.component].fmu, Var { vr: p.vr, ty: p.ty }, value)
 }
@@ -185,6 +163,91 @@ fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Re
 pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), String> {
     let v = fmu.var(name).map_err(err)?;
     set_var(fmu, v, parse_value(v.ty, name, text)?)
+}
+
+/// Ports grouped by component and type, each group one `fmi2Get*`/`fmi2Set*` call: per step
+/// the master crosses the FMI boundary once per group instead of once per variable.
+struct Batches {
+    groups: Vec<Group>,
+}
+
+struct Group {
+    component: usize,
+    ty: VarType,
+    vrs: Vec<u32>,
+    /// Where each value goes in (or comes from) the caller's slice.
+    slots: Vec<usize>,
+    reals: Vec<f64>,
+    integers: Vec<i32>,
+    booleans: Vec<bool>,
+}
+
+impl Batches {
+    fn new(ports: &[Port]) -> Result<Batches, String> {
+        let mut groups: Vec<Group> = Vec::new();
+        for (slot, p) in ports.iter().enumerate() {
+            let ty = match p.ty {
+                VarType::String => return Err("String variables cannot be connected or recorded".into()),
+                VarType::Enumeration => VarType::Integer,
+                t => t,
+            };
+            let g = match groups.iter().position(|g| g.component == p.component && g.ty == ty) {
+                Some(i) => &mut groups[i],
+                None => {
+                    groups.push(Group { component: p.component, ty, vrs: vec![], slots: vec![], reals: vec![], integers: vec![], booleans: vec![] });
+                    groups.last_mut().expect("just pushed")
+                }
+            };
+            g.vrs.push(p.vr);
+            g.slots.push(slot);
+            g.reals.push(0.0);
+            g.integers.push(0);
+            g.booleans.push(false);
+        }
+        Ok(Batches { groups })
+    }
+
+    fn read(&mut self, components: &mut [Component], out: &mut [f64], only: Option<usize>) -> Result<(), String> {
+        for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
+            let f = &mut components[g.component].fmu;
+            match g.ty {
+                VarType::Real => {
+                    f.get_real(&g.vrs, &mut g.reals).map_err(err)?;
+                    g.slots.iter().zip(&g.reals).for_each(|(&s, &v)| out[s] = v);
+                }
+                VarType::Boolean => {
+                    f.get_boolean(&g.vrs, &mut g.booleans).map_err(err)?;
+                    g.slots.iter().zip(&g.booleans).for_each(|(&s, &v)| out[s] = f64::from(u8::from(v)));
+                }
+                _ => {
+                    f.get_integer(&g.vrs, &mut g.integers).map_err(err)?;
+                    g.slots.iter().zip(&g.integers).for_each(|(&s, &v)| out[s] = f64::from(v));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, components: &mut [Component], values: &[f64], only: Option<usize>) -> Result<(), String> {
+        for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
+            let f = &mut components[g.component].fmu;
+            match g.ty {
+                VarType::Real => {
+                    g.slots.iter().zip(&mut g.reals).for_each(|(&s, v)| *v = values[s]);
+                    f.set_real(&g.vrs, &g.reals).map_err(err)?;
+                }
+                VarType::Boolean => {
+                    g.slots.iter().zip(&mut g.booleans).for_each(|(&s, v)| *v = values[s] != 0.0);
+                    f.set_boolean(&g.vrs, &g.booleans).map_err(err)?;
+                }
+                _ => {
+                    g.slots.iter().zip(&mut g.integers).for_each(|(&s, v)| *v = values[s].round() as i32);
+                    f.set_integer(&g.vrs, &g.integers).map_err(err)?;
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Runs `path` (an `.ssp`, or a single `.fmu`).
@@ -322,40 +385,49 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
         feeds[dst.component].push((*dst, feed));
     }
     let mut latest = vec![0.0; sources.len()];
-    let read = |components: &mut [Component], latest: &mut [f64], only: Option<usize>| -> Result<(), String> {
-        for (i, p) in sources.iter().enumerate() {
-            if only.is_none_or(|c| c == p.component) {
-                latest[i] = get(components, *p)?;
-            }
-        }
-        Ok(())
-    };
-    read(&mut components, &mut latest, None)?;
+    let mut source_batches = Batches::new(&sources)?;
+    let mut record_batches = Batches::new(&record)?;
+    let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
+    let mut destination_batches = Batches::new(&destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>())?;
+    let mut values = vec![0.0; destinations.len()];
+    source_batches.read(&mut components, &mut latest, None)?;
     let n_steps = (stop / h).round().max(1.0) as u64;
     let mut rows = Vec::with_capacity(n_steps as usize + 1);
-    let sample = |components: &mut [Component]| -> Result<Vec<f64>, String> { record.iter().map(|p| get(components, *p)).collect() };
+    let mut sample = |components: &mut [Component]| -> Result<Vec<f64>, String> {
+        let mut row = vec![0.0; record.len()];
+        record_batches.read(components, &mut row, None)?;
+        Ok(row)
+    };
     // The first row is the state after initialization.
     rows.push((0.0, sample(&mut components)?));
     for k in 0..n_steps {
         let t = k as f64 * h;
-        for (ci, inputs) in feeds.iter().enumerate() {
-            for (dst, feed) in inputs {
-                let v = match feed {
-                    Feed::Latest(i) => latest[*i],
-                    Feed::SystemInput(i) => input_value(*i, t),
-                };
-                set(&mut components, *dst, v)?;
+        let mut feed = |only: Option<usize>, components: &mut [Component], latest: &[f64]| -> Result<(), String> {
+            for (v, (dst, feed)) in values.iter_mut().zip(&destinations) {
+                if only.is_none_or(|c| c == dst.component) {
+                    *v = match feed {
+                        Feed::Latest(i) => latest[*i],
+                        Feed::SystemInput(i) => input_value(*i, t),
+                    };
+                }
             }
-            if opts.coupling == Coupling::GaussSeidel {
-                components[ci].fmu.do_step(h).map_err(err)?;
-                read(&mut components, &mut latest, Some(ci))?;
+            destination_batches.write(components, &values, only)
+        };
+        match opts.coupling {
+            Coupling::GaussSeidel => {
+                for ci in 0..components.len() {
+                    feed(Some(ci), &mut components, &latest)?;
+                    components[ci].fmu.do_step(h).map_err(err)?;
+                    source_batches.read(&mut components, &mut latest, Some(ci))?;
+                }
             }
-        }
-        if opts.coupling == Coupling::Jacobi {
-            for c in components.iter_mut() {
-                c.fmu.do_step(h).map_err(err)?;
+            Coupling::Jacobi => {
+                feed(None, &mut components, &latest)?;
+                for c in components.iter_mut() {
+                    c.fmu.do_step(h).map_err(err)?;
+                }
+                source_batches.read(&mut components, &mut latest, None)?;
             }
-            read(&mut components, &mut latest, None)?;
         }
         rows.push(((k + 1) as f64 * h, sample(&mut components)?));
         progress((k + 1) as f64 / n_steps as f64);
