@@ -2,91 +2,17 @@
 //! compiles tests/c/roundtrip.c against it with the system C compiler and runs it.
 //! Fails if the library or header does not build, the C program does not compile or
 //! link, or any of its checks fails.
-//!
-//! The ffi crate is its own workspace, so it gets its own target directory under the
-//! workspace's (`<target>/hil-ffi`) and never contends for the lock of the outer build.
 
-use std::path::{Path, PathBuf};
+mod ffi_build;
+
 use std::process::Command;
 
-fn crate_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn target_dir() -> PathBuf {
-    let workspace = crate_dir().join("../..");
-    match std::env::var_os("CARGO_TARGET_DIR") {
-        Some(dir) => {
-            let dir = PathBuf::from(dir);
-            if dir.is_absolute() {
-                dir
-            } else {
-                workspace.join(dir)
-            }
-        }
-        None => workspace.join("target"),
-    }
-    .join("hil-ffi")
-}
-
-/// The string value of `"key":"..."` in one line of cargo's JSON messages.
-fn json_str<'a>(line: &'a str, key: &str) -> Option<&'a str> {
-    let start = line.find(&format!("\"{key}\":\""))? + key.len() + 4;
-    let len = line[start..].find('"')?;
-    Some(&line[start..start + len])
-}
-
-/// Builds the staticlib; returns (header directory, path of libinchworm_hil.a).
-fn build_ffi(target: &Path) -> (PathBuf, PathBuf) {
-    let manifest = crate_dir().join("ffi/Cargo.toml");
-    let out = Command::new(env!("CARGO"))
-        .args([
-            "build",
-            "--release",
-            "--message-format=json-render-diagnostics",
-            "--manifest-path",
-        ])
-        .arg(&manifest)
-        .arg("--target-dir")
-        .arg(target)
-        .env_remove("CARGO_TARGET_DIR")
-        .output()
-        .expect("run cargo");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "building the ffi crate failed:\n{}\n{stdout}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let mut header_dir = None;
-    let mut lib = None;
-    for line in stdout.lines().filter(|l| l.contains("inchworm-hil-ffi")) {
-        if line.contains("\"reason\":\"build-script-executed\"") {
-            header_dir = json_str(line, "out_dir").map(PathBuf::from);
-        }
-        if line.contains("\"reason\":\"compiler-artifact\"") {
-            if let Some(i) = line.find("libinchworm_hil.a") {
-                let start = line[..i].rfind('"').unwrap() + 1;
-                lib = Some(PathBuf::from(&line[start..i + "libinchworm_hil.a".len()]));
-            }
-        }
-    }
-    let header_dir =
-        header_dir.expect("cargo reported no build-script out_dir for inchworm-hil-ffi");
-    let lib = lib.expect("cargo reported no libinchworm_hil.a");
-    assert!(
-        header_dir.join("inchworm_hil.h").is_file(),
-        "no header in {}",
-        header_dir.display()
-    );
-    assert!(lib.is_file(), "{} missing", lib.display());
-    (header_dir, lib)
-}
+use ffi_build::{build_ffi, compile, crate_dir, target_dir};
 
 #[test]
 fn c_round_trip_through_static_library() {
     let target = target_dir();
-    let (header_dir, lib) = build_ffi(&target);
+    let (header_dir, _) = build_ffi(&target);
     let header = std::fs::read_to_string(header_dir.join("inchworm_hil.h")).unwrap();
     for item in [
         "#ifndef INCHWORM_HIL_H",
@@ -100,24 +26,7 @@ fn c_round_trip_through_static_library() {
         assert!(header.contains(item), "header lacks {item}");
     }
 
-    let exe = target.join("c-test").join("roundtrip");
-    std::fs::create_dir_all(exe.parent().unwrap()).unwrap();
-    let cc = std::env::var("CC").unwrap_or_else(|_| "gcc".to_string());
-    let out = Command::new(&cc)
-        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I"])
-        .arg(&header_dir)
-        .arg(crate_dir().join("tests/c/roundtrip.c"))
-        .arg(&lib)
-        .args(["-lpthread", "-ldl", "-lm", "-o"])
-        .arg(&exe)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run the C compiler {cc:?}: {e}"));
-    assert!(
-        out.status.success(),
-        "compiling roundtrip.c failed:\n{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let exe = compile(&crate_dir().join("tests/c/roundtrip.c"), "roundtrip");
 
     let run = Command::new(&exe).output().expect("run the C test");
     let stdout = String::from_utf8_lossy(&run.stdout);
