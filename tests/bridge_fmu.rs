@@ -114,8 +114,10 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
 
 #[test]
 fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
-    let seconds = 2.0;
-    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), |_| 100e-6, seconds).unwrap();
+    let seconds = 3.0;
+    // The reference from a CSV, as an operator gives it: 100 µm, then 40 µm from 1.5 s.
+    let step = |t: f64| if t < 1.5 { 100e-6 } else { 40e-6 };
+    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), step, seconds).unwrap();
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("processes");
@@ -127,8 +129,11 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
         .spawn()
         .unwrap();
     let csv = dir.join("encoder.csv");
+    let reference = dir.join("reference.csv");
+    std::fs::write(&reference, "time,reference\n0,100e-6\n1.5,40e-6\n").unwrap();
     let out = Command::new(BIN)
         .args(["bridge", "--role", "controller", "--lockstep", "--addr", &addr, "--duration", &seconds.to_string()])
+        .args(["--reference", reference.to_str().unwrap()])
         .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap(), "--out", csv.to_str().unwrap()])
         .output()
         .unwrap();
