@@ -89,7 +89,7 @@ impl<T: Transport> Transport for FaultyTransport<T> {
             let (_, f) = self.delayed.pop_front().unwrap();
             self.inner.send(&f)?;
         }
-        let subject = self.plan.only_type.map_or(true, |t| frame.get(3) == Some(&t));
+        let subject = self.plan.only_type.is_none_or(|t| frame.get(3) == Some(&t));
         if !subject {
             return self.inner.send(frame);
         }

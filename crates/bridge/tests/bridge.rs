@@ -127,8 +127,7 @@ fn silence_latches_the_safe_state_within_n_periods_and_needs_a_rearm() {
     let mut raw = link.into_inner();
     let mut buf = [0u8; MAX_FRAME];
     let dac = |seq: u16, buf: &mut [u8; MAX_FRAME]| {
-        let n = protocol::encode(&Packet { seq, frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [40000, 40000, 40000] }) }, buf).unwrap();
-        n
+        protocol::encode(&Packet { seq, frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [40000, 40000, 40000] }) }, buf).unwrap()
     };
     for seq in 1000..1005 {
         let n = dac(seq, &mut buf);
