@@ -592,6 +592,10 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
         "{} ticks in {wall:.2} s; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} retransmits, {} overruns",
         report.ticks, c.frames, c.malformed, c.duplicates, c.stale, c.gaps, c.missing, c.retransmits, c.overruns
     );
+    if let Some(&last) = report.encoder.last() {
+        let t = report.ticks as f64 * inchworm_bridge::PERIOD.as_secs_f64();
+        println!("final encoder {last} counts ({:.3} µm; reference {:.3} µm)", f64::from(last) * 1.2e-3, reference(t) * 1e6);
+    }
     if !report.lateness_us.is_empty() {
         let p = percentiles(&report.lateness_us);
         println!("wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs", p.p50, p.p99, p.max);
