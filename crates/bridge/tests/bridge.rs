@@ -258,7 +258,8 @@ fn the_hard_overrun_policy_faults_to_the_safe_state() {
     let (board, _) = board.finish();
     let (fault, text) = report.fault.expect("hard policy");
     assert_eq!(fault.reason, FaultReason::Overrun, "{text}");
-    assert!(fault.detail >= 3000, "late by {} µs", fault.detail);
+    // The 7 ms stall at tick 50 overruns for sure; a busy machine may overrun earlier, by less.
+    assert!(fault.detail > 0 && report.ticks <= 50, "late by {} µs after {} ticks", fault.detail, report.ticks);
     assert!(matches!(board.state(), BoardState::Safe(f) if f.reason == FaultReason::Overrun), "{:?}", board.events);
 }
 
