@@ -9,7 +9,7 @@ pub mod rk4;
 use std::sync::Arc;
 
 use hysteresis::Hysteresis;
-use linear::{ix, Chain, Propagators, Vector, TICK};
+use linear::{ix, mul_vec, Chain, Propagators, Vector, TICK};
 pub use params::{ParamError, PlantParams, N_PLAYS};
 
 /// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
@@ -100,6 +100,9 @@ pub struct Plant {
     nonearth_closed: bool,
     mode: Mode,
     hysteresis: Hysteresis,
+    /// What the event loop watches for in the hysteresis, derived from `hysteresis`
+    /// whenever it changes (`sync_hysteresis`, `load_state`).
+    armed: Armed,
     /// Runner offset `x4 − x3` frozen at the last entry into DRIVE.
     drive_offset: f64,
     slip_events: u32,
@@ -154,19 +157,43 @@ fn product<const D: usize>(phi: &[nalgebra::SMatrix<f64, D, D>; linear::LEVELS],
     m
 }
 
+/// The tables of configuration `key`, which [`Plant::config`] has built. Takes the field,
+/// not the plant, so the plant's other fields stay free to change while it is borrowed.
+#[inline(always)]
+fn table(configs: &[Option<ConfigTable>], key: usize) -> &Propagators<{ linear::N }> {
+    configs[key].as_deref().expect("configuration tables are built by Plant::config")
+}
+
+/// The play thresholds and the sliding direction the event loop watches, a function of
+/// the hysteresis state alone.
+#[derive(Clone, Copy, Debug)]
+struct Armed {
+    up: f64,
+    down: f64,
+    direction: f64,
+}
+
+impl Armed {
+    fn of(h: &Hysteresis) -> Armed {
+        let (up, down) = h.next_thresholds();
+        Armed { up, down, direction: f64::from(h.direction) * f64::from(u8::from(h.sliding != 0)) }
+    }
+}
+
 /// What the event loop watches during one piece, frozen at its start.
-struct Watch {
+struct Watch<'a> {
     vth: f64,
     earth_closed: bool,
     nonearth_closed: bool,
-    xi_row: Vector,
-    rate_row: Vector,
+    /// The configuration's watched rows (`linear::xi_row`, `linear::drive_rate_row`).
+    xi_row: &'a Vector,
+    rate_row: &'a Vector,
     direction: f64,
     up: f64,
     down: f64,
 }
 
-impl Watch {
+impl Watch<'_> {
     fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
         (e[2] < self.vth) != self.earth_closed || (n[2] >= self.vth) != self.nonearth_closed
     }
@@ -210,6 +237,7 @@ impl Plant {
         let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], scan_level, |m| m.exp()));
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
+        let armed = Armed::of(&hysteresis);
         Ok(Plant {
             params,
             time: 0.0,
@@ -220,6 +248,7 @@ impl Plant {
             nonearth_closed: false,
             mode: Mode::Hold,
             hysteresis,
+            armed,
             drive_offset: 0.0,
             slip_events: 0,
             encoder_counts: 0,
@@ -294,7 +323,8 @@ impl Plant {
                 let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
                 let clear = if watching { self.scan(points) } else { points };
                 if clear > 0 {
-                    let cfg = self.config();
+                    let key = self.config();
+                    let cfg = table(&self.configs, key);
                     let ticks = (clear as u64) << scan_level;
                     self.z = cfg.advance(self.z, ticks, 0.0);
                     self.earth = self.chain.advance(self.earth, ticks, 0.0);
@@ -323,7 +353,8 @@ impl Plant {
         }
         report.event_budget_exhausted = events >= MAX_EVENTS_PER_STEP;
         if rest > 0.0 {
-            let cfg = self.config();
+            let key = self.config();
+            let cfg = table(&self.configs, key);
             self.z = cfg.advance(self.z, 0, rest);
             self.earth = self.chain.advance(self.earth, 0, rest);
             self.nonearth = self.chain.advance(self.nonearth, 0, rest);
@@ -341,13 +372,14 @@ impl Plant {
     /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
     /// Returns the ticks consumed and whether an event was handled.
     fn piece(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
-        let cfg = self.config();
-        let chain = self.chain.clone();
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        let chain = &*self.chain;
         let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
-        let z1 = cfg.phi[level] * z0;
-        let e1 = chain.phi[level] * e0;
-        let n1 = chain.phi[level] * n0;
-        let watch = self.watch();
+        let z1 = mul_vec(&cfg.phi[level], &z0);
+        let e1 = mul_vec(&chain.phi[level], &e0);
+        let n1 = mul_vec(&chain.phi[level], &n0);
+        let watch = self.watch(cfg);
         let hit = watch.event(&z1, &e1, &n1);
         // With no play sliding, ξ may cross a threshold and come back inside the piece:
         // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
@@ -370,7 +402,7 @@ impl Plant {
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
         for l in (self.resolution_level()..level).rev() {
-            let (zc, ec, nc) = (cfg.phi[l] * z, chain.phi[l] * e, chain.phi[l] * n);
+            let (zc, ec, nc) = (mul_vec(&cfg.phi[l], &z), mul_vec(&chain.phi[l], &e), mul_vec(&chain.phi[l], &n));
             if !stop(&zc, &ec, &nc) {
                 (z, e, n) = (zc, ec, nc);
                 offset += 1 << l;
@@ -378,7 +410,7 @@ impl Plant {
         }
         // The first resolution interval at whose end the stop condition holds.
         let r = self.resolution_level().min(level);
-        let (z, e, n) = (cfg.phi[r] * z, chain.phi[r] * e, chain.phi[r] * n);
+        let (z, e, n) = (mul_vec(&cfg.phi[r], &z), mul_vec(&chain.phi[r], &e), mul_vec(&chain.phi[r], &n));
         (self.z, self.earth, self.nonearth) = (z, e, n);
         let event = watch.event(&z, &e, &n);
         if event {
@@ -391,8 +423,8 @@ impl Plant {
     /// event condition and no turn of `ξ` that could reach a threshold lies in it; returns
     /// false (and changes nothing) otherwise, leaving the interval to the dyadic pieces.
     fn remainder(&mut self, ticks: u64) -> bool {
-        let key = self.config_key();
-        let cfg = self.config();
+        let key = self.config();
+        let cfg = table(&self.configs, key);
         let fresh = |c: &Option<Remainder>| c.as_ref().is_some_and(|r| r.ticks == ticks);
         if !fresh(&self.remainders[key]) {
             self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
@@ -402,8 +434,8 @@ impl Plant {
         }
         let phi = &self.remainders[key].as_ref().expect("just filled").phi;
         let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
-        let (z1, e1, n1) = (phi * self.z, chain_phi * self.earth, chain_phi * self.nonearth);
-        let watch = self.watch();
+        let (z1, e1, n1) = (mul_vec(phi, &self.z), mul_vec(chain_phi, &self.earth), mul_vec(chain_phi, &self.nonearth));
+        let watch = self.watch(cfg);
         if watch.event(&z1, &e1, &n1) {
             return false;
         }
@@ -420,27 +452,29 @@ impl Plant {
 
     /// Propagates `2^level` ticks without looking for events (event budget exhausted).
     fn blind(&mut self, level: usize) -> (u64, bool) {
-        let cfg = self.config();
-        self.z = cfg.phi[level] * self.z;
-        self.earth = self.chain.phi[level] * self.earth;
-        self.nonearth = self.chain.phi[level] * self.nonearth;
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        self.z = mul_vec(&cfg.phi[level], &self.z);
+        self.earth = mul_vec(&self.chain.phi[level], &self.earth);
+        self.nonearth = mul_vec(&self.chain.phi[level], &self.nonearth);
         (1 << level, false)
     }
 
     /// Scans up to `points` scan intervals ahead for anything the event loop must stop at,
     /// using only the tabulated functionals. Returns how many intervals are clear.
     fn scan(&mut self, points: usize) -> usize {
-        let cfg = self.config();
-        let watch = self.watch();
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        let watch = self.watch(cfg);
         if points >= MIN_BOUND_POINTS && !self.scan_always {
-            if self.provably_clear(&cfg, &watch) {
-                debug_assert_eq!(self.full_scan(&cfg, &watch, points), points, "the scan bound missed an event");
+            if self.provably_clear(cfg, &watch) {
+                debug_assert_eq!(self.full_scan(cfg, &watch, points), points, "the scan bound missed an event");
                 self.scan_stats.skipped += 1;
                 return points;
             }
             self.scan_stats.scanned += 1;
         }
-        self.full_scan(&cfg, &watch, points)
+        self.full_scan(cfg, &watch, points)
     }
 
     /// `scan` looking at every point.
@@ -492,7 +526,7 @@ impl Plant {
         if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed) {
             return false;
         }
-        debug_assert!(cfg.watched[0] == watch.xi_row && cfg.watched[1] == watch.rate_row);
+        debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
         let Some(s) = cfg.split(&self.z) else {
             return false;
         };
@@ -525,15 +559,27 @@ impl Plant {
         (ticks.log2().floor() as usize).min(self.chain.scan_level)
     }
 
-    fn watch(&self) -> Watch {
-        let (up, down) = self.hysteresis.next_thresholds();
+    /// What to watch in the current configuration, whose table is `cfg`: its watched rows
+    /// are `ξ` and the sign of `ξ̇` (built from the same parameters, so the same bits).
+    fn watch<'a>(&self, cfg: &'a Propagators<{ linear::N }>) -> Watch<'a> {
+        let Armed { up, down, direction } = self.armed;
+        #[cfg(debug_assertions)]
+        {
+            let fresh = Armed::of(&self.hysteresis);
+            assert!(fresh.up.to_bits() == up.to_bits() && fresh.down.to_bits() == down.to_bits());
+            assert!(fresh.direction.to_bits() == direction.to_bits());
+        }
+        debug_assert!(
+            cfg.watched[0] == linear::xi_row(&self.params, self.hysteresis.sliding_weight())
+                && cfg.watched[1] == linear::drive_rate_row(&self.params, self.mode)
+        );
         Watch {
             vth: self.params.v_th,
             earth_closed: self.earth_closed,
             nonearth_closed: self.nonearth_closed,
-            xi_row: linear::xi_row(&self.params, self.hysteresis.sliding_weight()),
-            rate_row: linear::drive_rate_row(&self.params, self.mode),
-            direction: f64::from(self.hysteresis.direction) * f64::from(u8::from(self.hysteresis.sliding != 0)),
+            xi_row: &cfg.watched[0],
+            rate_row: &cfg.watched[1],
+            direction,
             up,
             down,
         }
@@ -583,8 +629,14 @@ impl Plant {
     /// Brings the play memories and the sliding set up to the current `ξ` and its direction,
     /// and writes the resulting offset `c0` into the state.
     fn sync_hysteresis(&mut self) {
-        let xi = linear::xi_row(&self.params, self.hysteresis.sliding_weight()).dot(&self.z);
-        let rate = linear::drive_rate_row(&self.params, self.mode).dot(&self.z);
+        // The rows of the current configuration, from its table if it has one (same bits).
+        let (xi, rate) = match &self.configs[self.config_key()] {
+            Some(cfg) => (cfg.watched[0].dot(&self.z), cfg.watched[1].dot(&self.z)),
+            None => (
+                linear::xi_row(&self.params, self.hysteresis.sliding_weight()).dot(&self.z),
+                linear::drive_rate_row(&self.params, self.mode).dot(&self.z),
+            ),
+        };
         let sign = if rate > 0.0 {
             1
         } else if rate < 0.0 {
@@ -593,24 +645,34 @@ impl Plant {
             0
         };
         self.hysteresis.sync(xi, sign);
+        self.armed = Armed::of(&self.hysteresis);
         self.z[ix::C0] = self.hysteresis.offset();
     }
 
+    #[inline]
     fn config_key(&self) -> usize {
         (self.mode.index() << N_PLAYS) | usize::from(self.hysteresis.sliding)
     }
 
-    fn config(&mut self) -> ConfigTable {
+    /// Builds the tables of the current configuration if it has none yet; returns its key
+    /// for [`table`].
+    #[inline]
+    fn config(&mut self) -> usize {
         let key = self.config_key();
-        if let Some(t) = &self.configs[key] {
-            return t.clone();
+        if self.configs[key].is_none() {
+            self.build_config(key);
         }
+        key
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn build_config(&mut self, key: usize) {
         let w_s = self.hysteresis.sliding_weight();
         let a = linear::system_matrix(&self.params, self.mode, w_s);
         let watched = vec![linear::xi_row(&self.params, w_s), linear::drive_rate_row(&self.params, self.mode)];
         let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level, |m| m.exp()));
-        self.configs[key] = Some(t.clone());
-        t
+        self.configs[key] = Some(t);
     }
 
     fn sample_encoder(&mut self) {
@@ -708,6 +770,7 @@ impl Plant {
         next.encoder_counts = r.u64()? as i64;
         next.rng = r.u64()?;
         r.finish()?;
+        next.armed = Armed::of(&next.hysteresis);
         if next.hysteresis.sliding >= 1 << N_PLAYS || !(-1..=1).contains(&next.hysteresis.direction) {
             return Err("plant state: invalid hysteresis flags".into());
         }
