@@ -217,3 +217,39 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
     assert!(out.status.success() && text.contains("no divergence"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn without_real_time_privileges_the_bridge_warns_and_runs() {
+    // No CAP_SYS_NICE / CAP_IPC_LOCK, an rtprio limit of 0 and a 64 KiB memlock limit: both
+    // requests are refused, each with a warning, and the real-time loop runs anyway.
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let unprivileged = |args: &[&str]| {
+        let mut c = Command::new("prlimit");
+        c.args(["--rtprio=0", "--memlock=65536:65536"]);
+        if root {
+            // Root keeps both capabilities whatever the limits say: drop them for the child.
+            c.args(["setpriv", "--bounding-set=-sys_nice,-ipc_lock", "--inh-caps=-sys_nice,-ipc_lock"]);
+        }
+        c.arg(BIN).args(args);
+        c
+    };
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let addr = format!("127.0.0.1:{port}");
+    let board = unprivileged(&["bridge", "--role", "board", "--addr", &addr, "--duration", "2", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("prlimit and setpriv (util-linux)");
+    let out = unprivileged(&["bridge", "--role", "controller", "--addr", &addr, "--duration", "1", "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let board_out = board.wait_with_output().unwrap();
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    for t in [&text, &board_text] {
+        assert!(t.contains("warning: memory not locked (mlockall:"), "{t}");
+        assert!(t.contains("warning: SCHED_FIFO priority 80 refused"), "{t}");
+    }
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("500 ticks in"), "{text}");
+    assert!(board_out.status.success() && board_text.contains("final state Disarmed"), "{board_text}");
+}
