@@ -236,12 +236,14 @@ fn without_real_time_privileges_the_bridge_warns_and_runs() {
     };
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
-    let board = unprivileged(&["bridge", "--role", "board", "--addr", &addr, "--duration", "2", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+    // Under the default scheduler a busy machine may stall a loop for a few periods: the
+    // watchdog and the dead-link limit get room, since the subject here is the set-up.
+    let board = unprivileged(&["bridge", "--role", "board", "--addr", &addr, "--duration", "2", "--watchdog", "25", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("prlimit and setpriv (util-linux)");
-    let out = unprivileged(&["bridge", "--role", "controller", "--addr", &addr, "--duration", "1", "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let out = unprivileged(&["bridge", "--role", "controller", "--addr", &addr, "--duration", "1", "--dead-after", "25", "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     let board_out = board.wait_with_output().unwrap();
     let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
