@@ -16,14 +16,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use inchworm_hil_protocol::{
-    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict,
+    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker,
     Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
 use crate::runlog::{BoardSample, LogWriter, Record};
 use crate::transport::Transport;
-use crate::{describe_fault, Mechanism, OverrunPolicy};
+use crate::{describe_fault, LinkCounters, Mechanism, OverrunPolicy};
 
 #[derive(Clone, Copy, Debug)]
 pub struct BoardConfig {
@@ -44,18 +44,11 @@ impl Default for BoardConfig {
     }
 }
 
-/// Frames received and what became of them.
+/// Frames received and what became of them, and the board's own counts.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BoardCounters {
-    /// Valid frames of any type.
-    pub frames: u64,
-    /// Refused by the decoder: CRC, length, magic, version, type, stream.
-    pub malformed: u64,
-    pub duplicates: u64,
-    pub stale: u64,
-    /// Sequence gaps seen on the DAC stream, and the frames missing in them.
-    pub gaps: u64,
-    pub missing: u64,
+    /// The DAC and control frames received.
+    pub link: LinkCounters,
     /// DAC frames that arrived while the board was not armed (output stayed safe).
     pub unarmed: u64,
     /// Lock-step repeats of the previous tick, answered from the stored reply.
@@ -224,14 +217,14 @@ impl<M: Mechanism> Board<M> {
         let packet = match decode(bytes) {
             Ok(p) => p,
             Err(e) => {
-                self.counters.malformed += 1;
-                if self.counters.malformed.is_power_of_two() {
-                    self.event(format!("malformed frame refused ({e}); {} so far", self.counters.malformed));
+                self.counters.link.malformed += 1;
+                if self.counters.link.malformed.is_power_of_two() {
+                    self.event(format!("malformed frame refused ({e}); {} so far", self.counters.link.malformed));
                 }
                 return Ok(());
             }
         };
-        self.counters.frames += 1;
+        self.counters.link.frames += 1;
         self.session = true;
         match packet.frame {
             Frame::Hello(h) => self.hello(h, tx),
@@ -264,7 +257,7 @@ impl<M: Mechanism> Board<M> {
             }
             Frame::Dac(d) => self.dac(packet.seq, d, tx),
             Frame::Encoder(_) => {
-                self.counters.malformed += 1;
+                self.counters.link.malformed += 1;
                 self.event("an encoder frame came in; only the board sends those".into());
                 Ok(())
             }
@@ -294,20 +287,8 @@ impl<M: Mechanism> Board<M> {
     }
 
     fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {
-        match self.dac_seq.accept(seq) {
-            SeqVerdict::Duplicate => {
-                self.counters.duplicates += 1;
-                return Ok(());
-            }
-            SeqVerdict::Stale { .. } => {
-                self.counters.stale += 1;
-                return Ok(());
-            }
-            SeqVerdict::Gap { missing } => {
-                self.counters.gaps += 1;
-                self.counters.missing += u64::from(missing);
-            }
-            SeqVerdict::First | SeqVerdict::Next => {}
+        if !self.counters.link.sequence(self.dac_seq.accept(seq)) {
+            return Ok(());
         }
         if self.wd.state() != BoardState::Armed {
             // Frames never unlatch the safe state; only ARM does.
@@ -341,7 +322,7 @@ impl<M: Mechanism> Board<M> {
             let (buf, n) = self.reply;
             tx.send(&buf[..n])
         } else {
-            self.counters.stale += 1;
+            self.counters.link.stale += 1;
             Ok(())
         }
     }
@@ -396,7 +377,7 @@ pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, sto
             match tx.recv(buf, Duration::ZERO) {
                 Ok(Some(n)) => board.handle(&buf[..n], tx)?,
                 Ok(None) => return Ok(()),
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.malformed += 1,
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.link.malformed += 1,
                 Err(e) => return Err(e),
             }
         }
@@ -422,7 +403,7 @@ pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, sto
                     }
                 }
                 Ok(None) => {}
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.malformed += 1,
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.link.malformed += 1,
                 Err(e) => break Err(e),
             }
         }

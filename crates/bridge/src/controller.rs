@@ -23,7 +23,7 @@ use inchworm_hil_protocol::{
 use crate::realtime::{now_ns, Pacer};
 use crate::runlog::{ControllerSample, LogWriter, Record};
 use crate::transport::Transport;
-use crate::{describe_fault, Compensator, OverrunPolicy};
+use crate::{describe_fault, Compensator, LinkCounters, OverrunPolicy};
 
 #[derive(Clone, Copy, Debug)]
 pub struct ControllerConfig {
@@ -62,12 +62,8 @@ impl Default for ControllerConfig {
 
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ControllerCounters {
-    pub frames: u64,
-    pub malformed: u64,
-    pub duplicates: u64,
-    pub stale: u64,
-    pub gaps: u64,
-    pub missing: u64,
+    /// The encoder and control frames received.
+    pub link: LinkCounters,
     pub retransmits: u64,
     pub overruns: u64,
 }
@@ -131,7 +127,7 @@ impl Link<'_> {
             Ok(Some(n)) => n,
             Ok(None) => return Ok(Incoming::Nothing),
             Err(e) if e.kind() == io::ErrorKind::InvalidData => {
-                self.counters.malformed += 1;
+                self.counters.link.malformed += 1;
                 return self.recv(Duration::ZERO, max_gap);
             }
             Err(e) => return Err(e),
@@ -139,36 +135,28 @@ impl Link<'_> {
         let packet = match decode(&self.buf[..n]) {
             Ok(p) => p,
             Err(_) => {
-                self.counters.malformed += 1;
+                self.counters.link.malformed += 1;
                 return self.recv(Duration::ZERO, max_gap);
             }
         };
-        self.counters.frames += 1;
+        self.counters.link.frames += 1;
         Ok(match packet.frame {
-            Frame::Encoder(e) => match self.enc.accept(packet.seq) {
-                SeqVerdict::Duplicate => {
-                    self.counters.duplicates += 1;
-                    self.recv(Duration::ZERO, max_gap)?
+            Frame::Encoder(e) => {
+                let verdict = self.enc.accept(packet.seq);
+                if !self.counters.link.sequence(verdict) {
+                    return self.recv(Duration::ZERO, max_gap);
                 }
-                SeqVerdict::Stale { .. } => {
-                    self.counters.stale += 1;
-                    self.recv(Duration::ZERO, max_gap)?
-                }
-                SeqVerdict::Gap { missing } => {
-                    self.counters.gaps += 1;
-                    self.counters.missing += u64::from(missing);
-                    if missing > max_gap {
+                match verdict {
+                    SeqVerdict::Gap { missing } if missing > max_gap => {
                         Incoming::Fault(Fault { reason: FaultReason::SequenceGap, detail: u32::from(missing) })
-                    } else {
-                        Incoming::Encoder(e)
                     }
+                    _ => Incoming::Encoder(e),
                 }
-                SeqVerdict::First | SeqVerdict::Next => Incoming::Encoder(e),
-            },
+            }
             Frame::Fault(f) => Incoming::Fault(f),
             Frame::Hello(h) => Incoming::Hello(h),
             _ => {
-                self.counters.malformed += 1;
+                self.counters.link.malformed += 1;
                 Incoming::Nothing
             }
         })
@@ -272,7 +260,7 @@ pub fn run_controller<C: Compensator>(
                             }
                             break e;
                         }
-                        Incoming::Encoder(_) => link.counters.stale += 1,
+                        Incoming::Encoder(_) => link.counters.link.stale += 1,
                         Incoming::Fault(f) => break 'run Some(f),
                         Incoming::Hello(_) => {}
                         Incoming::Nothing => {

@@ -54,6 +54,40 @@ pub trait Compensator {
     fn step(&mut self, counts: i32, reference: f64) -> Result<(), String>;
 }
 
+/// What became of the frames one side received, the same on both sides.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LinkCounters {
+    /// Valid frames of any type.
+    pub frames: u64,
+    /// Refused by the transport or the decoder: COBS, CRC, length, magic, version, type, stream.
+    pub malformed: u64,
+    pub duplicates: u64,
+    /// Out-of-date frames: behind in sequence, or (lock-step) for a tick already past.
+    pub stale: u64,
+    /// Sequence gaps seen on the data stream, and the frames missing in them.
+    pub gaps: u64,
+    pub missing: u64,
+}
+
+impl LinkCounters {
+    /// Books a data frame's sequence verdict; true when the frame is to be taken (First,
+    /// Next or Gap), false when it is dropped (Duplicate, Stale).
+    pub fn sequence(&mut self, verdict: protocol::SeqVerdict) -> bool {
+        use protocol::SeqVerdict::*;
+        match verdict {
+            Duplicate => self.duplicates += 1,
+            Stale { .. } => self.stale += 1,
+            Gap { missing } => {
+                self.gaps += 1;
+                self.missing += u64::from(missing);
+                return true;
+            }
+            First | Next => return true,
+        }
+        false
+    }
+}
+
 /// What a missed deadline does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OverrunPolicy {

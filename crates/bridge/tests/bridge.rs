@@ -57,7 +57,7 @@ fn lockstep_reproduces_the_cosimulation_exactly() {
     assert_eq!(board.counters.steps, ticks);
     assert_eq!(board.state(), BoardState::Disarmed, "DISARM at the end of the run");
     // A loaded machine may delay an answer past the 2 ms repeat; nothing may be lost or bad.
-    assert_eq!((board.counters.malformed, board.counters.gaps, report.counters.malformed), (0, 0, 0));
+    assert_eq!((board.counters.link.malformed, board.counters.link.gaps, report.counters.link.malformed), (0, 0, 0));
 }
 
 #[test]
@@ -78,9 +78,9 @@ fn lockstep_rides_through_injected_faults_and_stays_exact() {
     let injected = injected.lock().unwrap().clone();
     assert!(injected.dropped > 10 && injected.corrupted > 10 && injected.duplicated > 10 && injected.reordered > 10, "{injected:?}");
     // Every corrupted frame was refused: a one-bit error never passes the CRC.
-    assert!(board.counters.malformed >= injected.corrupted, "{:?} vs {injected:?}", board.counters);
-    assert!(board.counters.duplicates > 0 && board.counters.stale > 0 && board.counters.repeats > 0, "{:?}", board.counters);
-    assert!(report.counters.retransmits > 0 && report.counters.malformed > 0, "{:?}", report.counters);
+    assert!(board.counters.link.malformed >= injected.corrupted, "{:?} vs {injected:?}", board.counters);
+    assert!(board.counters.link.duplicates > 0 && board.counters.link.stale > 0 && board.counters.repeats > 0, "{:?}", board.counters);
+    assert!(report.counters.retransmits > 0 && report.counters.link.malformed > 0, "{:?}", report.counters);
     assert_eq!(board.counters.steps, ticks, "a repeated tick never steps the plant twice");
 }
 
@@ -96,12 +96,12 @@ fn sequence_numbers_wrap_without_false_gaps() {
     let (board, _) = board.finish();
     assert!(report.fault.is_none(), "{:?}", report.fault);
     assert_eq!(report.ticks, ticks);
-    let c = &board.counters;
+    let c = &board.counters.link;
     assert_eq!((c.gaps, c.duplicates, c.malformed), (0, 0, 0), "{c:?}");
     let r = &report.counters;
-    assert_eq!((r.gaps, r.stale, r.malformed), (0, 0, 0), "{r:?}");
+    assert_eq!((r.link.gaps, r.link.stale, r.link.malformed), (0, 0, 0), "{r:?}");
     // A late answer and the answer to its repeat are the same frame: a duplicate, not a gap.
-    assert!(r.duplicates <= r.retransmits, "{r:?}");
+    assert!(r.link.duplicates <= r.retransmits, "{r:?}");
     assert_eq!(board.tick() as u64, ticks);
 }
 
@@ -165,7 +165,7 @@ fn a_corrupt_frame_stream_ends_in_the_safe_state() {
     let (board, _) = board.finish();
     let (fault, text) = report.fault.expect("fault");
     assert_eq!(fault.reason, FaultReason::Silence, "{text}");
-    assert!(board.counters.malformed >= 1, "{:?}", board.counters);
+    assert!(board.counters.link.malformed >= 1, "{:?}", board.counters);
     assert_eq!(board.latches.len(), 1);
     assert!(board.latches[0].tick - board.latches[0].last_valid_tick <= 3);
 }
@@ -281,8 +281,8 @@ fn malformed_frames_of_every_kind_are_refused_without_harm() {
     }
     std::thread::sleep(Duration::from_millis(50));
     let (board, _) = board.finish();
-    assert_eq!(board.counters.malformed, junk.len() as u64, "{:?}", board.counters);
-    assert_eq!((board.counters.frames, board.counters.steps), (0, 0));
+    assert_eq!(board.counters.link.malformed, junk.len() as u64, "{:?}", board.counters);
+    assert_eq!((board.counters.link.frames, board.counters.steps), (0, 0));
     assert_eq!(board.state(), BoardState::Disarmed);
 }
 
@@ -309,7 +309,7 @@ fn cobs_over_a_byte_stream_gives_the_same_trace() {
     let board = handle.join().unwrap();
     assert!(report.fault.is_none());
     assert_eq!(report.encoder, cosimulation(500));
-    assert_eq!(board.counters.malformed, 1, "the noise, and nothing else");
+    assert_eq!(board.counters.link.malformed, 1, "the noise, and nothing else");
 }
 
 #[test]

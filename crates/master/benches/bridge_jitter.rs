@@ -103,6 +103,6 @@ fn main() {
     println!("  lock-step (DAC frame → plant FMU step → encoder frame):          p50 {:.1} µs, p99 {:.1} µs ({} samples)", ls_rtt.p50, ls_rtt.p99, ls_rtt.count);
     println!(
         "link: {} frames, {} malformed, {} gaps, {} duplicates, {} stale",
-        report.counters.frames, report.counters.malformed, report.counters.gaps, report.counters.duplicates, report.counters.stale
+        report.counters.link.frames, report.counters.link.malformed, report.counters.link.gaps, report.counters.link.duplicates, report.counters.link.stale
     );
 }

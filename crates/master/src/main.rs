@@ -542,7 +542,7 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
         let c = &board.counters;
         println!(
             "board: {} steps; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} while unarmed, {} overruns; final state {:?}",
-            c.steps, c.frames, c.malformed, c.duplicates, c.stale, c.gaps, c.missing, c.unarmed, c.overruns, board.state()
+            c.steps, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.unarmed, c.overruns, board.state()
         );
         for l in &board.latches {
             println!("safe state at tick {} ({} periods after the last valid frame): {}", l.tick, l.tick.wrapping_sub(l.last_valid_tick), inchworm_bridge::describe_fault(&l.fault));
@@ -590,7 +590,7 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     let c = &report.counters;
     println!(
         "{} ticks in {wall:.2} s; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} retransmits, {} overruns",
-        report.ticks, c.frames, c.malformed, c.duplicates, c.stale, c.gaps, c.missing, c.retransmits, c.overruns
+        report.ticks, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.retransmits, c.overruns
     );
     if let Some(&last) = report.encoder.last() {
         let t = report.ticks as f64 * inchworm_bridge::PERIOD.as_secs_f64();
