@@ -43,7 +43,15 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     let seconds = 4.0;
-    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), reference, seconds).unwrap();
+    let cosim = run_fmus(
+        &fmu("InchwormPlant.fmu"),
+        &fmu("InchwormController.fmu"),
+        &[],
+        &Params::default(),
+        reference,
+        seconds,
+    )
+    .unwrap();
 
     let stop = Arc::new(AtomicBool::new(false));
     let (tx, rx) = std::sync::mpsc::channel();
@@ -53,7 +61,12 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
         tx.send(udp.local_addr().unwrap()).unwrap();
         let mech = FmuMechanism::load(&fmu("InchwormPlant.fmu"), &[]).unwrap();
         // A generous watchdog: this test is about exactness on a machine busy with others.
-        let mut board = Board::new(mech, BoardConfig { lockstep: true, watchdog_periods: 50, ..BoardConfig::default() }, None).unwrap();
+        let mut board = Board::new(
+            mech,
+            BoardConfig { lockstep: true, watchdog_periods: 50, ..BoardConfig::default() },
+            None,
+        )
+        .unwrap();
         run_board(&mut board, &mut udp, &s, &mut Vec::new()).unwrap();
         board.counters.clone()
     });
@@ -63,8 +76,20 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     let mut log = LogWriter::create(&log_path).unwrap();
     log.write(&Record::Meta("role=controller\n".into())).unwrap();
     let mut comp = FmuCompensator::load(&fmu("InchwormController.fmu"), &[]).unwrap();
-    let cfg = ControllerConfig { lockstep: true, ticks: (seconds / 0.002) as u64, ..ControllerConfig::default() };
-    let report = run_controller(&mut comp, &mut udp, &reference, &cfg, Some(&mut log), &AtomicBool::new(false)).unwrap();
+    let cfg = ControllerConfig {
+        lockstep: true,
+        ticks: (seconds / 0.002) as u64,
+        ..ControllerConfig::default()
+    };
+    let report = run_controller(
+        &mut comp,
+        &mut udp,
+        &reference,
+        &cfg,
+        Some(&mut log),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     stop.store(true, Ordering::Relaxed);
     let board_counters = board.join().unwrap();
     assert!(report.fault.is_none(), "{:?}", report.fault);
@@ -72,15 +97,30 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     let bridge: Vec<i64> = report.encoder.iter().map(|&c| i64::from(c)).collect();
     assert_eq!(bridge.len(), cosim.encoder_counts.len());
     let first = bridge.iter().zip(&cosim.encoder_counts).position(|(a, b)| a != b);
-    assert_eq!(first, None, "the bridge's encoder trace leaves the co-simulation's at sample {first:?}");
+    assert_eq!(
+        first, None,
+        "the bridge's encoder trace leaves the co-simulation's at sample {first:?}"
+    );
     assert!(cosim.settle_time(1e-6).is_some(), "the scenario moves and settles");
     assert_eq!(board_counters.steps, cfg.ticks);
 
     // The log replays through a fresh controller FMU without a single divergent code.
-    let out = Command::new(BIN).args(["replay", log_path.to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let out = Command::new(BIN)
+        .args([
+            "replay",
+            log_path.to_str().unwrap(),
+            "--fmu",
+            fmu("InchwormController.fmu").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{text}");
-    assert!(text.contains(&format!("replayed {} samples", cfg.ticks)) && text.contains("no divergence"), "{text}");
+    assert!(
+        text.contains(&format!("replayed {} samples", cfg.ticks)) && text.contains("no divergence"),
+        "{text}"
+    );
 
     // A log whose encoder counts were changed (CRCs recomputed, so it reads as intact)
     // replays with divergences, and the command says where.
@@ -97,7 +137,15 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
         w.write(&r).unwrap();
     }
     drop(w);
-    let out = Command::new(BIN).args(["replay", dir.join("changed.log").to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
+    let out = Command::new(BIN)
+        .args([
+            "replay",
+            dir.join("changed.log").to_str().unwrap(),
+            "--fmu",
+            fmu("InchwormController.fmu").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(!out.status.success());
     assert!(text.contains("samples diverge; first at tick"), "{text}");
@@ -105,8 +153,17 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     // A log cut short by a crash replays what is whole, with a warning.
     let bytes = std::fs::read(&log_path).unwrap();
     std::fs::write(dir.join("cut.log"), &bytes[..bytes.len() - 7]).unwrap();
-    let out = Command::new(BIN).args(["replay", dir.join("cut.log").to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let out = Command::new(BIN)
+        .args([
+            "replay",
+            dir.join("cut.log").to_str().unwrap(),
+            "--fmu",
+            fmu("InchwormController.fmu").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success() && text.contains("ends inside a record"), "{text}");
     assert!(bytes.starts_with(MAGIC));
     std::fs::remove_dir_all(&dir).unwrap();
@@ -117,12 +174,31 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
     let seconds = 3.0;
     // The reference from a CSV, as an operator gives it: 100 µm, then 40 µm from 1.5 s.
     let step = |t: f64| if t < 1.5 { 100e-6 } else { 40e-6 };
-    let cosim = run_fmus(&fmu("InchwormPlant.fmu"), &fmu("InchwormController.fmu"), &[], &Params::default(), step, seconds).unwrap();
+    let cosim = run_fmus(
+        &fmu("InchwormPlant.fmu"),
+        &fmu("InchwormController.fmu"),
+        &[],
+        &Params::default(),
+        step,
+        seconds,
+    )
+    .unwrap();
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("processes");
     let board = Command::new(BIN)
-        .args(["bridge", "--role", "board", "--lockstep", "--watchdog", "50", "--addr", &addr, "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .args([
+            "bridge",
+            "--role",
+            "board",
+            "--lockstep",
+            "--watchdog",
+            "50",
+            "--addr",
+            &addr,
+            "--fmu",
+            fmu("InchwormPlant.fmu").to_str().unwrap(),
+        ])
         .args(["--log", dir.join("board.log").to_str().unwrap()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -132,20 +208,44 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
     let reference = dir.join("reference.csv");
     std::fs::write(&reference, "time,reference\n0,100e-6\n1.5,40e-6\n").unwrap();
     let out = Command::new(BIN)
-        .args(["bridge", "--role", "controller", "--lockstep", "--addr", &addr, "--duration", &seconds.to_string()])
+        .args([
+            "bridge",
+            "--role",
+            "controller",
+            "--lockstep",
+            "--addr",
+            &addr,
+            "--duration",
+            &seconds.to_string(),
+        ])
         .args(["--reference", reference.to_str().unwrap()])
-        .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap(), "--out", csv.to_str().unwrap()])
+        .args([
+            "--fmu",
+            fmu("InchwormController.fmu").to_str().unwrap(),
+            "--out",
+            csv.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     // SIGTERM: the board stops at its next period and flushes its log.
     unsafe { libc::kill(board.id() as i32, libc::SIGTERM) };
     let board_out = board.wait_with_output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{text}");
-    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
+        + &String::from_utf8_lossy(&board_out.stderr);
     assert!(board_out.status.success(), "{board_text}");
-    assert!(board_text.contains(&format!("board: {} steps", (seconds / 0.002) as u64)), "{board_text}");
-    let counts: Vec<i64> = std::fs::read_to_string(&csv).unwrap().lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    assert!(
+        board_text.contains(&format!("board: {} steps", (seconds / 0.002) as u64)),
+        "{board_text}"
+    );
+    let counts: Vec<i64> = std::fs::read_to_string(&csv)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
     assert_eq!(counts, cosim.encoder_counts);
     // The board's log holds one sample per step, each with the codes it applied.
     let log = read_log(&dir.join("board.log")).unwrap();
@@ -161,13 +261,39 @@ fn bad_bridge_arguments_are_refused_clearly() {
         assert!(!out.status.success(), "{args:?}");
         String::from_utf8_lossy(&out.stderr).to_string()
     };
-    let e = run(&["bridge", "--role", "board", "--fmu", "/nonexistent/Plant.fmu", "--addr", "127.0.0.1:0"]);
+    let e = run(&[
+        "bridge",
+        "--role",
+        "board",
+        "--fmu",
+        "/nonexistent/Plant.fmu",
+        "--addr",
+        "127.0.0.1:0",
+    ]);
     assert!(e.contains("/nonexistent/Plant.fmu"), "{e}");
-    let e = run(&["bridge", "--role", "controller", "--addr", "no-such-host.invalid:1", "--duration", "1"]);
+    let e = run(&[
+        "bridge",
+        "--role",
+        "controller",
+        "--addr",
+        "no-such-host.invalid:1",
+        "--duration",
+        "1",
+    ]);
     assert!(e.contains("board address no-such-host.invalid:1"), "{e}");
     let e = run(&["bridge", "--role", "board", "--param", "F_d0", "--addr", "127.0.0.1:0"]);
     assert!(e.contains("--param F_d0: expected NAME=VALUE"), "{e}");
-    let e = run(&["bridge", "--role", "board", "--param", "no_such=1", "--addr", "127.0.0.1:0", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()]);
+    let e = run(&[
+        "bridge",
+        "--role",
+        "board",
+        "--param",
+        "no_such=1",
+        "--addr",
+        "127.0.0.1:0",
+        "--fmu",
+        fmu("InchwormPlant.fmu").to_str().unwrap(),
+    ]);
     assert!(e.contains("no_such"), "{e}");
     let e = run(&["bridge", "--role", "controller", "--overrun", "maybe"]);
     assert!(e.contains("overrun policy `maybe`"), "{e}");
@@ -187,14 +313,34 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("killed");
     let board = Command::new(BIN)
-        .args(["bridge", "--role", "board", "--addr", &addr, "--duration", "2.5", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .args([
+            "bridge",
+            "--role",
+            "board",
+            "--addr",
+            &addr,
+            "--duration",
+            "2.5",
+            "--fmu",
+            fmu("InchwormPlant.fmu").to_str().unwrap(),
+        ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     let log = dir.join("controller.log");
     let mut controller = Command::new(BIN)
-        .args(["bridge", "--role", "controller", "--addr", &addr, "--duration", "30", "--log", log.to_str().unwrap()])
+        .args([
+            "bridge",
+            "--role",
+            "controller",
+            "--addr",
+            &addr,
+            "--duration",
+            "30",
+            "--log",
+            log.to_str().unwrap(),
+        ])
         .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -204,16 +350,29 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
     controller.kill().unwrap();
     controller.wait().unwrap();
     let board_out = board.wait_with_output().unwrap();
-    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
+        + &String::from_utf8_lossy(&board_out.stderr);
     assert!(board_out.status.success(), "{board_text}");
-    let latch = board_text.lines().find(|l| l.starts_with("safe state at tick")).unwrap_or_else(|| panic!("no latch reported:\n{board_text}"));
+    let latch = board_text
+        .lines()
+        .find(|l| l.starts_with("safe state at tick"))
+        .unwrap_or_else(|| panic!("no latch reported:\n{board_text}"));
     assert!(latch.contains("(3 periods after the last valid frame): Silence"), "{latch}");
 
     let contents = read_log(&log).unwrap();
     let samples = contents.records.iter().filter(|r| matches!(r, Record::Controller(_))).count();
     assert!(samples > 200, "{samples} samples logged before the kill");
-    let out = Command::new(BIN).args(["replay", log.to_str().unwrap(), "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let out = Command::new(BIN)
+        .args([
+            "replay",
+            log.to_str().unwrap(),
+            "--fmu",
+            fmu("InchwormController.fmu").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success() && text.contains("no divergence"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -229,7 +388,11 @@ fn without_real_time_privileges_the_bridge_warns_and_runs() {
         c.args(["--rtprio=0", "--memlock=65536:65536"]);
         if root {
             // Root keeps both capabilities whatever the limits say: drop them for the child.
-            c.args(["setpriv", "--bounding-set=-sys_nice,-ipc_lock", "--inh-caps=-sys_nice,-ipc_lock"]);
+            c.args([
+                "setpriv",
+                "--bounding-set=-sys_nice,-ipc_lock",
+                "--inh-caps=-sys_nice,-ipc_lock",
+            ]);
         }
         c.arg(BIN).args(args);
         c
@@ -238,20 +401,51 @@ fn without_real_time_privileges_the_bridge_warns_and_runs() {
     let addr = format!("127.0.0.1:{port}");
     // Under the default scheduler a busy machine may stall a loop for a few periods: the
     // watchdog and the dead-link limit get room, since the subject here is the set-up.
-    let board = unprivileged(&["bridge", "--role", "board", "--addr", &addr, "--duration", "2", "--watchdog", "25", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("prlimit and setpriv (util-linux)");
-    let out = unprivileged(&["bridge", "--role", "controller", "--addr", &addr, "--duration", "1", "--dead-after", "25", "--fmu", fmu("InchwormController.fmu").to_str().unwrap()]).output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let board = unprivileged(&[
+        "bridge",
+        "--role",
+        "board",
+        "--addr",
+        &addr,
+        "--duration",
+        "2",
+        "--watchdog",
+        "25",
+        "--fmu",
+        fmu("InchwormPlant.fmu").to_str().unwrap(),
+    ])
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .spawn()
+    .expect("prlimit and setpriv (util-linux)");
+    let out = unprivileged(&[
+        "bridge",
+        "--role",
+        "controller",
+        "--addr",
+        &addr,
+        "--duration",
+        "1",
+        "--dead-after",
+        "25",
+        "--fmu",
+        fmu("InchwormController.fmu").to_str().unwrap(),
+    ])
+    .output()
+    .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     let board_out = board.wait_with_output().unwrap();
-    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string() + &String::from_utf8_lossy(&board_out.stderr);
+    let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
+        + &String::from_utf8_lossy(&board_out.stderr);
     for t in [&text, &board_text] {
         assert!(t.contains("warning: memory not locked (mlockall:"), "{t}");
         assert!(t.contains("warning: SCHED_FIFO priority 80 refused"), "{t}");
     }
     assert!(out.status.success(), "{text}");
     assert!(text.contains("500 ticks in"), "{text}");
-    assert!(board_out.status.success() && board_text.contains("final state Disarmed"), "{board_text}");
+    assert!(
+        board_out.status.success() && board_text.contains("final state Disarmed"),
+        "{board_text}"
+    );
 }

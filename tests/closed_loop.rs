@@ -19,7 +19,12 @@ fn fig5(p: Params) -> Trace {
 }
 
 fn feedback_only() -> Params {
-    Params { feedforward: false, use_scale_factor_estimate: false, use_disturbance_estimate: false, ..Params::default() }
+    Params {
+        feedforward: false,
+        use_scale_factor_estimate: false,
+        use_disturbance_estimate: false,
+        ..Params::default()
+    }
 }
 
 /// The Figs. 6–7 staircase: seven levels of 100 s, large and small changes.
@@ -39,9 +44,15 @@ fn fig5_full_control_settles_within_3_s_and_feedback_only_over_twice_later() {
     let fb = fig5(feedback_only());
     let t_full = full.settle_time(1.0 * UM).expect("full control settles within 1 µm");
     let t_fb = fb.settle_time(1.0 * UM).expect("feedback only settles within 1 µm");
-    eprintln!("Fig. 5: full control settles in {t_full:.3} s, feedback only in {t_fb:.3} s (ratio {:.2})", t_fb / t_full);
+    eprintln!(
+        "Fig. 5: full control settles in {t_full:.3} s, feedback only in {t_fb:.3} s (ratio {:.2})",
+        t_fb / t_full
+    );
     assert!(t_full < 3.0, "full control settle time {t_full} s, expected < 3 s");
-    assert!(t_fb >= 2.0 * t_full, "feedback only settles at {t_fb} s, not 2x later than full control at {t_full} s");
+    assert!(
+        t_fb >= 2.0 * t_full,
+        "feedback only settles at {t_fb} s, not 2x later than full control at {t_full} s"
+    );
 }
 
 /// Raw measurements of every step of a trace: steps are back to back from t = 0.
@@ -76,9 +87,17 @@ fn figs6_7_staircase_regulates_to_a_nanometre_and_learns_the_scale_factor() {
         let (from, to) = (k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0);
         let rms = tr.parked_rms(from, to);
         eprintln!("level {level} µm: parked RMS {:.3} nm over [{from}, {to}) s", rms * 1e9);
-        assert!(rms <= 1e-9, "RMS error {:.3} nm at level {level} µm over [{from}, {to}) s, expected <= 1 nm", rms * 1e9);
+        assert!(
+            rms <= 1e-9,
+            "RMS error {:.3} nm at level {level} µm over [{from}, {to}) s, expected <= 1 nm",
+            rms * 1e9
+        );
         let bd = tr.disturbance_estimate[((to - 0.1) / 0.002) as usize];
-        assert!((4.0 * UM..=5.5 * UM).contains(&bd), "disturbance estimate {:.3} µm at t = {to} s, expected 4..5.5 µm", bd / UM);
+        assert!(
+            (4.0 * UM..=5.5 * UM).contains(&bd),
+            "disturbance estimate {:.3} µm at t = {to} s, expected 4..5.5 µm",
+            bd / UM
+        );
     }
     // Multi-step moves only right after large reference changes.
     for (i, &n) in tr.n_steps.iter().enumerate() {
@@ -87,13 +106,17 @@ fn figs6_7_staircase_regulates_to_a_nanometre_and_learns_the_scale_factor() {
             let since_change = t % 100.0;
             let k = (t / 100.0) as usize;
             let jump = if k == 0 { LEVELS_UM[0] } else { (LEVELS_UM[k] - LEVELS_UM[k - 1]).abs() };
-            assert!(since_change < 15.0 && jump > 15.0, "{n} full steps at t = {t} s, {since_change:.1} s after a {jump} µm change");
+            assert!(
+                since_change < 15.0 && jump > 15.0,
+                "{n} full steps at t = {t} s, {since_change:.1} s after a {jump} µm change"
+            );
         }
     }
     // The final inverse scale factor reproduces the measured (EXT_moved, EXT_cmd) pairs.
     let basis = Basis::new(inchworm_controller::basis::FIA20_PEAKS).unwrap();
     let pairs = steps(&tr);
-    let resid: Vec<f64> = pairs.iter().map(|(cmd, moved, _)| basis.eval(*moved, &tr.scale_weights) - cmd).collect();
+    let resid: Vec<f64> =
+        pairs.iter().map(|(cmd, moved, _)| basis.eval(*moved, &tr.scale_weights) - cmd).collect();
     let rms = (resid.iter().map(|r| r * r).sum::<f64>() / resid.len() as f64).sqrt();
     eprintln!("inverse scale factor: RMS residual {rms:.4} over {} steps", pairs.len());
     assert!(pairs.len() > 3000);
@@ -103,12 +126,25 @@ fn figs6_7_staircase_regulates_to_a_nanometre_and_learns_the_scale_factor() {
 #[test]
 fn estimator_converges_from_the_nominal_start() {
     // Nominal linear inverse scale factor (20 µm per full step) and zero disturbance.
-    let p = Params { scale_weights_start: NOMINAL_WEIGHTS, disturbance_start: 0.0, ..Params::default() };
+    let p = Params {
+        scale_weights_start: NOMINAL_WEIGHTS,
+        disturbance_start: 0.0,
+        ..Params::default()
+    };
     let tr = run(PlantParams::fia20(), p, |_| 100.0 * UM, 80.0).unwrap();
     // 60 s of regulation after the ~4 s approach.
     let bd = *tr.disturbance_estimate.last().unwrap();
-    eprintln!("from nominal: disturbance estimate {:.3} µm after 80 s (calibrated {:.3} µm)", bd / UM, CALIBRATED_DISTURBANCE / UM);
-    assert!((bd - CALIBRATED_DISTURBANCE).abs() <= 0.3 * UM, "disturbance estimate {:.3} µm, calibrated {:.3} µm", bd / UM, CALIBRATED_DISTURBANCE / UM);
+    eprintln!(
+        "from nominal: disturbance estimate {:.3} µm after 80 s (calibrated {:.3} µm)",
+        bd / UM,
+        CALIBRATED_DISTURBANCE / UM
+    );
+    assert!(
+        (bd - CALIBRATED_DISTURBANCE).abs() <= 0.3 * UM,
+        "disturbance estimate {:.3} µm, calibrated {:.3} µm",
+        bd / UM,
+        CALIBRATED_DISTURBANCE / UM
+    );
     assert!(tr.settle_time(1.0 * UM).is_some());
 }
 
@@ -116,13 +152,25 @@ fn estimator_converges_from_the_nominal_start() {
 fn calibrated_defaults_are_what_the_calibration_run_converges_to() {
     // docs/controller-design.md: the defaults are the estimates at the end of the
     // staircase run from the nominal start.
-    let p = Params { prefilter: true, scale_weights_start: NOMINAL_WEIGHTS, disturbance_start: 0.0, ..Params::default() };
+    let p = Params {
+        prefilter: true,
+        scale_weights_start: NOMINAL_WEIGHTS,
+        disturbance_start: 0.0,
+        ..Params::default()
+    };
     let tr = run(PlantParams::fia20(), p, staircase, 700.0).unwrap();
     for (i, (got, want)) in tr.scale_weights.iter().zip(CALIBRATED_WEIGHTS).enumerate() {
-        assert!((got - want).abs() < 1e-5, "weight {}: calibration gives {got}, constant is {want}", i + 1);
+        assert!(
+            (got - want).abs() < 1e-5,
+            "weight {}: calibration gives {got}, constant is {want}",
+            i + 1
+        );
     }
     let bd = *tr.disturbance_estimate.last().unwrap();
-    assert!((bd - CALIBRATED_DISTURBANCE).abs() < 1e-10, "disturbance: calibration gives {bd}, constant is {CALIBRATED_DISTURBANCE}");
+    assert!(
+        (bd - CALIBRATED_DISTURBANCE).abs() < 1e-10,
+        "disturbance: calibration gives {bd}, constant is {CALIBRATED_DISTURBANCE}"
+    );
 }
 
 /// Mean |error| left by the first move after each of a series of small reference changes
@@ -153,15 +201,30 @@ fn each_flag_changes_behaviour_as_the_paper_says() {
     let t_full = full.settle_time(UM).unwrap();
     // Feedforward: without it the loop must integrate its way to the reference.
     let no_ff = fig5(Params { feedforward: false, ..Params::default() });
-    assert!(no_ff.settle_time(UM).unwrap() > 2.0 * t_full, "feedforward off should settle much later");
+    assert!(
+        no_ff.settle_time(UM).unwrap() > 2.0 * t_full,
+        "feedforward off should settle much later"
+    );
     // Disturbance estimate: without it every full step of the feedforward move carries an
     // uncompensated ~4.4 µm, so the runner overshoots by several steps' worth.
     let no_bd = fig5(Params { use_disturbance_estimate: false, ..Params::default() });
-    assert!(overshoot(&no_bd) > overshoot(&full) + 10.0 * UM, "overshoot without BD estimate {:.2} µm vs {:.2} µm", overshoot(&no_bd) / UM, overshoot(&full) / UM);
+    assert!(
+        overshoot(&no_bd) > overshoot(&full) + 10.0 * UM,
+        "overshoot without BD estimate {:.2} µm vs {:.2} µm",
+        overshoot(&no_bd) / UM,
+        overshoot(&full) / UM
+    );
     // Prefilter: the reference is smoothed, the first move is a fraction of the step.
     let pf = fig5(Params { prefilter: true, ..Params::default() });
-    assert_eq!(full.n_steps[0], 4, "without prefilter the first move takes the whole 100 µm: 4 full steps and a fraction");
-    assert!(pf.n_steps[0] <= 1, "prefiltered, the first move is 20 % of the step: {} full steps", pf.n_steps[0]);
+    assert_eq!(
+        full.n_steps[0], 4,
+        "without prefilter the first move takes the whole 100 µm: 4 full steps and a fraction"
+    );
+    assert!(
+        pf.n_steps[0] <= 1,
+        "prefiltered, the first move is 20 % of the step: {} full steps",
+        pf.n_steps[0]
+    );
     assert!(overshoot(&pf) <= overshoot(&full) + 0.1 * UM);
     // Scale-factor estimate: from a wrong start (the nominal linear map), fractional moves
     // land where the learned map says, not where the line says: after each small reference
@@ -170,18 +233,29 @@ fn each_flag_changes_behaviour_as_the_paper_says() {
     let with_sf = small_moves(nominal.clone());
     let without_sf = small_moves(Params { use_scale_factor_estimate: false, ..nominal });
     eprintln!("first-move error after small changes: {:.1} nm with the scale-factor estimate, {:.1} nm with the nominal map", with_sf * 1e9, without_sf * 1e9);
-    assert!(with_sf < 0.5 * without_sf, "scale-factor estimate: {:.1} nm vs {:.1} nm", with_sf * 1e9, without_sf * 1e9);
+    assert!(
+        with_sf < 0.5 * without_sf,
+        "scale-factor estimate: {:.1} nm vs {:.1} nm",
+        with_sf * 1e9,
+        without_sf * 1e9
+    );
     // Deadband: once inside it, the actuator parks and stops stepping.
     let db = fig5(Params { deadband: 5e-9, ..Params::default() });
     let parked_late = db.parked().into_iter().filter(|&i| db.time[i] > 15.0).count();
     assert!(parked_late > 2000, "with a 5 nm deadband the actuator should stay parked, {parked_late} parked samples after 15 s");
-    assert!(db.parked().into_iter().filter(|&i| db.time[i] > 15.0).all(|i| db.error(i).abs() < 5e-9 + 1.2e-9));
+    assert!(db
+        .parked()
+        .into_iter()
+        .filter(|&i| db.time[i] > 15.0)
+        .all(|i| db.error(i).abs() < 5e-9 + 1.2e-9));
 }
 
 #[test]
 fn fia6_device_settles_from_its_nominal_map() {
     let s = inchworm::scenario::by_name("fia6").unwrap();
-    let tr = run(PlantParams::fia6(), inchworm::scenario::fia6_controller(), s.reference, s.duration).unwrap();
+    let tr =
+        run(PlantParams::fia6(), inchworm::scenario::fia6_controller(), s.reference, s.duration)
+            .unwrap();
     let t = tr.settle_time(UM).expect("fia6 settles within 1 µm");
     let bd = *tr.disturbance_estimate.last().unwrap();
     eprintln!("fia6: settles in {t:.2} s, disturbance estimate {:.3} µm", bd / UM);

@@ -11,7 +11,11 @@ use inchworm_plant::PlantParams;
 
 fn dist(name: &str) -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist").join(name);
-    assert!(p.is_file(), "{} is missing: run `cargo run --release -p fmu-build` first", p.display());
+    assert!(
+        p.is_file(),
+        "{} is missing: run `cargo run --release -p fmu-build` first",
+        p.display()
+    );
     p
 }
 
@@ -38,7 +42,18 @@ fn ssp_through_the_master_equals_the_direct_coupling() {
     let d = direct(PlantParams::fia20(), Params::default(), |_| 100e-6, 10.0).unwrap();
     assert_eq!(counts(&full), d.encoder_counts, "full control");
     let fb = run(&ssp, &options(Some("feedback-only"), Coupling::Jacobi), |_| {}).unwrap();
-    let d = direct(PlantParams::fia20(), Params { feedforward: false, use_scale_factor_estimate: false, use_disturbance_estimate: false, ..Params::default() }, |_| 100e-6, 10.0).unwrap();
+    let d = direct(
+        PlantParams::fia20(),
+        Params {
+            feedforward: false,
+            use_scale_factor_estimate: false,
+            use_disturbance_estimate: false,
+            ..Params::default()
+        },
+        |_| 100e-6,
+        10.0,
+    )
+    .unwrap();
     assert_eq!(counts(&fb), d.encoder_counts, "feedback only");
     // The system output connector carries the plant's encoder position.
     let pos = full.column("encoder_position").unwrap();
@@ -65,10 +80,16 @@ fn parameter_sets_and_params_reach_the_fmus() {
 
 #[test]
 fn gauss_seidel_closes_the_loop_too() {
-    let r = run(&dist("InchwormSystem.ssp"), &options(None, Coupling::GaussSeidel), |_| {}).unwrap();
+    let r =
+        run(&dist("InchwormSystem.ssp"), &options(None, Coupling::GaussSeidel), |_| {}).unwrap();
     let pos = r.column("encoder_position").unwrap();
     assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6, "final position {}", pos.last().unwrap());
-    assert_ne!(counts(&r), counts(&run(&dist("InchwormSystem.ssp"), &options(None, Coupling::Jacobi), |_| {}).unwrap()));
+    assert_ne!(
+        counts(&r),
+        counts(
+            &run(&dist("InchwormSystem.ssp"), &options(None, Coupling::Jacobi), |_| {}).unwrap()
+        )
+    );
 }
 
 fn error_of(path: &Path, o: &Options) -> String {
@@ -107,9 +128,11 @@ fn bad_files_names_and_values_are_refused_clearly() {
     // A real model description but no binary for this platform.
     let nobin = dir.join("nobinary.fmu");
     let md = {
-        let mut z = zip::ZipArchive::new(std::fs::File::open(dist("InchwormPlant.fmu")).unwrap()).unwrap();
+        let mut z =
+            zip::ZipArchive::new(std::fs::File::open(dist("InchwormPlant.fmu")).unwrap()).unwrap();
         let mut s = String::new();
-        std::io::Read::read_to_string(&mut z.by_name("modelDescription.xml").unwrap(), &mut s).unwrap();
+        std::io::Read::read_to_string(&mut z.by_name("modelDescription.xml").unwrap(), &mut s)
+            .unwrap();
         s
     };
     let mut w = zip::ZipWriter::new(std::fs::File::create(&nobin).unwrap());

@@ -18,10 +18,8 @@ use fmi::traits::FmiImport;
 use inchworm::gait::{self, CHECK_TOLERANCE_UM, CHECK_VALUES, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
 const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist/InchwormPlant.fmu");
-const TRACE: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../../../shared/reference/plant-check-trace-fia20.csv"
-);
+const TRACE: &str =
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
 /// SPEC 2.9: every sample of the trace within 2 encoder counts.
 const COUNT_TOLERANCE: i64 = 2;
 
@@ -93,7 +91,8 @@ struct Sampled {
 /// communication point computed as k · h as a master does.
 fn run_fmu(rows: &[Row]) -> (Vec<Sampled>, f64) {
     require_fmu();
-    let import: Fmi2Import = fmi::import::from_path(FMU).unwrap_or_else(|e| panic!("importing {FMU}: {e}"));
+    let import: Fmi2Import =
+        fmi::import::from_path(FMU).unwrap_or_else(|e| panic!("importing {FMU}: {e}"));
     assert!(
         import.model_description().co_simulation.is_some(),
         "{FMU}: no <CoSimulation> in modelDescription.xml"
@@ -120,21 +119,15 @@ fn run_fmu(rows: &[Row]) -> (Vec<Sampled>, f64) {
             "{TRACE}: row {k} has time {} s, expected {t} s",
             r.time
         );
-        inst.set_real(&inputs, &r.dac)
-            .unwrap_or_else(|e| panic!("fmi2SetReal at t = {t} s: {e}"));
+        inst.set_real(&inputs, &r.dac).unwrap_or_else(|e| panic!("fmi2SetReal at t = {t} s: {e}"));
         inst.do_step(t, SAMPLE_PERIOD_S, true)
             .unwrap_or_else(|e| panic!("fmi2DoStep({t}, {SAMPLE_PERIOD_S}): {e}"));
         let mut iv = [0; 2];
         let mut x = [0.0];
         inst.get_integer(&ints, &mut iv)
             .unwrap_or_else(|e| panic!("fmi2GetInteger at t = {t} s: {e}"));
-        inst.get_real(&runner, &mut x)
-            .unwrap_or_else(|e| panic!("fmi2GetReal at t = {t} s: {e}"));
-        out.push(Sampled {
-            counts: iv[0] as i64,
-            mode: iv[1],
-            runner: x[0],
-        });
+        inst.get_real(&runner, &mut x).unwrap_or_else(|e| panic!("fmi2GetReal at t = {t} s: {e}"));
+        out.push(Sampled { counts: iv[0] as i64, mode: iv[1], runner: x[0] });
     }
     Common::terminate(&mut inst).expect("fmi2Terminate");
     (out, q[0])
@@ -143,11 +136,7 @@ fn run_fmu(rows: &[Row]) -> (Vec<Sampled>, f64) {
 #[test]
 fn reference_trace_and_check_values_through_the_fmu() {
     let rows = reference();
-    assert_eq!(
-        rows.len(),
-        5 * SAMPLES_PER_STEP,
-        "{TRACE}: expected the five steps of SPEC 2.9"
-    );
+    assert_eq!(rows.len(), 5 * SAMPLES_PER_STEP, "{TRACE}: expected the five steps of SPEC 2.9");
     let (out, q_enc) = run_fmu(&rows);
     assert_eq!(q_enc, 1.2e-9, "q_enc start value (SPEC 2.8)");
 
@@ -174,10 +163,7 @@ fn reference_trace_and_check_values_through_the_fmu() {
             failures.push(format!("mode at t = {t_end:.3} s: {}, reference {}", o.mode, r.mode));
         }
     }
-    eprintln!(
-        "worst encoder deviation: {} counts at t = {:.3} s",
-        worst_counts.0, worst_counts.1
-    );
+    eprintln!("worst encoder deviation: {} counts at t = {:.3} s", worst_counts.0, worst_counts.1);
     eprintln!(
         "worst runner_position deviation: {:.3e} m at t = {:.3} s",
         worst_runner.0, worst_runner.1
@@ -274,20 +260,12 @@ fn gait_command_writes_the_run_and_its_plot() {
         .map(|l| l.split(',').map(|v| v.parse().expect("gait.csv: a number")).collect())
         .collect();
     let rows = reference();
-    assert_eq!(
-        data.len(),
-        rows.len() + 1,
-        "gait.csv: one row per communication point from t = 0"
-    );
+    assert_eq!(data.len(), rows.len() + 1, "gait.csv: one row per communication point from t = 0");
     assert_eq!(data[0][c], 0.0, "gait.csv: encoder at t = 0 (at rest)");
     for (k, r) in rows.iter().enumerate() {
         // Row k holds the inputs applied over the reference row's interval, row k + 1 the
         // outputs at its end.
-        assert!(
-            (data[k][t] - r.time).abs() < 1e-9,
-            "gait.csv row {k}: time {}",
-            data[k][t]
-        );
+        assert!((data[k][t] - r.time).abs() < 1e-9, "gait.csv row {k}: time {}", data[k][t]);
         for (j, ci) in [e, n, x].into_iter().enumerate() {
             assert!(
                 (data[k][ci] - r.dac[j]).abs() < 1e-9,
@@ -314,9 +292,5 @@ fn gait_command_writes_the_run_and_its_plot() {
 
     let png = std::fs::read(out_dir.join("gait.png")).expect("reading gait.png");
     assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "gait.png is not a PNG");
-    assert!(
-        png.len() > 20_000,
-        "gait.png is only {} bytes: nothing drawn?",
-        png.len()
-    );
+    assert!(png.len() > 20_000, "gait.png is only {} bytes: nothing drawn?", png.len());
 }

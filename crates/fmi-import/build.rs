@@ -2,8 +2,5 @@
 
 fn main() {
     println!("cargo:rerun-if-changed=src/logger.c");
-    cc::Build::new()
-        .file("src/logger.c")
-        .warnings(true)
-        .compile("inchworm_fmi_import_logger");
+    cc::Build::new().file("src/logger.c").warnings(true).compile("inchworm_fmi_import_logger");
 }

@@ -42,11 +42,17 @@ fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
 }
 
 fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("fmu-build lives in the workspace").to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("fmu-build lives in the workspace")
+        .to_path_buf()
 }
 
 fn target_dir(root: &Path) -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR").map(PathBuf::from).map(|p| if p.is_absolute() { p } else { root.join(p) }).unwrap_or_else(|| root.join("target"))
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .map(|p| if p.is_absolute() { p } else { root.join(p) })
+        .unwrap_or_else(|| root.join("target"))
 }
 
 fn build(root: &Path, fmus: &[Fmu]) -> Result<(), String> {
@@ -93,7 +99,8 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
     let tmp = out.with_extension("partial");
     let file = std::fs::File::create(&tmp).map_err(|e| err(&e))?;
     let mut zip = zip::ZipWriter::new(file);
-    let opts = zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated);
+    let opts = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated);
     for (name, data) in entries {
         zip.start_file(name.as_str(), opts).map_err(|e| err(&e))?;
         zip.write_all(data).map_err(|e| err(&e))?;
@@ -105,7 +112,9 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
 /// `dist/InchwormSystem.ssp` from the packaged FMUs.
 fn package_system(root: &Path) -> Result<PathBuf, String> {
     let dist = root.join("dist");
-    let read = |name: &str| std::fs::read(dist.join(name)).map_err(|e| format!("{}: {e}", dist.join(name).display()));
+    let read = |name: &str| {
+        std::fs::read(dist.join(name)).map_err(|e| format!("{}: {e}", dist.join(name).display()))
+    };
     let plant = read("InchwormPlant.fmu")?;
     let controller = read("InchwormController.fmu")?;
     let ssd = ssp::system_description();
@@ -127,7 +136,10 @@ fn main() -> ExitCode {
     let root = workspace_root();
     let fmus = [
         fmu::<inchworm_fmu_models::PlantFmu>("inchworm-plant-fmu", "inchworm_plant_fmu"),
-        fmu::<inchworm_fmu_models::ControllerFmu>("inchworm-controller-fmu", "inchworm_controller_fmu"),
+        fmu::<inchworm_fmu_models::ControllerFmu>(
+            "inchworm-controller-fmu",
+            "inchworm_controller_fmu",
+        ),
     ];
     let run = || -> Result<(), String> {
         build(&root, &fmus)?;

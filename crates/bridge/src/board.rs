@@ -16,8 +16,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use inchworm_hil_protocol::{
-    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker,
-    Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
+    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello,
+    Packet, Role, SeqTracker, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
@@ -170,7 +170,8 @@ impl<M: Mechanism> Board<M> {
             }
         };
         let mut buf = [0u8; MAX_FRAME];
-        let n = encode(&Packet { seq, frame }, &mut buf).map_err(|e| io::Error::other(e.to_string()))?;
+        let n = encode(&Packet { seq, frame }, &mut buf)
+            .map_err(|e| io::Error::other(e.to_string()))?;
         if matches!(frame, Frame::Encoder(_)) {
             self.reply = (buf, n);
         }
@@ -189,13 +190,22 @@ impl<M: Mechanism> Board<M> {
     }
 
     fn send_encoder(&mut self, tx: &mut dyn Transport) -> io::Result<()> {
-        let e = EncoderSample { tick: self.tick, counts: self.counts, status: self.status(), echo_seq: self.last_dac_seq };
+        let e = EncoderSample {
+            tick: self.tick,
+            counts: self.counts,
+            status: self.status(),
+            echo_seq: self.last_dac_seq,
+        };
         self.overrun_flag = false;
         self.send(Frame::Encoder(e), tx)
     }
 
     fn latch(&mut self, fault: Fault, tx: &mut dyn Transport) -> io::Result<()> {
-        self.latches.push(SafeLatch { fault, last_valid_tick: self.last_valid_tick, tick: self.tick });
+        self.latches.push(SafeLatch {
+            fault,
+            last_valid_tick: self.last_valid_tick,
+            tick: self.tick,
+        });
         self.event(format!("safe state latched: {}; re-arm required", describe_fault(&fault)));
         // Tell the controller why, so its report names the cause and not only the symptom.
         self.send(Frame::Fault(fault), tx)
@@ -204,10 +214,18 @@ impl<M: Mechanism> Board<M> {
     /// One interval with the codes the watchdog lets through.
     fn step(&mut self) -> io::Result<()> {
         self.applied = self.wd.output(self.requested);
-        self.counts = self.mech.step(self.applied).map_err(|e| io::Error::other(format!("the mechanism failed at tick {}: {e}", self.tick)))?;
+        self.counts = self.mech.step(self.applied).map_err(|e| {
+            io::Error::other(format!("the mechanism failed at tick {}: {e}", self.tick))
+        })?;
         self.tick = self.tick.wrapping_add(1);
         self.counters.steps += 1;
-        let s = BoardSample { tick: self.tick, codes: self.applied, counts: self.counts, status: self.status(), dac_seq: self.last_dac_seq };
+        let s = BoardSample {
+            tick: self.tick,
+            codes: self.applied,
+            counts: self.counts,
+            status: self.status(),
+            dac_seq: self.last_dac_seq,
+        };
         self.write_log(Record::Board(s));
         Ok(())
     }
@@ -219,7 +237,10 @@ impl<M: Mechanism> Board<M> {
             Err(e) => {
                 self.counters.link.malformed += 1;
                 if self.counters.link.malformed.is_power_of_two() {
-                    self.event(format!("malformed frame refused ({e}); {} so far", self.counters.link.malformed));
+                    self.event(format!(
+                        "malformed frame refused ({e}); {} so far",
+                        self.counters.link.malformed
+                    ));
                 }
                 return Ok(());
             }
@@ -250,9 +271,16 @@ impl<M: Mechanism> Board<M> {
                 let first = !matches!(self.wd.state(), BoardState::Safe(_));
                 self.wd.fault(f);
                 if first {
-                    self.latches.push(SafeLatch { fault: f, last_valid_tick: self.last_valid_tick, tick: self.tick });
+                    self.latches.push(SafeLatch {
+                        fault: f,
+                        last_valid_tick: self.last_valid_tick,
+                        tick: self.tick,
+                    });
                 }
-                self.event(format!("the controller reported a fault, safe state: {}", describe_fault(&f)));
+                self.event(format!(
+                    "the controller reported a fault, safe state: {}",
+                    describe_fault(&f)
+                ));
                 Ok(())
             }
             Frame::Dac(d) => self.dac(packet.seq, d, tx),
@@ -267,11 +295,17 @@ impl<M: Mechanism> Board<M> {
     fn hello(&mut self, h: Hello, tx: &mut dyn Transport) -> io::Result<()> {
         let period_us = self.cfg.period.as_micros() as u32;
         let mismatch = if h.version != VERSION {
-            Some((format!("protocol version {} (board speaks {VERSION})", h.version), u32::from(h.version)))
+            Some((
+                format!("protocol version {} (board speaks {VERSION})", h.version),
+                u32::from(h.version),
+            ))
         } else if h.role != Role::Controller {
             Some(("the peer says it is a board".to_string(), h.role as u32))
         } else if h.lockstep != self.cfg.lockstep {
-            Some((format!("lock-step {} (board: {})", h.lockstep, self.cfg.lockstep), u32::from(h.lockstep)))
+            Some((
+                format!("lock-step {} (board: {})", h.lockstep, self.cfg.lockstep),
+                u32::from(h.lockstep),
+            ))
         } else if h.period_us != period_us {
             Some((format!("period {} µs (board: {period_us} µs)", h.period_us), h.period_us))
         } else {
@@ -279,10 +313,20 @@ impl<M: Mechanism> Board<M> {
         };
         if let Some((why, detail)) = mismatch {
             self.event(format!("HELLO refused: {why}"));
-            return self.send(Frame::Fault(Fault { reason: FaultReason::ProtocolMismatch, detail }), tx);
+            return self
+                .send(Frame::Fault(Fault { reason: FaultReason::ProtocolMismatch, detail }), tx);
         }
-        self.event(format!("HELLO from a controller (protocol {VERSION}, {period_us} µs, lock-step {})", h.lockstep));
-        let reply = Hello { version: VERSION, role: Role::Board, period_us, watchdog_periods: self.cfg.watchdog_periods.min(255) as u8, lockstep: self.cfg.lockstep };
+        self.event(format!(
+            "HELLO from a controller (protocol {VERSION}, {period_us} µs, lock-step {})",
+            h.lockstep
+        ));
+        let reply = Hello {
+            version: VERSION,
+            role: Role::Board,
+            period_us,
+            watchdog_periods: self.cfg.watchdog_periods.min(255) as u8,
+            lockstep: self.cfg.lockstep,
+        };
         self.send(Frame::Hello(reply), tx)
     }
 
@@ -295,7 +339,10 @@ impl<M: Mechanism> Board<M> {
             self.counters.unarmed += 1;
             if self.counters.unarmed.is_power_of_two() {
                 let state = self.wd.state();
-                self.event(format!("DAC frame while {state:?}: output stays safe until ARM ({} such frames)", self.counters.unarmed));
+                self.event(format!(
+                    "DAC frame while {state:?}: output stays safe until ARM ({} such frames)",
+                    self.counters.unarmed
+                ));
             }
             return if self.cfg.lockstep { self.send_encoder(tx) } else { Ok(()) };
         }
@@ -333,7 +380,10 @@ impl<M: Mechanism> Board<M> {
             self.counters.overruns += 1;
             self.overrun_flag = true;
             if self.cfg.overrun == OverrunPolicy::Hard && self.wd.state() == BoardState::Armed {
-                let f = Fault { reason: FaultReason::Overrun, detail: late.min(u64::from(u32::MAX)) as u32 };
+                let f = Fault {
+                    reason: FaultReason::Overrun,
+                    detail: late.min(u64::from(u32::MAX)) as u32,
+                };
                 self.wd.fault(f);
                 self.latch(f, tx)?;
             }
@@ -368,7 +418,12 @@ impl<M: Mechanism> Board<M> {
 /// Runs the board until `stop` is set. Real time: one step per period. Lock-step: one step
 /// per DAC frame, the watchdog counting wall-clock periods of silence. `lateness_us`
 /// receives the wake-up lateness of every real-time period.
-pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, stop: &AtomicBool, lateness_us: &mut Vec<f64>) -> io::Result<()> {
+pub fn run_board<M: Mechanism>(
+    board: &mut Board<M>,
+    tx: &mut dyn Transport,
+    stop: &AtomicBool,
+    lateness_us: &mut Vec<f64>,
+) -> io::Result<()> {
     let mut buf = [0u8; 256];
     let period_ns = board.cfg.period.as_nanos() as u64;
     // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
@@ -377,7 +432,9 @@ pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, sto
             match tx.recv(buf, Duration::ZERO) {
                 Ok(Some(n)) => board.handle(&buf[..n], tx)?,
                 Ok(None) => return Ok(()),
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.link.malformed += 1,
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                    board.counters.link.malformed += 1
+                }
                 Err(e) => return Err(e),
             }
         }
@@ -403,7 +460,9 @@ pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, sto
                     }
                 }
                 Ok(None) => {}
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => board.counters.link.malformed += 1,
+                Err(e) if e.kind() == io::ErrorKind::InvalidData => {
+                    board.counters.link.malformed += 1
+                }
                 Err(e) => break Err(e),
             }
         }
@@ -416,7 +475,8 @@ pub fn run_board<M: Mechanism>(board: &mut Board<M>, tx: &mut dyn Transport, sto
             let wake = pacer.wait();
             lateness_us.push(wake.lateness_ns as f64 / 1e3);
             drain(board, tx, &mut buf)?;
-            let overrun = wake.overrun.then(|| (wake.lateness_ns + wake.skipped * period_ns) / 1000);
+            let overrun =
+                wake.overrun.then(|| (wake.lateness_ns + wake.skipped * period_ns) / 1000);
             board.period(overrun, tx)?;
         }
     };

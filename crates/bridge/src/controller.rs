@@ -17,7 +17,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use inchworm_hil_protocol::{
-    decode, encode, status, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict, MAX_FRAME, VERSION,
+    decode, encode, status, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet,
+    Role, SeqTracker, SeqVerdict, MAX_FRAME, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
@@ -115,7 +116,8 @@ impl Link<'_> {
             self.ctl_seq
         };
         let mut out = [0u8; MAX_FRAME];
-        let n = encode(&Packet { seq, frame }, &mut out).map_err(|e| io::Error::other(e.to_string()))?;
+        let n = encode(&Packet { seq, frame }, &mut out)
+            .map_err(|e| io::Error::other(e.to_string()))?;
         self.tx.send(&out[..n])?;
         Ok(seq)
     }
@@ -147,9 +149,10 @@ impl Link<'_> {
                     return self.recv(Duration::ZERO, max_gap);
                 }
                 match verdict {
-                    SeqVerdict::Gap { missing } if missing > max_gap => {
-                        Incoming::Fault(Fault { reason: FaultReason::SequenceGap, detail: u32::from(missing) })
-                    }
+                    SeqVerdict::Gap { missing } if missing > max_gap => Incoming::Fault(Fault {
+                        reason: FaultReason::SequenceGap,
+                        detail: u32::from(missing),
+                    }),
                     _ => Incoming::Encoder(e),
                 }
             }
@@ -174,7 +177,15 @@ pub fn run_controller<C: Compensator>(
     mut log: Option<&mut LogWriter>,
     stop: &AtomicBool,
 ) -> Result<ControllerReport, String> {
-    let mut link = Link { tx, dac_seq: 0, ctl_seq: 0, enc: SeqTracker::new(), buf: [0; 256], sent_at: vec![0; 1 << 16], counters: ControllerCounters::default() };
+    let mut link = Link {
+        tx,
+        dac_seq: 0,
+        ctl_seq: 0,
+        enc: SeqTracker::new(),
+        buf: [0; 256],
+        sent_at: vec![0; 1 << 16],
+        counters: ControllerCounters::default(),
+    };
     let mut report = ControllerReport::default();
     let io = |e: io::Error| format!("link: {e}");
     let log_record = |log: &mut Option<&mut LogWriter>, r: Record| -> Result<(), String> {
@@ -206,7 +217,10 @@ pub fn run_controller<C: Compensator>(
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {
-            return Err(format!("no HELLO answer from the board within {:.1} s", cfg.handshake_timeout.as_secs_f64()));
+            return Err(format!(
+                "no HELLO answer from the board within {:.1} s",
+                cfg.handshake_timeout.as_secs_f64()
+            ));
         }
     }
 
@@ -216,18 +230,25 @@ pub fn run_controller<C: Compensator>(
         link.send(Frame::Arm).map_err(io)?;
         let retry = now_ns() + 100_000_000;
         while now_ns() < retry {
-            if let Incoming::Encoder(e) = link.recv(Duration::from_millis(20), u16::MAX).map_err(io)? {
+            if let Incoming::Encoder(e) =
+                link.recv(Duration::from_millis(20), u16::MAX).map_err(io)?
+            {
                 if e.status & status::ARMED != 0 {
                     break 'arm e;
                 }
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {
-            return Err(format!("the board did not arm within {:.1} s", cfg.handshake_timeout.as_secs_f64()));
+            return Err(format!(
+                "the board did not arm within {:.1} s",
+                cfg.handshake_timeout.as_secs_f64()
+            ));
         }
     };
     report.first_tick = start.tick;
-    report.events.push((0, format!("armed at board tick {}, encoder {}", start.tick, start.counts)));
+    report
+        .events
+        .push((0, format!("armed at board tick {}, encoder {}", start.tick, start.counts)));
     let h = cfg.period.as_secs_f64();
 
     let mut counts = start.counts;
@@ -267,17 +288,32 @@ pub fn run_controller<C: Compensator>(
                             if now_ns() >= wait_until {
                                 tries += 1;
                                 if tries > cfg.max_retransmits {
-                                    break 'run Some(Fault { reason: FaultReason::LinkDead, detail: tries });
+                                    break 'run Some(Fault {
+                                        reason: FaultReason::LinkDead,
+                                        detail: tries,
+                                    });
                                 }
                                 link.counters.retransmits += 1;
-                                seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
+                                seq =
+                                    link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
                                 wait_until = now_ns() + cfg.retransmit_after.as_nanos() as u64;
                             }
                         }
                     }
                 };
                 comp.step(counts, r)?;
-                log_record(&mut log, Record::Controller(ControllerSample { tick, time: t, reference: r, counts, codes, status: board_status, seq }))?;
+                log_record(
+                    &mut log,
+                    Record::Controller(ControllerSample {
+                        tick,
+                        time: t,
+                        reference: r,
+                        counts,
+                        codes,
+                        status: board_status,
+                        seq,
+                    }),
+                )?;
                 counts = answer.counts;
                 board_status = answer.status;
                 report.encoder.push(counts);
@@ -297,10 +333,16 @@ pub fn run_controller<C: Compensator>(
                 report.lateness_us.push(wake.lateness_ns as f64 / 1e3);
                 if wake.overrun {
                     link.counters.overruns += 1;
-                    let late_us = (wake.lateness_ns + wake.skipped * cfg.period.as_nanos() as u64) / 1000;
-                    report.events.push((k, format!("deadline missed ({} periods skipped)", wake.skipped)));
+                    let late_us =
+                        (wake.lateness_ns + wake.skipped * cfg.period.as_nanos() as u64) / 1000;
+                    report
+                        .events
+                        .push((k, format!("deadline missed ({} periods skipped)", wake.skipped)));
                     if cfg.overrun == OverrunPolicy::Hard {
-                        break 'run Some(Fault { reason: FaultReason::Overrun, detail: late_us as u32 });
+                        break 'run Some(Fault {
+                            reason: FaultReason::Overrun,
+                            detail: late_us as u32,
+                        });
                     }
                 }
                 loop {
@@ -326,7 +368,10 @@ pub fn run_controller<C: Compensator>(
                     }
                 }
                 if k - last_heard > u64::from(cfg.dead_after) {
-                    break 'run Some(Fault { reason: FaultReason::LinkDead, detail: (k - last_heard) as u32 });
+                    break 'run Some(Fault {
+                        reason: FaultReason::LinkDead,
+                        detail: (k - last_heard) as u32,
+                    });
                 }
                 let tick = start.tick.wrapping_add(k as u32);
                 let t = k as f64 * h;
@@ -334,7 +379,18 @@ pub fn run_controller<C: Compensator>(
                 let codes = comp.codes()?;
                 let seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
                 comp.step(counts, r)?;
-                log_record(&mut log, Record::Controller(ControllerSample { tick, time: t, reference: r, counts, codes, status: board_status, seq }))?;
+                log_record(
+                    &mut log,
+                    Record::Controller(ControllerSample {
+                        tick,
+                        time: t,
+                        reference: r,
+                        counts,
+                        codes,
+                        status: board_status,
+                        seq,
+                    }),
+                )?;
                 report.encoder.push(counts);
                 report.ticks += 1;
             }
@@ -347,14 +403,26 @@ pub fn run_controller<C: Compensator>(
             let text = describe_fault(&f);
             // Tell the board, so it latches the safe state now rather than by its watchdog.
             let _ = link.send(Frame::Fault(f));
-            log_record(&mut log, Record::Event { tick: start.tick.wrapping_add(report.ticks as u32), text: format!("fault: {text}") })?;
+            log_record(
+                &mut log,
+                Record::Event {
+                    tick: start.tick.wrapping_add(report.ticks as u32),
+                    text: format!("fault: {text}"),
+                },
+            )?;
             report.fault = Some((f, text));
         }
         None => {
             // Twice: a lost DISARM would leave the board to its watchdog, which also ends safe.
             let _ = link.send(Frame::Disarm);
             let _ = link.send(Frame::Disarm);
-            log_record(&mut log, Record::Event { tick: start.tick.wrapping_add(report.ticks as u32), text: "disarmed: end of run".into() })?;
+            log_record(
+                &mut log,
+                Record::Event {
+                    tick: start.tick.wrapping_add(report.ticks as u32),
+                    text: "disarmed: end of run".into(),
+                },
+            )?;
         }
     }
     if let Some(l) = log.as_mut() {

@@ -55,7 +55,15 @@ impl<T: Transport> FaultyTransport<T> {
     pub fn new(inner: T, plan: FaultPlan) -> FaultyTransport<T> {
         // xorshift must not start at 0.
         let rng = plan.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        FaultyTransport { inner, plan, rng, sent: 0, held: None, delayed: VecDeque::new(), counts: Arc::default() }
+        FaultyTransport {
+            inner,
+            plan,
+            rng,
+            sent: 0,
+            held: None,
+            delayed: VecDeque::new(),
+            counts: Arc::default(),
+        }
     }
 
     /// The transport without the faults (frames still held back are lost, as on a link).
@@ -95,10 +103,19 @@ impl<T: Transport> Transport for FaultyTransport<T> {
         }
         let mut counts = self.counts.lock().unwrap().clone();
         counts.offered += 1;
-        let (drop, dup, reorder, delay, corrupt) =
-            (self.roll(self.plan.drop), self.roll(self.plan.duplicate), self.roll(self.plan.reorder), self.roll(self.plan.delay), self.roll(self.plan.corrupt));
+        let (drop, dup, reorder, delay, corrupt) = (
+            self.roll(self.plan.drop),
+            self.roll(self.plan.duplicate),
+            self.roll(self.plan.reorder),
+            self.roll(self.plan.delay),
+            self.roll(self.plan.corrupt),
+        );
         let bit = self.uniform();
-        let result = if self.plan.silence.is_some_and(|(start, len)| (start..start + len).contains(&(counts.offered - 1))) {
+        let result = if self
+            .plan
+            .silence
+            .is_some_and(|(start, len)| (start..start + len).contains(&(counts.offered - 1)))
+        {
             counts.silenced += 1;
             Ok(())
         } else if drop {

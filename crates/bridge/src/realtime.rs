@@ -15,9 +15,15 @@ pub fn now_ns() -> u64 {
 
 /// Sleeps until the monotonic clock reads `deadline_ns` (returns at once if it has passed).
 pub fn sleep_until(deadline_ns: u64) {
-    let ts = libc::timespec { tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t, tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long };
+    let ts = libc::timespec {
+        tv_sec: (deadline_ns / 1_000_000_000) as libc::time_t,
+        tv_nsec: (deadline_ns % 1_000_000_000) as libc::c_long,
+    };
     // SAFETY: a valid timespec; EINTR simply restarts the same absolute sleep.
-    while unsafe { libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut()) } == libc::EINTR {}
+    while unsafe {
+        libc::clock_nanosleep(libc::CLOCK_MONOTONIC, libc::TIMER_ABSTIME, &ts, std::ptr::null_mut())
+    } == libc::EINTR
+    {}
 }
 
 /// What one wake-up looked like.
@@ -69,7 +75,12 @@ impl Pacer {
             sleep_until(self.next);
         }
         let woke = now_ns();
-        let wake = Wake { period: self.period + skipped, lateness_ns: woke.saturating_sub(self.next), overrun, skipped };
+        let wake = Wake {
+            period: self.period + skipped,
+            lateness_ns: woke.saturating_sub(self.next),
+            overrun,
+            skipped,
+        };
         self.period += skipped + 1;
         self.next += self.period_ns;
         wake
@@ -152,7 +163,11 @@ mod tests {
             // A loaded machine may wake late; the schedule must not move because of it.
             skipped += pacer.wait().skipped;
         }
-        assert_eq!(pacer.next_deadline_ns(), start + (5 + skipped) * 2_000_000, "no drift: the schedule is k · period");
+        assert_eq!(
+            pacer.next_deadline_ns(),
+            start + (5 + skipped) * 2_000_000,
+            "no drift: the schedule is k · period"
+        );
         std::thread::sleep(Duration::from_millis(7));
         let w = pacer.wait();
         assert!(w.overrun && w.skipped >= 2, "{w:?}");

@@ -18,10 +18,16 @@ pub struct ReplayReport {
 
 /// The controller samples of a log, in order.
 pub fn controller_samples(records: &[Record]) -> Vec<ControllerSample> {
-    records.iter().filter_map(|r| if let Record::Controller(s) = r { Some(*s) } else { None }).collect()
+    records
+        .iter()
+        .filter_map(|r| if let Record::Controller(s) = r { Some(*s) } else { None })
+        .collect()
 }
 
-pub fn replay<C: Compensator>(comp: &mut C, samples: &[ControllerSample]) -> Result<ReplayReport, String> {
+pub fn replay<C: Compensator>(
+    comp: &mut C,
+    samples: &[ControllerSample],
+) -> Result<ReplayReport, String> {
     let mut report = ReplayReport::default();
     let mut previous: Option<u32> = None;
     for s in samples {

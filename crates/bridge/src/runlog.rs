@@ -51,7 +51,10 @@ pub enum Record {
     Controller(ControllerSample),
     Board(BoardSample),
     /// Something that happened at `tick`: arm, fault, safe state, overrun, re-arm.
-    Event { tick: u32, text: String },
+    Event {
+        tick: u32,
+        text: String,
+    },
 }
 
 const KIND_META: u8 = 1;
@@ -109,7 +112,13 @@ impl Record {
         let u16_at = |i: usize| u16::from_le_bytes([p[i], p[i + 1]]);
         let u32_at = |i: usize| u32::from_le_bytes(p[i..i + 4].try_into().unwrap());
         let f64_at = |i: usize| f64::from_le_bytes(p[i..i + 8].try_into().unwrap());
-        let need = |n: usize| if p.len() == n { Ok(()) } else { Err(format!("record kind {kind} has {} bytes, expected {n}", p.len())) };
+        let need = |n: usize| {
+            if p.len() == n {
+                Ok(())
+            } else {
+                Err(format!("record kind {kind} has {} bytes, expected {n}", p.len()))
+            }
+        };
         match kind {
             KIND_META => Ok(Record::Meta(String::from_utf8_lossy(p).into_owned())),
             KIND_CONTROLLER => {
@@ -136,9 +145,15 @@ impl Record {
             }
             KIND_EVENT => {
                 if p.len() < 4 {
-                    return Err(format!("event record of {} bytes is shorter than its tick", p.len()));
+                    return Err(format!(
+                        "event record of {} bytes is shorter than its tick",
+                        p.len()
+                    ));
                 }
-                Ok(Record::Event { tick: u32_at(0), text: String::from_utf8_lossy(&p[4..]).into_owned() })
+                Ok(Record::Event {
+                    tick: u32_at(0),
+                    text: String::from_utf8_lossy(&p[4..]).into_owned(),
+                })
             }
             other => Err(format!("unknown record kind {other}")),
         }
@@ -153,7 +168,8 @@ pub struct LogWriter {
 
 impl LogWriter {
     pub fn create(path: &Path) -> io::Result<LogWriter> {
-        let mut file = File::create(path).map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+        let mut file = File::create(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
         file.write_all(MAGIC)?;
         Ok(LogWriter { file, buf: Vec::with_capacity(64), records: 0 })
     }
@@ -224,7 +240,10 @@ pub fn parse_log(bytes: &[u8]) -> Result<LogContents, String> {
             }
             return Err(format!("record at byte {at}: CRC mismatch (stored {stored:#010x}, computed {computed:#010x})"));
         }
-        out.records.push(Record::decode(rest[2], &rest[3..3 + len]).map_err(|e| format!("record at byte {at}: {e}"))?);
+        out.records.push(
+            Record::decode(rest[2], &rest[3..3 + len])
+                .map_err(|e| format!("record at byte {at}: {e}"))?,
+        );
         at += total;
     }
     Ok(out)
@@ -237,8 +256,22 @@ mod tests {
     fn sample_records() -> Vec<Record> {
         vec![
             Record::Meta("role=controller\nperiod_us=2000".into()),
-            Record::Controller(ControllerSample { tick: 7, time: 0.014, reference: 1e-4, counts: -12, codes: [1, 65535, 300], status: 1, seq: 65535 }),
-            Record::Board(BoardSample { tick: u32::MAX, codes: [0, 0, 0], counts: i32::MIN, status: 3, dac_seq: 4 }),
+            Record::Controller(ControllerSample {
+                tick: 7,
+                time: 0.014,
+                reference: 1e-4,
+                counts: -12,
+                codes: [1, 65535, 300],
+                status: 1,
+                seq: 65535,
+            }),
+            Record::Board(BoardSample {
+                tick: u32::MAX,
+                codes: [0, 0, 0],
+                counts: i32::MIN,
+                status: 3,
+                dac_seq: 4,
+            }),
             Record::Event { tick: 9, text: "safe state: silence for 3 periods".into() },
         ]
     }
@@ -273,7 +306,11 @@ mod tests {
             let log = parse_log(&bytes[..cut]).unwrap();
             let whole = boundaries.iter().filter(|&&b| b <= cut).count() - 1;
             assert_eq!(log.records, sample_records()[..whole].to_vec(), "cut at {cut}");
-            assert_eq!(log.truncated_at, (cut != boundaries[whole]).then_some(boundaries[whole] as u64), "cut at {cut}");
+            assert_eq!(
+                log.truncated_at,
+                (cut != boundaries[whole]).then_some(boundaries[whole] as u64),
+                "cut at {cut}"
+            );
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -30,7 +30,10 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 /// 2 ms period is not rounded to whole milliseconds as poll(2) would.
 fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
     let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
-    let ts = libc::timespec { tv_sec: timeout.as_secs() as libc::time_t, tv_nsec: timeout.subsec_nanos() as libc::c_long };
+    let ts = libc::timespec {
+        tv_sec: timeout.as_secs() as libc::time_t,
+        tv_nsec: timeout.subsec_nanos() as libc::c_long,
+    };
     loop {
         // SAFETY: one valid pollfd, a valid timespec, no signal mask.
         let r = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
@@ -60,11 +63,11 @@ impl UdpTransport {
     }
 
     pub fn connect(remote: impl ToSocketAddrs) -> io::Result<UdpTransport> {
-        let remote = remote
-            .to_socket_addrs()?
-            .next()
-            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "the board address resolves to nothing"))?;
-        let local: SocketAddr = if remote.is_ipv4() { "0.0.0.0:0".parse().unwrap() } else { "[::]:0".parse().unwrap() };
+        let remote = remote.to_socket_addrs()?.next().ok_or_else(|| {
+            io::Error::new(io::ErrorKind::InvalidInput, "the board address resolves to nothing")
+        })?;
+        let local: SocketAddr =
+            if remote.is_ipv4() { "0.0.0.0:0".parse().unwrap() } else { "[::]:0".parse().unwrap() };
         let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
         Ok(UdpTransport { socket, peer: Some(remote), foreign: 0 })
@@ -83,13 +86,23 @@ impl UdpTransport {
 impl Transport for UdpTransport {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
         let Some(peer) = self.peer else {
-            return Err(io::Error::new(io::ErrorKind::NotConnected, "no peer yet: nothing has been received"));
+            return Err(io::Error::new(
+                io::ErrorKind::NotConnected,
+                "no peer yet: nothing has been received",
+            ));
         };
         match self.socket.send_to(frame, peer) {
             Ok(_) => Ok(()),
             // A full socket buffer or an ICMP port-unreachable from a peer that is not up
             // yet is a lost frame, which the protocol tolerates; it is not a reason to stop.
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::ConnectionRefused) => Ok(()),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::ConnectionRefused
+                ) =>
+            {
+                Ok(())
+            }
             Err(e) => Err(e),
         }
     }
@@ -110,7 +123,10 @@ impl Transport for UdpTransport {
                 },
                 Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    if waited || timeout.is_zero() || !wait_readable(self.socket.as_raw_fd(), timeout)? {
+                    if waited
+                        || timeout.is_zero()
+                        || !wait_readable(self.socket.as_raw_fd(), timeout)?
+                    {
                         return Ok(None);
                     }
                     waited = true;
@@ -133,7 +149,11 @@ const MAX_ENCODED: usize = cobs::max_encoded_len(MAX_FRAME) + 1;
 
 impl<S: Read + Write + AsRawFd + Send> CobsTransport<S> {
     pub fn new(stream: S) -> CobsTransport<S> {
-        CobsTransport { stream, pending: Vec::with_capacity(4 * MAX_ENCODED), encoded: vec![0; MAX_ENCODED] }
+        CobsTransport {
+            stream,
+            pending: Vec::with_capacity(4 * MAX_ENCODED),
+            encoded: vec![0; MAX_ENCODED],
+        }
     }
 
     /// Takes one delimited chunk out of `pending`, if a whole one is there.
@@ -145,13 +165,17 @@ impl<S: Read + Write + AsRawFd + Send> CobsTransport<S> {
             // Back-to-back delimiters: a sender flushing the line; not a frame.
             return self.take_frame(buf);
         }
-        Some(cobs::decode(chunk, buf).map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("COBS: {e}"))))
+        Some(
+            cobs::decode(chunk, buf)
+                .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("COBS: {e}"))),
+        )
     }
 }
 
 impl<S: Read + Write + AsRawFd + Send> Transport for CobsTransport<S> {
     fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        let n = cobs::encode(frame, &mut self.encoded).map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        let n = cobs::encode(frame, &mut self.encoded)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
         self.encoded[n] = 0;
         // A leading delimiter closes any partial frame a restarted peer left on the line.
         self.stream.write_all(&[0])?;
@@ -167,14 +191,25 @@ impl<S: Read + Write + AsRawFd + Send> Transport for CobsTransport<S> {
             if self.pending.len() > MAX_ENCODED {
                 // No delimiter within a frame's length: drop the noise, keep the link.
                 self.pending.clear();
-                return Err(io::Error::new(io::ErrorKind::InvalidData, "COBS: no delimiter within a frame's length"));
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    "COBS: no delimiter within a frame's length",
+                ));
             }
             let mut chunk = [0u8; 256];
             match self.stream.read(&mut chunk) {
-                Ok(0) => return Err(io::Error::new(io::ErrorKind::UnexpectedEof, "the serial stream closed")),
+                Ok(0) => {
+                    return Err(io::Error::new(
+                        io::ErrorKind::UnexpectedEof,
+                        "the serial stream closed",
+                    ))
+                }
                 Ok(n) => self.pending.extend_from_slice(&chunk[..n]),
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    if waited || timeout.is_zero() || !wait_readable(self.stream.as_raw_fd(), timeout)? {
+                    if waited
+                        || timeout.is_zero()
+                        || !wait_readable(self.stream.as_raw_fd(), timeout)?
+                    {
                         return Ok(None);
                     }
                     waited = true;

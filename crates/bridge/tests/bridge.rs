@@ -28,7 +28,11 @@ fn realtime(ticks: u64) -> ControllerConfig {
 /// machine busy with other tests can stall a thread for longer than 3 periods. The
 /// real-time ones keep the default 3 periods under test.
 fn board_cfg(lockstep: bool) -> BoardConfig {
-    BoardConfig { lockstep, watchdog_periods: if lockstep { 50 } else { 3 }, ..BoardConfig::default() }
+    BoardConfig {
+        lockstep,
+        watchdog_periods: if lockstep { 50 } else { 3 },
+        ..BoardConfig::default()
+    }
 }
 
 #[test]
@@ -48,39 +52,95 @@ fn lockstep_reproduces_the_cosimulation_exactly() {
     let board = spawn_board(board_cfg(true), None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut udp, &reference, &lockstep(ticks), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &lockstep(ticks),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let (board, _) = board.finish();
     assert!(report.fault.is_none(), "{:?}", report.fault);
     let expected = cosimulation(ticks as usize);
     assert_eq!(report.encoder, expected, "the lock-step encoder trace is the co-simulation's");
-    assert!(expected.iter().any(|&c| c > 20_000), "the run moved the runner: {:?}", expected.last());
+    assert!(
+        expected.iter().any(|&c| c > 20_000),
+        "the run moved the runner: {:?}",
+        expected.last()
+    );
     assert_eq!(board.counters.steps, ticks);
     assert_eq!(board.state(), BoardState::Disarmed, "DISARM at the end of the run");
     // A loaded machine may delay an answer past the 2 ms repeat; nothing may be lost or bad.
-    assert_eq!((board.counters.link.malformed, board.counters.link.gaps, report.counters.link.malformed), (0, 0, 0));
+    assert_eq!(
+        (board.counters.link.malformed, board.counters.link.gaps, report.counters.link.malformed),
+        (0, 0, 0)
+    );
 }
 
 #[test]
 fn lockstep_rides_through_injected_faults_and_stays_exact() {
     let _slot = real_time_slot();
     let ticks = 1500;
-    let plan = |seed| FaultPlan { seed, drop: 0.03, duplicate: 0.03, reorder: 0.03, delay: 0.02, delay_frames: 3, corrupt: 0.03, ..FaultPlan::default() };
+    let plan = |seed| FaultPlan {
+        seed,
+        drop: 0.03,
+        duplicate: 0.03,
+        reorder: 0.03,
+        delay: 0.02,
+        delay_frames: 3,
+        corrupt: 0.03,
+        ..FaultPlan::default()
+    };
     // Faults on both directions: DAC frames and the board's answers.
     let board = spawn_board(board_cfg(true), Some(plan(11)));
     let udp = UdpTransport::connect(board.addr).unwrap();
     let mut link = FaultyTransport::new(udp, plan(7));
     let injected = link.counts();
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut link, &reference, &lockstep(ticks), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut link,
+        &reference,
+        &lockstep(ticks),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let (board, _) = board.finish();
     assert!(report.fault.is_none(), "{:?}", report.fault);
-    assert_eq!(report.encoder, cosimulation(ticks as usize), "faults recovered without changing a count");
+    assert_eq!(
+        report.encoder,
+        cosimulation(ticks as usize),
+        "faults recovered without changing a count"
+    );
     let injected = injected.lock().unwrap().clone();
-    assert!(injected.dropped > 10 && injected.corrupted > 10 && injected.duplicated > 10 && injected.reordered > 10, "{injected:?}");
+    assert!(
+        injected.dropped > 10
+            && injected.corrupted > 10
+            && injected.duplicated > 10
+            && injected.reordered > 10,
+        "{injected:?}"
+    );
     // Every corrupted frame was refused: a one-bit error never passes the CRC.
-    assert!(board.counters.link.malformed >= injected.corrupted, "{:?} vs {injected:?}", board.counters);
-    assert!(board.counters.link.duplicates > 0 && board.counters.link.stale > 0 && board.counters.repeats > 0, "{:?}", board.counters);
-    assert!(report.counters.retransmits > 0 && report.counters.link.malformed > 0, "{:?}", report.counters);
+    assert!(
+        board.counters.link.malformed >= injected.corrupted,
+        "{:?} vs {injected:?}",
+        board.counters
+    );
+    assert!(
+        board.counters.link.duplicates > 0
+            && board.counters.link.stale > 0
+            && board.counters.repeats > 0,
+        "{:?}",
+        board.counters
+    );
+    assert!(
+        report.counters.retransmits > 0 && report.counters.link.malformed > 0,
+        "{:?}",
+        report.counters
+    );
     assert_eq!(board.counters.steps, ticks, "a repeated tick never steps the plant twice");
 }
 
@@ -92,7 +152,15 @@ fn sequence_numbers_wrap_without_false_gaps() {
     let board = spawn_board(board_cfg(true), None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut udp, &|_| 5e-6, &lockstep(ticks), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &|_| 5e-6,
+        &lockstep(ticks),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let (board, _) = board.finish();
     assert!(report.fault.is_none(), "{:?}", report.fault);
     assert_eq!(report.ticks, ticks);
@@ -112,22 +180,48 @@ fn silence_latches_the_safe_state_within_n_periods_and_needs_a_rearm() {
     let board = spawn_board(board_cfg(false), None);
     let udp = UdpTransport::connect(board.addr).unwrap();
     let dac_type = 0x10;
-    let mut link = FaultyTransport::new(udp, FaultPlan { silence: Some((300, u64::MAX / 2)), only_type: Some(dac_type), ..FaultPlan::default() });
+    let mut link = FaultyTransport::new(
+        udp,
+        FaultPlan {
+            silence: Some((300, u64::MAX / 2)),
+            only_type: Some(dac_type),
+            ..FaultPlan::default()
+        },
+    );
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut link, &reference, &realtime(600), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut link,
+        &reference,
+        &realtime(600),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
 
     let (fault, text) = report.fault.clone().expect("the controller must see the board's fault");
     assert_eq!(fault.reason, FaultReason::Silence, "{text}");
     assert_eq!(fault.detail, 3, "{text}");
     assert!(text.contains("no valid DAC frame for 3 periods"), "{text}");
-    assert!(report.ticks >= 300 && report.ticks < 330, "the controller stopped soon after the board latched: {}", report.ticks);
+    assert!(
+        report.ticks >= 300 && report.ticks < 330,
+        "the controller stopped soon after the board latched: {}",
+        report.ticks
+    );
 
     // Frames alone do not unlatch it. Send DAC frames straight to the board, from the same
     // socket (the board answers only the peer it armed with).
     let mut raw = link.into_inner();
     let mut buf = [0u8; MAX_FRAME];
     let dac = |seq: u16, buf: &mut [u8; MAX_FRAME]| {
-        protocol::encode(&Packet { seq, frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [40000, 40000, 40000] }) }, buf).unwrap()
+        protocol::encode(
+            &Packet {
+                seq,
+                frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [40000, 40000, 40000] }),
+            },
+            buf,
+        )
+        .unwrap()
     };
     for seq in 1000..1005 {
         let n = dac(seq, &mut buf);
@@ -141,8 +235,16 @@ fn silence_latches_the_safe_state_within_n_periods_and_needs_a_rearm() {
     let (mut board, _) = board.finish();
     let latch = board.latches[0];
     assert_eq!(latch.fault.reason, FaultReason::Silence);
-    assert!(latch.tick - latch.last_valid_tick <= 3, "safe codes applied {} periods after the last valid frame", latch.tick - latch.last_valid_tick);
-    assert!(board.counters.unarmed >= 5, "DAC frames while latched were refused: {:?}", board.counters);
+    assert!(
+        latch.tick - latch.last_valid_tick <= 3,
+        "safe codes applied {} periods after the last valid frame",
+        latch.tick - latch.last_valid_tick
+    );
+    assert!(
+        board.counters.unarmed >= 5,
+        "DAC frames while latched were refused: {:?}",
+        board.counters
+    );
     assert!(board.events.iter().any(|(_, e)| e.contains("armed (was Safe")), "{:?}", board.events);
     // Re-armed, and with no DAC frame after the ARM the watchdog latched again 3 periods on.
     assert_eq!(board.latches.len(), 2, "{:?}", board.events);
@@ -159,9 +261,20 @@ fn a_corrupt_frame_stream_ends_in_the_safe_state() {
     let _slot = real_time_slot();
     let board = spawn_board(board_cfg(false), None);
     let udp = UdpTransport::connect(board.addr).unwrap();
-    let mut link = FaultyTransport::new(udp, FaultPlan { seed: 3, corrupt: 1.0, only_type: Some(0x10), ..FaultPlan::default() });
+    let mut link = FaultyTransport::new(
+        udp,
+        FaultPlan { seed: 3, corrupt: 1.0, only_type: Some(0x10), ..FaultPlan::default() },
+    );
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut link, &reference, &realtime(200), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut link,
+        &reference,
+        &realtime(200),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     let (board, _) = board.finish();
     let (fault, text) = report.fault.expect("fault");
     assert_eq!(fault.reason, FaultReason::Silence, "{text}");
@@ -175,10 +288,21 @@ fn the_controller_faults_on_a_sequence_gap_larger_than_k() {
     let _slot = real_time_slot();
     // The board's encoder frames 100..104 are lost: a gap of 5 > K = 3.
     // The board's watchdog gets 10 periods: the subject is the controller's gap policy.
-    let board = spawn_board(BoardConfig { watchdog_periods: 10, ..board_cfg(false) }, Some(FaultPlan { silence: Some((100, 5)), only_type: Some(0x11), ..FaultPlan::default() }));
+    let board = spawn_board(
+        BoardConfig { watchdog_periods: 10, ..board_cfg(false) },
+        Some(FaultPlan { silence: Some((100, 5)), only_type: Some(0x11), ..FaultPlan::default() }),
+    );
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut udp, &reference, &realtime(400), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &realtime(400),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     std::thread::sleep(Duration::from_millis(10));
     let (board, _) = board.finish();
     let (fault, text) = report.fault.expect("fault");
@@ -203,7 +327,9 @@ fn the_controller_faults_on_a_dead_link() {
     });
     let mut ctrl = DirectController::new();
     let cfg = ControllerConfig { dead_after: 10, ..realtime(2000) };
-    let report = run_controller(&mut ctrl, &mut udp, &reference, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let report =
+        run_controller(&mut ctrl, &mut udp, &reference, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
     stopper.join().unwrap();
     let (fault, text) = report.fault.expect("fault");
     assert_eq!(fault.reason, FaultReason::LinkDead, "{text}");
@@ -220,7 +346,15 @@ fn the_controller_faults_on_a_dead_link() {
         board.handle.join().unwrap()
     });
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut udp, &reference, &lockstep(1_000_000), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &lockstep(1_000_000),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     stopper.join().unwrap();
     let (fault, text) = report.fault.expect("fault");
     assert_eq!((fault.reason, fault.detail), (FaultReason::LinkDead, 26), "{text}");
@@ -247,20 +381,39 @@ fn the_hard_overrun_policy_faults_to_the_safe_state() {
     let board = spawn_board(BoardConfig { watchdog_periods: 10, ..board_cfg(false) }, None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut soft = Slow(DirectController::new(), 0);
-    let report = run_controller(&mut soft, &mut udp, &reference, &realtime(100), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut soft,
+        &mut udp,
+        &reference,
+        &realtime(100),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     assert!(report.fault.is_none(), "soft: log and continue: {:?}", report.fault);
     assert!(report.counters.overruns >= 1);
 
     let mut hard = Slow(DirectController::new(), 0);
     let cfg = ControllerConfig { overrun: OverrunPolicy::Hard, ..realtime(100) };
-    let report = run_controller(&mut hard, &mut udp, &reference, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let report =
+        run_controller(&mut hard, &mut udp, &reference, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
     std::thread::sleep(Duration::from_millis(10));
     let (board, _) = board.finish();
     let (fault, text) = report.fault.expect("hard policy");
     assert_eq!(fault.reason, FaultReason::Overrun, "{text}");
     // The 7 ms stall at tick 50 overruns for sure; a busy machine may overrun earlier, by less.
-    assert!(fault.detail > 0 && report.ticks <= 50, "late by {} µs after {} ticks", fault.detail, report.ticks);
-    assert!(matches!(board.state(), BoardState::Safe(f) if f.reason == FaultReason::Overrun), "{:?}", board.events);
+    assert!(
+        fault.detail > 0 && report.ticks <= 50,
+        "late by {} µs after {} ticks",
+        fault.detail,
+        report.ticks
+    );
+    assert!(
+        matches!(board.state(), BoardState::Safe(f) if f.reason == FaultReason::Overrun),
+        "{:?}",
+        board.events
+    );
 }
 
 #[test]
@@ -269,8 +422,20 @@ fn malformed_frames_of_every_kind_are_refused_without_harm() {
     let board = spawn_board(board_cfg(true), None);
     let mut raw = UdpTransport::connect(board.addr).unwrap();
     let mut good = [0u8; MAX_FRAME];
-    let n = protocol::encode(&Packet { seq: 9, frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [1, 2, 3] }) }, &mut good).unwrap();
-    let mut junk: Vec<Vec<u8>> = vec![vec![], vec![0x49], b"IW".to_vec(), vec![0; 26], vec![0xff; 200], good[..n - 1].to_vec(), [&good[..n], &[0u8][..]].concat()];
+    let n = protocol::encode(
+        &Packet { seq: 9, frame: Frame::Dac(protocol::DacSample { tick: 0, codes: [1, 2, 3] }) },
+        &mut good,
+    )
+    .unwrap();
+    let mut junk: Vec<Vec<u8>> = vec![
+        vec![],
+        vec![0x49],
+        b"IW".to_vec(),
+        vec![0; 26],
+        vec![0xff; 200],
+        good[..n - 1].to_vec(),
+        [&good[..n], &[0u8][..]].concat(),
+    ];
     for bit in 0..n * 8 {
         let mut f = good[..n].to_vec();
         f[bit / 8] ^= 1 << (bit % 8);
@@ -304,7 +469,15 @@ fn cobs_over_a_byte_stream_gives_the_same_trace() {
     std::io::Write::write_all(&mut &a, &[1, 2, 3, 0x55]).unwrap();
     let mut t = CobsTransport::new(a);
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut t, &reference, &lockstep(500), None, &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut t,
+        &reference,
+        &lockstep(500),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let board = handle.join().unwrap();
     assert!(report.fault.is_none());
@@ -323,7 +496,15 @@ fn the_log_replays_without_divergence_and_a_changed_sample_is_found() {
     let mut log = LogWriter::create(&path).unwrap();
     log.write(&Record::Meta("role=controller".into())).unwrap();
     let mut ctrl = DirectController::new();
-    let report = run_controller(&mut ctrl, &mut udp, &reference, &lockstep(800), Some(&mut log), &AtomicBool::new(false)).unwrap();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &lockstep(800),
+        Some(&mut log),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     board.finish();
     assert!(report.fault.is_none());
     drop(log);
@@ -332,7 +513,10 @@ fn the_log_replays_without_divergence_and_a_changed_sample_is_found() {
     assert_eq!(contents.truncated_at, None);
     let samples = controller_samples(&contents.records);
     assert_eq!(samples.len(), 800);
-    assert!(contents.records.iter().any(|r| matches!(r, Record::Event { text, .. } if text.contains("disarmed"))));
+    assert!(contents
+        .records
+        .iter()
+        .any(|r| matches!(r, Record::Event { text, .. } if text.contains("disarmed"))));
     let r = replay(&mut DirectController::new(), &samples).unwrap();
     assert_eq!((r.samples, r.divergent, r.discontinuities), (800, 0, 0), "{r:?}");
 
@@ -354,8 +538,23 @@ fn hello_with_another_mode_is_refused_with_the_reason() {
     let board = spawn_board(board_cfg(true), None);
     let mut udp = UdpTransport::connect(board.addr).unwrap();
     let mut ctrl = DirectController::new();
-    let e = run_controller(&mut ctrl, &mut udp, &reference, &realtime(10), None, &AtomicBool::new(false)).unwrap_err();
+    let e = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &realtime(10),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap_err();
     let (board, _) = board.finish();
     assert!(e.contains("ProtocolMismatch"), "{e}");
-    assert!(board.events.iter().any(|(_, t)| t.contains("HELLO refused: lock-step false (board: true)")), "{:?}", board.events);
+    assert!(
+        board
+            .events
+            .iter()
+            .any(|(_, t)| t.contains("HELLO refused: lock-step false (board: true)")),
+        "{:?}",
+        board.events
+    );
 }

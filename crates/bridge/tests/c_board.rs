@@ -24,7 +24,11 @@ struct Sequence(u32);
 
 impl Sequence {
     fn codes(k: u32) -> [u16; 3] {
-        [(k.wrapping_mul(97) % 65536) as u16, (k.wrapping_mul(31) % 65536) as u16, (k.wrapping_mul(1237) % 65536) as u16]
+        [
+            (k.wrapping_mul(97) % 65536) as u16,
+            (k.wrapping_mul(31) % 65536) as u16,
+            (k.wrapping_mul(1237) % 65536) as u16,
+        ]
     }
 }
 
@@ -57,13 +61,19 @@ fn board() -> PathBuf {
 
 fn start(exe: &PathBuf) -> (Child, String) {
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
-    let child = Command::new(exe).arg(port.to_string()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let child = Command::new(exe)
+        .arg(port.to_string())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
     (child, format!("127.0.0.1:{port}"))
 }
 
 fn summary(child: Child) -> String {
     let out = child.wait_with_output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{text}");
     text
 }
@@ -75,12 +85,17 @@ fn the_rust_controller_drives_a_c_board_in_lock_step() {
     let (child, addr) = start(&exe);
     let mut udp = UdpTransport::connect(&addr).unwrap();
     let cfg = ControllerConfig { lockstep: true, ticks: 3000, ..ControllerConfig::default() };
-    let report = run_controller(&mut Sequence(0), &mut udp, &|_| 0.0, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let report =
+        run_controller(&mut Sequence(0), &mut udp, &|_| 0.0, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
     assert!(report.fault.is_none(), "{:?}", report.fault);
     assert_eq!(report.encoder, expected(3000));
     let text = summary(child);
     let last = expected(3000)[2999];
-    assert_eq!(text.trim(), format!("c board: 3000 steps, 0 malformed, counts {last}, state 0, fault 0"));
+    assert_eq!(
+        text.trim(),
+        format!("c board: 3000 steps, 0 malformed, counts {last}, state 0, fault 0")
+    );
 }
 
 #[test]
@@ -90,9 +105,18 @@ fn the_c_boards_watchdog_latches_and_the_rust_side_reports_it() {
     let (child, addr) = start(&exe);
     let udp = UdpTransport::connect(&addr).unwrap();
     // DAC frames from the 200th on are lost; the repeats too.
-    let mut link = FaultyTransport::new(udp, FaultPlan { silence: Some((200, u64::MAX / 2)), only_type: Some(0x10), ..FaultPlan::default() });
+    let mut link = FaultyTransport::new(
+        udp,
+        FaultPlan {
+            silence: Some((200, u64::MAX / 2)),
+            only_type: Some(0x10),
+            ..FaultPlan::default()
+        },
+    );
     let cfg = ControllerConfig { lockstep: true, ticks: 3000, ..ControllerConfig::default() };
-    let report = run_controller(&mut Sequence(0), &mut link, &|_| 0.0, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let report =
+        run_controller(&mut Sequence(0), &mut link, &|_| 0.0, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
     let (fault, text) = report.fault.expect("the C board's FAULT");
     assert_eq!((fault.reason, fault.detail), (FaultReason::Silence, 3), "{text}");
     assert_eq!(report.ticks, 200);
@@ -100,5 +124,8 @@ fn the_c_boards_watchdog_latches_and_the_rust_side_reports_it() {
     // The C board ends by its idle timeout: latched (state 2), Silence (1), nothing stepped
     // after the last valid frame.
     let text = summary(child);
-    assert_eq!(text.trim(), format!("c board: 200 steps, 0 malformed, counts {}, state 2, fault 1", expected(200)[199]));
+    assert_eq!(
+        text.trim(),
+        format!("c board: 200 steps, 0 malformed, counts {}, state 2, fault 1", expected(200)[199])
+    );
 }

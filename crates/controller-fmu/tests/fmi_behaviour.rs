@@ -68,10 +68,17 @@ fn bad_inputs_and_parameters_are_refused_with_a_message() {
     assert_eq!(h.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
     assert_eq!(h.real(999).0, fmi2Error);
     assert_eq!(h.set_real(DAC_EARTH, 1.0), fmi2Error, "outputs cannot be set");
-    assert_eq!(h.set_boolean(FEEDFORWARD, false), fmi2Error, "fixed parameters cannot change after initialization");
+    assert_eq!(
+        h.set_boolean(FEEDFORWARD, false),
+        fmi2Error,
+        "fixed parameters cannot change after initialization"
+    );
 
     for (what, set) in [
-        ("samples_per_step", Box::new(|h: &H| h.set_integer(SAMPLES_PER_STEP, 3)) as Box<dyn Fn(&H) -> fmi2Status>),
+        (
+            "samples_per_step",
+            Box::new(|h: &H| h.set_integer(SAMPLES_PER_STEP, 3)) as Box<dyn Fn(&H) -> fmi2Status>,
+        ),
         ("basis_peak", Box::new(|h: &H| h.set_real(BASIS_PEAK_5, 2e-6))),
     ] {
         let h = H::new("params");
@@ -79,7 +86,11 @@ fn bad_inputs_and_parameters_are_refused_with_a_message() {
         assert_eq!(set(&h), fmi2OK);
         assert_eq!(h.enter(), fmi2OK);
         assert_eq!(h.exit(), fmi2Error);
-        assert!(h.saw(fmi2Error, &["fmi2ExitInitializationMode", what]), "{what}: {:?}", h.logged());
+        assert!(
+            h.saw(fmi2Error, &["fmi2ExitInitializationMode", what]),
+            "{what}: {:?}",
+            h.logged()
+        );
         assert_eq!(h.reset(), fmi2OK);
     }
 }
@@ -122,7 +133,8 @@ fn eight_instances_on_eight_threads_match_eight_serial_runs() {
 
 #[test]
 fn committed_model_description_matches_the_variable_table() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../modelDescription/InchwormController.xml");
+    let path =
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../modelDescription/InchwormController.xml");
     let committed = std::fs::read_to_string(path).unwrap_or_default();
     assert!(
         committed == model_description::model_description::<ControllerFmu>(),

@@ -9,7 +9,8 @@ pub struct Basis {
 }
 
 /// Default peaks for fia20: ±1, ±3, ±8, ±16, ±24 µm.
-pub const FIA20_PEAKS: [f64; 10] = [-24e-6, -16e-6, -8e-6, -3e-6, -1e-6, 1e-6, 3e-6, 8e-6, 16e-6, 24e-6];
+pub const FIA20_PEAKS: [f64; 10] =
+    [-24e-6, -16e-6, -8e-6, -3e-6, -1e-6, 1e-6, 3e-6, 8e-6, 16e-6, 24e-6];
 
 impl Basis {
     pub fn new(peaks: [f64; 10]) -> Result<Basis, String> {
@@ -82,7 +83,10 @@ mod tests {
             if u <= -1e-6 || u >= 1e-6 {
                 assert!((sum - 1.0).abs() < 1e-12 || u.abs() > 24e-6, "sum {sum} at {u}");
             } else {
-                assert!(sum <= 1.0 + 1e-12 && (sum - u.abs() / 1e-6).abs() < 1e-9, "between the inner peaks the map fades to 0: {sum} at {u}");
+                assert!(
+                    sum <= 1.0 + 1e-12 && (sum - u.abs() / 1e-6).abs() < 1e-9,
+                    "between the inner peaks the map fades to 0: {sum} at {u}"
+                );
             }
         }
         assert_eq!(b.phi(0.0), [0.0; 10]);

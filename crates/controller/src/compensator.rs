@@ -55,7 +55,15 @@ impl Loop {
     /// One control iteration with measured position `y` and reference `r` (m); returns the
     /// move distance. `deadband`: no move while `|r − y|` is below it (integrators frozen,
     /// so leaving the band resumes from where the loop was, without a windup kick).
-    pub fn iterate(&mut self, g: &Gains, r: f64, y: f64, prefilter: bool, feedforward: bool, deadband: f64) -> f64 {
+    pub fn iterate(
+        &mut self,
+        g: &Gains,
+        r: f64,
+        y: f64,
+        prefilter: bool,
+        feedforward: bool,
+        deadband: f64,
+    ) -> f64 {
         if !self.started {
             self.started = true;
             self.prefilter.start(y);
@@ -72,7 +80,12 @@ impl Loop {
 
     pub(crate) fn save(&self, w: &mut inchworm_state_bytes::Writer) {
         w.u8(u8::from(self.started));
-        for v in [self.prefilter.state(), self.feedforward.previous_reference(), self.compensator.previous_error, self.compensator.output] {
+        for v in [
+            self.prefilter.state(),
+            self.feedforward.previous_reference(),
+            self.compensator.previous_error,
+            self.compensator.output,
+        ] {
             w.f64(v);
         }
     }
@@ -155,12 +168,19 @@ pub fn margins(g: &Gains, fs: f64) -> Margins {
     let phase_margin_deg = wc.map_or(f64::NAN, |w| 180.0 + phase_deg(g, w));
     // For 0 ≤ a < 1 the phase is −180° + (angle of e^{jw} seen from a) − w > −180° on
     // (0, π): it returns to −180° only at Nyquist. Search anyway, for other coefficients.
-    let w180 = wc.and_then(|w0| first_fall_through(|w| phase_deg(g, w), -180.0, w0)).unwrap_or(std::f64::consts::PI);
+    let w180 = wc
+        .and_then(|w0| first_fall_through(|w| phase_deg(g, w), -180.0, w0))
+        .unwrap_or(std::f64::consts::PI);
     Margins {
         crossover_hz: wc.map_or(f64::NAN, to_hz),
         phase_margin_deg,
         gain_margin_db: -20.0 * magnitude(g, w180).log10(),
-        closed_loop_bandwidth_hz: first_fall_through(|w| closed_loop_magnitude(g, w), std::f64::consts::FRAC_1_SQRT_2, 0.0).map_or(f64::NAN, to_hz),
+        closed_loop_bandwidth_hz: first_fall_through(
+            |w| closed_loop_magnitude(g, w),
+            std::f64::consts::FRAC_1_SQRT_2,
+            0.0,
+        )
+        .map_or(f64::NAN, to_hz),
     }
 }
 
@@ -174,11 +194,27 @@ mod tests {
         let m = margins(&g, 5.0);
         eprintln!("K = {}, a = {}: {m:?}", g.k, g.a);
         // SPEC 4 targets; the prototype (same K, a) gave 0.30 Hz, 49°, 15.8 dB, 0.49 Hz.
-        assert!((m.crossover_hz - 0.30).abs() < 0.01, "crossover {} Hz, expected 0.30 ± 0.01", m.crossover_hz);
+        assert!(
+            (m.crossover_hz - 0.30).abs() < 0.01,
+            "crossover {} Hz, expected 0.30 ± 0.01",
+            m.crossover_hz
+        );
         assert!(m.phase_margin_deg >= 35.0, "phase margin {}°, expected ≥ 35°", m.phase_margin_deg);
-        assert!((m.phase_margin_deg - 49.0).abs() < 0.5, "phase margin {}°, expected 49 ± 0.5°", m.phase_margin_deg);
-        assert!((m.gain_margin_db - 15.8).abs() < 0.1, "gain margin {} dB, expected 15.8 ± 0.1", m.gain_margin_db);
-        assert!((m.closed_loop_bandwidth_hz - 0.49).abs() < 0.01, "closed-loop bandwidth {} Hz, expected 0.49 ± 0.01", m.closed_loop_bandwidth_hz);
+        assert!(
+            (m.phase_margin_deg - 49.0).abs() < 0.5,
+            "phase margin {}°, expected 49 ± 0.5°",
+            m.phase_margin_deg
+        );
+        assert!(
+            (m.gain_margin_db - 15.8).abs() < 0.1,
+            "gain margin {} dB, expected 15.8 ± 0.1",
+            m.gain_margin_db
+        );
+        assert!(
+            (m.closed_loop_bandwidth_hz - 0.49).abs() < 0.01,
+            "closed-loop bandwidth {} Hz, expected 0.49 ± 0.01",
+            m.closed_loop_bandwidth_hz
+        );
 
         // The same numbers from the closed forms of L(e^{jw}) = K (e^{jw} − a)/(e^{jw} − 1)²:
         // |L| = K √(1 − 2a cos w + a²)/(2 − 2 cos w), arg L + 180° = ∠(e^{jw} − a) − w.
@@ -186,12 +222,23 @@ mod tests {
         let mag = g.k * (1.0 - 2.0 * g.a * wc.cos() + g.a * g.a).sqrt() / (2.0 - 2.0 * wc.cos());
         assert!((mag - 1.0).abs() < 1e-9, "|L| at the crossover: {mag}");
         let pm = (wc.sin().atan2(wc.cos() - g.a) - wc).to_degrees();
-        assert!((pm - m.phase_margin_deg).abs() < 1e-9, "phase margin {pm}° vs {}°", m.phase_margin_deg);
+        assert!(
+            (pm - m.phase_margin_deg).abs() < 1e-9,
+            "phase margin {pm}° vs {}°",
+            m.phase_margin_deg
+        );
         let gm = -20.0 * (g.k * (1.0 + g.a) / 4.0).log10();
-        assert!((gm - m.gain_margin_db).abs() < 1e-9, "gain margin {gm} dB vs {} dB", m.gain_margin_db);
+        assert!(
+            (gm - m.gain_margin_db).abs() < 1e-9,
+            "gain margin {gm} dB vs {} dB",
+            m.gain_margin_db
+        );
         // Closed-loop poles: z² + (K − 2) z + (1 − K a) = 0, complex here, radius √(1 − K a).
         let disc = (g.k - 2.0).powi(2) - 4.0 * (1.0 - g.k * g.a);
-        assert!(disc < 0.0 && (1.0 - g.k * g.a).sqrt() < 1.0, "closed-loop poles must be a stable complex pair");
+        assert!(
+            disc < 0.0 && (1.0 - g.k * g.a).sqrt() < 1.0,
+            "closed-loop poles must be a stable complex pair"
+        );
     }
 
     /// Crossover and bandwidth are two targets for two coefficients, so they pin K and a;
@@ -199,7 +246,15 @@ mod tests {
     #[test]
     fn neighbouring_gains_trade_bandwidth_against_margin() {
         let at = |k: f64, a: f64| margins(&Gains { k, a, prefilter_pole: a }, 5.0);
-        for (k, a) in [(0.25, 0.8), (0.36, 0.8), (0.5, 0.8), (0.36, 0.7), (0.36, 0.9), (0.2, 0.7), (0.55, 0.85)] {
+        for (k, a) in [
+            (0.25, 0.8),
+            (0.36, 0.8),
+            (0.5, 0.8),
+            (0.36, 0.7),
+            (0.36, 0.9),
+            (0.2, 0.7),
+            (0.55, 0.85),
+        ] {
             let m = at(k, a);
             eprintln!(
                 "| {k:.2} | {a:.2} | {:.3} Hz | {:.1}° | {:.1} dB | {:.3} Hz |",
@@ -207,8 +262,14 @@ mod tests {
             );
         }
         let (lo, mid, hi) = (at(0.25, 0.8), at(0.36, 0.8), at(0.5, 0.8));
-        assert!(lo.crossover_hz < mid.crossover_hz && mid.crossover_hz < hi.crossover_hz, "crossover rises with K");
-        assert!(lo.gain_margin_db > mid.gain_margin_db && mid.gain_margin_db > hi.gain_margin_db, "gain margin falls with K");
+        assert!(
+            lo.crossover_hz < mid.crossover_hz && mid.crossover_hz < hi.crossover_hz,
+            "crossover rises with K"
+        );
+        assert!(
+            lo.gain_margin_db > mid.gain_margin_db && mid.gain_margin_db > hi.gain_margin_db,
+            "gain margin falls with K"
+        );
         // A zero nearer 1 puts its lead further below the crossover: more phase margin, but
         // crossover and bandwidth drop below target at the same K; a zero further away
         // costs phase margin towards the 35° floor.

@@ -159,6 +159,9 @@ mod tests {
         let p_minus = (qt + (qt * qt + 4.0 * qt * r).sqrt()) / 2.0;
         let expect = p_minus / (p_minus + r);
         assert!((gain - expect).abs() < 1e-9, "steady gain {gain} vs closed form {expect}");
-        assert!((gain - 0.58).abs() < 0.005, "steady disturbance gain {gain:.4}, SPEC 4 prototype ≈ 0.58");
+        assert!(
+            (gain - 0.58).abs() < 0.005,
+            "steady disturbance gain {gain:.4}, SPEC 4 prototype ≈ 0.58"
+        );
     }
 }

@@ -22,7 +22,11 @@ impl Feedforward {
     /// forward). Disabled, the feedback sees `r − y` and nothing is fed forward; the
     /// previous reference is tracked either way, so enabling it later does not jump.
     pub fn split(&mut self, r: f64, y: f64, enabled: bool) -> (f64, f64) {
-        let out = if enabled { (self.previous_reference - y, r - self.previous_reference) } else { (r - y, 0.0) };
+        let out = if enabled {
+            (self.previous_reference - y, r - self.previous_reference)
+        } else {
+            (r - y, 0.0)
+        };
         self.previous_reference = r;
         out
     }

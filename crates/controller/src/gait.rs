@@ -74,7 +74,10 @@ mod tests {
     fn spec_timing_at_100_samples() {
         let t = Timing::new(100);
         assert_eq!(t.starts, STARTS_100);
-        assert_eq!(t.windows, [(9, 13), (24, 28), (38, 42), (53, 57), (66, 70), (81, 85), (95, 99)]);
+        assert_eq!(
+            t.windows,
+            [(9, 13), (24, 28), (38, 42), (53, 57), (66, 70), (81, 85), (95, 99)]
+        );
     }
 
     #[test]
@@ -85,15 +88,45 @@ mod tests {
         assert_eq!(t.starts, [1, 2, 4, 5, 7, 8, 10]);
         assert_eq!(t.windows, [(1, 1), (3, 3), (4, 4), (6, 6), (7, 7), (9, 9), (10, 10)]);
         let fwd = |y: f64| {
-            [[0.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 10.0, 10.0 * y], [10.0, 10.0, 10.0 * y], [0.0, 10.0, 10.0 * y], [0.0, 0.0, 10.0 * y], [0.0, 0.0, 10.0 * y], [0.0, 0.0, 0.0]]
+            [
+                [0.0, 0.0, 0.0],
+                [0.0, 10.0, 0.0],
+                [0.0, 10.0, 0.0],
+                [10.0, 10.0, 0.0],
+                [10.0, 10.0, 10.0 * y],
+                [10.0, 10.0, 10.0 * y],
+                [0.0, 10.0, 10.0 * y],
+                [0.0, 0.0, 10.0 * y],
+                [0.0, 0.0, 10.0 * y],
+                [0.0, 0.0, 0.0],
+            ]
         };
         let bwd = |a: f64| {
-            [[0.0, 0.0, 0.0], [0.0, 0.0, 10.0 * a], [0.0, 0.0, 10.0 * a], [0.0, 10.0, 10.0 * a], [10.0, 10.0, 10.0 * a], [10.0, 10.0, 10.0 * a], [10.0, 10.0, 0.0], [0.0, 10.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 0.0]]
+            [
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 10.0 * a],
+                [0.0, 0.0, 10.0 * a],
+                [0.0, 10.0, 10.0 * a],
+                [10.0, 10.0, 10.0 * a],
+                [10.0, 10.0, 10.0 * a],
+                [10.0, 10.0, 0.0],
+                [0.0, 10.0, 0.0],
+                [0.0, 10.0, 0.0],
+                [0.0, 0.0, 0.0],
+            ]
         };
         for y in [1.0, 0.3] {
             for k in 1..=10 {
-                assert_eq!(t.volts(Direction::Forward, y, k), fwd(y)[k - 1], "forward y = {y}, sample {k}");
-                assert_eq!(t.volts(Direction::Backward, -y, k), bwd(y)[k - 1], "backward a = {y}, sample {k}");
+                assert_eq!(
+                    t.volts(Direction::Forward, y, k),
+                    fwd(y)[k - 1],
+                    "forward y = {y}, sample {k}"
+                );
+                assert_eq!(
+                    t.volts(Direction::Backward, -y, k),
+                    bwd(y)[k - 1],
+                    "backward a = {y}, sample {k}"
+                );
             }
         }
     }
@@ -137,8 +170,16 @@ mod tests {
         };
         for y in [1.0, 0.3, 0.0] {
             for k in 1..=100 {
-                assert_eq!(t.volts(Direction::Forward, y, k), expect_fwd(k, y), "forward y = {y}, sample {k}");
-                assert_eq!(t.volts(Direction::Backward, -y, k), expect_bwd(k, y), "backward a = {y}, sample {k}");
+                assert_eq!(
+                    t.volts(Direction::Forward, y, k),
+                    expect_fwd(k, y),
+                    "forward y = {y}, sample {k}"
+                );
+                assert_eq!(
+                    t.volts(Direction::Backward, -y, k),
+                    expect_bwd(k, y),
+                    "backward a = {y}, sample {k}"
+                );
             }
         }
     }

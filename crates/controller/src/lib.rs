@@ -56,8 +56,10 @@ pub const DAC_MAX_CODE: u16 = u16::MAX;
 /// Estimates the estimator converges to on the fia20 plant in regulation (weights of the
 /// inverse scale factor at the default basis peaks, and the brake disturbance in m). See
 /// docs/controller-design.md for the run that produced them and how to redo it.
-pub const CALIBRATED_WEIGHTS: [f64; 10] =
-    [-1.281184, -0.798710, -0.362067, -0.121618, -0.039168, 0.032832, 0.122618, 0.352949, 0.799790, 1.297726];
+pub const CALIBRATED_WEIGHTS: [f64; 10] = [
+    -1.281184, -0.798710, -0.362067, -0.121618, -0.039168, 0.032832, 0.122618, 0.352949, 0.799790,
+    1.297726,
+];
 pub const CALIBRATED_DISTURBANCE: f64 = 4.3814e-6;
 
 /// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
@@ -103,20 +105,38 @@ impl Default for Params {
 impl Params {
     /// Checks every value; the error names the parameter.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = |name: &str, v: f64| if v.is_finite() { Ok(()) } else { Err(format!("{name} must be finite, got {v}")) };
-        let positive = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be > 0, got {v}")) };
+        let finite = |name: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite, got {v}"))
+            }
+        };
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be > 0, got {v}"))
+            }
+        };
         if !(self.deadband.is_finite() && self.deadband >= 0.0) {
             return Err(format!("deadband must be >= 0, got {}", self.deadband));
         }
         if !(7..=10_000).contains(&self.samples_per_step) {
-            return Err(format!("samples_per_step must be within 7..10000, got {}", self.samples_per_step));
+            return Err(format!(
+                "samples_per_step must be within 7..10000, got {}",
+                self.samples_per_step
+            ));
         }
         positive("compensator_gain", self.gains.k)?;
         if !(0.0..1.0).contains(&self.gains.a) {
             return Err(format!("compensator_zero must be in [0, 1), got {}", self.gains.a));
         }
         if !(0.0..1.0).contains(&self.gains.prefilter_pole) {
-            return Err(format!("prefilter_pole must be in [0, 1), got {}", self.gains.prefilter_pole));
+            return Err(format!(
+                "prefilter_pole must be in [0, 1), got {}",
+                self.gains.prefilter_pole
+            ));
         }
         let n = &self.noise;
         for (name, v) in [
@@ -144,7 +164,10 @@ impl Params {
 enum StepKind {
     /// Parked: all samples zero (deadband, or before the first move).
     Idle,
-    Gait { direction: Direction, amplitude: f64 },
+    Gait {
+        direction: Direction,
+        amplitude: f64,
+    },
 }
 
 /// What one tick returns.
@@ -191,7 +214,9 @@ pub struct Controller {
 }
 
 fn quantize(v: f64) -> (f64, u16) {
-    let code = (v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE)).round().clamp(0.0, f64::from(DAC_MAX_CODE)) as u16;
+    let code = (v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE))
+        .round()
+        .clamp(0.0, f64::from(DAC_MAX_CODE)) as u16;
     (f64::from(code) * DAC_FULL_SCALE / f64::from(DAC_MAX_CODE), code)
 }
 
@@ -200,7 +225,8 @@ impl Controller {
         params.validate()?;
         let basis = Basis::new(params.basis_peaks)?;
         let n = params.samples_per_step as usize;
-        let estimator = Estimator::new(params.scale_weights_start, params.disturbance_start, &params.noise);
+        let estimator =
+            Estimator::new(params.scale_weights_start, params.disturbance_start, &params.noise);
         Ok(Controller {
             timing: Timing::new(n),
             basis,
@@ -235,8 +261,13 @@ impl Controller {
 
     /// The weights and disturbance the waveform generator uses, per the flags.
     fn estimates(&self) -> ([f64; 10], f64) {
-        let theta = if self.params.use_scale_factor_estimate { self.estimator.weights() } else { self.params.scale_weights_start };
-        let bd = if self.params.use_disturbance_estimate { self.estimator.disturbance() } else { 0.0 };
+        let theta = if self.params.use_scale_factor_estimate {
+            self.estimator.weights()
+        } else {
+            self.params.scale_weights_start
+        };
+        let bd =
+            if self.params.use_disturbance_estimate { self.estimator.disturbance() } else { 0.0 };
         (theta, bd)
     }
 
@@ -255,7 +286,12 @@ impl Controller {
                     StepKind::Gait { direction, .. } => Some(direction),
                     StepKind::Idle => None,
                 };
-                let raw = measurements::raw(&self.timing, direction.unwrap_or(Direction::Forward), &self.enc, &self.ext);
+                let raw = measurements::raw(
+                    &self.timing,
+                    direction.unwrap_or(Direction::Forward),
+                    &self.enc,
+                    &self.ext,
+                );
                 if direction.is_some() {
                     let t_step = n as f64 * SAMPLE_PERIOD;
                     self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
@@ -279,7 +315,8 @@ impl Controller {
                     let plan = waveform::plan(&self.basis, &theta, bd, d);
                     no_root = plan.no_root;
                     self.full_steps_left = plan.n_steps;
-                    self.move_direction = if plan.direction >= 0 { Direction::Forward } else { Direction::Backward };
+                    self.move_direction =
+                        if plan.direction >= 0 { Direction::Forward } else { Direction::Backward };
                     self.fraction_left = Some(plan.fraction);
                     self.plan = Some(plan);
                 }
@@ -302,7 +339,9 @@ impl Controller {
         let next = if self.sample == n { 1 } else { self.sample + 1 };
         let volts = match (next, self.current) {
             (1, _) | (_, StepKind::Idle) => [0.0; 3],
-            (k, StepKind::Gait { direction, amplitude }) => self.timing.volts(direction, amplitude, k),
+            (k, StepKind::Gait { direction, amplitude }) => {
+                self.timing.volts(direction, amplitude, k)
+            }
         };
         if next > 1 {
             self.ext[next - 1] = volts[2] / DAC_FULL_SCALE;
@@ -416,7 +455,8 @@ impl Controller {
         for v in next.enc.iter_mut().chain(next.ext.iter_mut()) {
             *v = r.f64()?;
         }
-        next.full_steps_left = u32::try_from(r.u64()?).map_err(|_| "controller state: step count out of range")?;
+        next.full_steps_left =
+            u32::try_from(r.u64()?).map_err(|_| "controller state: step count out of range")?;
         next.move_direction = match r.u8()? {
             1 => Direction::Forward,
             2 => Direction::Backward,
@@ -428,7 +468,8 @@ impl Controller {
             Some(Plan {
                 step_forward: opt(r.f64()?),
                 step_backward: opt(r.f64()?),
-                n_steps: u32::try_from(r.u64()?).map_err(|_| "controller state: n_steps out of range")?,
+                n_steps: u32::try_from(r.u64()?)
+                    .map_err(|_| "controller state: n_steps out of range")?,
                 direction: r.u8()? as i8,
                 fraction: r.f64()?,
                 no_root: r.bool()?,
@@ -463,9 +504,21 @@ mod tests {
             ("samples_per_step", Params { samples_per_step: 6, ..d() }),
             ("compensator_gain", Params { gains: Gains { k: 0.0, ..Gains::default() }, ..d() }),
             ("compensator_zero", Params { gains: Gains { a: 1.0, ..Gains::default() }, ..d() }),
-            ("prefilter_pole", Params { gains: Gains { prefilter_pole: -0.1, ..Gains::default() }, ..d() }),
-            ("weight_process_noise", Params { noise: Noise { weight_process: f64::INFINITY, ..Noise::default() }, ..d() }),
-            ("bd_noise", Params { noise: Noise { bd_measurement: 0.0, ..Noise::default() }, ..d() }),
+            (
+                "prefilter_pole",
+                Params { gains: Gains { prefilter_pole: -0.1, ..Gains::default() }, ..d() },
+            ),
+            (
+                "weight_process_noise",
+                Params {
+                    noise: Noise { weight_process: f64::INFINITY, ..Noise::default() },
+                    ..d()
+                },
+            ),
+            (
+                "bd_noise",
+                Params { noise: Noise { bd_measurement: 0.0, ..Noise::default() }, ..d() },
+            ),
             ("basis_peak", Params { basis_peaks: peaks, ..d() }),
             ("scale_weights_start[4]", Params { scale_weights_start: weights, ..d() }),
             ("disturbance_start", Params { disturbance_start: f64::NAN, ..d() }),

@@ -24,7 +24,8 @@ impl Raw {
 
 /// `enc[k-1]` is `w_enc(k)` in metres, `ext[k-1]` is `w_ext(k)`.
 pub fn raw(timing: &Timing, direction: Direction, enc: &[f64], ext: &[f64]) -> Raw {
-    let avg = |v: &[f64], (a, b): (usize, usize)| v[a - 1..b].iter().sum::<f64>() / (b - a + 1) as f64;
+    let avg =
+        |v: &[f64], (a, b): (usize, usize)| v[a - 1..b].iter().sum::<f64>() / (b - a + 1) as f64;
     let s = timing.windows.map(|w| avg(enc, w));
     let e = timing.windows.map(|w| avg(ext, w));
     let (ext_cmd, ext_moved) = match direction {
@@ -49,14 +50,24 @@ mod tests {
                 _ => 23.5e-6,
             })
             .collect();
-        let ext: Vec<f64> = (1..=100).map(|k| t.volts(Direction::Forward, 0.9, k)[2] / 10.0).collect();
+        let ext: Vec<f64> =
+            (1..=100).map(|k| t.volts(Direction::Forward, 0.9, k)[2] / 10.0).collect();
         let r = raw(&t, Direction::Forward, &enc, &ext);
         assert!((r.ext_cmd - 0.9).abs() < 1e-15);
         assert!((r.ext_moved - 18e-6).abs() < 1e-15);
         assert!((r.bd - 4.5e-6).abs() < 1e-15);
         // Backward: moves -17 µm between segments 4 and 5.
-        let enc: Vec<f64> = (1..=100).map(|k| if t.segment(k) <= 4 { 0.0 } else { -17e-6 + if t.segment(k) == 7 { 4e-6 } else { 0.0 } }).collect();
-        let ext: Vec<f64> = (1..=100).map(|k| t.volts(Direction::Backward, -1.0, k)[2] / 10.0).collect();
+        let enc: Vec<f64> = (1..=100)
+            .map(|k| {
+                if t.segment(k) <= 4 {
+                    0.0
+                } else {
+                    -17e-6 + if t.segment(k) == 7 { 4e-6 } else { 0.0 }
+                }
+            })
+            .collect();
+        let ext: Vec<f64> =
+            (1..=100).map(|k| t.volts(Direction::Backward, -1.0, k)[2] / 10.0).collect();
         let r = raw(&t, Direction::Backward, &enc, &ext);
         assert_eq!(r.ext_cmd, -1.0);
         assert!((r.ext_moved + 17e-6).abs() < 1e-15);
@@ -70,7 +81,8 @@ mod tests {
         // DRIVE, 2 + 4.2 µm (disturbance) in segment 4, then −9.8 µm more when the
         // extension retracts; ±0.6 µm of noise off the windows must not matter.
         let enc = [2.0, 2.6, 2.0, 2.0, 6.2, 6.2, -3.6, -3.6, -3.6, -3.6].map(|u: f64| u * 1e-6);
-        let ext: Vec<f64> = (1..=10).map(|k| t.volts(Direction::Backward, -0.6, k)[2] / 10.0).collect();
+        let ext: Vec<f64> =
+            (1..=10).map(|k| t.volts(Direction::Backward, -0.6, k)[2] / 10.0).collect();
         let r = raw(&t, Direction::Backward, &enc, &ext);
         assert_eq!(r.e, [0.0, 0.6, 0.6, 0.6, 0.0, 0.0, 0.0]);
         assert!((r.ext_cmd + 0.6).abs() < 1e-15, "EXT_cmd = e5 − e4 = {}", r.ext_cmd);

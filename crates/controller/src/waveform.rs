@@ -67,7 +67,14 @@ pub fn plan(basis: &Basis, theta: &[f64; 10], bd: f64, d: f64) -> Plan {
         None => (0, d, true),
     };
     let fraction = basis.eval(frac_d - bd, theta).clamp(-1.0, 1.0);
-    Plan { step_forward, step_backward, n_steps, direction: if d >= 0.0 { 1 } else { -1 }, fraction, no_root }
+    Plan {
+        step_forward,
+        step_backward,
+        n_steps,
+        direction: if d >= 0.0 { 1 } else { -1 },
+        fraction,
+        no_root,
+    }
 }
 
 #[cfg(test)]
@@ -86,7 +93,11 @@ mod tests {
         assert!((sf - 24.5e-6).abs() < 1e-12 && (sb + 15.5e-6).abs() < 1e-12, "{sf} {sb}");
         let p = plan(&b, &theta, bd, 100e-6);
         assert_eq!((p.n_steps, p.direction), (4, 1));
-        assert!((p.fraction - (100e-6 - 4.0 * 24.5e-6 - bd) / 20e-6).abs() < 1e-6, "fraction {}", p.fraction);
+        assert!(
+            (p.fraction - (100e-6 - 4.0 * 24.5e-6 - bd) / 20e-6).abs() < 1e-6,
+            "fraction {}",
+            p.fraction
+        );
         let p = plan(&b, &theta, bd, -40e-6);
         assert_eq!((p.n_steps, p.direction), (2, -1));
         assert!((p.fraction - ((-40e-6 + 31e-6) - bd) / 20e-6).abs() < 1e-6);

@@ -32,7 +32,16 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn tick_does_not_allocate() {
-    for p in [Params::default(), Params { prefilter: true, feedforward: false, deadband: 1e-6, samples_per_step: 10, ..Params::default() }] {
+    for p in [
+        Params::default(),
+        Params {
+            prefilter: true,
+            feedforward: false,
+            deadband: 1e-6,
+            samples_per_step: 10,
+            ..Params::default()
+        },
+    ] {
         let before_new = ALLOCATIONS.with(Cell::get);
         let mut c = Controller::new(p).unwrap();
         let start = ALLOCATIONS.with(Cell::get);

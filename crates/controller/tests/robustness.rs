@@ -10,7 +10,16 @@ fn random_encoder_and_reference_give_valid_samples() {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
-    for p in [Params::default(), Params { prefilter: true, feedforward: false, scale_weights_start: NOMINAL_WEIGHTS, ..Params::default() }, Params { samples_per_step: 10, deadband: 1e-6, ..Params::default() }] {
+    for p in [
+        Params::default(),
+        Params {
+            prefilter: true,
+            feedforward: false,
+            scale_weights_start: NOMINAL_WEIGHTS,
+            ..Params::default()
+        },
+        Params { samples_per_step: 10, deadband: 1e-6, ..Params::default() },
+    ] {
         let n = p.samples_per_step as usize;
         let mut c = Controller::new(p).unwrap();
         let mut counts = 0i64;
@@ -22,9 +31,15 @@ fn random_encoder_and_reference_give_valid_samples() {
             let reference = if next() < 0.01 { (next() - 0.5) * 1e-2 } else { 100e-6 };
             let s = c.tick(counts, reference);
             for (v, code) in s.dac.iter().zip(s.codes) {
-                assert!((v - f64::from(code) * 10.0 / 65535.0).abs() < 1e-12, "tick {k}: {v} V vs code {code}");
+                assert!(
+                    (v - f64::from(code) * 10.0 / 65535.0).abs() < 1e-12,
+                    "tick {k}: {v} V vs code {code}"
+                );
             }
-            assert!(s.fraction.abs() <= 1.0 && s.disturbance_estimate.is_finite(), "tick {k}: {s:?}");
+            assert!(
+                s.fraction.abs() <= 1.0 && s.disturbance_estimate.is_finite(),
+                "tick {k}: {s:?}"
+            );
             assert!(s.scale_weights.iter().all(|w| w.is_finite()), "tick {k}");
             // The sample returned at tick k is held during interval k + 1; interval 1 of
             // every step (k + 1 ≡ 0 mod n) is parked.

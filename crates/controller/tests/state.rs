@@ -7,7 +7,12 @@ use common::StepPlant;
 use inchworm_controller::{Controller, Params, Sample, STATE_VERSION};
 
 /// Runs `ticks` Jacobi samples from the controller's and plant's current states.
-fn continue_run(c: &mut Controller, plant: &mut StepPlant, dac: &mut [f64; 3], ticks: usize) -> Vec<Sample> {
+fn continue_run(
+    c: &mut Controller,
+    plant: &mut StepPlant,
+    dac: &mut [f64; 3],
+    ticks: usize,
+) -> Vec<Sample> {
     (0..ticks)
         .map(|_| {
             let s = c.tick(plant.counts(), 100e-6);

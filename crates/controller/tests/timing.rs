@@ -36,19 +36,36 @@ fn one_step_moves_sample_by_sample() {
     let s = c.tick(0, r);
     assert!(s.iterated && s.n_steps == 0 && s.moving);
     let d0 = k * r;
-    assert!((s.fraction - d0 / 20e-6).abs() < 1e-12, "first fraction {} vs {}", s.fraction, d0 / 20e-6);
+    assert!(
+        (s.fraction - d0 / 20e-6).abs() < 1e-12,
+        "first fraction {} vs {}",
+        s.fraction,
+        d0 / 20e-6
+    );
     assert_eq!(s.codes, [0, 0, 0]);
 
     // Ticks 1..=98 receive w_enc(1..=98) and return samples 3..=100 of the forward gait at
     // amplitude 0.18; tick 99 receives w_enc(99) and returns sample 1 of the next step.
     // The encoder: 1000 counts during the s7 window (samples 95–99), 0 elsewhere, and
     // 5000 counts at w_enc(100), which only the servo error may see.
-    let w_enc = |kk: usize| if (95..=99).contains(&kk) { 1000 } else if kk == 100 { 5000 } else { 0 };
+    let w_enc = |kk: usize| {
+        if (95..=99).contains(&kk) {
+            1000
+        } else if kk == 100 {
+            5000
+        } else {
+            0
+        }
+    };
     for j in 1..=99 {
         let s = c.tick(w_enc(j), r);
         assert!(!s.iterated, "tick {j}: no iteration inside a step");
         let sample = if j == 99 { 1 } else { j + 2 };
-        let expect = if sample == 1 { [0.0; 3] } else { timing.volts(Direction::Forward, d0 / 20e-6, sample) };
+        let expect = if sample == 1 {
+            [0.0; 3]
+        } else {
+            timing.volts(Direction::Forward, d0 / 20e-6, sample)
+        };
         assert_eq!(s.codes, expect.map(code), "tick {j}: sample {sample} of the step");
         assert_eq!(s.disturbance_estimate, 0.0, "tick {j}: the estimator waits for the step's end");
     }
@@ -61,12 +78,19 @@ fn one_step_moves_sample_by_sample() {
     assert!(s.iterated, "tick 100 iterates");
     let p_bd = 25e-12 + 1e-14 * 0.2;
     let bd = p_bd / (p_bd + 2.5e-15) * 1000.0 * Q;
-    assert!((s.disturbance_estimate - bd).abs() < 1e-15, "disturbance estimate {} vs {bd}", s.disturbance_estimate);
+    assert!(
+        (s.disturbance_estimate - bd).abs() < 1e-15,
+        "disturbance estimate {} vs {bd}",
+        s.disturbance_estimate
+    );
     let y1 = 1000.0 * Q;
     let d1 = d0 + k * ((r - y1) - a * r);
     let expect = (d1 - bd) / 20e-6;
     assert!((s.fraction - expect).abs() < 1e-9, "second fraction {} vs {expect}", s.fraction);
-    assert!((s.servo_error - (r - 5000.0 * Q)).abs() < 1e-18, "servo error uses the encoder of this tick");
+    assert!(
+        (s.servo_error - (r - 5000.0 * Q)).abs() < 1e-18,
+        "servo error uses the encoder of this tick"
+    );
     assert_eq!(s.codes, [0, 0, 0], "sample 2 of the new step");
 }
 
@@ -85,7 +109,12 @@ fn a_multi_step_move_iterates_only_when_done() {
         }
         if j == 0 {
             // Bisection leaves SD within 1e-13 m of 20 µm.
-            assert!(s.n_steps == 2 && (s.fraction - 0.25).abs() < 1e-7, "45 µm = 2 × 20 µm + 0.25 × 20 µm, got {} and {}", s.n_steps, s.fraction);
+            assert!(
+                s.n_steps == 2 && (s.fraction - 0.25).abs() < 1e-7,
+                "45 µm = 2 × 20 µm + 0.25 × 20 µm, got {} and {}",
+                s.n_steps,
+                s.fraction
+            );
         }
         // Sample 47 of each step (segment 4 of the forward gait) shows its amplitude.
         if j % 100 == 45 && j < 300 {
@@ -97,5 +126,9 @@ fn a_multi_step_move_iterates_only_when_done() {
             assert_eq!(s.codes, [0, 0, 0], "tick {j}: sample 1 of every step is parked");
         }
     }
-    assert_eq!(iterated, vec![0, 300], "one iteration per move: at t = 0 and after the three steps");
+    assert_eq!(
+        iterated,
+        vec![0, 300],
+        "one iteration per move: at t = 0 and after the three steps"
+    );
 }

@@ -12,7 +12,12 @@
 //! `fmi2ExitInitializationMode`) moves the instance to the Error state, from which only
 //! reset, free, getters and state restore are allowed; a Rust panic (a bug) returns
 //! `fmi2Fatal` and moves it to Fatal, from which only `fmi2FreeInstance` is allowed.
-#![allow(non_snake_case, non_upper_case_globals, clippy::missing_safety_doc, clippy::too_many_arguments)]
+#![allow(
+    non_snake_case,
+    non_upper_case_globals,
+    clippy::missing_safety_doc,
+    clippy::too_many_arguments
+)]
 
 use std::ffi::{CStr, CString};
 use std::os::raw::c_char;
@@ -58,7 +63,11 @@ unsafe fn with_instance<M: Model>(
         return fmi2Error;
     }
     if inst.state as u16 & allowed == 0 {
-        inst.log(fmi2Error, CAT_ERROR, &format!("{func}: illegal call sequence: not allowed in state {}", inst.state.name()));
+        inst.log(
+            fmi2Error,
+            CAT_ERROR,
+            &format!("{func}: illegal call sequence: not allowed in state {}", inst.state.name()),
+        );
         return fmi2Error;
     }
     inst.log(fmi2OK, CAT_ALL, func);
@@ -71,7 +80,11 @@ unsafe fn with_instance<M: Model>(
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
             inst.state = State::Fatal;
-            inst.log(fmi2Fatal, CAT_ERROR, &format!("{func}: internal error, instance unusable: {what}"));
+            inst.log(
+                fmi2Fatal,
+                CAT_ERROR,
+                &format!("{func}: internal error, instance unusable: {what}"),
+            );
             fmi2Fatal
         }
     }
@@ -114,7 +127,9 @@ fn variable<M: Model>(vr: u32) -> Option<&'static Variable> {
 fn lookup<M: Model>(func: &str, vr: u32, kind: Kind) -> Result<&'static Variable, String> {
     match variable::<M>(vr) {
         None => Err(format!("{func}: unknown value reference {vr}")),
-        Some(v) if v.kind != kind => Err(format!("{func}: value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind)),
+        Some(v) if v.kind != kind => {
+            Err(format!("{func}: value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind))
+        }
         Some(v) => Ok(v),
     }
 }
@@ -145,13 +160,23 @@ pub unsafe fn fmi2SetDebugLogging<M: Model>(
         let mut status = fmi2OK;
         for &p in names {
             if p.is_null() {
-                status = worst(status, refuse(inst, "fmi2SetDebugLogging", "a category name is NULL"));
+                status =
+                    worst(status, refuse(inst, "fmi2SetDebugLogging", "a category name is NULL"));
                 continue;
             }
             let name = CStr::from_ptr(p).to_string_lossy();
             match LOG_CATEGORIES.iter().position(|(n, _)| *n == name) {
                 Some(i) => inst.categories[i] = inst.logging_on,
-                None => status = worst(status, refuse(inst, "fmi2SetDebugLogging", &format!("unknown log category \"{name}\""))),
+                None => {
+                    status = worst(
+                        status,
+                        refuse(
+                            inst,
+                            "fmi2SetDebugLogging",
+                            &format!("unknown log category \"{name}\""),
+                        ),
+                    )
+                }
             }
         }
         status
@@ -159,7 +184,11 @@ pub unsafe fn fmi2SetDebugLogging<M: Model>(
 }
 
 /// Logs through the master's callback before an instance exists.
-unsafe fn log_without_instance(functions: *const fmi2CallbackFunctions, name: fmi2String, message: &str) {
+unsafe fn log_without_instance(
+    functions: *const fmi2CallbackFunctions,
+    name: fmi2String,
+    message: &str,
+) {
     if functions.is_null() {
         return;
     }
@@ -199,7 +228,9 @@ pub unsafe fn fmi2Instantiate<M: Model>(
             return fail("instanceName is NULL or empty");
         }
         if fmuType != fmi2CoSimulation {
-            return fail("this FMU implements Co-Simulation only (fmuType must be fmi2CoSimulation)");
+            return fail(
+                "this FMU implements Co-Simulation only (fmuType must be fmi2CoSimulation)",
+            );
         }
         let guid = model_description::guid::<M>();
         if fmuGUID.is_null() {
@@ -243,7 +274,11 @@ pub unsafe fn fmi2SetupExperiment<M: Model>(
         }
         let stop = if stopTimeDefined != fmi2False {
             if !stopTime.is_finite() || stopTime < startTime {
-                return refuse(inst, F, &format!("stopTime {stopTime} is not finite or before startTime {startTime}"));
+                return refuse(
+                    inst,
+                    F,
+                    &format!("stopTime {stopTime} is not finite or before startTime {startTime}"),
+                );
             }
             Some(stopTime)
         } else {
@@ -264,14 +299,16 @@ pub unsafe fn fmi2EnterInitializationMode<M: Model>(c: fmi2Component) -> fmi2Sta
 }
 
 pub unsafe fn fmi2ExitInitializationMode<M: Model>(c: fmi2Component) -> fmi2Status {
-    with_instance::<M>(c, "fmi2ExitInitializationMode", IM, |inst| match inst.model.exit_initialization(inst.start_time) {
-        Ok(()) => {
-            inst.state = State::StepComplete;
-            fmi2OK
-        }
-        Err(msg) => {
-            inst.state = State::Error;
-            refuse(inst, "fmi2ExitInitializationMode", &msg)
+    with_instance::<M>(c, "fmi2ExitInitializationMode", IM, |inst| {
+        match inst.model.exit_initialization(inst.start_time) {
+            Ok(()) => {
+                inst.state = State::StepComplete;
+                fmi2OK
+            }
+            Err(msg) => {
+                inst.state = State::Error;
+                refuse(inst, "fmi2ExitInitializationMode", &msg)
+            }
         }
     })
 }
@@ -297,7 +334,12 @@ pub unsafe fn fmi2Reset<M: Model>(c: fmi2Component) -> fmi2Status {
 
 macro_rules! getter {
     ($name:ident, $cty:ty, $kind:expr, $get:ident, $conv:expr) => {
-        pub unsafe fn $name<M: Model>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut $cty) -> fmi2Status {
+        pub unsafe fn $name<M: Model>(
+            c: fmi2Component,
+            vr: *const fmi2ValueReference,
+            nvr: usize,
+            value: *mut $cty,
+        ) -> fmi2Status {
             with_instance::<M>(c, stringify!($name), GETTABLE, |inst| {
                 const FUNC: &str = stringify!($name);
                 let (Some(vrs), Some(values)) = (slice(vr, nvr), slice_mut(value, nvr)) else {
@@ -318,7 +360,11 @@ macro_rules! getter {
 
 getter!(fmi2GetReal, fmi2Real, Kind::Real, get_real, |v: f64| v);
 getter!(fmi2GetInteger, fmi2Integer, Kind::Integer, get_integer, |v: i32| v);
-getter!(fmi2GetBoolean, fmi2Boolean, Kind::Boolean, get_boolean, |v: bool| if v { fmi2True } else { fmi2False });
+getter!(fmi2GetBoolean, fmi2Boolean, Kind::Boolean, get_boolean, |v: bool| if v {
+    fmi2True
+} else {
+    fmi2False
+});
 
 /// Whether the variable may be set in the instance's current state.
 fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Result<(), String> {
@@ -341,7 +387,12 @@ fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Res
 
 macro_rules! setter {
     ($name:ident, $cty:ty, $kind:expr, $set:ident, $conv:expr) => {
-        pub unsafe fn $name<M: Model>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const $cty) -> fmi2Status {
+        pub unsafe fn $name<M: Model>(
+            c: fmi2Component,
+            vr: *const fmi2ValueReference,
+            nvr: usize,
+            value: *const $cty,
+        ) -> fmi2Status {
             with_instance::<M>(c, stringify!($name), SETTABLE, |inst| {
                 const FUNC: &str = stringify!($name);
                 let (Some(vrs), Some(values)) = (slice(vr, nvr), slice(value, nvr)) else {
@@ -353,7 +404,9 @@ macro_rules! setter {
                 for (r, v) in vrs.iter().zip(values.iter()) {
                     let result = lookup::<M>(FUNC, *r, $kind)
                         .and_then(|var| check_settable(inst, FUNC, var))
-                        .and_then(|_| inst.model.$set(*r, $conv(*v)).map_err(|m| format!("{FUNC}: {m}")));
+                        .and_then(|_| {
+                            inst.model.$set(*r, $conv(*v)).map_err(|m| format!("{FUNC}: {m}"))
+                        });
                     match result {
                         Ok(None) => {}
                         Ok(Some(warning)) => {
@@ -373,21 +426,39 @@ setter!(fmi2SetReal, fmi2Real, Kind::Real, set_real, |v: f64| v);
 setter!(fmi2SetInteger, fmi2Integer, Kind::Integer, set_integer, |v: i32| v);
 setter!(fmi2SetBoolean, fmi2Boolean, Kind::Boolean, set_boolean, |v: fmi2Boolean| v != fmi2False);
 
-pub unsafe fn fmi2GetString<M: Model>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *mut fmi2String) -> fmi2Status {
+pub unsafe fn fmi2GetString<M: Model>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *mut fmi2String,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetString", GETTABLE, |inst| {
         match (slice(vr, nvr), slice_mut(value, nvr)) {
             (Some([]), Some(_)) => fmi2OK,
-            (Some(vrs), Some(_)) => refuse(inst, "fmi2GetString", &format!("unknown value reference {}: this FMU has no String variables", vrs[0])),
+            (Some(vrs), Some(_)) => refuse(
+                inst,
+                "fmi2GetString",
+                &format!("unknown value reference {}: this FMU has no String variables", vrs[0]),
+            ),
             _ => refuse(inst, "fmi2GetString", "vr or value is NULL"),
         }
     })
 }
 
-pub unsafe fn fmi2SetString<M: Model>(c: fmi2Component, vr: *const fmi2ValueReference, nvr: usize, value: *const fmi2String) -> fmi2Status {
+pub unsafe fn fmi2SetString<M: Model>(
+    c: fmi2Component,
+    vr: *const fmi2ValueReference,
+    nvr: usize,
+    value: *const fmi2String,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2SetString", SETTABLE, |inst| {
         match (slice(vr, nvr), slice(value, nvr)) {
             (Some([]), Some(_)) => fmi2OK,
-            (Some(vrs), Some(_)) => refuse(inst, "fmi2SetString", &format!("unknown value reference {}: this FMU has no String variables", vrs[0])),
+            (Some(vrs), Some(_)) => refuse(
+                inst,
+                "fmi2SetString",
+                &format!("unknown value reference {}: this FMU has no String variables", vrs[0]),
+            ),
             _ => refuse(inst, "fmi2SetString", "vr or value is NULL"),
         }
     })
@@ -396,18 +467,30 @@ pub unsafe fn fmi2SetString<M: Model>(c: fmi2Component, vr: *const fmi2ValueRefe
 fn encode_snapshot<M: Model>(s: &Snapshot<M>) -> Vec<u8> {
     let mut payload = Vec::new();
     s.model.save(&mut payload);
-    let h = state_blob::Header { state: s.state, time: s.time, start_time: s.start_time, stop_time: s.stop_time };
+    let h = state_blob::Header {
+        state: s.state,
+        time: s.time,
+        start_time: s.start_time,
+        stop_time: s.stop_time,
+    };
     state_blob::encode(&model_description::guid::<M>(), &h, &payload)
 }
 
 /// The snapshot behind `state` if this instance handed it out.
-unsafe fn own_snapshot<'a, M: Model>(inst: &Instance<M>, state: fmi2FMUstate) -> Option<&'a mut Snapshot<M>> {
+unsafe fn own_snapshot<'a, M: Model>(
+    inst: &Instance<M>,
+    state: fmi2FMUstate,
+) -> Option<&'a mut Snapshot<M>> {
     let p = state as *mut Snapshot<M>;
     inst.snapshots.contains(&p).then(|| &mut *p)
 }
 
 /// Stores `snap` into `*slot`: in place if it already holds one of ours, else a new one.
-unsafe fn store_snapshot<M: Model>(inst: &mut Instance<M>, slot: *mut fmi2FMUstate, snap: Snapshot<M>) -> fmi2Status {
+unsafe fn store_snapshot<M: Model>(
+    inst: &mut Instance<M>,
+    slot: *mut fmi2FMUstate,
+    snap: Snapshot<M>,
+) -> fmi2Status {
     if let Some(existing) = own_snapshot(inst, *slot) {
         *existing = snap;
     } else {
@@ -435,7 +518,11 @@ pub unsafe fn fmi2SetFMUstate<M: Model>(c: fmi2Component, state: fmi2FMUstate) -
             inst.restore(&s);
             fmi2OK
         }
-        None => refuse(inst, "fmi2SetFMUstate", "FMUstate was not created by fmi2GetFMUstate of this instance (or was freed)"),
+        None => refuse(
+            inst,
+            "fmi2SetFMUstate",
+            "FMUstate was not created by fmi2GetFMUstate of this instance (or was freed)",
+        ),
     })
 }
 
@@ -452,12 +539,20 @@ pub unsafe fn fmi2FreeFMUstate<M: Model>(c: fmi2Component, state: *mut fmi2FMUst
                 *state = std::ptr::null_mut();
                 fmi2OK
             }
-            None => refuse(inst, "fmi2FreeFMUstate", "FMUstate was not created by this instance (or was freed already)"),
+            None => refuse(
+                inst,
+                "fmi2FreeFMUstate",
+                "FMUstate was not created by this instance (or was freed already)",
+            ),
         }
     })
 }
 
-pub unsafe fn fmi2SerializedFMUstateSize<M: Model>(c: fmi2Component, state: fmi2FMUstate, size: *mut usize) -> fmi2Status {
+pub unsafe fn fmi2SerializedFMUstateSize<M: Model>(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    size: *mut usize,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2SerializedFMUstateSize", STATE_CALLS, |inst| {
         if size.is_null() {
             return refuse(inst, "fmi2SerializedFMUstateSize", "size is NULL");
@@ -467,12 +562,21 @@ pub unsafe fn fmi2SerializedFMUstateSize<M: Model>(c: fmi2Component, state: fmi2
                 *size = encode_snapshot(s).len();
                 fmi2OK
             }
-            None => refuse(inst, "fmi2SerializedFMUstateSize", "FMUstate was not created by this instance"),
+            None => refuse(
+                inst,
+                "fmi2SerializedFMUstateSize",
+                "FMUstate was not created by this instance",
+            ),
         }
     })
 }
 
-pub unsafe fn fmi2SerializeFMUstate<M: Model>(c: fmi2Component, state: fmi2FMUstate, bytes: *mut fmi2Byte, size: usize) -> fmi2Status {
+pub unsafe fn fmi2SerializeFMUstate<M: Model>(
+    c: fmi2Component,
+    state: fmi2FMUstate,
+    bytes: *mut fmi2Byte,
+    size: usize,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2SerializeFMUstate", STATE_CALLS, |inst| {
         const FUNC: &str = "fmi2SerializeFMUstate";
         let Some(s) = own_snapshot(inst, state) else {
@@ -483,14 +587,27 @@ pub unsafe fn fmi2SerializeFMUstate<M: Model>(c: fmi2Component, state: fmi2FMUst
             return refuse(inst, FUNC, "serializedState is NULL");
         };
         if out.len() < blob.len() {
-            return refuse(inst, FUNC, &format!("buffer of {} bytes is smaller than the state ({} bytes)", out.len(), blob.len()));
+            return refuse(
+                inst,
+                FUNC,
+                &format!(
+                    "buffer of {} bytes is smaller than the state ({} bytes)",
+                    out.len(),
+                    blob.len()
+                ),
+            );
         }
         out[..blob.len()].copy_from_slice(&blob);
         fmi2OK
     })
 }
 
-pub unsafe fn fmi2DeSerializeFMUstate<M: Model>(c: fmi2Component, bytes: *const fmi2Byte, size: usize, state: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe fn fmi2DeSerializeFMUstate<M: Model>(
+    c: fmi2Component,
+    bytes: *const fmi2Byte,
+    size: usize,
+    state: *mut fmi2FMUstate,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2DeSerializeFMUstate", STATE_CALLS, |inst| {
         const FUNC: &str = "fmi2DeSerializeFMUstate";
         let (Some(blob), false) = (slice(bytes as *const u8, size), state.is_null()) else {
@@ -504,7 +621,13 @@ pub unsafe fn fmi2DeSerializeFMUstate<M: Model>(c: fmi2Component, bytes: *const 
         if let Err(msg) = model.load(payload) {
             return refuse(inst, FUNC, &format!("model state refused: {msg}"));
         }
-        let snap = Snapshot { model, state: header.state, time: header.time, start_time: header.start_time, stop_time: header.stop_time };
+        let snap = Snapshot {
+            model,
+            state: header.state,
+            time: header.time,
+            start_time: header.start_time,
+            stop_time: header.stop_time,
+        };
         store_snapshot(inst, state, snap)
     })
 }
@@ -557,7 +680,11 @@ pub unsafe fn fmi2DoStep<M: Model>(
         const FUNC: &str = "fmi2DoStep";
         let (t, h) = (currentCommunicationPoint, communicationStepSize);
         if !(h.is_finite() && h > 0.0) {
-            return refuse(inst, FUNC, &format!("communicationStepSize {h} must be finite and > 0"));
+            return refuse(
+                inst,
+                FUNC,
+                &format!("communicationStepSize {h} must be finite and > 0"),
+            );
         }
         if !t.is_finite() || !same_time(t, inst.time) {
             return refuse(
@@ -568,7 +695,14 @@ pub unsafe fn fmi2DoStep<M: Model>(
         }
         if let Some(stop) = inst.stop_time {
             if t + h > stop && !same_time(t + h, stop) {
-                return refuse(inst, FUNC, &format!("step to {} passes the stop time {stop} set in fmi2SetupExperiment", t + h));
+                return refuse(
+                    inst,
+                    FUNC,
+                    &format!(
+                        "step to {} passes the stop time {stop} set in fmi2SetupExperiment",
+                        t + h
+                    ),
+                );
             }
         }
         if let Err(msg) = inst.model.check_step(t, h) {
@@ -614,7 +748,11 @@ pub unsafe fn fmi2CancelStep<M: Model>(c: fmi2Component) -> fmi2Status {
     })
 }
 
-pub unsafe fn fmi2GetStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+pub unsafe fn fmi2GetStatus<M: Model>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Status,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetStatus", STATUS_CALLS, |inst| {
         if value.is_null() {
             return refuse(inst, "fmi2GetStatus", "value is NULL");
@@ -624,12 +762,20 @@ pub unsafe fn fmi2GetStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value
                 *value = inst.last_step_status;
                 fmi2OK
             }
-            _ => refuse(inst, "fmi2GetStatus", &format!("status kind {s} has no fmi2Status value (fmi2DoStepStatus only)")),
+            _ => refuse(
+                inst,
+                "fmi2GetStatus",
+                &format!("status kind {s} has no fmi2Status value (fmi2DoStepStatus only)"),
+            ),
         }
     })
 }
 
-pub unsafe fn fmi2GetRealStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+pub unsafe fn fmi2GetRealStatus<M: Model>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Real,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetRealStatus", STATUS_CALLS, |inst| {
         if value.is_null() {
             return refuse(inst, "fmi2GetRealStatus", "value is NULL");
@@ -639,19 +785,35 @@ pub unsafe fn fmi2GetRealStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, v
                 *value = inst.time;
                 fmi2OK
             }
-            _ => refuse(inst, "fmi2GetRealStatus", &format!("status kind {s} is not a Real status (fmi2LastSuccessfulTime only)")),
+            _ => refuse(
+                inst,
+                "fmi2GetRealStatus",
+                &format!("status kind {s} is not a Real status (fmi2LastSuccessfulTime only)"),
+            ),
         }
     })
 }
 
-pub unsafe fn fmi2GetIntegerStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Integer) -> fmi2Status {
+pub unsafe fn fmi2GetIntegerStatus<M: Model>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Integer,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetIntegerStatus", STATUS_CALLS, |inst| {
         let _ = value;
-        refuse(inst, "fmi2GetIntegerStatus", &format!("status kind {s}: FMI 2.0 defines no Integer status"))
+        refuse(
+            inst,
+            "fmi2GetIntegerStatus",
+            &format!("status kind {s}: FMI 2.0 defines no Integer status"),
+        )
     })
 }
 
-pub unsafe fn fmi2GetBooleanStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
+pub unsafe fn fmi2GetBooleanStatus<M: Model>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetBooleanStatus", STATUS_CALLS, |inst| {
         if value.is_null() {
             return refuse(inst, "fmi2GetBooleanStatus", "value is NULL");
@@ -662,14 +824,26 @@ pub unsafe fn fmi2GetBooleanStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind
                 *value = fmi2False;
                 fmi2OK
             }
-            _ => refuse(inst, "fmi2GetBooleanStatus", &format!("status kind {s} is not a Boolean status (fmi2Terminated only)")),
+            _ => refuse(
+                inst,
+                "fmi2GetBooleanStatus",
+                &format!("status kind {s} is not a Boolean status (fmi2Terminated only)"),
+            ),
         }
     })
 }
 
-pub unsafe fn fmi2GetStringStatus<M: Model>(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2String) -> fmi2Status {
+pub unsafe fn fmi2GetStringStatus<M: Model>(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2String,
+) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetStringStatus", STATUS_CALLS, |inst| {
         let _ = value;
-        refuse(inst, "fmi2GetStringStatus", &format!("status kind {s}: no asynchronous step is ever pending"))
+        refuse(
+            inst,
+            "fmi2GetStringStatus",
+            &format!("status kind {s}: no asynchronous step is ever pending"),
+        )
     })
 }

@@ -100,7 +100,8 @@ impl<M: Model> Instance<M> {
     /// logging on and the category enabled.
     pub fn log(&self, status: fmi2Status, category: usize, message: &str) {
         let Some(logger) = self.callbacks.logger else { return };
-        let wanted = status >= fmi2Warning || (self.logging_on && (self.categories[category] || self.categories[3]));
+        let wanted = status >= fmi2Warning
+            || (self.logging_on && (self.categories[category] || self.categories[3]));
         if !wanted {
             return;
         }

@@ -15,8 +15,8 @@ pub mod ffi;
 mod instance;
 pub mod model_description;
 mod state_blob;
-pub mod testing;
 mod table;
+pub mod testing;
 
 pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable};
 

@@ -98,7 +98,10 @@ mod tests {
         let h = Header { state: State::StepComplete, time: 1.5, start_time: 0.0, stop_time: None };
         let blob = encode("{guid-a}", &h, b"payload bytes");
         let (back, payload) = decode("{guid-a}", &blob).unwrap();
-        assert_eq!((back.state, back.time, back.stop_time, payload), (State::StepComplete, 1.5, None, &b"payload bytes"[..]));
+        assert_eq!(
+            (back.state, back.time, back.stop_time, payload),
+            (State::StepComplete, 1.5, None, &b"payload bytes"[..])
+        );
         assert!(decode("{guid-b}", &blob).unwrap_err().contains("another FMU"));
         for i in 0..blob.len() {
             let mut bad = blob.clone();

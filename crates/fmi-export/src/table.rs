@@ -62,7 +62,13 @@ pub struct Variable {
 
 impl Variable {
     /// A parameter fixed at initialization.
-    pub const fn parameter(name: &'static str, vr: u32, start: f64, unit: Option<&'static str>, description: &'static str) -> Self {
+    pub const fn parameter(
+        name: &'static str,
+        vr: u32,
+        start: f64,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
         Variable {
             name,
             vr,
@@ -79,7 +85,13 @@ impl Variable {
     }
 
     /// A continuous real input.
-    pub const fn input(name: &'static str, vr: u32, start: f64, unit: Option<&'static str>, description: &'static str) -> Self {
+    pub const fn input(
+        name: &'static str,
+        vr: u32,
+        start: f64,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
         Variable {
             name,
             vr,
@@ -96,7 +108,13 @@ impl Variable {
     }
 
     /// An output computed by the model (`initial="calculated"`, no start value).
-    pub const fn output(name: &'static str, vr: u32, kind: Kind, unit: Option<&'static str>, description: &'static str) -> Self {
+    pub const fn output(
+        name: &'static str,
+        vr: u32,
+        kind: Kind,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
         let variability = match kind {
             Kind::Real => Variability::Continuous,
             _ => Variability::Discrete,
@@ -137,11 +155,13 @@ impl Variable {
     /// Whether a master may set it in a state (FMI 2.0 CS, section 4.2.4).
     pub(crate) fn settable_before_init(&self) -> bool {
         self.variability != Variability::Constant
-            && (matches!(self.initial, Some(Initial::Exact) | Some(Initial::Approx)) || self.causality == Causality::Input)
+            && (matches!(self.initial, Some(Initial::Exact) | Some(Initial::Approx))
+                || self.causality == Causality::Input)
     }
 
     pub(crate) fn settable_after_init(&self) -> bool {
-        self.causality == Causality::Input || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
+        self.causality == Causality::Input
+            || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
     }
 }
 

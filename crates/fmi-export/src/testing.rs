@@ -19,9 +19,20 @@ pub struct Log(pub Mutex<Vec<String>>);
 // Defined with the two arguments the layer passes ("%s" and the text): a Rust function
 // cannot be variadic, and on the x86-64 and AArch64 Linux ABIs fixed pointer arguments
 // arrive where a variadic callee reads them.
-unsafe extern "C" fn logger(env: *mut c_void, _name: fmi2String, status: fmi2Status, category: fmi2String, fmt: fmi2String, arg: *const c_char) {
+unsafe extern "C" fn logger(
+    env: *mut c_void,
+    _name: fmi2String,
+    status: fmi2Status,
+    category: fmi2String,
+    fmt: fmi2String,
+    arg: *const c_char,
+) {
     let log = &*(env as *const Log);
-    assert_eq!(CStr::from_ptr(fmt).to_str().unwrap(), "%s", "the message must be an argument, never the format");
+    assert_eq!(
+        CStr::from_ptr(fmt).to_str().unwrap(),
+        "%s",
+        "the message must be an argument, never the format"
+    );
     let msg = CStr::from_ptr(arg).to_string_lossy();
     let cat = CStr::from_ptr(category).to_string_lossy();
     log.0.lock().unwrap().push(format!("{status}|{cat}|{msg}"));
@@ -31,7 +42,9 @@ unsafe extern "C" fn logger(env: *mut c_void, _name: fmi2String, status: fmi2Sta
 pub fn callbacks(log: &Log) -> fmi2CallbackFunctions {
     fmi2CallbackFunctions {
         // SAFETY: see `logger`.
-        logger: Some(unsafe { std::mem::transmute::<*const (), fmi2CallbackLogger>(logger as *const ()) }),
+        logger: Some(unsafe {
+            std::mem::transmute::<*const (), fmi2CallbackLogger>(logger as *const ())
+        }),
         allocateMemory: None,
         freeMemory: None,
         stepFinished: None,
@@ -56,7 +69,17 @@ impl<M: Model> Harness<M> {
         let functions = Box::new(callbacks(&log));
         let name = CString::new(name).unwrap();
         let guid = CString::new(guid::<M>()).unwrap();
-        let c = unsafe { api::fmi2Instantiate::<M>(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &*functions, fmi2False, fmi2False) };
+        let c = unsafe {
+            api::fmi2Instantiate::<M>(
+                name.as_ptr(),
+                fmi2CoSimulation,
+                guid.as_ptr(),
+                std::ptr::null(),
+                &*functions,
+                fmi2False,
+                fmi2False,
+            )
+        };
         assert!(!c.is_null(), "fmi2Instantiate failed: {:?}", log.0.lock().unwrap());
         Harness { c, log, _functions: functions, _model: PhantomData }
     }
@@ -117,7 +140,9 @@ impl<M: Model> Harness<M> {
 
     /// Whether a message with this status containing every part was logged.
     pub fn saw(&self, status: fmi2Status, parts: &[&str]) -> bool {
-        self.logged().iter().any(|m| m.starts_with(&format!("{status}|")) && parts.iter().all(|p| m.contains(p)))
+        self.logged()
+            .iter()
+            .any(|m| m.starts_with(&format!("{status}|")) && parts.iter().all(|p| m.contains(p)))
     }
 
     /// `fmi2GetFMUstate`; the caller frees it with [`Harness::free_state`].
@@ -139,7 +164,17 @@ impl<M: Model> Harness<M> {
         let mut size = 0usize;
         assert_eq!(unsafe { api::fmi2SerializedFMUstateSize::<M>(self.c, s, &mut size) }, fmi2OK);
         let mut bytes = vec![0u8; size];
-        assert_eq!(unsafe { api::fmi2SerializeFMUstate::<M>(self.c, s, bytes.as_mut_ptr() as *mut fmi2Byte, size) }, fmi2OK);
+        assert_eq!(
+            unsafe {
+                api::fmi2SerializeFMUstate::<M>(
+                    self.c,
+                    s,
+                    bytes.as_mut_ptr() as *mut fmi2Byte,
+                    size,
+                )
+            },
+            fmi2OK
+        );
         assert_eq!(self.free_state(s), fmi2OK);
         bytes
     }
@@ -147,7 +182,14 @@ impl<M: Model> Harness<M> {
     /// Deserializes `bytes` and sets the instance to it.
     pub fn deserialize(&self, bytes: &[u8]) -> fmi2Status {
         let mut s: fmi2FMUstate = std::ptr::null_mut();
-        let st = unsafe { api::fmi2DeSerializeFMUstate::<M>(self.c, bytes.as_ptr() as *const fmi2Byte, bytes.len(), &mut s) };
+        let st = unsafe {
+            api::fmi2DeSerializeFMUstate::<M>(
+                self.c,
+                bytes.as_ptr() as *const fmi2Byte,
+                bytes.len(),
+                &mut s,
+            )
+        };
         if st != fmi2OK {
             return st;
         }

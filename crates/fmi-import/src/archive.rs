@@ -44,9 +44,7 @@ fn unique_dir() -> Result<PathBuf, ImportError> {
     };
     for _ in 0..100 {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let nanos = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
+        let nanos = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
         let dir = base.join(format!("inchworm-fmu-{}-{n}-{nanos}", std::process::id()));
         match fs::create_dir(&dir) {
             Ok(()) => return Ok(dir),
@@ -86,10 +84,8 @@ fn safe_relative(name: &str) -> Option<PathBuf> {
 /// Unpacks the FMU at `path`; fails if it is not a zip, has an entry pointing outside
 /// the directory, or lacks `modelDescription.xml`.
 pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
-    let file = fs::File::open(path).map_err(|source| ImportError::Io {
-        what: "cannot open the file".into(),
-        source,
-    })?;
+    let file = fs::File::open(path)
+        .map_err(|source| ImportError::Io { what: "cannot open the file".into(), source })?;
     let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(ImportError::NotZip)?;
     // Check every name before writing anything.
     let mut has_md = false;
@@ -101,10 +97,7 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
     if !has_md {
         return Err(ImportError::NoModelDescription);
     }
-    let mut unpacked = Unpacked {
-        dir: unique_dir()?,
-        model_description: String::new(),
-    };
+    let mut unpacked = Unpacked { dir: unique_dir()?, model_description: String::new() };
     let mut md = None;
     for i in 0..zip.len() {
         let mut entry = zip.by_index(i).map_err(ImportError::NotZip)?;
@@ -114,10 +107,8 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
             continue;
         }
         let target = unpacked.dir.join(&rel);
-        let io_err = |source: io::Error| ImportError::Io {
-            what: format!("cannot unpack `{name}`"),
-            source,
-        };
+        let io_err =
+            |source: io::Error| ImportError::Io { what: format!("cannot unpack `{name}`"), source };
         if entry.is_dir() {
             fs::create_dir_all(&target).map_err(io_err)?;
             continue;
@@ -135,13 +126,11 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
     let md = md.ok_or(ImportError::NoModelDescription)?;
     let md = md.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&md);
     let text = String::from_utf8(md.to_vec()).map_err(|e| {
-        let (line, column) =
-            crate::description::line_column(&String::from_utf8_lossy(md), e.utf8_error().valid_up_to());
-        ImportError::Description {
-            line,
-            column,
-            message: "the file is not valid UTF-8".into(),
-        }
+        let (line, column) = crate::description::line_column(
+            &String::from_utf8_lossy(md),
+            e.utf8_error().valid_up_to(),
+        );
+        ImportError::Description { line, column, message: "the file is not valid UTF-8".into() }
     })?;
     unpacked.model_description = text;
     Ok(unpacked)

@@ -122,8 +122,9 @@ pub(crate) fn check_elf(path: &Path) -> Result<(), String> {
     if n < 4 || &h[..4] != b"\x7fELF" {
         return Ok(());
     }
-    let truncated =
-        |need: u64| format!("the file is truncated or damaged: it has {len} bytes, its ELF headers need {need}");
+    let truncated = |need: u64| {
+        format!("the file is truncated or damaged: it has {len} bytes, its ELF headers need {need}")
+    };
     let (wide, little) = (h[4] == 2, h[5] != 2);
     let header = if wide { 64 } else { 52 };
     if (n as u64) < header {
@@ -168,20 +169,15 @@ pub(crate) fn check_elf(path: &Path) -> Result<(), String> {
     }
     let min_entry = if wide { 0x28 } else { 0x14 };
     if phnum > 0 && phentsize < min_entry {
-        return Err(format!(
-            "the file is damaged: program header entries of {phentsize} bytes"
-        ));
+        return Err(format!("the file is damaged: program header entries of {phentsize} bytes"));
     }
     let mut ph = vec![0u8; (phentsize * phnum) as usize];
     f.seek(SeekFrom::Start(phoff))
         .and_then(|_| f.read_exact(&mut ph))
         .map_err(|e| e.to_string())?;
     for e in ph.chunks(phentsize.max(1) as usize) {
-        let (offset, filesz) = if wide {
-            (u(e, 0x08, 8), u(e, 0x20, 8))
-        } else {
-            (u(e, 0x04, 4), u(e, 0x10, 4))
-        };
+        let (offset, filesz) =
+            if wide { (u(e, 0x08, 8), u(e, 0x20, 8)) } else { (u(e, 0x04, 4), u(e, 0x10, 4)) };
         let end = offset.saturating_add(filesz);
         if filesz > 0 && end > len {
             return Err(truncated(end));
@@ -196,16 +192,11 @@ impl Binary {
     pub fn load(dir: &Path, relative: &Path) -> Result<Binary, ImportError> {
         let path = &dir.join(relative);
         let shown = relative.to_path_buf();
-        check_elf(path).map_err(|message| ImportError::Load {
-            library: shown.clone(),
-            message,
-        })?;
+        check_elf(path).map_err(|message| ImportError::Load { library: shown.clone(), message })?;
         // SAFETY: loading a library runs its initializers; an FMU's binary is trusted code
         // by the nature of co-simulation (the master runs it).
-        let library = unsafe { Library::new(path) }.map_err(|e| ImportError::Load {
-            library: shown.clone(),
-            message: e.to_string(),
-        })?;
+        let library = unsafe { Library::new(path) }
+            .map_err(|e| ImportError::Load { library: shown.clone(), message: e.to_string() })?;
         macro_rules! required {
             ($name:literal) => {{
                 // SAFETY: the type is the FMI 2.0 signature of this function.
@@ -223,9 +214,7 @@ impl Binary {
         macro_rules! optional {
             ($name:literal) => {{
                 // SAFETY: as above.
-                unsafe { library.get(concat!($name, "\0").as_bytes()) }
-                    .ok()
-                    .map(|sym| *sym)
+                unsafe { library.get(concat!($name, "\0").as_bytes()) }.ok().map(|sym| *sym)
             }};
         }
         let api = Api {
@@ -270,12 +259,6 @@ impl Binary {
         if !version.starts_with("2.") {
             return Err(ImportError::BinaryVersion(version));
         }
-        Ok(Binary {
-            api,
-            path: path.to_path_buf(),
-            types_platform,
-            version,
-            library,
-        })
+        Ok(Binary { api, path: path.to_path_buf(), types_platform, version, library })
     }
 }

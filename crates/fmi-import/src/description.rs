@@ -212,18 +212,15 @@ impl<'a> Parser<'a> {
 
     fn error(&self, pos: usize, message: impl Into<String>) -> ImportError {
         let (line, column) = line_column(self.text, pos);
-        ImportError::Description {
-            line,
-            column,
-            message: message.into(),
-        }
+        ImportError::Description { line, column, message: message.into() }
     }
 
     fn attrs(&self, e: &BytesStart<'_>, pos: usize) -> Result<Attrs, ImportError> {
         let tag = e.name().as_ref().to_owned();
         let mut out = Vec::new();
         for a in e.attributes() {
-            let a = a.map_err(|err| self.error(pos, format!("<{tag}>: malformed attribute: {err}")))?;
+            let a =
+                a.map_err(|err| self.error(pos, format!("<{tag}>: malformed attribute: {err}")))?;
             let key = a.key.as_ref().to_owned();
             let value = a
                 .normalized_value(quick_xml::XmlVersion::Implicit1_0)
@@ -234,8 +231,15 @@ impl<'a> Parser<'a> {
         Ok(out)
     }
 
-    fn required<'s>(&self, attrs: &'s Attrs, tag: &str, key: &str, pos: usize) -> Result<&'s str, ImportError> {
-        attr(attrs, key).ok_or_else(|| self.error(pos, format!("<{tag}> lacks the required attribute {key}")))
+    fn required<'s>(
+        &self,
+        attrs: &'s Attrs,
+        tag: &str,
+        key: &str,
+        pos: usize,
+    ) -> Result<&'s str, ImportError> {
+        attr(attrs, key)
+            .ok_or_else(|| self.error(pos, format!("<{tag}> lacks the required attribute {key}")))
     }
 
     fn number<T: std::str::FromStr>(
@@ -256,11 +260,19 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn boolean(&self, attrs: &Attrs, tag: &str, key: &str, pos: usize) -> Result<bool, ImportError> {
+    fn boolean(
+        &self,
+        attrs: &Attrs,
+        tag: &str,
+        key: &str,
+        pos: usize,
+    ) -> Result<bool, ImportError> {
         match attr(attrs, key).map(str::trim) {
             None | Some("false") | Some("0") => Ok(false),
             Some("true") | Some("1") => Ok(true),
-            Some(v) => Err(self.error(pos, format!("<{tag}> {key}=\"{v}\" is not a boolean (true/false)"))),
+            Some(v) => {
+                Err(self.error(pos, format!("<{tag}> {key}=\"{v}\" is not a boolean (true/false)")))
+            }
         }
     }
 
@@ -330,14 +342,16 @@ impl<'a> Parser<'a> {
             return Ok(());
         }
         let in_variables = depth == 2 && self.stack[1] == "ModelVariables";
-        let in_variable = depth == 3 && self.stack[1] == "ModelVariables" && self.stack[2] == "ScalarVariable";
+        let in_variable =
+            depth == 3 && self.stack[1] == "ModelVariables" && self.stack[2] == "ScalarVariable";
         match (depth, name.as_str()) {
             (1, "CoSimulation") => {
                 let a = self.attrs(e, pos)?;
                 if self.md.co_simulation.is_some() {
                     return Err(self.error(pos, "a second <CoSimulation>"));
                 }
-                let model_identifier = self.required(&a, &name, "modelIdentifier", pos)?.trim().to_owned();
+                let model_identifier =
+                    self.required(&a, &name, "modelIdentifier", pos)?.trim().to_owned();
                 if model_identifier.is_empty() {
                     return Err(self.error(pos, "<CoSimulation> has an empty modelIdentifier"));
                 }
@@ -356,8 +370,18 @@ impl<'a> Parser<'a> {
                         "canBeInstantiatedOnlyOncePerProcess",
                         pos,
                     )?,
-                    can_get_and_set_fmu_state: self.boolean(&a, &name, "canGetAndSetFMUstate", pos)?,
-                    can_serialize_fmu_state: self.boolean(&a, &name, "canSerializeFMUstate", pos)?,
+                    can_get_and_set_fmu_state: self.boolean(
+                        &a,
+                        &name,
+                        "canGetAndSetFMUstate",
+                        pos,
+                    )?,
+                    can_serialize_fmu_state: self.boolean(
+                        &a,
+                        &name,
+                        "canSerializeFMUstate",
+                        pos,
+                    )?,
                 });
             }
             (1, "ModelExchange") => self.md.has_model_exchange = true,
@@ -377,13 +401,21 @@ impl<'a> Parser<'a> {
                 let tag = format!("ScalarVariable name=\"{var_name}\"");
                 let vr = self
                     .number::<u32>(&a, &tag, "valueReference", "an unsigned 32-bit integer", pos)?
-                    .ok_or_else(|| self.error(pos, format!("<{tag}> lacks the required attribute valueReference")))?;
+                    .ok_or_else(|| {
+                        self.error(
+                            pos,
+                            format!("<{tag}> lacks the required attribute valueReference"),
+                        )
+                    })?;
                 let causality = match attr(&a, "causality") {
                     None => Causality::Local,
                     Some(c) => Causality::parse(c.trim()).ok_or_else(|| {
                         self.error(
                             pos,
-                            format!("<{tag}> causality=\"{c}\" is not one of {}", Causality::ALL.trim_end()),
+                            format!(
+                                "<{tag}> causality=\"{c}\" is not one of {}",
+                                Causality::ALL.trim_end()
+                            ),
                         )
                     })?,
                 };
@@ -404,7 +436,10 @@ impl<'a> Parser<'a> {
                     Some(c) => Some(Initial::parse(c.trim()).ok_or_else(|| {
                         self.error(
                             pos,
-                            format!("<{tag}> initial=\"{c}\" is not one of {}", Initial::ALL.trim_end()),
+                            format!(
+                                "<{tag}> initial=\"{c}\" is not one of {}",
+                                Initial::ALL.trim_end()
+                            ),
                         )
                     })?),
                 };
@@ -431,19 +466,24 @@ impl<'a> Parser<'a> {
                     "String" => VarType::String,
                     _ => VarType::Enumeration,
                 };
-                let var_name = self.current.as_ref().map(|(p, _)| p.name.clone()).unwrap_or_default();
+                let var_name =
+                    self.current.as_ref().map(|(p, _)| p.name.clone()).unwrap_or_default();
                 let tag = format!("{name}> of <ScalarVariable name=\"{var_name}\"");
                 let start = attr(&a, "start").map(str::to_owned);
                 if let Some(s) = &start {
                     let t = s.trim();
                     let ok = match ty {
-                        VarType::Real => t.parse::<f64>().is_ok() || matches!(t, "INF" | "-INF" | "NaN"),
+                        VarType::Real => {
+                            t.parse::<f64>().is_ok() || matches!(t, "INF" | "-INF" | "NaN")
+                        }
                         VarType::Integer | VarType::Enumeration => t.parse::<i32>().is_ok(),
                         VarType::Boolean => matches!(t, "true" | "false" | "1" | "0"),
                         VarType::String => true,
                     };
                     if !ok {
-                        return Err(self.error(pos, format!("<{tag}> start=\"{s}\" is not a valid {ty}")));
+                        return Err(
+                            self.error(pos, format!("<{tag}> start=\"{s}\" is not a valid {ty}"))
+                        );
                     }
                 }
                 let declared = attr(&a, "declaredType").map(str::to_owned);
@@ -551,7 +591,8 @@ mod tests {
     fn errors_say_what_and_where() {
         let e = err(&MD.replace(r#"valueReference="2""#, r#"valueReference="two""#));
         assert!(
-            e.contains("line 15,") && e.contains("name=\"n\"> valueReference=\"two\" is not an unsigned"),
+            e.contains("line 15,")
+                && e.contains("name=\"n\"> valueReference=\"two\" is not an unsigned"),
             "{e}"
         );
         let e = err(&MD.replace(r#"name="b""#, r#"name="x""#));
@@ -559,10 +600,7 @@ mod tests {
         let e = err(&MD.replace(r#"start="-3""#, r#"start="1.5""#));
         assert!(e.contains("start=\"1.5\" is not a valid Integer"), "{e}");
         let e = err(&MD.replace(r#" guid="{g}""#, ""));
-        assert!(
-            e.contains("line 2,") && e.contains("lacks the required attribute guid"),
-            "{e}"
-        );
+        assert!(e.contains("line 2,") && e.contains("lacks the required attribute guid"), "{e}");
         let e = err(&MD.replace(r#"causality="output""#, r#"causality="outptu""#));
         assert!(e.contains("causality=\"outptu\""), "{e}");
         let e = err(&MD.replace(r#"fmiVersion="2.0""#, r#"fmiVersion="3.0""#));

@@ -18,19 +18,11 @@ pub enum ImportError {
     /// The archive has no `modelDescription.xml` at its root.
     NoModelDescription,
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
-    Description {
-        line: usize,
-        column: usize,
-        message: String,
-    },
+    Description { line: usize, column: usize, message: String },
     /// `fmiVersion` is not 2.x.
     UnsupportedVersion(String),
     /// No `binaries/<platform>/<modelIdentifier>.<ext>` for this platform.
-    NoBinary {
-        platform: &'static str,
-        expected: String,
-        available: Vec<String>,
-    },
+    NoBinary { platform: &'static str, expected: String, available: Vec<String> },
     /// `dlopen` (or `LoadLibrary`) refused the binary (`library`: its path inside the FMU).
     Load { library: PathBuf, message: String },
     /// The binary lacks a required `fmi2*` function (`library`: its path inside the FMU).
@@ -164,31 +156,13 @@ pub enum FmuError {
     /// No variable of that name in `modelDescription.xml`.
     UnknownVariable { model: String, name: String },
     /// The variable exists but has another type than the call needs.
-    WrongType {
-        model: String,
-        name: String,
-        expected: VarType,
-        found: VarType,
-    },
+    WrongType { model: String, name: String, expected: VarType, found: VarType },
     /// An `fmi2*` call returned `fmi2Discard`, `fmi2Error`, `fmi2Fatal` or `fmi2Pending`.
-    Call {
-        model: String,
-        function: &'static str,
-        time: f64,
-        status: Status,
-    },
+    Call { model: String, function: &'static str, time: f64, status: Status },
     /// A call after an earlier one returned `fmi2Fatal`: FMI 2.0 forbids any further call.
-    AfterFatal {
-        model: String,
-        function: &'static str,
-        fatal_in: &'static str,
-    },
+    AfterFatal { model: String, function: &'static str, fatal_in: &'static str },
     /// An argument the C side cannot take (a string with a NUL byte).
-    InvalidArgument {
-        model: String,
-        function: &'static str,
-        message: String,
-    },
+    InvalidArgument { model: String, function: &'static str, message: String },
 }
 
 impl fmt::Display for FmuError {

@@ -33,7 +33,8 @@ use std::path::Path;
 
 pub use binary::PLATFORM;
 pub use description::{
-    Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType, Variability, Variable,
+    Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType, Variability,
+    Variable,
 };
 pub use error::{FmuError, ImportError, Status};
 
@@ -126,10 +127,7 @@ impl CsFmu {
         if !path.is_file() {
             return Err(FmuError::Missing(path.to_path_buf()));
         }
-        let import = |source: ImportError| FmuError::Import {
-            path: path.to_path_buf(),
-            source,
-        };
+        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
@@ -142,11 +140,9 @@ impl CsFmu {
         let nul = |what| import(ImportError::Nul { what });
         let c_name = CString::new(instance_name).map_err(|_| nul("the instance name"))?;
         let c_guid = CString::new(description.guid.as_str()).map_err(|_| nul("the guid"))?;
-        let c_resources =
-            CString::new(file_uri(&unpacked.dir().join("resources"))).map_err(|_| nul("the resource location"))?;
-        let env = Box::new(LogEnv {
-            instance: instance_name.to_owned(),
-        });
+        let c_resources = CString::new(file_uri(&unpacked.dir().join("resources")))
+            .map_err(|_| nul("the resource location"))?;
+        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
         let callbacks = Box::new(fmi2CallbackFunctions {
             logger: Some(logger::inchworm_fmi_import_logger),
             allocateMemory: Some(libc::calloc),
@@ -173,9 +169,7 @@ impl CsFmu {
             drop(callbacks);
             drop(env);
             drop(binary);
-            return Err(import(ImportError::Instantiate {
-                instance: instance_name.to_owned(),
-            }));
+            return Err(import(ImportError::Instantiate { instance: instance_name.to_owned() }));
         }
         Ok(CsFmu {
             component,
@@ -247,13 +241,10 @@ impl CsFmu {
 
     /// Resolves a variable by name.
     pub fn var(&self, name: &str) -> Result<Var, FmuError> {
-        let v = self
-            .description
-            .variable(name)
-            .ok_or_else(|| FmuError::UnknownVariable {
-                model: self.model.clone(),
-                name: name.to_owned(),
-            })?;
+        let v = self.description.variable(name).ok_or_else(|| FmuError::UnknownVariable {
+            model: self.model.clone(),
+            name: name.to_owned(),
+        })?;
         Ok(Var { vr: v.vr, ty: v.ty })
     }
 
@@ -292,11 +283,9 @@ impl CsFmu {
 
     fn alive(&self, function: &'static str) -> Result<(), FmuError> {
         match self.fatal {
-            Some(fatal_in) => Err(FmuError::AfterFatal {
-                model: self.model.clone(),
-                function,
-                fatal_in,
-            }),
+            Some(fatal_in) => {
+                Err(FmuError::AfterFatal { model: self.model.clone(), function, fatal_in })
+            }
             None => Ok(()),
         }
     }
@@ -330,18 +319,19 @@ impl CsFmu {
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<(), FmuError> {
         const F: &str = "fmi2SetDebugLogging";
         self.alive(F)?;
-        let cats = categories
-            .iter()
-            .map(|c| CString::new(*c))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|_| FmuError::InvalidArgument {
-                model: self.model.clone(),
-                function: F,
-                message: "a category name contains a NUL byte".into(),
-            })?;
+        let cats =
+            categories.iter().map(|c| CString::new(*c)).collect::<Result<Vec<_>, _>>().map_err(
+                |_| FmuError::InvalidArgument {
+                    model: self.model.clone(),
+                    function: F,
+                    message: "a category name contains a NUL byte".into(),
+                },
+            )?;
         let ptrs: Vec<fmi2String> = cats.iter().map(|c| c.as_ptr()).collect();
         // SAFETY: FMI 2.0 signature; the arrays live for the call.
-        let s = unsafe { (self.api.set_debug_logging)(self.component, i32::from(on), ptrs.len(), ptrs.as_ptr()) };
+        let s = unsafe {
+            (self.api.set_debug_logging)(self.component, i32::from(on), ptrs.len(), ptrs.as_ptr())
+        };
         self.check(F, s)
     }
 
@@ -415,7 +405,9 @@ impl CsFmu {
         );
         self.alive("fmi2SetReal")?;
         // SAFETY: FMI 2.0 signature; both arrays hold vrs.len() elements.
-        let s = unsafe { (self.api.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let s = unsafe {
+            (self.api.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
+        };
         self.check("fmi2SetReal", s)
     }
 
@@ -427,7 +419,9 @@ impl CsFmu {
         );
         self.alive("fmi2GetReal")?;
         // SAFETY: as above.
-        let s = unsafe { (self.api.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let s = unsafe {
+            (self.api.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
+        };
         self.check("fmi2GetReal", s)
     }
 
@@ -439,7 +433,9 @@ impl CsFmu {
         );
         self.alive("fmi2GetInteger")?;
         // SAFETY: as above.
-        let s = unsafe { (self.api.get_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr()) };
+        let s = unsafe {
+            (self.api.get_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
+        };
         self.check("fmi2GetInteger", s)
     }
 
@@ -451,7 +447,9 @@ impl CsFmu {
         );
         self.alive("fmi2SetInteger")?;
         // SAFETY: as above.
-        let s = unsafe { (self.api.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr()) };
+        let s = unsafe {
+            (self.api.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
+        };
         self.check("fmi2SetInteger", s)
     }
 
@@ -464,7 +462,9 @@ impl CsFmu {
         self.alive("fmi2SetBoolean")?;
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| i32::from(b)).collect();
         // SAFETY: as above.
-        let s = unsafe { (self.api.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_ptr()) };
+        let s = unsafe {
+            (self.api.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_ptr())
+        };
         self.check("fmi2SetBoolean", s)
     }
 
@@ -477,7 +477,9 @@ impl CsFmu {
         self.alive("fmi2GetBoolean")?;
         let mut raw = vec![0 as fmi2Boolean; vrs.len()];
         // SAFETY: as above.
-        let s = unsafe { (self.api.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
+        let s = unsafe {
+            (self.api.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr())
+        };
         self.check("fmi2GetBoolean", s)?;
         for (v, r) in values.iter_mut().zip(raw) {
             *v = r != 0;
@@ -493,18 +495,19 @@ impl CsFmu {
             "set_string: value references and values differ in length"
         );
         self.alive(F)?;
-        let owned = values
-            .iter()
-            .map(|v| CString::new(*v))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|_| FmuError::InvalidArgument {
-                model: self.model.clone(),
-                function: F,
-                message: "a string value contains a NUL byte".into(),
-            })?;
+        let owned =
+            values.iter().map(|v| CString::new(*v)).collect::<Result<Vec<_>, _>>().map_err(
+                |_| FmuError::InvalidArgument {
+                    model: self.model.clone(),
+                    function: F,
+                    message: "a string value contains a NUL byte".into(),
+                },
+            )?;
         let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
         // SAFETY: as above; the strings live for the call (the FMU copies them).
-        let s = unsafe { (self.api.set_string)(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr()) };
+        let s = unsafe {
+            (self.api.set_string)(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr())
+        };
         self.check(F, s)
     }
 
@@ -517,7 +520,9 @@ impl CsFmu {
         self.alive("fmi2GetString")?;
         let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
         // SAFETY: as above.
-        let s = unsafe { (self.api.get_string)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) };
+        let s = unsafe {
+            (self.api.get_string)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr())
+        };
         self.check("fmi2GetString", s)?;
         for (v, p) in values.iter_mut().zip(raw) {
             // SAFETY: the FMU's strings are valid until its next call; copied right away.

@@ -16,17 +16,11 @@ fn both_fmus_load_with_their_variables() {
     let plant = CsFmu::load(&dist("InchwormPlant.fmu"), "plant", false).unwrap();
     assert_eq!(plant.model_name(), "InchwormPlant");
     assert_eq!(plant.fmi_version(), "2.0");
-    assert!(
-        plant.guid().starts_with('{') && plant.guid().len() > 30,
-        "{}",
-        plant.guid()
-    );
+    assert!(plant.guid().starts_with('{') && plant.guid().len() > 30, "{}", plant.guid());
     assert!(plant.binary_version().starts_with("2."));
     assert_eq!(plant.default_step_size(), Some(0.002));
     assert_eq!(
-        plant
-            .vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)
-            .unwrap(),
+        plant.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap(),
         [1, 2, 3]
     );
     assert_eq!(plant.var_of("encoder_counts", VarType::Integer).unwrap().vr, 10);
@@ -36,10 +30,7 @@ fn both_fmus_load_with_their_variables() {
         (dac.causality, dac.variability, dac.start.as_deref()),
         (Causality::Input, Variability::Continuous, Some("0"))
     );
-    assert_eq!(
-        plant.names_with_causality("input"),
-        ["dac_earth", "dac_nonearth", "dac_extension"]
-    );
+    assert_eq!(plant.names_with_causality("input"), ["dac_earth", "dac_nonearth", "dac_extension"]);
     assert_eq!(plant.causality("encoder_counts").as_deref(), Some("output"));
 
     let ctrl = CsFmu::load(&dist("InchwormController.fmu"), "controller", false).unwrap();
@@ -47,10 +38,7 @@ fn both_fmus_load_with_their_variables() {
     assert_eq!(ctrl.variables().count(), 62);
     assert_eq!(ctrl.vrs_of(&["reference"], VarType::Real).unwrap(), [2]);
     assert_eq!(ctrl.vrs_of(&["encoder_counts"], VarType::Integer).unwrap(), [1]);
-    assert_eq!(
-        ctrl.vrs_of(&["feedforward", "prefilter"], VarType::Boolean).unwrap(),
-        [100, 101]
-    );
+    assert_eq!(ctrl.vrs_of(&["feedforward", "prefilter"], VarType::Boolean).unwrap(), [100, 101]);
     assert_eq!(ctrl.causality("scale_weights[3]").as_deref(), Some("output"));
     // Two instances of one FMU at once, each with its own unpacked copy.
     let plant2 = CsFmu::load(&dist("InchwormPlant.fmu"), "plant2", false).unwrap();
@@ -60,17 +48,15 @@ fn both_fmus_load_with_their_variables() {
 /// Runs the plant FMU `n` steps of 2 ms with `dac` held, returning (encoder counts, runner
 /// position) after every step.
 fn run_fmu(fmu: &mut CsFmu, dac: Dac, n: usize) -> Vec<(i64, f64)> {
-    let inputs = fmu
-        .vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)
-        .unwrap();
+    let inputs =
+        fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap();
     let enc = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
     let runner = fmu.var_of("runner_position", VarType::Real).unwrap().vr;
     fmu.enter_initialization(None, 0.0, None).unwrap();
     fmu.exit_initialization().unwrap();
     (0..n)
         .map(|_| {
-            fmu.set_real(&inputs, &[dac.earth, dac.nonearth, dac.extension])
-                .unwrap();
+            fmu.set_real(&inputs, &[dac.earth, dac.nonearth, dac.extension]).unwrap();
             fmu.do_step(H).unwrap();
             let (mut c, mut x) = ([0], [0.0]);
             fmu.get_integer(&[enc], &mut c).unwrap();
@@ -108,10 +94,7 @@ fn assert_same(fmu: &[(i64, f64)], direct: &[(i64, f64)]) {
 #[test]
 fn the_plant_fmu_steps_as_the_plant_run_directly() {
     // 1 s at 2 ms with the extension DAC at 5 V.
-    let dac = Dac {
-        extension: 5.0,
-        ..Dac::default()
-    };
+    let dac = Dac { extension: 5.0, ..Dac::default() };
     let mut fmu = CsFmu::load(&dist("InchwormPlant.fmu"), "plant", false).unwrap();
     let through = run_fmu(&mut fmu, dac, 500);
     assert_same(&through, &run_direct(dac, 500));
@@ -157,7 +140,8 @@ fn vendor_annotations_and_unknown_attributes_are_tolerated() {
                 "<CoSimulation ",
                 r#"<CoSimulation canHandleMultipleSetPerTimeInstant="true" fooBar="1" "#,
             );
-            let md = replace_once(&md, "<fmiModelDescription ", r#"<fmiModelDescription fooBar="1" "#);
+            let md =
+                replace_once(&md, "<fmiModelDescription ", r#"<fmiModelDescription fooBar="1" "#);
             let md = replace_once(&md, "<ScalarVariable ", r#"<ScalarVariable fooBar="1" "#);
             replace_once(&md, r#"<Unit name="s">"#, r#"<Unit name="s" fooBar="1">"#)
         },
@@ -166,10 +150,7 @@ fn vendor_annotations_and_unknown_attributes_are_tolerated() {
     let mut fmu = CsFmu::load(&path, "annotated", false).unwrap();
     assert_eq!(fmu.variables().count(), 47);
     assert!(fmu.var("not_a_variable").is_err());
-    let dac = Dac {
-        extension: 5.0,
-        ..Dac::default()
-    };
+    let dac = Dac { extension: 5.0, ..Dac::default() };
     assert_same(&run_fmu(&mut fmu, dac, 50), &run_direct(dac, 50));
     drop(fmu);
     let _ = std::fs::remove_dir_all(&dir);
@@ -198,9 +179,7 @@ fn bad_files_are_refused_clearly() {
     let random = dir.join("random.fmu");
     std::fs::write(
         &random,
-        (0..4096u32)
-            .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
-            .collect::<Vec<_>>(),
+        (0..4096u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect::<Vec<_>>(),
     )
     .unwrap();
     let e = load_err(&random);
@@ -241,7 +220,9 @@ fn bad_files_are_refused_clearly() {
         "other_platforms.fmu",
         |m| m.to_owned(),
         |n, b| match n {
-            "binaries/linux64/InchwormPlant.so" => Some(("binaries/win64/InchwormPlant.dll".into(), b)),
+            "binaries/linux64/InchwormPlant.so" => {
+                Some(("binaries/win64/InchwormPlant.dll".into(), b))
+            }
             n => Some((n.to_owned(), b)),
         },
     );
@@ -270,10 +251,7 @@ fn bad_files_are_refused_clearly() {
         },
     );
     let e = load_err(&garbage);
-    assert!(
-        e.contains("cannot load the FMU's binary") && e.contains("InchwormPlant.so"),
-        "{e}"
-    );
+    assert!(e.contains("cannot load the FMU's binary") && e.contains("InchwormPlant.so"), "{e}");
     // The dlopen message itself.
     assert!(e.contains("invalid ELF header") || e.contains("too short"), "{e}");
 
@@ -291,7 +269,8 @@ fn bad_files_are_refused_clearly() {
     // dlopen would map the missing pages and die of SIGBUS: refused before that.
     let e = load_err(&truncated);
     assert!(
-        e.contains("cannot load the FMU's binary binaries/linux64/InchwormPlant.so") && e.contains("truncated"),
+        e.contains("cannot load the FMU's binary binaries/linux64/InchwormPlant.so")
+            && e.contains("truncated"),
         "{e}"
     );
 
@@ -313,7 +292,9 @@ fn bad_files_are_refused_clearly() {
     let e = load_err(&bad_vr);
     assert!(
         e.contains("line ")
-            && e.contains(r#"name="dac_extension"> valueReference="three" is not an unsigned 32-bit integer"#),
+            && e.contains(
+                r#"name="dac_extension"> valueReference="three" is not an unsigned 32-bit integer"#
+            ),
         "{e}"
     );
 
@@ -337,10 +318,7 @@ fn bad_files_are_refused_clearly() {
         |n, b| Some((n.to_owned(), b)),
     );
     let e = load_err(&no_cs);
-    assert!(
-        e.contains("InchwormPlant") && e.contains("no Co-Simulation interface"),
-        "{e}"
-    );
+    assert!(e.contains("InchwormPlant") && e.contains("no Co-Simulation interface"), "{e}");
 
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -355,10 +333,7 @@ fn bad_names_and_types_are_refused_clearly() {
     );
     let e = fmu.var_of("dac_earth", VarType::Integer).unwrap_err().to_string();
     assert!(e.contains("`dac_earth` is Real, expected Integer"), "{e}");
-    let e = fmu
-        .vrs_of(&["dac_earth", "encoder_counts"], VarType::Real)
-        .unwrap_err()
-        .to_string();
+    let e = fmu.vrs_of(&["dac_earth", "encoder_counts"], VarType::Real).unwrap_err().to_string();
     assert!(e.contains("`encoder_counts` is Integer, expected Real"), "{e}");
     assert!(fmu.real("nope").is_err());
 
@@ -367,19 +342,13 @@ fn bad_names_and_types_are_refused_clearly() {
     fmu.exit_initialization().unwrap();
     fmu.do_step(H).unwrap();
     match fmu.set_real(&[1], &[f64::NAN]) {
-        Err(FmuError::Call {
-            function: "fmi2SetReal",
-            status: Status::Error,
-            time,
-            ..
-        }) => assert_eq!(time, H),
+        Err(FmuError::Call { function: "fmi2SetReal", status: Status::Error, time, .. }) => {
+            assert_eq!(time, H)
+        }
         other => panic!("{other:?}"),
     }
     let e = fmu.set_real(&[1], &[f64::NAN]).unwrap_err().to_string();
-    assert!(
-        e.contains("InchwormPlant: fmi2SetReal returned fmi2Error at t = 0.002 s"),
-        "{e}"
-    );
+    assert!(e.contains("InchwormPlant: fmi2SetReal returned fmi2Error at t = 0.002 s"), "{e}");
     // The instance goes on after a refused call.
     fmu.set_real(&[1], &[0.0]).unwrap();
     fmu.do_step(H).unwrap();
@@ -452,10 +421,7 @@ fn incomplete_or_foreign_binaries_are_refused_clearly() {
            int fmi2SetDebugLogging(void *c, int on, unsigned long n, const char **cats) { return 0; }"#,
     );
     let e = load_err(&with_binary("partial.fmu", partial));
-    assert!(
-        e.contains("binaries/linux64/InchwormPlant.so does not export fmi2Instantiate"),
-        "{e}"
-    );
+    assert!(e.contains("binaries/linux64/InchwormPlant.so does not export fmi2Instantiate"), "{e}");
 
     let mut all = String::new();
     for f in STUB_FUNCTIONS {
@@ -483,7 +449,10 @@ fn free_once_and_nothing_after_fatal() {
     let marker = dir.join("frees.txt");
     let mut src = String::from("#include <stdio.h>\nstatic int component;\n");
     // fmi2Instantiate, fmi2DoStep and fmi2FreeInstance get real bodies below.
-    for f in STUB_FUNCTIONS.iter().filter(|f| !matches!(**f, "fmi2Instantiate" | "fmi2DoStep" | "fmi2FreeInstance")) {
+    for f in STUB_FUNCTIONS
+        .iter()
+        .filter(|f| !matches!(**f, "fmi2Instantiate" | "fmi2DoStep" | "fmi2FreeInstance"))
+    {
         src.push_str(&format!("int {f}(void) {{ return 0; }}\n"));
     }
     src.push_str(&format!(
@@ -514,19 +483,13 @@ void fmi2FreeInstance(void *c) {{ FILE *f = fopen("{}", "a"); if (f) {{ fputs(c 
     fmu.enter_initialization(None, 0.0, None).unwrap();
     fmu.exit_initialization().unwrap();
     match fmu.do_step(0.1) {
-        Err(FmuError::Call {
-            function: "fmi2DoStep",
-            status: Status::Fatal,
-            time,
-            ..
-        }) => assert_eq!(time, 0.0),
+        Err(FmuError::Call { function: "fmi2DoStep", status: Status::Fatal, time, .. }) => {
+            assert_eq!(time, 0.0)
+        }
         other => panic!("{other:?}"),
     }
     let e = fmu.set_real(&[1], &[1.0]).unwrap_err().to_string();
-    assert!(
-        e.contains("fmi2SetReal refused: fmi2DoStep returned fmi2Fatal earlier"),
-        "{e}"
-    );
+    assert!(e.contains("fmi2SetReal refused: fmi2DoStep returned fmi2Fatal earlier"), "{e}");
     assert!(matches!(fmu.terminate(), Err(FmuError::AfterFatal { .. })));
     let unpacked = fmu.unpacked_dir().to_path_buf();
     drop(fmu);

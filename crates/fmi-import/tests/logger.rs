@@ -16,10 +16,7 @@ impl log::Log for Capture {
         true
     }
     fn log(&self, r: &log::Record) {
-        self.0
-            .lock()
-            .unwrap()
-            .push((r.level(), r.target().to_owned(), r.args().to_string()));
+        self.0.lock().unwrap().push((r.level(), r.target().to_owned(), r.args().to_string()));
     }
     fn flush(&self) {}
 }
@@ -27,14 +24,7 @@ impl log::Log for Capture {
 static CAPTURE: Capture = Capture(Mutex::new(Vec::new()));
 
 fn records(target: &str) -> Vec<(log::Level, String)> {
-    CAPTURE
-        .0
-        .lock()
-        .unwrap()
-        .iter()
-        .filter(|r| r.1 == target)
-        .map(|r| (r.0, r.2.clone()))
-        .collect()
+    CAPTURE.0.lock().unwrap().iter().filter(|r| r.1 == target).map(|r| (r.0, r.2.clone())).collect()
 }
 
 #[test]
@@ -64,13 +54,13 @@ fn the_fmus_messages_arrive_formatted() {
     fmu.set_real(&[earth], &[12.0]).unwrap();
     let log = records("logged plant");
     assert!(
-        log.iter()
-            .any(|(l, m)| *l == log::Level::Warn && m.contains("outside the DAC range 0-10 V, clamped to 10 V")),
+        log.iter().any(|(l, m)| *l == log::Level::Warn
+            && m.contains("outside the DAC range 0-10 V, clamped to 10 V")),
         "{log:#?}"
     );
     assert!(
-        log.iter()
-            .any(|(l, m)| *l == log::Level::Warn && m.contains("fmi2SetReal returned fmi2Warning at t = 0 s")),
+        log.iter().any(|(l, m)| *l == log::Level::Warn
+            && m.contains("fmi2SetReal returned fmi2Warning at t = 0 s")),
         "{log:#?}"
     );
 
@@ -81,8 +71,7 @@ fn the_fmus_messages_arrive_formatted() {
     let log = records("quiet plant");
     assert!(log.iter().all(|(l, _)| *l != log::Level::Info), "{log:#?}");
     assert!(
-        log.iter()
-            .any(|(l, m)| *l == log::Level::Error && m.contains("dac_earth = inf refused")),
+        log.iter().any(|(l, m)| *l == log::Level::Error && m.contains("dac_earth = inf refused")),
         "{log:#?}"
     );
 }

@@ -43,8 +43,14 @@ pub const fmi2Terminated: fmi2StatusKind = 3;
 
 /// `fmi2CallbackLogger`: C-variadic. Rust can hold and call such a pointer but not define
 /// the function, which lives in `logger.c`.
-pub type fmi2CallbackLogger =
-    unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+pub type fmi2CallbackLogger = unsafe extern "C" fn(
+    fmi2ComponentEnvironment,
+    fmi2String,
+    fmi2Status,
+    fmi2String,
+    fmi2String,
+    ...
+);
 pub type fmi2CallbackAllocateMemory = unsafe extern "C" fn(usize, usize) -> *mut c_void;
 pub type fmi2CallbackFreeMemory = unsafe extern "C" fn(*mut c_void);
 pub type fmi2StepFinished = unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2Status);
@@ -75,34 +81,74 @@ pub type fmi2InstantiateTYPE = unsafe extern "C" fn(
     fmi2Boolean,
 ) -> fmi2Component;
 pub type fmi2FreeInstanceTYPE = unsafe extern "C" fn(fmi2Component);
-pub type fmi2SetupExperimentTYPE =
-    unsafe extern "C" fn(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean, fmi2Real) -> fmi2Status;
+pub type fmi2SetupExperimentTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    fmi2Boolean,
+    fmi2Real,
+    fmi2Real,
+    fmi2Boolean,
+    fmi2Real,
+) -> fmi2Status;
 pub type fmi2EnterInitializationModeTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
 pub type fmi2ExitInitializationModeTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
 pub type fmi2TerminateTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
 pub type fmi2ResetTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
 
-pub type fmi2GetRealTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Real) -> fmi2Status;
-pub type fmi2GetIntegerTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Integer) -> fmi2Status;
-pub type fmi2GetBooleanTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2Boolean) -> fmi2Status;
-pub type fmi2GetStringTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *mut fmi2String) -> fmi2Status;
-pub type fmi2SetRealTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Real) -> fmi2Status;
-pub type fmi2SetIntegerTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Integer) -> fmi2Status;
-pub type fmi2SetBooleanTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2Boolean) -> fmi2Status;
-pub type fmi2SetStringTYPE =
-    unsafe extern "C" fn(fmi2Component, *const fmi2ValueReference, usize, *const fmi2String) -> fmi2Status;
+pub type fmi2GetRealTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *mut fmi2Real,
+) -> fmi2Status;
+pub type fmi2GetIntegerTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *mut fmi2Integer,
+) -> fmi2Status;
+pub type fmi2GetBooleanTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *mut fmi2Boolean,
+) -> fmi2Status;
+pub type fmi2GetStringTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *mut fmi2String,
+) -> fmi2Status;
+pub type fmi2SetRealTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2Real,
+) -> fmi2Status;
+pub type fmi2SetIntegerTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2Integer,
+) -> fmi2Status;
+pub type fmi2SetBooleanTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2Boolean,
+) -> fmi2Status;
+pub type fmi2SetStringTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2String,
+) -> fmi2Status;
 
 pub type fmi2GetFMUstateTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2FMUstate) -> fmi2Status;
 pub type fmi2SetFMUstateTYPE = unsafe extern "C" fn(fmi2Component, fmi2FMUstate) -> fmi2Status;
-pub type fmi2FreeFMUstateTYPE = unsafe extern "C" fn(fmi2Component, *mut fmi2FMUstate) -> fmi2Status;
-pub type fmi2SerializedFMUstateSizeTYPE = unsafe extern "C" fn(fmi2Component, fmi2FMUstate, *mut usize) -> fmi2Status;
+pub type fmi2FreeFMUstateTYPE =
+    unsafe extern "C" fn(fmi2Component, *mut fmi2FMUstate) -> fmi2Status;
+pub type fmi2SerializedFMUstateSizeTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2FMUstate, *mut usize) -> fmi2Status;
 pub type fmi2SerializeFMUstateTYPE =
     unsafe extern "C" fn(fmi2Component, fmi2FMUstate, *mut fmi2Byte, usize) -> fmi2Status;
 pub type fmi2DeSerializeFMUstateTYPE =
@@ -115,13 +161,19 @@ pub type fmi2SetRealInputDerivativesTYPE = unsafe extern "C" fn(
     *const fmi2Integer,
     *const fmi2Real,
 ) -> fmi2Status;
-pub type fmi2DoStepTYPE = unsafe extern "C" fn(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean) -> fmi2Status;
+pub type fmi2DoStepTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean) -> fmi2Status;
 pub type fmi2CancelStepTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
-pub type fmi2GetStatusTYPE = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Status) -> fmi2Status;
-pub type fmi2GetRealStatusTYPE = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Real) -> fmi2Status;
-pub type fmi2GetIntegerStatusTYPE = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Integer) -> fmi2Status;
-pub type fmi2GetBooleanStatusTYPE = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Boolean) -> fmi2Status;
-pub type fmi2GetStringStatusTYPE = unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2String) -> fmi2Status;
+pub type fmi2GetStatusTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Status) -> fmi2Status;
+pub type fmi2GetRealStatusTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Real) -> fmi2Status;
+pub type fmi2GetIntegerStatusTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Integer) -> fmi2Status;
+pub type fmi2GetBooleanStatusTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2Boolean) -> fmi2Status;
+pub type fmi2GetStringStatusTYPE =
+    unsafe extern "C" fn(fmi2Component, fmi2StatusKind, *mut fmi2String) -> fmi2Status;
 
 /// What `fmi2GetTypesPlatform` and `fmi2GetVersion` return, NUL-terminated.
 pub const fmi2TypesPlatform: &[u8] = b"default\0";

@@ -7,8 +7,12 @@
 //! `encoder_counts` input that held at `t`: a digital controller's one-sample delay, so a
 //! plain Jacobi master at 2 ms runs the loop correctly.
 
-use inchworm_controller::{Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD};
-use inchworm_fmi_export::{Causality, Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable};
+use inchworm_controller::{
+    Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
+};
+use inchworm_fmi_export::{
+    Causality, Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable,
+};
 
 mod vr {
     pub const ENCODER_COUNTS: u32 = 1;
@@ -51,73 +55,428 @@ mod vr {
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
-
 static VARIABLES: [Variable; 62] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
-    Variable::input("encoder_counts", vr::ENCODER_COUNTS, 0.0, None, "Encoder reading of the plant (counts of q_enc)").with_kind_start(Kind::Integer, Start::Integer(0)).discrete(),
-    Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
-    Variable::output("dac_nonearth", vr::DAC_NONEARTH, Kind::Real, V, "Non-earth-brake DAC volts (16-bit quantized)").discrete(),
-    Variable::output("dac_extension", vr::DAC_EXTENSION, Kind::Real, V, "Extension DAC volts (16-bit quantized)").discrete(),
-    Variable::output("dac_earth_code", vr::DAC_EARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_earth"),
-    Variable::output("dac_nonearth_code", vr::DAC_NONEARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_nonearth"),
-    Variable::output("dac_extension_code", vr::DAC_EXTENSION_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_extension"),
-    Variable::output("servo_error", vr::SERVO_ERROR, Kind::Real, M, "reference - encoder position").discrete(),
-    Variable::output("disturbance_estimate", vr::DISTURBANCE_ESTIMATE, Kind::Real, M, "Kalman estimate of the brake disturbance per step").discrete(),
-    Variable::output("step_forward", vr::STEP_FORWARD, Kind::Real, M, "Estimated full forward step (with the disturbance)").discrete(),
-    Variable::output("step_backward", vr::STEP_BACKWARD, Kind::Real, M, "Estimated full backward step (negative)").discrete(),
+    Variable::input(
+        "encoder_counts",
+        vr::ENCODER_COUNTS,
+        0.0,
+        None,
+        "Encoder reading of the plant (counts of q_enc)",
+    )
+    .with_kind_start(Kind::Integer, Start::Integer(0))
+    .discrete(),
+    Variable::output(
+        "dac_earth",
+        vr::DAC_EARTH,
+        Kind::Real,
+        V,
+        "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)",
+    )
+    .discrete(),
+    Variable::output(
+        "dac_nonearth",
+        vr::DAC_NONEARTH,
+        Kind::Real,
+        V,
+        "Non-earth-brake DAC volts (16-bit quantized)",
+    )
+    .discrete(),
+    Variable::output(
+        "dac_extension",
+        vr::DAC_EXTENSION,
+        Kind::Real,
+        V,
+        "Extension DAC volts (16-bit quantized)",
+    )
+    .discrete(),
+    Variable::output(
+        "dac_earth_code",
+        vr::DAC_EARTH_CODE,
+        Kind::Integer,
+        None,
+        "16-bit DAC code (0-65535) of dac_earth",
+    ),
+    Variable::output(
+        "dac_nonearth_code",
+        vr::DAC_NONEARTH_CODE,
+        Kind::Integer,
+        None,
+        "16-bit DAC code (0-65535) of dac_nonearth",
+    ),
+    Variable::output(
+        "dac_extension_code",
+        vr::DAC_EXTENSION_CODE,
+        Kind::Integer,
+        None,
+        "16-bit DAC code (0-65535) of dac_extension",
+    ),
+    Variable::output("servo_error", vr::SERVO_ERROR, Kind::Real, M, "reference - encoder position")
+        .discrete(),
+    Variable::output(
+        "disturbance_estimate",
+        vr::DISTURBANCE_ESTIMATE,
+        Kind::Real,
+        M,
+        "Kalman estimate of the brake disturbance per step",
+    )
+    .discrete(),
+    Variable::output(
+        "step_forward",
+        vr::STEP_FORWARD,
+        Kind::Real,
+        M,
+        "Estimated full forward step (with the disturbance)",
+    )
+    .discrete(),
+    Variable::output(
+        "step_backward",
+        vr::STEP_BACKWARD,
+        Kind::Real,
+        M,
+        "Estimated full backward step (negative)",
+    )
+    .discrete(),
     Variable::output("n_steps", vr::N_STEPS, Kind::Integer, None, "Full steps of the current move"),
-    Variable::output("fraction", vr::FRACTION, Kind::Real, None, "Amplitude of the current move's fractional step (-1..1)").discrete(),
+    Variable::output(
+        "fraction",
+        vr::FRACTION,
+        Kind::Real,
+        None,
+        "Amplitude of the current move's fractional step (-1..1)",
+    )
+    .discrete(),
     Variable::output("moving", vr::MOVING, Kind::Boolean, None, "A step is being executed"),
-    Variable::output("scale_weights[1]", vr::SCALE_WEIGHTS, Kind::Real, None, "Estimated inverse scale factor weight 1").discrete(),
-    Variable::output("scale_weights[2]", vr::SCALE_WEIGHTS + 1, Kind::Real, None, "Estimated inverse scale factor weight 2").discrete(),
-    Variable::output("scale_weights[3]", vr::SCALE_WEIGHTS + 2, Kind::Real, None, "Estimated inverse scale factor weight 3").discrete(),
-    Variable::output("scale_weights[4]", vr::SCALE_WEIGHTS + 3, Kind::Real, None, "Estimated inverse scale factor weight 4").discrete(),
-    Variable::output("scale_weights[5]", vr::SCALE_WEIGHTS + 4, Kind::Real, None, "Estimated inverse scale factor weight 5").discrete(),
-    Variable::output("scale_weights[6]", vr::SCALE_WEIGHTS + 5, Kind::Real, None, "Estimated inverse scale factor weight 6").discrete(),
-    Variable::output("scale_weights[7]", vr::SCALE_WEIGHTS + 6, Kind::Real, None, "Estimated inverse scale factor weight 7").discrete(),
-    Variable::output("scale_weights[8]", vr::SCALE_WEIGHTS + 7, Kind::Real, None, "Estimated inverse scale factor weight 8").discrete(),
-    Variable::output("scale_weights[9]", vr::SCALE_WEIGHTS + 8, Kind::Real, None, "Estimated inverse scale factor weight 9").discrete(),
-    Variable::output("scale_weights[10]", vr::SCALE_WEIGHTS + 9, Kind::Real, None, "Estimated inverse scale factor weight 10").discrete(),
-    Variable::parameter("feedforward", vr::FEEDFORWARD, 0.0, None, "Feed the reference increment forward (feedback sees it one iteration later)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter("prefilter", vr::PREFILTER, 0.0, None, "Prefilter the reference").with_kind_start(Kind::Boolean, Start::Boolean(false)),
-    Variable::parameter("use_scale_factor_estimate", vr::USE_SCALE_FACTOR_ESTIMATE, 0.0, None, "Use the estimated inverse scale factor (else scale_weights_start)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter("use_disturbance_estimate", vr::USE_DISTURBANCE_ESTIMATE, 0.0, None, "Use the estimated brake disturbance (else 0)").with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter("deadband", vr::DEADBAND, 0.0, M, "No step while |reference - position| is below this (0 = always step)"),
-    Variable::parameter("samples_per_step", vr::SAMPLES_PER_STEP, 0.0, None, "Samples of 2 ms per step (7..10000)").with_kind_start(Kind::Integer, Start::Integer(100)),
-    Variable::parameter("compensator_gain", vr::COMPENSATOR_GAIN, 0.36, None, "K of C(z) = K (z - a)/(z - 1)"),
-    Variable::parameter("compensator_zero", vr::COMPENSATOR_ZERO, 0.8, None, "a of C(z) = K (z - a)/(z - 1)"),
-    Variable::parameter("prefilter_pole", vr::PREFILTER_POLE, 0.8, None, "Prefilter r_f <- p r_f + (1 - p) r"),
-    Variable::parameter("weight_prior", vr::WEIGHT_PRIOR, 0.05, None, "Prior 1-sigma of each scale-factor weight"),
-    Variable::parameter("disturbance_prior", vr::DISTURBANCE_PRIOR, 5e-6, M, "Prior 1-sigma of the disturbance"),
-    Variable::parameter("weight_process_noise", vr::WEIGHT_PROCESS_NOISE, 1e-3, None, "Process noise of the weights per sqrt(s)"),
-    Variable::parameter("disturbance_process_noise", vr::DISTURBANCE_PROCESS_NOISE, 0.1e-6, M, "Process noise of the disturbance per sqrt(s)"),
-    Variable::parameter("ext_cmd_noise", vr::EXT_CMD_NOISE, 5e-3, None, "Measurement noise of EXT_cmd"),
+    Variable::output(
+        "scale_weights[1]",
+        vr::SCALE_WEIGHTS,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 1",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[2]",
+        vr::SCALE_WEIGHTS + 1,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 2",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[3]",
+        vr::SCALE_WEIGHTS + 2,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 3",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[4]",
+        vr::SCALE_WEIGHTS + 3,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 4",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[5]",
+        vr::SCALE_WEIGHTS + 4,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 5",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[6]",
+        vr::SCALE_WEIGHTS + 5,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 6",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[7]",
+        vr::SCALE_WEIGHTS + 6,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 7",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[8]",
+        vr::SCALE_WEIGHTS + 7,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 8",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[9]",
+        vr::SCALE_WEIGHTS + 8,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 9",
+    )
+    .discrete(),
+    Variable::output(
+        "scale_weights[10]",
+        vr::SCALE_WEIGHTS + 9,
+        Kind::Real,
+        None,
+        "Estimated inverse scale factor weight 10",
+    )
+    .discrete(),
+    Variable::parameter(
+        "feedforward",
+        vr::FEEDFORWARD,
+        0.0,
+        None,
+        "Feed the reference increment forward (feedback sees it one iteration later)",
+    )
+    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    Variable::parameter("prefilter", vr::PREFILTER, 0.0, None, "Prefilter the reference")
+        .with_kind_start(Kind::Boolean, Start::Boolean(false)),
+    Variable::parameter(
+        "use_scale_factor_estimate",
+        vr::USE_SCALE_FACTOR_ESTIMATE,
+        0.0,
+        None,
+        "Use the estimated inverse scale factor (else scale_weights_start)",
+    )
+    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    Variable::parameter(
+        "use_disturbance_estimate",
+        vr::USE_DISTURBANCE_ESTIMATE,
+        0.0,
+        None,
+        "Use the estimated brake disturbance (else 0)",
+    )
+    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
+    Variable::parameter(
+        "deadband",
+        vr::DEADBAND,
+        0.0,
+        M,
+        "No step while |reference - position| is below this (0 = always step)",
+    ),
+    Variable::parameter(
+        "samples_per_step",
+        vr::SAMPLES_PER_STEP,
+        0.0,
+        None,
+        "Samples of 2 ms per step (7..10000)",
+    )
+    .with_kind_start(Kind::Integer, Start::Integer(100)),
+    Variable::parameter(
+        "compensator_gain",
+        vr::COMPENSATOR_GAIN,
+        0.36,
+        None,
+        "K of C(z) = K (z - a)/(z - 1)",
+    ),
+    Variable::parameter(
+        "compensator_zero",
+        vr::COMPENSATOR_ZERO,
+        0.8,
+        None,
+        "a of C(z) = K (z - a)/(z - 1)",
+    ),
+    Variable::parameter(
+        "prefilter_pole",
+        vr::PREFILTER_POLE,
+        0.8,
+        None,
+        "Prefilter r_f <- p r_f + (1 - p) r",
+    ),
+    Variable::parameter(
+        "weight_prior",
+        vr::WEIGHT_PRIOR,
+        0.05,
+        None,
+        "Prior 1-sigma of each scale-factor weight",
+    ),
+    Variable::parameter(
+        "disturbance_prior",
+        vr::DISTURBANCE_PRIOR,
+        5e-6,
+        M,
+        "Prior 1-sigma of the disturbance",
+    ),
+    Variable::parameter(
+        "weight_process_noise",
+        vr::WEIGHT_PROCESS_NOISE,
+        1e-3,
+        None,
+        "Process noise of the weights per sqrt(s)",
+    ),
+    Variable::parameter(
+        "disturbance_process_noise",
+        vr::DISTURBANCE_PROCESS_NOISE,
+        0.1e-6,
+        M,
+        "Process noise of the disturbance per sqrt(s)",
+    ),
+    Variable::parameter(
+        "ext_cmd_noise",
+        vr::EXT_CMD_NOISE,
+        5e-3,
+        None,
+        "Measurement noise of EXT_cmd",
+    ),
     Variable::parameter("bd_noise", vr::BD_NOISE, 0.05e-6, M, "Measurement noise of BD"),
     Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
-    Variable::parameter("disturbance_start", vr::DISTURBANCE_START, CALIBRATED_DISTURBANCE, M, "Initial disturbance estimate (fia20 calibration)"),
-    Variable::parameter("basis_peak[1]", vr::BASIS_PEAK, -2.4e-05, M, "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[2]", vr::BASIS_PEAK + 1, -1.6e-05, M, "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[3]", vr::BASIS_PEAK + 2, -8e-06, M, "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[4]", vr::BASIS_PEAK + 3, -3e-06, M, "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[5]", vr::BASIS_PEAK + 4, -1e-06, M, "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[6]", vr::BASIS_PEAK + 5, 1e-06, M, "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[7]", vr::BASIS_PEAK + 6, 3e-06, M, "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[8]", vr::BASIS_PEAK + 7, 8e-06, M, "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[9]", vr::BASIS_PEAK + 8, 1.6e-05, M, "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("basis_peak[10]", vr::BASIS_PEAK + 9, 2.4e-05, M, "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
-    Variable::parameter("scale_weights_start[1]", vr::SCALE_WEIGHTS_START, CALIBRATED_WEIGHTS[0], None, "Initial inverse scale factor weight 1 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[2]", vr::SCALE_WEIGHTS_START + 1, CALIBRATED_WEIGHTS[1], None, "Initial inverse scale factor weight 2 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[3]", vr::SCALE_WEIGHTS_START + 2, CALIBRATED_WEIGHTS[2], None, "Initial inverse scale factor weight 3 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[4]", vr::SCALE_WEIGHTS_START + 3, CALIBRATED_WEIGHTS[3], None, "Initial inverse scale factor weight 4 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[5]", vr::SCALE_WEIGHTS_START + 4, CALIBRATED_WEIGHTS[4], None, "Initial inverse scale factor weight 5 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[6]", vr::SCALE_WEIGHTS_START + 5, CALIBRATED_WEIGHTS[5], None, "Initial inverse scale factor weight 6 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[7]", vr::SCALE_WEIGHTS_START + 6, CALIBRATED_WEIGHTS[6], None, "Initial inverse scale factor weight 7 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
-    Variable::parameter("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
+    Variable::parameter(
+        "disturbance_start",
+        vr::DISTURBANCE_START,
+        CALIBRATED_DISTURBANCE,
+        M,
+        "Initial disturbance estimate (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "basis_peak[1]",
+        vr::BASIS_PEAK,
+        -2.4e-05,
+        M,
+        "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[2]",
+        vr::BASIS_PEAK + 1,
+        -1.6e-05,
+        M,
+        "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[3]",
+        vr::BASIS_PEAK + 2,
+        -8e-06,
+        M,
+        "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[4]",
+        vr::BASIS_PEAK + 3,
+        -3e-06,
+        M,
+        "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[5]",
+        vr::BASIS_PEAK + 4,
+        -1e-06,
+        M,
+        "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[6]",
+        vr::BASIS_PEAK + 5,
+        1e-06,
+        M,
+        "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[7]",
+        vr::BASIS_PEAK + 6,
+        3e-06,
+        M,
+        "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[8]",
+        vr::BASIS_PEAK + 7,
+        8e-06,
+        M,
+        "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[9]",
+        vr::BASIS_PEAK + 8,
+        1.6e-05,
+        M,
+        "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "basis_peak[10]",
+        vr::BASIS_PEAK + 9,
+        2.4e-05,
+        M,
+        "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[1]",
+        vr::SCALE_WEIGHTS_START,
+        CALIBRATED_WEIGHTS[0],
+        None,
+        "Initial inverse scale factor weight 1 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[2]",
+        vr::SCALE_WEIGHTS_START + 1,
+        CALIBRATED_WEIGHTS[1],
+        None,
+        "Initial inverse scale factor weight 2 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[3]",
+        vr::SCALE_WEIGHTS_START + 2,
+        CALIBRATED_WEIGHTS[2],
+        None,
+        "Initial inverse scale factor weight 3 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[4]",
+        vr::SCALE_WEIGHTS_START + 3,
+        CALIBRATED_WEIGHTS[3],
+        None,
+        "Initial inverse scale factor weight 4 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[5]",
+        vr::SCALE_WEIGHTS_START + 4,
+        CALIBRATED_WEIGHTS[4],
+        None,
+        "Initial inverse scale factor weight 5 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[6]",
+        vr::SCALE_WEIGHTS_START + 5,
+        CALIBRATED_WEIGHTS[5],
+        None,
+        "Initial inverse scale factor weight 6 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[7]",
+        vr::SCALE_WEIGHTS_START + 6,
+        CALIBRATED_WEIGHTS[6],
+        None,
+        "Initial inverse scale factor weight 7 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[8]",
+        vr::SCALE_WEIGHTS_START + 7,
+        CALIBRATED_WEIGHTS[7],
+        None,
+        "Initial inverse scale factor weight 8 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[9]",
+        vr::SCALE_WEIGHTS_START + 8,
+        CALIBRATED_WEIGHTS[8],
+        None,
+        "Initial inverse scale factor weight 9 (fia20 calibration)",
+    ),
+    Variable::parameter(
+        "scale_weights_start[10]",
+        vr::SCALE_WEIGHTS_START + 9,
+        CALIBRATED_WEIGHTS[9],
+        None,
+        "Initial inverse scale factor weight 10 (fia20 calibration)",
+    ),
 ];
 
-static UNITS: [Unit; 2] = [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 }];
+static UNITS: [Unit; 2] =
+    [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 }];
 
 static INFO: ModelInfo = ModelInfo {
     model_name: "InchwormController",
@@ -155,8 +514,12 @@ fn real_param(p: &mut Params, r: u32) -> Option<&mut f64> {
         vr::BD_NOISE => &mut p.noise.bd_measurement,
         vr::Q_ENC => &mut p.q_enc,
         vr::DISTURBANCE_START => &mut p.disturbance_start,
-        r if (vr::BASIS_PEAK..vr::BASIS_PEAK + 10).contains(&r) => &mut p.basis_peaks[(r - vr::BASIS_PEAK) as usize],
-        r if (vr::SCALE_WEIGHTS_START..vr::SCALE_WEIGHTS_START + 10).contains(&r) => &mut p.scale_weights_start[(r - vr::SCALE_WEIGHTS_START) as usize],
+        r if (vr::BASIS_PEAK..vr::BASIS_PEAK + 10).contains(&r) => {
+            &mut p.basis_peaks[(r - vr::BASIS_PEAK) as usize]
+        }
+        r if (vr::SCALE_WEIGHTS_START..vr::SCALE_WEIGHTS_START + 10).contains(&r) => {
+            &mut p.scale_weights_start[(r - vr::SCALE_WEIGHTS_START) as usize]
+        }
         _ => return None,
     })
 }
@@ -170,7 +533,6 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
         _ => return None,
     })
 }
-
 
 impl ControllerFmu {
     /// The outputs before the first step: the parked sample, estimates at their start.
@@ -202,7 +564,13 @@ impl Model for ControllerFmu {
     }
 
     fn new() -> Self {
-        ControllerFmu { params: Params::default(), encoder_counts: 0, reference: 0.0, controller: None, last: None }
+        ControllerFmu {
+            params: Params::default(),
+            encoder_counts: 0,
+            reference: 0.0,
+            controller: None,
+            last: None,
+        }
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
@@ -217,10 +585,13 @@ impl Model for ControllerFmu {
             vr::STEP_FORWARD => s.step_forward,
             vr::STEP_BACKWARD => s.step_backward,
             vr::FRACTION => s.fraction,
-            r if (vr::SCALE_WEIGHTS..vr::SCALE_WEIGHTS + 10).contains(&r) => s.scale_weights[(r - vr::SCALE_WEIGHTS) as usize],
+            r if (vr::SCALE_WEIGHTS..vr::SCALE_WEIGHTS + 10).contains(&r) => {
+                s.scale_weights[(r - vr::SCALE_WEIGHTS) as usize]
+            }
             _ => {
                 let mut p = self.params.clone();
-                *real_param(&mut p, r).ok_or_else(|| format!("no Real variable with value reference {r}"))?
+                *real_param(&mut p, r)
+                    .ok_or_else(|| format!("no Real variable with value reference {r}"))?
             }
         })
     }
@@ -243,7 +614,9 @@ impl Model for ControllerFmu {
             vr::MOVING => Ok(self.sample().moving),
             _ => {
                 let mut p = self.params.clone();
-                bool_param(&mut p, r).map(|b| *b).ok_or_else(|| format!("no Boolean variable with value reference {r}"))
+                bool_param(&mut p, r)
+                    .map(|b| *b)
+                    .ok_or_else(|| format!("no Boolean variable with value reference {r}"))
             }
         }
     }
@@ -259,7 +632,8 @@ impl Model for ControllerFmu {
             return Ok(None);
         }
         // Parameters are validated together at fmi2ExitInitializationMode.
-        *real_param(&mut self.params, r).ok_or_else(|| format!("no settable Real variable with value reference {r}"))? = value;
+        *real_param(&mut self.params, r)
+            .ok_or_else(|| format!("no settable Real variable with value reference {r}"))? = value;
         Ok(None)
     }
 
@@ -273,15 +647,21 @@ impl Model for ControllerFmu {
     }
 
     fn set_boolean(&mut self, r: u32, value: bool) -> SetResult {
-        *bool_param(&mut self.params, r).ok_or_else(|| format!("no settable Boolean variable with value reference {r}"))? = value;
+        *bool_param(&mut self.params, r)
+            .ok_or_else(|| format!("no settable Boolean variable with value reference {r}"))? =
+            value;
         Ok(None)
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
         if self.params.samples_per_step == 0 || self.params.samples_per_step > i32::MAX as u32 {
-            return Err(format!("invalid parameter samples_per_step: {}", self.params.samples_per_step));
+            return Err(format!(
+                "invalid parameter samples_per_step: {}",
+                self.params.samples_per_step
+            ));
         }
-        let c = Controller::new(self.params.clone()).map_err(|e| format!("invalid parameter {e}"))?;
+        let c =
+            Controller::new(self.params.clone()).map_err(|e| format!("invalid parameter {e}"))?;
         self.controller = Some(c);
         Ok(())
     }
@@ -325,7 +705,9 @@ impl Model for ControllerFmu {
         for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
             let x = match v.kind {
                 Kind::Real => *real_param(&mut p, v.vr).expect("table and accessors agree"),
-                Kind::Boolean => f64::from(u8::from(*bool_param(&mut p, v.vr).expect("table and accessors agree"))),
+                Kind::Boolean => f64::from(u8::from(
+                    *bool_param(&mut p, v.vr).expect("table and accessors agree"),
+                )),
                 Kind::Integer => f64::from(p.samples_per_step),
             };
             out.extend_from_slice(&x.to_le_bytes());
@@ -336,14 +718,32 @@ impl Model for ControllerFmu {
             None => out.push(0),
             Some(s) => {
                 out.push(1);
-                for v in s.dac.iter().chain([s.servo_error, s.disturbance_estimate, s.step_forward, s.step_backward, s.fraction].iter()).chain(s.scale_weights.iter()) {
+                for v in s
+                    .dac
+                    .iter()
+                    .chain(
+                        [
+                            s.servo_error,
+                            s.disturbance_estimate,
+                            s.step_forward,
+                            s.step_backward,
+                            s.fraction,
+                        ]
+                        .iter(),
+                    )
+                    .chain(s.scale_weights.iter())
+                {
                     out.extend_from_slice(&v.to_le_bytes());
                 }
                 for c in s.codes {
                     out.extend_from_slice(&c.to_le_bytes());
                 }
                 out.extend_from_slice(&s.n_steps.to_le_bytes());
-                out.extend_from_slice(&[u8::from(s.moving), u8::from(s.iterated), u8::from(s.no_root)]);
+                out.extend_from_slice(&[
+                    u8::from(s.moving),
+                    u8::from(s.iterated),
+                    u8::from(s.no_root),
+                ]);
             }
         }
         match &self.controller {
@@ -361,8 +761,13 @@ impl Model for ControllerFmu {
         for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
             let x = r.f64()?;
             match v.kind {
-                Kind::Real => *real_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x,
-                Kind::Boolean => *bool_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x != 0.0,
+                Kind::Real => {
+                    *real_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x
+                }
+                Kind::Boolean => {
+                    *bool_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? =
+                        x != 0.0
+                }
                 Kind::Integer => next.params.samples_per_step = x as u32,
             }
         }
@@ -394,7 +799,8 @@ impl Model for ControllerFmu {
         match r.u8()? {
             0 if r.pos == bytes.len() => {}
             1 => {
-                let mut c = Controller::new(next.params.clone()).map_err(|e| format!("state holds invalid parameters: {e}"))?;
+                let mut c = Controller::new(next.params.clone())
+                    .map_err(|e| format!("state holds invalid parameters: {e}"))?;
                 c.load_state(&bytes[r.pos..])?;
                 next.controller = Some(c);
             }
@@ -426,5 +832,3 @@ impl Bytes<'_> {
         Ok(self.take(1)?[0])
     }
 }
-
-

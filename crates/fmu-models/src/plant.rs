@@ -2,9 +2,7 @@
 //! interface of SPEC section 5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
-use inchworm_fmi_export::{
-    Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable,
-};
+use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, N_PLAYS};
 
 /// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
@@ -52,7 +50,6 @@ mod vr {
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
-
 
 static VARIABLES: [Variable; 47] = [
     Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
@@ -106,69 +103,15 @@ static VARIABLES: [Variable; 47] = [
 
 static UNITS: [Unit; 10] = [
     Unit { name: "s", kg: 0, m: 0, s: 1, a: 0 },
-    Unit {
-        name: "m",
-        kg: 0,
-        m: 1,
-        s: 0,
-        a: 0,
-    },
-    Unit {
-        name: "V",
-        kg: 1,
-        m: 2,
-        s: -3,
-        a: -1,
-    },
-    Unit {
-        name: "kg",
-        kg: 1,
-        m: 0,
-        s: 0,
-        a: 0,
-    },
-    Unit {
-        name: "N",
-        kg: 1,
-        m: 1,
-        s: -2,
-        a: 0,
-    },
-    Unit {
-        name: "N/m",
-        kg: 1,
-        m: 0,
-        s: -2,
-        a: 0,
-    },
-    Unit {
-        name: "N.s/m",
-        kg: 1,
-        m: 0,
-        s: -1,
-        a: 0,
-    },
-    Unit {
-        name: "N/V",
-        kg: 0,
-        m: -1,
-        s: 1,
-        a: 1,
-    },
-    Unit {
-        name: "F",
-        kg: -1,
-        m: -2,
-        s: 4,
-        a: 2,
-    },
-    Unit {
-        name: "Hz",
-        kg: 0,
-        m: 0,
-        s: -1,
-        a: 0,
-    },
+    Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
+    Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 },
+    Unit { name: "kg", kg: 1, m: 0, s: 0, a: 0 },
+    Unit { name: "N", kg: 1, m: 1, s: -2, a: 0 },
+    Unit { name: "N/m", kg: 1, m: 0, s: -2, a: 0 },
+    Unit { name: "N.s/m", kg: 1, m: 0, s: -1, a: 0 },
+    Unit { name: "N/V", kg: 0, m: -1, s: 1, a: 1 },
+    Unit { name: "F", kg: -1, m: -2, s: 4, a: 2 },
+    Unit { name: "Hz", kg: 0, m: 0, s: -1, a: 0 },
 ];
 
 static INFO: ModelInfo = ModelInfo {
@@ -266,7 +209,6 @@ fn dac_field(d: &mut Dac, vr: u32) -> Option<&mut f64> {
     }
 }
 
-
 impl Model for PlantFmu {
     fn info() -> &'static ModelInfo {
         &INFO
@@ -277,11 +219,7 @@ impl Model for PlantFmu {
     }
 
     fn new() -> Self {
-        PlantFmu {
-            params: PlantParams::fia20(),
-            dac: Dac::default(),
-            plant: None,
-        }
+        PlantFmu { params: PlantParams::fia20(), dac: Dac::default(), plant: None }
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
@@ -346,18 +284,14 @@ impl Model for PlantFmu {
         }
         if let Some(slot) = self.param_mut(r) {
             if !value.is_finite() {
-                return Err(format!(
-                    "{name} = {value} refused: parameters must be finite"
-                ));
+                return Err(format!("{name} = {value} refused: parameters must be finite"));
             }
             // Validated as a whole at fmi2ExitInitializationMode, where the relations
             // between parameters (sorted play radii) can be checked.
             *slot = value;
             return Ok(None);
         }
-        Err(format!(
-            "no settable Real variable with value reference {r}"
-        ))
+        Err(format!("no settable Real variable with value reference {r}"))
     }
 
     fn set_integer(&mut self, r: u32, value: i32) -> SetResult {
@@ -366,16 +300,12 @@ impl Model for PlantFmu {
                 self.params.noise_seed = value as u32 as u64;
                 Ok(None)
             }
-            _ => Err(format!(
-                "no settable Integer variable with value reference {r}"
-            )),
+            _ => Err(format!("no settable Integer variable with value reference {r}")),
         }
     }
 
     fn set_boolean(&mut self, r: u32, _value: bool) -> SetResult {
-        Err(format!(
-            "no settable Boolean variable with value reference {r}"
-        ))
+        Err(format!("no settable Boolean variable with value reference {r}"))
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
@@ -415,9 +345,8 @@ impl Model for PlantFmu {
 
     fn save(&self, out: &mut Vec<u8>) {
         // Parameters in table order, then inputs, then the plant (if initialized).
-        for v in VARIABLES
-            .iter()
-            .filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
+        for v in
+            VARIABLES.iter().filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
         {
             let x = match v.kind {
                 Kind::Real => self.get_real(v.vr).unwrap_or(f64::NAN),
@@ -441,15 +370,12 @@ impl Model for PlantFmu {
         let mut next = PlantFmu::new();
         let mut pos = 0;
         let f64_next = |pos: &mut usize| -> Result<f64, String> {
-            let b = bytes
-                .get(*pos..*pos + 8)
-                .ok_or("plant FMU state truncated")?;
+            let b = bytes.get(*pos..*pos + 8).ok_or("plant FMU state truncated")?;
             *pos += 8;
             Ok(f64::from_le_bytes(b.try_into().expect("8 bytes")))
         };
-        for v in VARIABLES
-            .iter()
-            .filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
+        for v in
+            VARIABLES.iter().filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
         {
             let x = f64_next(&mut pos)?;
             match v.kind {
@@ -476,5 +402,3 @@ impl Model for PlantFmu {
         Ok(())
     }
 }
-
-

@@ -42,17 +42,11 @@ impl fmt::Display for CobsError {
             CobsError::Empty => write!(f, "empty COBS frame"),
             CobsError::ZeroByte { at } => write!(f, "0x00 inside a COBS frame at offset {at}"),
             CobsError::Truncated { at } => {
-                write!(
-                    f,
-                    "COBS frame cut short: the code byte at offset {at} runs past the end"
-                )
+                write!(f, "COBS frame cut short: the code byte at offset {at} runs past the end")
             }
             CobsError::NonCanonical => write!(f, "non-canonical COBS encoding"),
             CobsError::OutputTooSmall { needed } => {
-                write!(
-                    f,
-                    "output buffer too small: the decoded frame needs {needed} bytes"
-                )
+                write!(f, "output buffer too small: the decoded frame needs {needed} bytes")
             }
         }
     }

@@ -341,31 +341,26 @@ pub enum DecodeError {
 impl fmt::Display for DecodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
-            DecodeError::TooShort { len } => write!(
-                f,
-                "frame too short: {len} bytes, the smallest frame is {MIN_FRAME} bytes"
-            ),
+            DecodeError::TooShort { len } => {
+                write!(f, "frame too short: {len} bytes, the smallest frame is {MIN_FRAME} bytes")
+            }
             DecodeError::BadMagic => write!(f, "bad magic: frame does not start with \"IW\""),
-            DecodeError::UnsupportedVersion(v) => write!(
-                f,
-                "unsupported protocol version {v} (this side speaks version {VERSION})"
-            ),
-            DecodeError::Truncated { len, needed } => write!(
-                f,
-                "truncated frame: {len} bytes, the header announces {needed}"
-            ),
+            DecodeError::UnsupportedVersion(v) => {
+                write!(f, "unsupported protocol version {v} (this side speaks version {VERSION})")
+            }
+            DecodeError::Truncated { len, needed } => {
+                write!(f, "truncated frame: {len} bytes, the header announces {needed}")
+            }
             DecodeError::TrailingBytes { extra } => {
                 write!(f, "{extra} trailing bytes after the frame")
             }
-            DecodeError::BadCrc { expected, found } => write!(
-                f,
-                "CRC mismatch: frame says {expected:#010x}, bytes give {found:#010x}"
-            ),
+            DecodeError::BadCrc { expected, found } => {
+                write!(f, "CRC mismatch: frame says {expected:#010x}, bytes give {found:#010x}")
+            }
             DecodeError::UnknownType(t) => write!(f, "unknown frame type {t:#04x}"),
-            DecodeError::WrongStream { frame_type, stream } => write!(
-                f,
-                "frame type {frame_type:#04x} does not travel on stream {stream}"
-            ),
+            DecodeError::WrongStream { frame_type, stream } => {
+                write!(f, "frame type {frame_type:#04x} does not travel on stream {stream}")
+            }
             DecodeError::BadLength { frame_type, len } => write!(
                 f,
                 "frame type {frame_type:#04x} has a fixed payload length, not {len} bytes"
@@ -462,9 +457,7 @@ pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         return Err(DecodeError::Truncated { len, needed });
     }
     if len > needed {
-        return Err(DecodeError::TrailingBytes {
-            extra: len - needed,
-        });
+        return Err(DecodeError::TrailingBytes { extra: len - needed });
     }
     let body = HEADER_LEN + n as usize;
     let expected = u32_at(bytes, body);
@@ -482,16 +475,10 @@ pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         _ => stream::CONTROL,
     };
     if stream_id != want_stream {
-        return Err(DecodeError::WrongStream {
-            frame_type: ty,
-            stream: stream_id,
-        });
+        return Err(DecodeError::WrongStream { frame_type: ty, stream: stream_id });
     }
     if n as usize != fixed {
-        return Err(DecodeError::BadLength {
-            frame_type: ty,
-            len: n,
-        });
+        return Err(DecodeError::BadLength { frame_type: ty, len: n });
     }
     let p = &bytes[HEADER_LEN..body];
     let frame = match ty {
@@ -514,10 +501,7 @@ pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         frame_type::FAULT => {
             let reason = FaultReason::from_u8(p[0])
                 .ok_or(DecodeError::BadPayload("FAULT reason is not 1..=7"))?;
-            Frame::Fault(Fault {
-                reason,
-                detail: u32_at(p, 4),
-            })
+            Frame::Fault(Fault { reason, detail: u32_at(p, 4) })
         }
         frame_type::DAC => Frame::Dac(DacSample {
             tick: u32_at(p, 0),
@@ -526,9 +510,7 @@ pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         frame_type::ENCODER => {
             let status = u16_at(p, 8);
             if status & !status::ALL != 0 {
-                return Err(DecodeError::BadPayload(
-                    "ENCODER status has undefined bits set",
-                ));
+                return Err(DecodeError::BadPayload("ENCODER status has undefined bits set"));
             }
             Frame::Encoder(EncoderSample {
                 tick: u32_at(p, 0),

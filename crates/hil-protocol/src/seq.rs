@@ -52,17 +52,13 @@ impl SeqTracker {
         if d == 0 {
             SeqVerdict::Duplicate
         } else if d < 0 {
-            SeqVerdict::Stale {
-                behind: last.wrapping_sub(seq),
-            }
+            SeqVerdict::Stale { behind: last.wrapping_sub(seq) }
         } else {
             self.last = Some(seq);
             if d == 1 {
                 SeqVerdict::Next
             } else {
-                SeqVerdict::Gap {
-                    missing: (d - 1) as u16,
-                }
+                SeqVerdict::Gap { missing: (d - 1) as u16 }
             }
         }
     }

@@ -80,10 +80,7 @@ impl Watchdog {
         }
         self.missed = self.missed.saturating_add(1);
         if self.missed >= self.limit {
-            let fault = Fault {
-                reason: FaultReason::Silence,
-                detail: self.missed,
-            };
+            let fault = Fault { reason: FaultReason::Silence, detail: self.missed };
             self.state = BoardState::Safe(fault);
             return Some(fault);
         }

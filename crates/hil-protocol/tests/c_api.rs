@@ -31,15 +31,7 @@ fn c_round_trip_through_static_library() {
     let run = Command::new(&exe).output().expect("run the C test");
     let stdout = String::from_utf8_lossy(&run.stdout);
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(
-        run.status.success(),
-        "C round trip failed ({}):\n{stdout}{stderr}",
-        run.status
-    );
-    assert_eq!(
-        stdout.trim(),
-        "inchworm_hil C round trip: all checks passed",
-        "{stderr}"
-    );
+    assert!(run.status.success(), "C round trip failed ({}):\n{stdout}{stderr}", run.status);
+    assert_eq!(stdout.trim(), "inchworm_hil C round trip: all checks passed", "{stderr}");
     assert!(stderr.is_empty(), "{stderr}");
 }

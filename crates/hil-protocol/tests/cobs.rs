@@ -26,31 +26,16 @@ fn published_vectors() {
         (vec![0x00], vec![0x01, 0x01]),
         (vec![0x00, 0x00], vec![0x01, 0x01, 0x01]),
         (vec![0x00, 0x11, 0x00], vec![0x01, 0x02, 0x11, 0x01]),
-        (
-            vec![0x11, 0x22, 0x00, 0x33],
-            vec![0x03, 0x11, 0x22, 0x02, 0x33],
-        ),
-        (
-            vec![0x11, 0x22, 0x33, 0x44],
-            vec![0x05, 0x11, 0x22, 0x33, 0x44],
-        ),
-        (
-            vec![0x11, 0x00, 0x00, 0x00],
-            vec![0x02, 0x11, 0x01, 0x01, 0x01],
-        ),
+        (vec![0x11, 0x22, 0x00, 0x33], vec![0x03, 0x11, 0x22, 0x02, 0x33]),
+        (vec![0x11, 0x22, 0x33, 0x44], vec![0x05, 0x11, 0x22, 0x33, 0x44]),
+        (vec![0x11, 0x00, 0x00, 0x00], vec![0x02, 0x11, 0x01, 0x01, 0x01]),
     ];
     // 01..FE (254 nonzero bytes) -> FF 01..FE
     cases.push((seq(1, 254), [vec![0xFF], seq(1, 254)].concat()));
     // 00 01..FE (255 bytes) -> 01 FF 01..FE
-    cases.push((
-        [vec![0], seq(1, 254)].concat(),
-        [vec![0x01, 0xFF], seq(1, 254)].concat(),
-    ));
+    cases.push(([vec![0], seq(1, 254)].concat(), [vec![0x01, 0xFF], seq(1, 254)].concat()));
     // 01..FF (255 bytes) -> FF 01..FE 02 FF
-    cases.push((
-        seq(1, 255),
-        [vec![0xFF], seq(1, 254), vec![0x02, 0xFF]].concat(),
-    ));
+    cases.push((seq(1, 255), [vec![0xFF], seq(1, 254), vec![0x02, 0xFF]].concat()));
     // 02..FF 00 (255 bytes) -> FF 02..FF 01 01
     cases.push((
         [seq(2, 255), vec![0]].concat(),
@@ -75,18 +60,9 @@ fn published_vectors() {
 #[test]
 fn strict_decoder() {
     assert_eq!(c_dec(&[]), Err(CobsError::Empty));
-    assert_eq!(
-        c_dec(&[0x03, 0x11, 0x00]),
-        Err(CobsError::ZeroByte { at: 2 })
-    );
-    assert_eq!(
-        c_dec(&[0x05, 0x11, 0x22]),
-        Err(CobsError::Truncated { at: 0 })
-    );
-    assert_eq!(
-        c_dec(&[0x02, 0x11, 0x03, 0x22]),
-        Err(CobsError::Truncated { at: 2 })
-    );
+    assert_eq!(c_dec(&[0x03, 0x11, 0x00]), Err(CobsError::ZeroByte { at: 2 }));
+    assert_eq!(c_dec(&[0x05, 0x11, 0x22]), Err(CobsError::Truncated { at: 0 }));
+    assert_eq!(c_dec(&[0x02, 0x11, 0x03, 0x22]), Err(CobsError::Truncated { at: 2 }));
     let mut full: Vec<u8> = vec![0xFF];
     full.extend(1..=254u8);
     full.push(0x01); // empty final group after a full one: decodable, not canonical
@@ -97,10 +73,7 @@ fn strict_decoder() {
         Err(CobsError::OutputTooSmall { needed: 2 })
     );
     let mut small = [0u8; 2];
-    assert_eq!(
-        cobs::encode(&[1, 2], &mut small),
-        Err(EncodeError::BufferTooSmall { needed: 3 })
-    );
+    assert_eq!(cobs::encode(&[1, 2], &mut small), Err(EncodeError::BufferTooSmall { needed: 3 }));
 }
 
 #[test]
@@ -109,9 +82,8 @@ fn max_encoded_len_bounds() {
     assert_eq!(cobs::max_encoded_len(MAX_FRAME), 27);
     let mut rng = XorShift(7);
     for len in 0..800 {
-        let data: Vec<u8> = (0..len)
-            .map(|_| if rng.below(4) == 0 { 0 } else { rng.byte() | 1 })
-            .collect();
+        let data: Vec<u8> =
+            (0..len).map(|_| if rng.below(4) == 0 { 0 } else { rng.byte() | 1 }).collect();
         assert!(c_enc(&data).len() <= cobs::max_encoded_len(len));
         let ones = vec![1u8; len];
         assert!(c_enc(&ones).len() <= cobs::max_encoded_len(len));

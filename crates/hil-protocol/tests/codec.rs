@@ -9,13 +9,7 @@ const GOLDEN_ENCODER: &str =
     "49 57 01 11 07 00 02 00 0c 00 e8 03 00 00 fe ff ff ff 09 00 34 12 b6 c9 c5 43";
 
 fn golden_dac_packet() -> Packet {
-    Packet {
-        seq: 0x1234,
-        frame: Frame::Dac(DacSample {
-            tick: 1000,
-            codes: [32768, 0, 65535],
-        }),
-    }
+    Packet { seq: 0x1234, frame: Frame::Dac(DacSample { tick: 1000, codes: [32768, 0, 65535] }) }
 }
 
 fn golden_encoder_packet() -> Packet {
@@ -34,10 +28,7 @@ fn golden_encoder_packet() -> Packet {
 fn crc_matches_zlib_check_values() {
     assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     assert_eq!(crc32(b""), 0);
-    assert_eq!(
-        crc32(b"The quick brown fox jumps over the lazy dog"),
-        0x414F_A339
-    );
+    assert_eq!(crc32(b"The quick brown fox jumps over the lazy dog"), 0x414F_A339);
 }
 
 #[test]
@@ -58,23 +49,14 @@ fn golden_encoder_frame() {
 
 #[test]
 fn control_frames_golden_layout() {
-    let arm = enc(&Packet {
-        seq: 65535,
-        frame: Frame::Arm,
-    });
+    let arm = enc(&Packet { seq: 65535, frame: Frame::Arm });
     assert_eq!(&arm[..10], &hex("49 57 01 02 ff ff 00 00 00 00")[..]);
     assert_eq!(arm.len(), MIN_FRAME);
     let fault = enc(&Packet {
         seq: 1,
-        frame: Frame::Fault(Fault {
-            reason: FaultReason::Overrun,
-            detail: 0x0102_0304,
-        }),
+        frame: Frame::Fault(Fault { reason: FaultReason::Overrun, detail: 0x0102_0304 }),
     });
-    assert_eq!(
-        &fault[..18],
-        &hex("49 57 01 04 01 00 00 00 08 00 05 00 00 00 04 03 02 01")[..]
-    );
+    assert_eq!(&fault[..18], &hex("49 57 01 04 01 00 00 00 08 00 05 00 00 00 04 03 02 01")[..]);
     let hello = enc(&Packet {
         seq: 0,
         frame: Frame::Hello(Hello {
@@ -85,10 +67,7 @@ fn control_frames_golden_layout() {
             lockstep: true,
         }),
     });
-    assert_eq!(
-        &hello[..18],
-        &hex("49 57 01 01 00 00 00 00 08 00 01 02 d0 07 00 00 03 01")[..]
-    );
+    assert_eq!(&hello[..18], &hex("49 57 01 01 00 00 00 00 08 00 01 02 d0 07 00 00 03 01")[..]);
 }
 
 #[test]
@@ -110,10 +89,7 @@ fn every_frame_type_round_trips() {
 fn encode_refuses_small_buffer_and_writes_nothing() {
     let p = golden_encoder_packet();
     let mut buf = [0xAAu8; MAX_FRAME - 1];
-    assert_eq!(
-        encode(&p, &mut buf),
-        Err(EncodeError::BufferTooSmall { needed: 26 })
-    );
+    assert_eq!(encode(&p, &mut buf), Err(EncodeError::BufferTooSmall { needed: 26 }));
     assert!(buf.iter().all(|&b| b == 0xAA));
     let mut big = [0u8; 64];
     assert_eq!(encode(&p, &mut big), Ok(26));
@@ -128,10 +104,7 @@ fn too_short_inputs() {
     }
     // Long enough for a header but shorter than announced.
     for n in MIN_FRAME..g.len() {
-        assert_eq!(
-            decode(&g[..n]),
-            Err(DecodeError::Truncated { len: n, needed: 24 })
-        );
+        assert_eq!(decode(&g[..n]), Err(DecodeError::Truncated { len: n, needed: 24 }));
     }
 }
 
@@ -168,36 +141,15 @@ fn wrong_stream_for_type() {
     let mut g = hex(GOLDEN_DAC);
     g[6] = 2; // DAC on the encoder stream
     reseal(&mut g);
-    assert_eq!(
-        decode(&g),
-        Err(DecodeError::WrongStream {
-            frame_type: 0x10,
-            stream: 2
-        })
-    );
+    assert_eq!(decode(&g), Err(DecodeError::WrongStream { frame_type: 0x10, stream: 2 }));
     let mut g = hex(GOLDEN_ENCODER);
     g[6] = 0;
     reseal(&mut g);
-    assert_eq!(
-        decode(&g),
-        Err(DecodeError::WrongStream {
-            frame_type: 0x11,
-            stream: 0
-        })
-    );
-    let mut arm = enc(&Packet {
-        seq: 0,
-        frame: Frame::Arm,
-    });
+    assert_eq!(decode(&g), Err(DecodeError::WrongStream { frame_type: 0x11, stream: 0 }));
+    let mut arm = enc(&Packet { seq: 0, frame: Frame::Arm });
     arm[7] = 1; // stream 256
     reseal(&mut arm);
-    assert_eq!(
-        decode(&arm),
-        Err(DecodeError::WrongStream {
-            frame_type: 0x02,
-            stream: 256
-        })
-    );
+    assert_eq!(decode(&arm), Err(DecodeError::WrongStream { frame_type: 0x02, stream: 256 }));
 }
 
 /// Builds a frame with the golden DAC header but an arbitrary payload length (and
@@ -218,31 +170,16 @@ fn length_field_mismatch() {
     for n in [0usize, 9, 11, 12, 300] {
         assert_eq!(
             decode(&dac_with_payload_len(n)),
-            Err(DecodeError::BadLength {
-                frame_type: 0x10,
-                len: n as u16
-            })
+            Err(DecodeError::BadLength { frame_type: 0x10, len: n as u16 })
         );
     }
     // Announcing more than the buffer holds: Truncated.
     let mut g = hex(GOLDEN_DAC);
     g[8] = 11;
-    assert_eq!(
-        decode(&g),
-        Err(DecodeError::Truncated {
-            len: 24,
-            needed: 25
-        })
-    );
+    assert_eq!(decode(&g), Err(DecodeError::Truncated { len: 24, needed: 25 }));
     g[8] = 0xFF;
     g[9] = 0xFF;
-    assert_eq!(
-        decode(&g),
-        Err(DecodeError::Truncated {
-            len: 24,
-            needed: 14 + 65535
-        })
-    );
+    assert_eq!(decode(&g), Err(DecodeError::Truncated { len: 24, needed: 14 + 65535 }));
     // Announcing less than the buffer holds: TrailingBytes.
     let mut g = hex(GOLDEN_DAC);
     g[8] = 8;
@@ -274,10 +211,7 @@ fn every_single_bit_flip_is_refused() {
             // Outside magic, version and length the CRC must be what catches it.
             let byte = bit / 8;
             if !(byte < 3 || byte == 8 || byte == 9) {
-                assert!(
-                    matches!(r, Err(DecodeError::BadCrc { .. })),
-                    "bit {bit}: {r:?}"
-                );
+                assert!(matches!(r, Err(DecodeError::BadCrc { .. })), "bit {bit}: {r:?}");
             }
         }
     }
@@ -288,18 +222,9 @@ fn bad_crc_reports_both_values() {
     let mut g = hex(GOLDEN_DAC);
     g[12] ^= 0x10;
     let found = crc32(&g[..20]);
-    assert_eq!(
-        decode(&g),
-        Err(DecodeError::BadCrc {
-            expected: 0x826B_581A,
-            found
-        })
-    );
+    assert_eq!(decode(&g), Err(DecodeError::BadCrc { expected: 0x826B_581A, found }));
     let msg = decode(&g).unwrap_err().to_string();
-    assert!(
-        msg.starts_with("CRC mismatch: frame says 0x826b581a, bytes give 0x"),
-        "{msg}"
-    );
+    assert!(msg.starts_with("CRC mismatch: frame says 0x826b581a, bytes give 0x"), "{msg}");
 }
 
 #[test]
@@ -318,57 +243,37 @@ fn bad_payload_values() {
         let mut f = hello.clone();
         f[11] = role;
         reseal(&mut f);
-        assert!(
-            matches!(decode(&f), Err(DecodeError::BadPayload(_))),
-            "role {role}"
-        );
+        assert!(matches!(decode(&f), Err(DecodeError::BadPayload(_))), "role {role}");
     }
     for flags in [2u8, 0x80, 0xFF] {
         let mut f = hello.clone();
         f[17] = flags;
         reseal(&mut f);
-        assert!(
-            matches!(decode(&f), Err(DecodeError::BadPayload(_))),
-            "flags {flags}"
-        );
+        assert!(matches!(decode(&f), Err(DecodeError::BadPayload(_))), "flags {flags}");
     }
     let fault = enc(&Packet {
         seq: 0,
-        frame: Frame::Fault(Fault {
-            reason: FaultReason::Operator,
-            detail: 0,
-        }),
+        frame: Frame::Fault(Fault { reason: FaultReason::Operator, detail: 0 }),
     });
     for reason in [0u8, 8, 255] {
         let mut f = fault.clone();
         f[10] = reason;
         reseal(&mut f);
-        assert!(
-            matches!(decode(&f), Err(DecodeError::BadPayload(_))),
-            "reason {reason}"
-        );
+        assert!(matches!(decode(&f), Err(DecodeError::BadPayload(_))), "reason {reason}");
     }
     for bit in 4..16 {
         let mut f = hex(GOLDEN_ENCODER);
         let s = (status::ARMED | 1 << bit).to_le_bytes();
         f[18..20].copy_from_slice(&s);
         reseal(&mut f);
-        assert!(
-            matches!(decode(&f), Err(DecodeError::BadPayload(_))),
-            "status bit {bit}"
-        );
+        assert!(matches!(decode(&f), Err(DecodeError::BadPayload(_))), "status bit {bit}");
     }
 }
 
 #[test]
 fn fault_reserved_bytes_are_zero_on_encode_and_ignored_on_decode() {
-    let p = Packet {
-        seq: 3,
-        frame: Frame::Fault(Fault {
-            reason: FaultReason::Corrupt,
-            detail: 5,
-        }),
-    };
+    let p =
+        Packet { seq: 3, frame: Frame::Fault(Fault { reason: FaultReason::Corrupt, detail: 5 }) };
     let mut f = enc(&p);
     assert_eq!(&f[11..14], &[0, 0, 0]);
     f[11..14].copy_from_slice(&[1, 2, 3]);
@@ -381,31 +286,16 @@ fn error_messages_are_readable() {
     let cases: Vec<(DecodeError, &str)> = vec![
         (DecodeError::TooShort { len: 3 }, "frame too short: 3 bytes"),
         (DecodeError::BadMagic, "bad magic"),
-        (
-            DecodeError::UnsupportedVersion(9),
-            "unsupported protocol version 9",
-        ),
+        (DecodeError::UnsupportedVersion(9), "unsupported protocol version 9"),
         (DecodeError::UnknownType(0x42), "unknown frame type 0x42"),
         (
-            DecodeError::WrongStream {
-                frame_type: 0x10,
-                stream: 2,
-            },
+            DecodeError::WrongStream { frame_type: 0x10, stream: 2 },
             "frame type 0x10 does not travel on stream 2",
         ),
-        (
-            DecodeError::BadLength {
-                frame_type: 0x10,
-                len: 3,
-            },
-            "fixed payload length, not 3",
-        ),
+        (DecodeError::BadLength { frame_type: 0x10, len: 3 }, "fixed payload length, not 3"),
         (DecodeError::TrailingBytes { extra: 2 }, "2 trailing bytes"),
         (
-            DecodeError::Truncated {
-                len: 20,
-                needed: 24,
-            },
+            DecodeError::Truncated { len: 20, needed: 24 },
             "truncated frame: 20 bytes, the header announces 24",
         ),
         (DecodeError::BadPayload("x"), "invalid payload: x"),

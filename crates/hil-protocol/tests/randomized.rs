@@ -103,9 +103,7 @@ fn cobs_decode_random_and_mutated() {
     for i in 0..CASES {
         let src: Vec<u8> = if i % 2 == 0 {
             let n = rng.below(if i % 10 == 0 { 520 } else { 40 });
-            (0..n)
-                .map(|_| if rng.below(8) == 0 { 0 } else { rng.byte() })
-                .collect()
+            (0..n).map(|_| if rng.below(8) == 0 { 0 } else { rng.byte() }).collect()
         } else {
             let frame = enc(&packets[rng.below(packets.len())]);
             let mut c = vec![0u8; cobs::max_encoded_len(frame.len())];
@@ -116,11 +114,7 @@ fn cobs_decode_random_and_mutated() {
             m
         };
         let small = rng.below(8) == 0;
-        let dst = if small {
-            &mut out[..rng.below(30)]
-        } else {
-            &mut out[..]
-        };
+        let dst = if small { &mut out[..rng.below(30)] } else { &mut out[..] };
         if let Ok(n) = cobs::decode(&src, dst) {
             ok += 1;
             let m = cobs::encode(&dst[..n], &mut re).unwrap();

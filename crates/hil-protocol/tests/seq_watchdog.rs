@@ -102,10 +102,7 @@ fn watchdog_trips_after_exactly_n_silent_periods() {
             assert_eq!(w.state(), BoardState::Armed);
             assert_eq!(w.output(REQ), REQ);
         }
-        let f = Fault {
-            reason: FaultReason::Silence,
-            detail: n,
-        };
+        let f = Fault { reason: FaultReason::Silence, detail: n };
         assert_eq!(w.period_elapsed(), Some(f), "limit {n}");
         assert_eq!(w.state(), BoardState::Safe(f));
         assert_eq!(w.output(REQ), SAFE_CODES);
@@ -162,10 +159,7 @@ fn safe_is_latched_until_arm() {
     assert_eq!(w.missed(), 0);
     assert_eq!(w.output(REQ), REQ);
     // Disarm from Safe also leaves it, to Disarmed.
-    w.fault(Fault {
-        reason: FaultReason::Operator,
-        detail: 0,
-    });
+    w.fault(Fault { reason: FaultReason::Operator, detail: 0 });
     w.disarm();
     assert_eq!(w.state(), BoardState::Disarmed);
     assert_eq!(w.output(REQ), SAFE_CODES);
@@ -175,31 +169,16 @@ fn safe_is_latched_until_arm() {
 fn first_fault_reason_is_kept() {
     let mut w = Watchdog::new(3);
     w.arm();
-    let first = Fault {
-        reason: FaultReason::Overrun,
-        detail: 7,
-    };
+    let first = Fault { reason: FaultReason::Overrun, detail: 7 };
     w.fault(first);
-    w.fault(Fault {
-        reason: FaultReason::Operator,
-        detail: 1,
-    });
+    w.fault(Fault { reason: FaultReason::Operator, detail: 1 });
     for _ in 0..5 {
         assert_eq!(w.period_elapsed(), None);
     }
     assert_eq!(w.state(), BoardState::Safe(first));
     // A fault while disarmed also latches.
     let mut w = Watchdog::new(3);
-    w.fault(Fault {
-        reason: FaultReason::LinkDead,
-        detail: 0,
-    });
-    assert_eq!(
-        w.state(),
-        BoardState::Safe(Fault {
-            reason: FaultReason::LinkDead,
-            detail: 0
-        })
-    );
+    w.fault(Fault { reason: FaultReason::LinkDead, detail: 0 });
+    assert_eq!(w.state(), BoardState::Safe(Fault { reason: FaultReason::LinkDead, detail: 0 }));
     assert_eq!(w.output(REQ), SAFE_CODES);
 }

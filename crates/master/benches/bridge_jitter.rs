@@ -19,15 +19,22 @@ use inchworm_bridge::realtime::{enter_real_time, percentiles, Pacer, Percentiles
 use inchworm_bridge::transport::UdpTransport;
 
 fn line(name: &str, p: Percentiles, overruns: u64) {
-    println!("  {name:<34} p50 {:>7.1} µs   p99 {:>7.1} µs   max {:>8.1} µs   overruns {overruns}", p.p50, p.p99, p.max);
+    println!(
+        "  {name:<34} p50 {:>7.1} µs   p99 {:>7.1} µs   max {:>8.1} µs   overruns {overruns}",
+        p.p50, p.p99, p.max
+    );
 }
 
 fn main() {
-    let seconds: f64 = std::env::var("IW_BENCH_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60.0);
+    let seconds: f64 =
+        std::env::var("IW_BENCH_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60.0);
     let ticks = (seconds / 0.002).round() as u64;
     let dist = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist");
     let (plant, ctrl) = (dist.join("InchwormPlant.fmu"), dist.join("InchwormController.fmu"));
-    assert!(plant.is_file() && ctrl.is_file(), "build the FMUs first: cargo run --release -p fmu-build");
+    assert!(
+        plant.is_file() && ctrl.is_file(),
+        "build the FMUs first: cargo run --release -p fmu-build"
+    );
     let rt = enter_real_time(80);
     for w in &rt.warnings {
         println!("note: {w}");
@@ -57,7 +64,8 @@ fn main() {
             let mut udp = UdpTransport::bind("127.0.0.1:0").unwrap();
             tx.send(udp.local_addr().unwrap()).unwrap();
             let mech = FmuMechanism::load(&plant, &[]).unwrap();
-            let mut board = Board::new(mech, BoardConfig { lockstep, ..BoardConfig::default() }, None).unwrap();
+            let mut board =
+                Board::new(mech, BoardConfig { lockstep, ..BoardConfig::default() }, None).unwrap();
             let mut lateness = Vec::new();
             run_board(&mut board, &mut udp, &s, &mut lateness).unwrap();
             (lateness, board.counters.overruns, board.counters.steps)
@@ -68,7 +76,9 @@ fn main() {
     let mut udp = UdpTransport::connect(addr).unwrap();
     let mut comp = FmuCompensator::load(&ctrl, &[]).unwrap();
     let cfg = ControllerConfig { ticks, ..ControllerConfig::default() };
-    let report = run_controller(&mut comp, &mut udp, &|_| 100e-6, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let report =
+        run_controller(&mut comp, &mut udp, &|_| 100e-6, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
     stop.store(true, Ordering::Relaxed);
     let (board_lateness, board_overruns, board_steps) = handle.join().unwrap();
     assert!(report.fault.is_none(), "the real-time run faulted: {:?}", report.fault);
@@ -81,7 +91,8 @@ fn main() {
     let mut udp = UdpTransport::connect(addr).unwrap();
     let mut comp = FmuCompensator::load(&ctrl, &[]).unwrap();
     let cfg = ControllerConfig { ticks: 10_000, lockstep: true, ..ControllerConfig::default() };
-    let ls = run_controller(&mut comp, &mut udp, &|_| 100e-6, &cfg, None, &AtomicBool::new(false)).unwrap();
+    let ls = run_controller(&mut comp, &mut udp, &|_| 100e-6, &cfg, None, &AtomicBool::new(false))
+        .unwrap();
     stop.store(true, Ordering::Relaxed);
     handle.join().unwrap();
     let ls_rtt = percentiles(&ls.round_trip_us);
@@ -103,6 +114,10 @@ fn main() {
     println!("  lock-step (DAC frame → plant FMU step → encoder frame):          p50 {:.1} µs, p99 {:.1} µs ({} samples)", ls_rtt.p50, ls_rtt.p99, ls_rtt.count);
     println!(
         "link: {} frames, {} malformed, {} gaps, {} duplicates, {} stale",
-        report.counters.link.frames, report.counters.link.malformed, report.counters.link.gaps, report.counters.link.duplicates, report.counters.link.stale
+        report.counters.link.frames,
+        report.counters.link.malformed,
+        report.counters.link.gaps,
+        report.counters.link.duplicates,
+        report.counters.link.stale
     );
 }

@@ -38,12 +38,22 @@ fn main() {
     let master_final = *master.column("plant.encoder_counts").unwrap().last().unwrap() as i64;
 
     let t = Instant::now();
-    let d = direct(PlantParams::fia20(), Params { prefilter: true, ..Params::default() }, staircase_reference, DURATION).unwrap();
+    let d = direct(
+        PlantParams::fia20(),
+        Params { prefilter: true, ..Params::default() },
+        staircase_reference,
+        DURATION,
+    )
+    .unwrap();
     let direct_s = t.elapsed().as_secs_f64();
     let direct_final = *d.encoder_counts.last().unwrap();
 
     let python = root.join(".venv/bin/python");
-    let out = Command::new(&python).arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/fmpy_jacobi.py")).arg(&dist).arg(DURATION.to_string()).output();
+    let out = Command::new(&python)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/fmpy_jacobi.py"))
+        .arg(&dist)
+        .arg(DURATION.to_string())
+        .output();
     let fmpy = out.ok().filter(|o| o.status.success()).and_then(|o| {
         let s = String::from_utf8_lossy(&o.stdout).to_string();
         let f: Vec<f64> = s.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect();
@@ -59,7 +69,10 @@ fn main() {
             println!("ratio: the Rust master is {:.1}x faster than the FMPy loop", wall / master_s);
             assert_eq!(final_count, master_final, "FMPy and the Rust master disagree");
         }
-        None => println!("  FMPy Jacobi loop: not run ({} missing or failed; run scripts/setup.sh)", python.display()),
+        None => println!(
+            "  FMPy Jacobi loop: not run ({} missing or failed; run scripts/setup.sh)",
+            python.display()
+        ),
     }
     assert_eq!(master_final, direct_final, "the master and the direct coupling disagree");
 }

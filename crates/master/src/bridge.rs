@@ -13,7 +13,8 @@ fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsF
     let mut fmu = CsFmu::load(path, instance, false).map_err(|e| e.to_string())?;
     fmu.enter_initialization(None, 0.0, None).map_err(|e| e.to_string())?;
     for (name, value) in params {
-        set_param(&mut fmu, name, value).map_err(|e| format!("{}: parameter `{name}`: {e}", path.display()))?;
+        set_param(&mut fmu, name, value)
+            .map_err(|e| format!("{}: parameter `{name}`: {e}", path.display()))?;
     }
     fmu.exit_initialization().map_err(|e| e.to_string())?;
     Ok(fmu)
@@ -29,8 +30,11 @@ pub struct FmuMechanism {
 impl FmuMechanism {
     pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuMechanism, String> {
         let fmu = start(path, "plant", params)?;
-        let dac = fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).map_err(|e| e.to_string())?;
-        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
+        let dac = fmu
+            .vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)
+            .map_err(|e| e.to_string())?;
+        let encoder =
+            fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
         Ok(FmuMechanism { fmu, dac, encoder })
     }
 }
@@ -61,8 +65,14 @@ pub struct FmuCompensator {
 impl FmuCompensator {
     pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuCompensator, String> {
         let fmu = start(path, "controller", params)?;
-        let codes = fmu.vrs_of(&["dac_earth_code", "dac_nonearth_code", "dac_extension_code"], VarType::Integer).map_err(|e| e.to_string())?;
-        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
+        let codes = fmu
+            .vrs_of(
+                &["dac_earth_code", "dac_nonearth_code", "dac_extension_code"],
+                VarType::Integer,
+            )
+            .map_err(|e| e.to_string())?;
+        let encoder =
+            fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
         let reference = fmu.vrs_of(&["reference"], VarType::Real).map_err(|e| e.to_string())?;
         Ok(FmuCompensator { fmu, codes, encoder, reference })
     }
@@ -74,7 +84,8 @@ impl Compensator for FmuCompensator {
         self.fmu.get_integer(&self.codes, &mut c).map_err(|e| e.to_string())?;
         let mut out = [0u16; 3];
         for (o, v) in out.iter_mut().zip(c) {
-            *o = u16::try_from(v).map_err(|_| format!("the controller FMU gave DAC code {v}, outside 0–65535"))?;
+            *o = u16::try_from(v)
+                .map_err(|_| format!("the controller FMU gave DAC code {v}, outside 0–65535"))?;
         }
         Ok(out)
     }

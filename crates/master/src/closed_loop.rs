@@ -26,7 +26,12 @@ pub struct Trace {
     pub q_enc: f64,
 }
 
-pub fn run(plant: PlantParams, controller: Params, reference: impl Fn(f64) -> f64, duration: f64) -> Result<Trace, String> {
+pub fn run(
+    plant: PlantParams,
+    controller: Params,
+    reference: impl Fn(f64) -> f64,
+    duration: f64,
+) -> Result<Trace, String> {
     let q_enc = plant.q_enc;
     let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
     let mut ctrl = Controller::new(controller)?;
@@ -75,8 +80,19 @@ pub fn run_fmus(
         let vr = plant.vrs_of(&[name.as_str()], VarType::Real)?;
         plant.set_real(&vr, &[*value])?;
     }
-    let flags = ctrl.vrs_of(&["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"], VarType::Boolean)?;
-    ctrl.set_boolean(&flags, &[controller.feedforward, controller.prefilter, controller.use_scale_factor_estimate, controller.use_disturbance_estimate])?;
+    let flags = ctrl.vrs_of(
+        &["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"],
+        VarType::Boolean,
+    )?;
+    ctrl.set_boolean(
+        &flags,
+        &[
+            controller.feedforward,
+            controller.prefilter,
+            controller.use_scale_factor_estimate,
+            controller.use_disturbance_estimate,
+        ],
+    )?;
     let mut names = vec!["deadband".to_string(), "disturbance_start".to_string()];
     names.extend((1..=10).map(|i| format!("scale_weights_start[{i}]")));
     names.extend((1..=10).map(|i| format!("basis_peak[{i}]")));
@@ -104,7 +120,8 @@ pub fn run_fmus(
 
     let n = (duration / h).round() as usize;
     let mut tr = Trace { q_enc: 1.2e-9, ..Trace::default() };
-    let (mut enc, mut dac, mut runner, mut out, mut steps) = ([0i32], [0.0; 3], [0.0], [0.0; 2], [0i32]);
+    let (mut enc, mut dac, mut runner, mut out, mut steps) =
+        ([0i32], [0.0; 3], [0.0], [0.0; 2], [0i32]);
     let mut previous_steps = None;
     for k in 0..n {
         let t = k as f64 * h;
@@ -149,7 +166,16 @@ impl Trace {
             writeln!(
                 w,
                 "{},{:e},{},{:e},{},{},{},{:e},{},{}",
-                self.time[i], self.reference[i], self.encoder_counts[i], self.runner_position[i], d[0], d[1], d[2], self.disturbance_estimate[i], self.n_steps[i], self.fraction[i]
+                self.time[i],
+                self.reference[i],
+                self.encoder_counts[i],
+                self.runner_position[i],
+                d[0],
+                d[1],
+                d[2],
+                self.disturbance_estimate[i],
+                self.n_steps[i],
+                self.fraction[i]
             )?;
         }
         Ok(())
@@ -158,7 +184,9 @@ impl Trace {
     /// Indices of the parked samples (SPEC 4.1): all three DAC outputs zero for the
     /// previous 8 samples.
     pub fn parked(&self) -> Vec<usize> {
-        (8..self.time.len()).filter(|&i| self.dac[i - 7..=i].iter().all(|d| d.iter().all(|v| *v == 0.0))).collect()
+        (8..self.time.len())
+            .filter(|&i| self.dac[i - 7..=i].iter().all(|d| d.iter().all(|v| *v == 0.0)))
+            .collect()
     }
 
     /// Position error (m) of sample `i`: reference − encoder position.
@@ -179,7 +207,12 @@ impl Trace {
 
     /// RMS error of the parked samples in `[from, to)` s.
     pub fn parked_rms(&self, from: f64, to: f64) -> f64 {
-        let e: Vec<f64> = self.parked().into_iter().filter(|&i| self.time[i] >= from && self.time[i] < to).map(|i| self.error(i)).collect();
+        let e: Vec<f64> = self
+            .parked()
+            .into_iter()
+            .filter(|&i| self.time[i] >= from && self.time[i] < to)
+            .map(|i| self.error(i))
+            .collect();
         (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
     }
 }

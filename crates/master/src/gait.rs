@@ -5,8 +5,8 @@
 //! tables and the measurements are the controller crate's, so the CLI and the controller
 //! can never disagree about them.
 
-use inchworm_controller::gait::Timing;
 pub use inchworm_controller::gait::Direction;
+use inchworm_controller::gait::Timing;
 pub use inchworm_controller::measurements::Raw as RawMeasurements;
 
 /// Controller sample period `T_s` (s), SPEC 3.1.
@@ -26,11 +26,7 @@ pub struct Dac {
 
 impl Dac {
     /// All channels at 0 V: the parked (idle) sample.
-    pub const IDLE: Dac = Dac {
-        earth: 0.0,
-        nonearth: 0.0,
-        extension: 0.0,
-    };
+    pub const IDLE: Dac = Dac { earth: 0.0, nonearth: 0.0, extension: 0.0 };
 }
 
 /// One step of the gait with amplitude `y` in [−1, 1] (a full step is ±1).
@@ -69,8 +65,12 @@ impl Step {
 
     /// DAC volts held during 1-based sample `k` of this step (SPEC 3.2, unquantized).
     pub fn dac(&self, k: usize) -> Dac {
-        assert!((1..=SAMPLES_PER_STEP).contains(&k), "sample {k} is outside 1..={SAMPLES_PER_STEP}");
-        let [earth, nonearth, extension] = Timing::new(SAMPLES_PER_STEP).volts(self.direction(), self.amplitude, k);
+        assert!(
+            (1..=SAMPLES_PER_STEP).contains(&k),
+            "sample {k} is outside 1..={SAMPLES_PER_STEP}"
+        );
+        let [earth, nonearth, extension] =
+            Timing::new(SAMPLES_PER_STEP).volts(self.direction(), self.amplitude, k);
         Dac { earth, nonearth, extension }
     }
 
@@ -89,7 +89,12 @@ pub fn raw_measurements(step: &Step, enc: &[f64]) -> RawMeasurements {
         "raw_measurements needs the {SAMPLES_PER_STEP} samples of one step"
     );
     let ext: Vec<f64> = (1..=SAMPLES_PER_STEP).map(|k| step.extension_fraction(k)).collect();
-    inchworm_controller::measurements::raw(&Timing::new(SAMPLES_PER_STEP), step.direction(), enc, &ext)
+    inchworm_controller::measurements::raw(
+        &Timing::new(SAMPLES_PER_STEP),
+        step.direction(),
+        enc,
+        &ext,
+    )
 }
 
 /// SPEC 2.9: the five step amplitudes of the check run (fia20, from rest).
@@ -106,31 +111,11 @@ pub struct CheckValues {
 /// SPEC 2.9: the independent reference integration's raw measurements, one per step of
 /// [`CHECK_AMPLITUDES`].
 pub const CHECK_VALUES: [CheckValues; 5] = [
-    CheckValues {
-        ext_moved_um: 18.210,
-        bd_um: 4.685,
-        position_after_um: 22.895,
-    },
-    CheckValues {
-        ext_moved_um: 19.383,
-        bd_um: 4.853,
-        position_after_um: 47.130,
-    },
-    CheckValues {
-        ext_moved_um: -19.342,
-        bd_um: 3.902,
-        position_after_um: 31.691,
-    },
-    CheckValues {
-        ext_moved_um: 6.633,
-        bd_um: 4.687,
-        position_after_um: 43.010,
-    },
-    CheckValues {
-        ext_moved_um: -6.690,
-        bd_um: 4.244,
-        position_after_um: 40.565,
-    },
+    CheckValues { ext_moved_um: 18.210, bd_um: 4.685, position_after_um: 22.895 },
+    CheckValues { ext_moved_um: 19.383, bd_um: 4.853, position_after_um: 47.130 },
+    CheckValues { ext_moved_um: -19.342, bd_um: 3.902, position_after_um: 31.691 },
+    CheckValues { ext_moved_um: 6.633, bd_um: 4.687, position_after_um: 43.010 },
+    CheckValues { ext_moved_um: -6.690, bd_um: 4.244, position_after_um: 40.565 },
 ];
 
 /// SPEC 2.9: a correct plant matches every check value within this (µm).
@@ -179,17 +164,11 @@ mod tests {
             .skip(1)
             .map(|l| l.split(',').take(4).map(|f| f.parse().unwrap()).collect())
             .collect();
-        let dacs: Vec<Dac> = check_sequence(1)
-            .iter()
-            .flat_map(|s| s.samples().collect::<Vec<_>>())
-            .collect();
+        let dacs: Vec<Dac> =
+            check_sequence(1).iter().flat_map(|s| s.samples().collect::<Vec<_>>()).collect();
         assert_eq!(rows.len(), dacs.len());
         for (k, (r, d)) in rows.iter().zip(&dacs).enumerate() {
-            assert!(
-                (r[0] - k as f64 * SAMPLE_PERIOD_S).abs() < 1e-9,
-                "row {k}: time {}",
-                r[0]
-            );
+            assert!((r[0] - k as f64 * SAMPLE_PERIOD_S).abs() < 1e-9, "row {k}: time {}", r[0]);
             for (name, want, got) in [
                 ("dac_earth", r[1], d.earth),
                 ("dac_nonearth", r[2], d.nonearth),

@@ -248,13 +248,18 @@ fn main() -> ExitCode {
 
 fn run_stall(args: &ScenarioArgs) -> Result<(), String> {
     plot::load_font(&args.font)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
     let gammas = [0.0, 10.0];
     let runs = inchworm::scenario::open_loop_slew(&gammas, 200);
     println!("Fig. 11: open-loop slew of 200 full forward steps (plant crate, fia20)");
     let mut names = Vec::new();
     for (g, r) in gammas.iter().zip(&runs) {
-        let per_step = |s: usize| (r.encoder_counts[(s + 1) * 100 - 1] - if s == 0 { 0 } else { r.encoder_counts[s * 100 - 1] }) as f64 * 1.2e-3;
+        let per_step = |s: usize| {
+            (r.encoder_counts[(s + 1) * 100 - 1]
+                - if s == 0 { 0 } else { r.encoder_counts[s * 100 - 1] }) as f64
+                * 1.2e-3
+        };
         println!(
             "  gamma = {g:>4}: first step {:.2} µm, step 100 {:.2} µm, step 200 {:.2} µm, final position {:.1} µm",
             per_step(0),
@@ -265,14 +270,21 @@ fn run_stall(args: &ScenarioArgs) -> Result<(), String> {
         let path = args.out.join(format!("stall_gamma_{g}.csv"));
         let f = std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut w = std::io::BufWriter::new(f);
-        r.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", path.display()))?;
+        r.write_csv(&mut w)
+            .and_then(|_| std::io::Write::flush(&mut w))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         println!("wrote {}", path.display());
         names.push(format!("gamma = {g}"));
     }
     let png = args.out.join("stall.png");
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    plot::closed_loop_png("Fig. 11: open-loop slews stall when the brake disturbance falls with the environment load", &names, &runs, &png)
-        .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    plot::closed_loop_png(
+        "Fig. 11: open-loop slews stall when the brake disturbance falls with the environment load",
+        &names,
+        &runs,
+        &png,
+    )
+    .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
     println!("wrote {}", png.display());
     Ok(())
 }
@@ -281,36 +293,53 @@ fn run_scenario(args: &ScenarioArgs) -> Result<(), String> {
     if args.name == "stall" {
         return run_stall(args);
     }
-    let s = inchworm::scenario::by_name(&args.name)
-        .ok_or_else(|| format!("unknown scenario `{}`; known: {}", args.name, inchworm::scenario::NAMES.join(", ")))?;
+    let s = inchworm::scenario::by_name(&args.name).ok_or_else(|| {
+        format!("unknown scenario `{}`; known: {}", args.name, inchworm::scenario::NAMES.join(", "))
+    })?;
     plot::load_font(&args.font)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .map_err(|e| format!("{}: cannot create the output directory: {e}", args.out.display()))?;
     let wall = Instant::now();
     let runs = inchworm::scenario::run_scenario(&s, (!args.direct).then_some(args.dist.as_path()))?;
     let wall = wall.elapsed().as_secs_f64();
-    let via = if args.direct { "plant and controller crates coupled directly" } else { "InchwormPlant.fmu + InchwormController.fmu, Jacobi 2 ms" };
+    let via = if args.direct {
+        "plant and controller crates coupled directly"
+    } else {
+        "InchwormPlant.fmu + InchwormController.fmu, Jacobi 2 ms"
+    };
     println!("{} ({via})", s.title);
     let mut written = Vec::new();
     for (v, r) in s.variants.iter().zip(&runs) {
-        let settle = r.settle_time(1e-6).map_or("does not settle within 1 µm".into(), |t| format!("settles within 1 µm at {t:.3} s"));
-        let rms: Vec<String> = s.regulation.iter().map(|&(a, b)| format!("{:.3}", r.parked_rms(a, b) * 1e9)).collect();
+        let settle = r.settle_time(1e-6).map_or("does not settle within 1 µm".into(), |t| {
+            format!("settles within 1 µm at {t:.3} s")
+        });
+        let rms: Vec<String> =
+            s.regulation.iter().map(|&(a, b)| format!("{:.3}", r.parked_rms(a, b) * 1e9)).collect();
         println!(
             "  {:<26} {settle}; parked RMS in regulation {} nm; final disturbance estimate {:.3} µm",
             v.name,
             rms.join(" / "),
             r.disturbance_estimate.last().copied().unwrap_or(0.0) * 1e6
         );
-        let slug: String = v.name.split(|c: char| !c.is_alphanumeric()).filter(|w| !w.is_empty()).collect::<Vec<_>>().join("_");
+        let slug: String = v
+            .name
+            .split(|c: char| !c.is_alphanumeric())
+            .filter(|w| !w.is_empty())
+            .collect::<Vec<_>>()
+            .join("_");
         let file = format!("{}_{slug}.csv", s.name);
         let path = args.out.join(file);
         let f = std::fs::File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut w = std::io::BufWriter::new(f);
-        r.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", path.display()))?;
+        r.write_csv(&mut w)
+            .and_then(|_| std::io::Write::flush(&mut w))
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         written.push(path);
     }
     let png = args.out.join(format!("{}.png", s.name));
     let names: Vec<&str> = s.variants.iter().map(|v| v.name).collect();
-    plot::closed_loop_png(s.title, &names, &runs, &png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    plot::closed_loop_png(s.title, &names, &runs, &png)
+        .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
     written.push(png);
     let sim: f64 = s.duration * runs.len() as f64;
     println!("{sim:.0} s simulated in {wall:.2} s ({:.0}x real time)", sim / wall);
@@ -324,7 +353,12 @@ fn run_file(args: &RunArgs) -> Result<(), String> {
     use inchworm::master::{Coupling, InputTable, Options};
     use std::io::IsTerminal;
     let input = match &args.input {
-        Some(p) => Some(InputTable::parse(&std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?).map_err(|e| format!("{}: {e}", p.display()))?),
+        Some(p) => Some(
+            InputTable::parse(
+                &std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?,
+            )
+            .map_err(|e| format!("{}: {e}", p.display()))?,
+        ),
         None => None,
     };
     let params = parse_params(&args.params)?;
@@ -359,21 +393,33 @@ fn run_file(args: &RunArgs) -> Result<(), String> {
     }
     let f = std::fs::File::create(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let mut w = std::io::BufWriter::new(f);
-    results.write_csv(&mut w).and_then(|_| std::io::Write::flush(&mut w)).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    results
+        .write_csv(&mut w)
+        .and_then(|_| std::io::Write::flush(&mut w))
+        .map_err(|e| format!("{}: {e}", args.out.display()))?;
     if let Some(png) = &args.plot {
         plot::load_font(&args.font)?;
         let title = format!("inchworm run {}", args.file.display());
-        plot::results_png(&title, &results, png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+        plot::results_png(&title, &results, png)
+            .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
         println!("wrote {}", png.display());
     }
     let end = results.rows.last().map_or(0.0, |r| r.0);
-    println!("{end} s simulated in {wall:.3} s ({:.0}x real time); wrote {} ({} variables, {} rows)", end / wall, args.out.display(), results.names.len(), results.rows.len());
+    println!(
+        "{end} s simulated in {wall:.3} s ({:.0}x real time); wrote {} ({} variables, {} rows)",
+        end / wall,
+        args.out.display(),
+        results.names.len(),
+        results.rows.len()
+    );
     Ok(())
 }
 
 fn load_plant(path: &Path, logging: bool) -> Result<Plant, String> {
     let fmu = CsFmu::load(path, "plant", logging).map_err(|e| match e {
-        FmuError::Missing(_) => format!("{e}: build it first with `cargo run --release -p fmu-build`"),
+        FmuError::Missing(_) => {
+            format!("{e}: build it first with `cargo run --release -p fmu-build`")
+        }
         e => e.to_string(),
     })?;
     Plant::new(fmu).map_err(|e| e.to_string())
@@ -393,13 +439,15 @@ fn run_gait(args: &GaitArgs) -> Result<(), String> {
     plant.terminate().map_err(|e| e.to_string())?;
 
     let csv_path = args.out.join("gait.csv");
-    let file = std::fs::File::create(&csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    let file =
+        std::fs::File::create(&csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
     let mut w = std::io::BufWriter::new(file);
     run.write_csv(&mut w)
         .and_then(|_| std::io::Write::flush(&mut w))
         .map_err(|e| format!("{}: {e}", csv_path.display()))?;
     let png_path = args.out.join("gait.png");
-    plot::gait_png(&run, &png_path).map_err(|e| format!("{}: cannot draw the plot: {e}", png_path.display()))?;
+    plot::gait_png(&run, &png_path)
+        .map_err(|e| format!("{}: cannot draw the plot: {e}", png_path.display()))?;
 
     print_measurements(&run);
     let last = run.samples.last().expect("a run has at least its initial point");
@@ -499,14 +547,26 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     }
     let params = parse_params(&args.params)?;
     let board_role = args.role == RoleArg::Board;
-    let fmu = args.fmu.clone().unwrap_or_else(|| PathBuf::from(if board_role { "dist/InchwormPlant.fmu" } else { "dist/InchwormController.fmu" }));
+    let fmu = args.fmu.clone().unwrap_or_else(|| {
+        PathBuf::from(if board_role {
+            "dist/InchwormPlant.fmu"
+        } else {
+            "dist/InchwormController.fmu"
+        })
+    });
     let mut transport: Box<dyn Transport> = match &args.serial {
         Some(path) => {
             let f = open_serial(path, args.baud).map_err(|e| format!("{}: {e}", path.display()))?;
             Box::new(CobsTransport::new(f))
         }
-        None if board_role => Box::new(UdpTransport::bind(&args.addr).map_err(|e| format!("cannot listen on {}: {e}", args.addr))?),
-        None => Box::new(UdpTransport::connect(&args.addr).map_err(|e| format!("board address {}: {e}", args.addr))?),
+        None if board_role => Box::new(
+            UdpTransport::bind(&args.addr)
+                .map_err(|e| format!("cannot listen on {}: {e}", args.addr))?,
+        ),
+        None => Box::new(
+            UdpTransport::connect(&args.addr)
+                .map_err(|e| format!("board address {}: {e}", args.addr))?,
+        ),
     };
     let mut log = match &args.log {
         Some(p) => {
@@ -527,10 +587,19 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
 
     if board_role {
         let mechanism = inchworm::bridge::FmuMechanism::load(&fmu, &params)?;
-        let cfg = BoardConfig { lockstep: args.lockstep, watchdog_periods: args.watchdog.max(1), overrun: args.overrun, ..BoardConfig::default() };
+        let cfg = BoardConfig {
+            lockstep: args.lockstep,
+            watchdog_periods: args.watchdog.max(1),
+            overrun: args.overrun,
+            ..BoardConfig::default()
+        };
         let mut board = Board::new(mechanism, cfg, log.take())?;
         let where_ = args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string());
-        println!("virtual board: {} on {where_} ({mode}, watchdog {} periods); Ctrl-C stops", fmu.display(), cfg.watchdog_periods);
+        println!(
+            "virtual board: {} on {where_} ({mode}, watchdog {} periods); Ctrl-C stops",
+            fmu.display(),
+            cfg.watchdog_periods
+        );
         if let Some(d) = args.duration {
             std::thread::spawn(move || {
                 std::thread::sleep(std::time::Duration::from_secs_f64(d.max(0.0)));
@@ -545,11 +614,19 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
             c.steps, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.unarmed, c.overruns, board.state()
         );
         for l in &board.latches {
-            println!("safe state at tick {} ({} periods after the last valid frame): {}", l.tick, l.tick.wrapping_sub(l.last_valid_tick), inchworm_bridge::describe_fault(&l.fault));
+            println!(
+                "safe state at tick {} ({} periods after the last valid frame): {}",
+                l.tick,
+                l.tick.wrapping_sub(l.last_valid_tick),
+                inchworm_bridge::describe_fault(&l.fault)
+            );
         }
         if !lateness.is_empty() {
             let p = percentiles(&lateness);
-            println!("wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs", p.p50, p.p99, p.max);
+            println!(
+                "wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+                p.p50, p.p99, p.max
+            );
         }
         return result.map_err(|e| format!("board: {e}"));
     }
@@ -560,8 +637,15 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     }
     let table = match &args.reference {
         Some(p) => {
-            let t = inchworm::master::InputTable::parse(&std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?).map_err(|e| format!("{}: {e}", p.display()))?;
-            let col = t.names.iter().position(|n| n == "reference").ok_or_else(|| format!("{}: no `reference` column", p.display()))?;
+            let t = inchworm::master::InputTable::parse(
+                &std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?,
+            )
+            .map_err(|e| format!("{}: {e}", p.display()))?;
+            let col = t
+                .names
+                .iter()
+                .position(|n| n == "reference")
+                .ok_or_else(|| format!("{}: no `reference` column", p.display()))?;
             Some((t, col))
         }
         None => None,
@@ -569,7 +653,11 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
     let mut comp = inchworm::bridge::FmuCompensator::load(&fmu, &params)?;
     if let Some(l) = log.as_mut() {
-        let mut meta = format!("role=controller\nfmu={}\nlockstep={}\nduration={duration}\n", fmu.display(), args.lockstep);
+        let mut meta = format!(
+            "role=controller\nfmu={}\nlockstep={}\nduration={duration}\n",
+            fmu.display(),
+            args.lockstep
+        );
         for (n, v) in &params {
             meta.push_str(&format!("param={n}={v}\n"));
         }
@@ -583,7 +671,11 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
         overrun: args.overrun,
         ..ControllerConfig::default()
     };
-    println!("controller bridge: {} → board at {} ({mode}), {duration} s", fmu.display(), args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string()));
+    println!(
+        "controller bridge: {} → board at {} ({mode}), {duration} s",
+        fmu.display(),
+        args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string())
+    );
     let wall = Instant::now();
     let report = run_controller(&mut comp, &mut transport, &reference, &cfg, log.as_mut(), &STOP)?;
     let wall = wall.elapsed().as_secs_f64();
@@ -594,7 +686,11 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     );
     if let Some(&last) = report.encoder.last() {
         let t = report.ticks as f64 * inchworm_bridge::PERIOD.as_secs_f64();
-        println!("final encoder {last} counts ({:.3} µm; reference {:.3} µm)", f64::from(last) * 1.2e-3, reference(t) * 1e6);
+        println!(
+            "final encoder {last} counts ({:.3} µm; reference {:.3} µm)",
+            f64::from(last) * 1.2e-3,
+            reference(t) * 1e6
+        );
     }
     if !report.lateness_us.is_empty() {
         let p = percentiles(&report.lateness_us);
@@ -602,12 +698,18 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
     }
     if !report.round_trip_us.is_empty() {
         let p = percentiles(&report.round_trip_us);
-        println!("round trip (DAC frame → encoder frame echoing it): p50 {:.1} µs, p99 {:.1} µs", p.p50, p.p99);
+        println!(
+            "round trip (DAC frame → encoder frame echoing it): p50 {:.1} µs, p99 {:.1} µs",
+            p.p50, p.p99
+        );
     }
     if let Some(path) = &args.out {
         let mut csv = String::from("time,encoder_counts\n");
         for (k, c) in report.encoder.iter().enumerate() {
-            csv.push_str(&format!("{},{c}\n", (k + 1) as f64 * inchworm_bridge::PERIOD.as_secs_f64()));
+            csv.push_str(&format!(
+                "{},{c}\n",
+                (k + 1) as f64 * inchworm_bridge::PERIOD.as_secs_f64()
+            ));
         }
         std::fs::write(path, csv).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("wrote {}", path.display());
@@ -621,7 +723,11 @@ fn run_bridge(args: &BridgeArgs) -> Result<(), String> {
 fn parse_params(params: &[String]) -> Result<Vec<(String, String)>, String> {
     params
         .iter()
-        .map(|p| p.split_once('=').map(|(a, b)| (a.to_string(), b.to_string())).ok_or_else(|| format!("--param {p}: expected NAME=VALUE")))
+        .map(|p| {
+            p.split_once('=')
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .ok_or_else(|| format!("--param {p}: expected NAME=VALUE"))
+        })
         .collect()
 }
 
@@ -632,9 +738,17 @@ fn run_replay(args: &ReplayArgs) -> Result<(), String> {
     if let Some(at) = log.truncated_at {
         eprintln!("warning: {}: the log ends inside a record at byte {at} (the writer stopped mid-write); replaying what is whole", args.log.display());
     }
-    let meta = log.records.iter().find_map(|r| if let Record::Meta(m) = r { Some(m.clone()) } else { None }).unwrap_or_default();
+    let meta = log
+        .records
+        .iter()
+        .find_map(|r| if let Record::Meta(m) = r { Some(m.clone()) } else { None })
+        .unwrap_or_default();
     if !meta.contains("role=controller") {
-        return Err(format!("{}: not a controller-side log (its meta says: {})", args.log.display(), meta.lines().next().unwrap_or("nothing")));
+        return Err(format!(
+            "{}: not a controller-side log (its meta says: {})",
+            args.log.display(),
+            meta.lines().next().unwrap_or("nothing")
+        ));
     }
     let samples = controller_samples(&log.records);
     if samples.is_empty() {
@@ -644,7 +758,13 @@ fn run_replay(args: &ReplayArgs) -> Result<(), String> {
     let mut comp = inchworm::bridge::FmuCompensator::load(&args.fmu, &params)?;
     let r = replay(&mut comp, &samples)?;
     let events = log.records.iter().filter(|r| matches!(r, Record::Event { .. })).count();
-    println!("replayed {} samples ({} events, {} discontinuities) with {}", r.samples, events, r.discontinuities, args.fmu.display());
+    println!(
+        "replayed {} samples ({} events, {} discontinuities) with {}",
+        r.samples,
+        events,
+        r.discontinuities,
+        args.fmu.display()
+    );
     match r.first {
         None => {
             println!("no divergence: every tick's DAC codes are the logged ones");

@@ -41,7 +41,8 @@ impl InputTable {
     pub fn parse(text: &str) -> Result<InputTable, String> {
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = lines.next().ok_or("input CSV is empty")?;
-        let cols: Vec<String> = header.split(',').map(|c| c.trim().trim_matches('"').to_string()).collect();
+        let cols: Vec<String> =
+            header.split(',').map(|c| c.trim().trim_matches('"').to_string()).collect();
         if cols.first().map(String::as_str) != Some("time") || cols.len() < 2 {
             return Err(format!("input CSV header must be `time,<name>,…`, got `{header}`"));
         }
@@ -50,7 +51,11 @@ impl InputTable {
             let v: Result<Vec<f64>, _> = l.split(',').map(|x| x.trim().parse::<f64>()).collect();
             let v = v.map_err(|_| format!("input CSV line {}: not all numbers: `{l}`", i + 2))?;
             if v.len() != cols.len() || v.iter().any(|x| !x.is_finite()) {
-                return Err(format!("input CSV line {}: expected {} finite numbers, got `{l}`", i + 2, cols.len()));
+                return Err(format!(
+                    "input CSV line {}: expected {} finite numbers, got `{l}`",
+                    i + 2,
+                    cols.len()
+                ));
             }
             if rows.last().is_some_and(|(t, _): &(f64, Vec<f64>)| v[0] < *t) {
                 return Err(format!("input CSV line {}: time goes backwards", i + 2));
@@ -187,14 +192,24 @@ impl Batches {
         let mut groups: Vec<Group> = Vec::new();
         for (slot, p) in ports.iter().enumerate() {
             let ty = match p.ty {
-                VarType::String => return Err("String variables cannot be connected or recorded".into()),
+                VarType::String => {
+                    return Err("String variables cannot be connected or recorded".into())
+                }
                 VarType::Enumeration => VarType::Integer,
                 t => t,
             };
             let g = match groups.iter().position(|g| g.component == p.component && g.ty == ty) {
                 Some(i) => &mut groups[i],
                 None => {
-                    groups.push(Group { component: p.component, ty, vrs: vec![], slots: vec![], reals: vec![], integers: vec![], booleans: vec![] });
+                    groups.push(Group {
+                        component: p.component,
+                        ty,
+                        vrs: vec![],
+                        slots: vec![],
+                        reals: vec![],
+                        integers: vec![],
+                        booleans: vec![],
+                    });
                     groups.last_mut().expect("just pushed")
                 }
             };
@@ -207,7 +222,12 @@ impl Batches {
         Ok(Batches { groups })
     }
 
-    fn read(&mut self, components: &mut [Component], out: &mut [f64], only: Option<usize>) -> Result<(), String> {
+    fn read(
+        &mut self,
+        components: &mut [Component],
+        out: &mut [f64],
+        only: Option<usize>,
+    ) -> Result<(), String> {
         for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
             let f = &mut components[g.component].fmu;
             match g.ty {
@@ -217,7 +237,10 @@ impl Batches {
                 }
                 VarType::Boolean => {
                     f.get_boolean(&g.vrs, &mut g.booleans).map_err(err)?;
-                    g.slots.iter().zip(&g.booleans).for_each(|(&s, &v)| out[s] = f64::from(u8::from(v)));
+                    g.slots
+                        .iter()
+                        .zip(&g.booleans)
+                        .for_each(|(&s, &v)| out[s] = f64::from(u8::from(v)));
                 }
                 _ => {
                     f.get_integer(&g.vrs, &mut g.integers).map_err(err)?;
@@ -228,7 +251,12 @@ impl Batches {
         Ok(())
     }
 
-    fn write(&mut self, components: &mut [Component], values: &[f64], only: Option<usize>) -> Result<(), String> {
+    fn write(
+        &mut self,
+        components: &mut [Component],
+        values: &[f64],
+        only: Option<usize>,
+    ) -> Result<(), String> {
         for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
             let f = &mut components[g.component].fmu;
             match g.ty {
@@ -241,7 +269,10 @@ impl Batches {
                     f.set_boolean(&g.vrs, &g.booleans).map_err(err)?;
                 }
                 _ => {
-                    g.slots.iter().zip(&mut g.integers).for_each(|(&s, v)| *v = values[s].round() as i32);
+                    g.slots
+                        .iter()
+                        .zip(&mut g.integers)
+                        .for_each(|(&s, v)| *v = values[s].round() as i32);
                     f.set_integer(&g.vrs, &g.integers).map_err(err)?;
                 }
             }
@@ -261,7 +292,8 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     let (stop, step) = match &archive {
         Some(a) => {
             for c in &a.system.components {
-                let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false).map_err(|e| format!("component {}: {e}", c.name))?;
+                let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false)
+                    .map_err(|e| format!("component {}: {e}", c.name))?;
                 components.push(Component { name: c.name.clone(), fmu });
             }
             for (name, kind) in &a.system.connectors {
@@ -281,10 +313,16 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
             system_outputs = fmu.names_with_causality("output");
             // A single FMU is a system whose connectors are the FMU's own.
             for n in &system_inputs {
-                connections.push((End { element: None, connector: n.clone() }, End { element: Some("fmu".into()), connector: n.clone() }));
+                connections.push((
+                    End { element: None, connector: n.clone() },
+                    End { element: Some("fmu".into()), connector: n.clone() },
+                ));
             }
             for n in &system_outputs {
-                connections.push((End { element: Some("fmu".into()), connector: n.clone() }, End { element: None, connector: n.clone() }));
+                connections.push((
+                    End { element: Some("fmu".into()), connector: n.clone() },
+                    End { element: None, connector: n.clone() },
+                ));
             }
             components.push(Component { name: "fmu".into(), fmu });
             (None, step)
@@ -297,7 +335,10 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     }
 
     let port = |components: &[Component], element: &str, connector: &str| -> Result<Port, String> {
-        let i = components.iter().position(|c| c.name == element).ok_or_else(|| format!("no component named `{element}`"))?;
+        let i = components
+            .iter()
+            .position(|c| c.name == element)
+            .ok_or_else(|| format!("no component named `{element}`"))?;
         let v = components[i].fmu.var(connector).map_err(err)?;
         Ok(Port { component: i, vr: v.vr, ty: v.ty })
     };
@@ -306,7 +347,9 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
         if archive.is_none() {
             return port(components, "fmu", name);
         }
-        let (el, var) = name.split_once('.').ok_or_else(|| format!("`{name}`: name a component variable as component.variable"))?;
+        let (el, var) = name
+            .split_once('.')
+            .ok_or_else(|| format!("`{name}`: name a component variable as component.variable"))?;
         port(components, el, var)
     };
 
@@ -316,16 +359,23 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     for (a, b) in &connections {
         let source = match &a.element {
             Some(e) => Source::Output(port(&components, e, &a.connector)?),
-            None => Source::Input(
-                system_inputs.iter().position(|n| *n == a.connector).ok_or_else(|| format!("connection starts at unknown system connector `{}`", a.connector))?,
-            ),
+            None => {
+                Source::Input(system_inputs.iter().position(|n| *n == a.connector).ok_or_else(
+                    || format!("connection starts at unknown system connector `{}`", a.connector),
+                )?)
+            }
         };
         match (&b.element, source) {
             (Some(e), s) => wiring.push((port(&components, e, &b.connector)?, s)),
             (None, Source::Output(p)) => {
                 system_output_ports.insert(b.connector.clone(), p);
             }
-            (None, Source::Input(_)) => return Err(format!("connection from a system input straight to system output `{}`", b.connector)),
+            (None, Source::Input(_)) => {
+                return Err(format!(
+                    "connection from a system input straight to system output `{}`",
+                    b.connector
+                ))
+            }
         }
     }
     let input_columns: Vec<Option<usize>> = system_inputs
@@ -335,12 +385,16 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     if let Some(t) = &opts.input {
         for n in &t.names {
             if !system_inputs.contains(n) {
-                return Err(format!("input CSV column `{n}` is not an input of the system (inputs: {})", system_inputs.join(", ")));
+                return Err(format!(
+                    "input CSV column `{n}` is not an input of the system (inputs: {})",
+                    system_inputs.join(", ")
+                ));
             }
         }
     }
 
-    let record_names: Vec<String> = if opts.outputs.is_empty() { system_outputs.clone() } else { opts.outputs.clone() };
+    let record_names: Vec<String> =
+        if opts.outputs.is_empty() { system_outputs.clone() } else { opts.outputs.clone() };
     let mut record: Vec<Port> = Vec::new();
     for n in &record_names {
         match system_output_ports.get(n) {
@@ -367,17 +421,22 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
         c.fmu.exit_initialization().map_err(err)?;
     }
 
-    let input_value = |k: usize, t: f64| -> f64 { input_columns[k].map_or(0.0, |col| opts.input.as_ref().expect("has columns").value(col, t)) };
+    let input_value = |k: usize, t: f64| -> f64 {
+        input_columns[k].map_or(0.0, |col| opts.input.as_ref().expect("has columns").value(col, t))
+    };
     // The component outputs that feed inputs, each read once per step into `latest`.
     let mut sources: Vec<Port> = Vec::new();
     let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); components.len()];
     for (dst, src) in &wiring {
         let feed = match src {
             Source::Output(p) => {
-                let i = sources.iter().position(|q| q.component == p.component && q.vr == p.vr).unwrap_or_else(|| {
-                    sources.push(*p);
-                    sources.len() - 1
-                });
+                let i = sources
+                    .iter()
+                    .position(|q| q.component == p.component && q.vr == p.vr)
+                    .unwrap_or_else(|| {
+                        sources.push(*p);
+                        sources.len() - 1
+                    });
                 Feed::Latest(i)
             }
             Source::Input(i) => Feed::SystemInput(*i),
@@ -388,7 +447,8 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     let mut source_batches = Batches::new(&sources)?;
     let mut record_batches = Batches::new(&record)?;
     let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
-    let mut destination_batches = Batches::new(&destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>())?;
+    let mut destination_batches =
+        Batches::new(&destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>())?;
     let mut values = vec![0.0; destinations.len()];
     source_batches.read(&mut components, &mut latest, None)?;
     let n_steps = (stop / h).round().max(1.0) as u64;
@@ -402,7 +462,10 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     rows.push((0.0, sample(&mut components)?));
     for k in 0..n_steps {
         let t = k as f64 * h;
-        let mut feed = |only: Option<usize>, components: &mut [Component], latest: &[f64]| -> Result<(), String> {
+        let mut feed = |only: Option<usize>,
+                        components: &mut [Component],
+                        latest: &[f64]|
+         -> Result<(), String> {
             for (v, (dst, feed)) in values.iter_mut().zip(&destinations) {
                 if only.is_none_or(|c| c == dst.component) {
                     *v = match feed {

@@ -69,13 +69,7 @@ impl Plant {
         fmu.enter_initialization(None, 0.0, None)?;
         fmu.exit_initialization()?;
         let q_enc = fmu.real("q_enc")?;
-        Ok(Self {
-            fmu,
-            inputs,
-            reals,
-            integers,
-            q_enc,
-        })
+        Ok(Self { fmu, inputs, reals, integers, q_enc })
     }
 
     pub fn time(&self) -> f64 {
@@ -102,8 +96,7 @@ impl Plant {
 
     /// Holds `dac` over one controller sample (one 2 ms `fmi2DoStep`).
     pub fn step(&mut self, dac: Dac) -> Result<(), FmuError> {
-        self.fmu
-            .set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])?;
+        self.fmu.set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])?;
         self.fmu.do_step(SAMPLE_PERIOD_S)
     }
 
@@ -137,25 +130,13 @@ impl GaitRun {
         let mut samples = Vec::with_capacity(dacs.len() + 1);
         let mut out = plant.outputs()?;
         for &dac in &dacs {
-            samples.push(Sample {
-                time: plant.time(),
-                dac,
-                out,
-            });
+            samples.push(Sample { time: plant.time(), dac, out });
             plant.step(dac)?;
             out = plant.outputs()?;
         }
         // The sequence ends parked and nothing is commanded after it: the controller idles.
-        samples.push(Sample {
-            time: plant.time(),
-            dac: Dac::IDLE,
-            out,
-        });
-        Ok(Self {
-            steps: steps.to_vec(),
-            samples,
-            q_enc: plant.q_enc,
-        })
+        samples.push(Sample { time: plant.time(), dac: Dac::IDLE, out });
+        Ok(Self { steps: steps.to_vec(), samples, q_enc: plant.q_enc })
     }
 
     /// SPEC 3.3 for step `i` (0-based), in metres: `w_enc(k)` is the encoder at the end of

@@ -57,21 +57,17 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
     let (mid, bottom) = rest.split_vertically(h * 30 / 100);
 
     let t_end = run.samples.last().map_or(1.0, |s| s.time);
-    let step_starts: Vec<f64> = (0..run.steps.len())
-        .map(|i| (i * SAMPLES_PER_STEP) as f64 * SAMPLE_PERIOD_S)
-        .collect();
+    let step_starts: Vec<f64> =
+        (0..run.steps.len()).map(|i| (i * SAMPLES_PER_STEP) as f64 * SAMPLE_PERIOD_S).collect();
     let um = |m: f64| m * 1e6;
     let grid = RGBColor(200, 200, 200);
 
     // Runner position.
-    let runner: Vec<(f64, f64)> = run
-        .samples
+    let runner: Vec<(f64, f64)> =
+        run.samples.iter().map(|s| (s.time, um(s.out.runner_position))).collect();
+    let (lo, hi) = runner
         .iter()
-        .map(|s| (s.time, um(s.out.runner_position)))
-        .collect();
-    let (lo, hi) = runner.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p.1), hi.max(p.1))
-    });
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
     let y_range = padded(lo, hi);
     let label_y = y_range.end - (y_range.end - y_range.start) * 0.04;
     let mut chart = ChartBuilder::on(&top)
@@ -122,9 +118,9 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
 
     // Extension stack elongation.
     let ext: Vec<(f64, f64)> = run.samples.iter().map(|s| (s.time, um(s.out.extension))).collect();
-    let (lo, hi) = ext.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p.1), hi.max(p.1))
-    });
+    let (lo, hi) = ext
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
     let mut chart = ChartBuilder::on(&mid)
         .margin(12)
         .x_label_area_size(28)
@@ -180,7 +176,12 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
 
 /// Closed-loop runs of one scenario: encoder position of each variant against the
 /// reference (parked samples marked), and the disturbance estimates.
-pub fn closed_loop_png(title: &str, names: &[&str], runs: &[crate::closed_loop::Trace], path: &Path) -> Result<(), Box<dyn Error>> {
+pub fn closed_loop_png(
+    title: &str,
+    names: &[&str],
+    runs: &[crate::closed_loop::Trace],
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
     let (w, h) = (1400u32, 900u32);
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
     root.fill(&WHITE)?;
@@ -192,44 +193,91 @@ pub fn closed_loop_png(title: &str, names: &[&str], runs: &[crate::closed_loop::
     let pos = |r: &crate::closed_loop::Trace| -> Vec<(f64, f64)> {
         r.time.iter().zip(&r.encoder_counts).map(|(&t, &c)| (t, c as f64 * r.q_enc * um)).collect()
     };
-    let (lo, hi) = runs.iter().flat_map(|r| pos(r).into_iter().map(|p| p.1).chain(r.reference.iter().map(|x| x * um))).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    let mut chart = ChartBuilder::on(&top).margin(12).x_label_area_size(30).y_label_area_size(80).build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
-    chart.configure_mesh().light_line_style(WHITE).y_desc("encoder position (µm)").label_style((FONT, 16)).draw()?;
+    let (lo, hi) = runs
+        .iter()
+        .flat_map(|r| pos(r).into_iter().map(|p| p.1).chain(r.reference.iter().map(|x| x * um)))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let mut chart = ChartBuilder::on(&top)
+        .margin(12)
+        .x_label_area_size(30)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .y_desc("encoder position (µm)")
+        .label_style((FONT, 16))
+        .draw()?;
     if let Some(r) = runs.first() {
         chart
-            .draw_series(LineSeries::new(r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * um)), BLACK.stroke_width(1)))?
+            .draw_series(LineSeries::new(
+                r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * um)),
+                BLACK.stroke_width(1),
+            ))?
             .label("reference")
             .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
     }
     for (i, (r, name)) in runs.iter().zip(names).enumerate() {
         let c = colors[i % colors.len()];
-        let settle = r.settle_time(1e-6).map_or("not settled".to_string(), |t| format!("settled within 1 µm at {t:.2} s"));
+        let settle = r
+            .settle_time(1e-6)
+            .map_or("not settled".to_string(), |t| format!("settled within 1 µm at {t:.2} s"));
         // The whole trace faintly (the runner moves micrometres inside every step; on long
         // runs that only paints a band), the parked samples, where the loop is judged, boldly.
         if t_end <= 30.0 {
             chart.draw_series(LineSeries::new(pos(r), c.mix(0.25)))?;
         }
-        let parked: Vec<(f64, f64)> = r.parked().into_iter().map(|i| (r.time[i], r.encoder_counts[i] as f64 * r.q_enc * um)).collect();
+        let parked: Vec<(f64, f64)> = r
+            .parked()
+            .into_iter()
+            .map(|i| (r.time[i], r.encoder_counts[i] as f64 * r.q_enc * um))
+            .collect();
         chart
             .draw_series(LineSeries::new(parked, c.stroke_width(2)))?
             .label(format!("{name} (parked samples): {settle}"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
     }
-    chart.configure_series_labels().position(SeriesLabelPosition::LowerRight).background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 15)).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 15))
+        .draw()?;
 
-    let (lo, hi) = runs.iter().flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um)).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    let mut chart = ChartBuilder::on(&bottom).margin(12).x_label_area_size(40).y_label_area_size(80).build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
-    chart.configure_mesh().light_line_style(WHITE).x_desc("time (s)").y_desc("disturbance estimate (µm)").label_style((FONT, 16)).draw()?;
+    let (lo, hi) = runs
+        .iter()
+        .flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("time (s)")
+        .y_desc("disturbance estimate (µm)")
+        .label_style((FONT, 16))
+        .draw()?;
     for (i, r) in runs.iter().enumerate() {
         let c = colors[i % colors.len()];
-        chart.draw_series(LineSeries::new(r.time.iter().zip(&r.disturbance_estimate).map(|(&t, &x)| (t, x * um)), c.stroke_width(2)))?;
+        chart.draw_series(LineSeries::new(
+            r.time.iter().zip(&r.disturbance_estimate).map(|(&t, &x)| (t, x * um)),
+            c.stroke_width(2),
+        ))?;
     }
     root.present()?;
     Ok(())
 }
 
 /// The recorded variables of an `inchworm run`, one panel each (at most 6), against time.
-pub fn results_png(title: &str, results: &crate::master::Results, path: &Path) -> Result<(), Box<dyn Error>> {
+pub fn results_png(
+    title: &str,
+    results: &crate::master::Results,
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
     let n = results.names.len().clamp(1, 6);
     let (w, h) = (1400u32, 220 * n as u32 + 60);
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
@@ -239,14 +287,27 @@ pub fn results_png(title: &str, results: &crate::master::Results, path: &Path) -
     let t_end = results.rows.last().map_or(1.0, |r| r.0).max(1e-9);
     for (i, (panel, name)) in panels.iter().zip(&results.names).enumerate() {
         let series: Vec<(f64, f64)> = results.rows.iter().map(|(t, v)| (*t, v[i])).collect();
-        let (lo, hi) = series.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+        let (lo, hi) = series
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
         let pad = ((hi - lo) * 0.05).max(hi.abs().max(lo.abs()) * 1e-6).max(1e-12);
-        let mut chart = ChartBuilder::on(panel).margin(10).x_label_area_size(30).y_label_area_size(110).build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))?;
+        let mut chart = ChartBuilder::on(panel)
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(110)
+            .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))?;
         // Values in metres are micro-scale, encoder counts large: either needs exponents.
         let big = hi.abs().max(lo.abs());
         let sci = big != 0.0 && !(1e-2..1e5).contains(&big);
         let fmt = |v: &f64| if sci { format!("{v:.3e}") } else { format!("{v}") };
-        chart.configure_mesh().light_line_style(WHITE).y_desc(name.as_str()).x_desc("time (s)").label_style((FONT, 14)).y_label_formatter(&fmt).draw()?;
+        chart
+            .configure_mesh()
+            .light_line_style(WHITE)
+            .y_desc(name.as_str())
+            .x_desc("time (s)")
+            .label_style((FONT, 14))
+            .y_label_formatter(&fmt)
+            .draw()?;
         chart.draw_series(LineSeries::new(series, BLUE.stroke_width(2)))?;
     }
     root.present()?;

@@ -64,7 +64,8 @@ pub fn open_loop_slew(gammas: &[f64], steps: usize) -> Vec<Trace> {
     gammas
         .iter()
         .map(|&gamma| {
-            let mut plant = Plant::new(PlantParams { gamma, ..PlantParams::fia20() }).expect("valid parameters");
+            let mut plant = Plant::new(PlantParams { gamma, ..PlantParams::fia20() })
+                .expect("valid parameters");
             let mut tr = Trace { q_enc: 1.2e-9, ..Trace::default() };
             for s in 0..steps {
                 for k in 1..=100 {
@@ -88,7 +89,12 @@ pub fn open_loop_slew(gammas: &[f64], steps: usize) -> Vec<Trace> {
 }
 
 pub fn by_name(name: &str) -> Option<Scenario> {
-    let feedback_only = Params { feedforward: false, use_scale_factor_estimate: false, use_disturbance_estimate: false, ..Params::default() };
+    let feedback_only = Params {
+        feedforward: false,
+        use_scale_factor_estimate: false,
+        use_disturbance_estimate: false,
+        ..Params::default()
+    };
     Some(match name {
         "fig5" => Scenario {
             name: "fig5",
@@ -135,11 +141,20 @@ pub fn by_name(name: &str) -> Option<Scenario> {
 /// Runs every variant, through the FMUs in `dist` if given, else with the crates.
 pub fn run_scenario(s: &Scenario, dist: Option<&Path>) -> Result<Vec<Trace>, String> {
     let plant = if s.name == "fia6" { PlantParams::fia6() } else { PlantParams::fia20() };
-    let plant_params: Vec<(String, f64)> = if s.name == "fia6" { vec![("T_em".into(), 2.5), ("F_d0".into(), 105.0)] } else { vec![] };
+    let plant_params: Vec<(String, f64)> =
+        if s.name == "fia6" { vec![("T_em".into(), 2.5), ("F_d0".into(), 105.0)] } else { vec![] };
     s.variants
         .iter()
         .map(|v| match dist {
-            Some(d) => run_fmus(&d.join("InchwormPlant.fmu"), &d.join("InchwormController.fmu"), &plant_params, &v.params, s.reference, s.duration).map_err(|e| e.to_string()),
+            Some(d) => run_fmus(
+                &d.join("InchwormPlant.fmu"),
+                &d.join("InchwormController.fmu"),
+                &plant_params,
+                &v.params,
+                s.reference,
+                s.duration,
+            )
+            .map_err(|e| e.to_string()),
             None => run(plant.clone(), v.params.clone(), s.reference, s.duration),
         })
         .collect()

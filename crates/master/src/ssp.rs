@@ -39,14 +39,18 @@ fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, String> {
     for a in e.attributes() {
         let a = a.map_err(|err| format!("malformed attribute: {err}"))?;
         if a.key.local_name().into_inner() == name {
-            return a.normalized_value(quick_xml::XmlVersion::Implicit1_0).map(|v| Some(v.into_owned())).map_err(|err| format!("attribute {name}: {err}"));
+            return a
+                .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .map(|v| Some(v.into_owned()))
+                .map_err(|err| format!("attribute {name}: {err}"));
         }
     }
     Ok(None)
 }
 
 fn required(e: &BytesStart, name: &str) -> Result<String, String> {
-    attr(e, name)?.ok_or_else(|| format!("<{}> lacks the attribute {name}", e.local_name().into_inner()))
+    attr(e, name)?
+        .ok_or_else(|| format!("<{}> lacks the attribute {name}", e.local_name().into_inner()))
 }
 
 /// Parses `SystemStructure.ssd`. Nested systems are refused with a message: this master
@@ -58,7 +62,9 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
     let mut path: Vec<String> = Vec::new();
     let mut systems = 0;
     loop {
-        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error at byte {}: {e}", reader.buffer_position()))?;
+        let ev = reader.read_event().map_err(|e| {
+            format!("SystemStructure.ssd: XML error at byte {}: {e}", reader.buffer_position())
+        })?;
         let (e, empty) = match &ev {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
@@ -81,29 +87,48 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
                 sys.name = required(&e, "name")?;
             }
             "Component" => {
-                let kind = attr(&e, "type")?.unwrap_or_else(|| "application/x-fmu-sharedlibrary".into());
+                let kind =
+                    attr(&e, "type")?.unwrap_or_else(|| "application/x-fmu-sharedlibrary".into());
                 if kind != "application/x-fmu-sharedlibrary" {
                     return Err(format!("component type {kind} is not supported (FMUs only)"));
                 }
-                sys.components.push(Component { name: required(&e, "name")?, source: required(&e, "source")? });
+                sys.components.push(Component {
+                    name: required(&e, "name")?,
+                    source: required(&e, "source")?,
+                });
             }
             "Connector" if parent == Some("Connectors") && grandparent == Some("System") => {
                 sys.connectors.push((required(&e, "name")?, attr(&e, "kind")?.unwrap_or_default()));
             }
             "Connection" => {
-                let end = |el: &str, c: &str| -> Result<End, String> { Ok(End { element: attr(&e, el)?, connector: required(&e, c)? }) };
-                sys.connections.push((end("startElement", "startConnector")?, end("endElement", "endConnector")?));
+                let end = |el: &str, c: &str| -> Result<End, String> {
+                    Ok(End { element: attr(&e, el)?, connector: required(&e, c)? })
+                };
+                sys.connections.push((
+                    end("startElement", "startConnector")?,
+                    end("endElement", "endConnector")?,
+                ));
             }
             "DefaultExperiment" => {
                 let num = |n: &str| -> Result<Option<f64>, String> {
-                    attr(&e, n)?.map(|v| v.trim().parse::<f64>().map_err(|_| format!("DefaultExperiment {n}=\"{v}\" is not a number"))).transpose()
+                    attr(&e, n)?
+                        .map(|v| {
+                            v.trim().parse::<f64>().map_err(|_| {
+                                format!("DefaultExperiment {n}=\"{v}\" is not a number")
+                            })
+                        })
+                        .transpose()
                 };
                 sys.stop_time = num("stopTime")?;
             }
             // The project's own annotation carries the communication step.
             "CommunicationStep" => {
                 if let Some(v) = attr(&e, "stepSize")? {
-                    sys.step_size = Some(v.trim().parse().map_err(|_| format!("stepSize \"{v}\" is not a number"))?);
+                    sys.step_size = Some(
+                        v.trim()
+                            .parse()
+                            .map_err(|_| format!("stepSize \"{v}\" is not a number"))?,
+                    );
                 }
             }
             _ => {}
@@ -150,25 +175,30 @@ pub struct Archive {
 impl Archive {
     pub fn open(path: &Path) -> Result<Archive, String> {
         let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut zip = zip::ZipArchive::new(file).map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
+        let mut zip = zip::ZipArchive::new(file)
+            .map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
         // Unique per open archive: several may be open at once in one process.
         static OPENED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = OPENED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let dir = std::env::temp_dir().join(format!("inchworm-ssp-{}-{n}-{stem}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("inchworm-ssp-{}-{n}-{stem}", std::process::id()));
         std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         zip.extract(&dir).map_err(|e| format!("{}: cannot unpack: {e}", path.display()))?;
         let mut ssd = String::new();
         std::fs::File::open(dir.join("SystemStructure.ssd"))
             .and_then(|mut f| f.read_to_string(&mut ssd))
-            .map_err(|e| format!("{}: no readable SystemStructure.ssd at its root: {e}", path.display()))?;
+            .map_err(|e| {
+                format!("{}: no readable SystemStructure.ssd at its root: {e}", path.display())
+            })?;
         let system = parse_ssd(&ssd).map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(Archive { dir, system })
     }
 
     pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
-        let text = std::fs::read_to_string(&p).map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
+        let text = std::fs::read_to_string(&p)
+            .map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
         parse_ssv(&text).map_err(|e| format!("parameter set {name}: {e}"))
     }
 }
@@ -209,7 +239,11 @@ mod tests {
         assert_eq!(s.connections[1].0, End { element: None, connector: "u".into() });
         assert_eq!(s.stop_time, Some(3.5));
         assert!(parse_ssd("<x/>").unwrap_err().contains("no <System>"));
-        assert!(parse_ssd("<ssd:System name='a'><ssd:Elements><ssd:System name='b'/></ssd:Elements></ssd:System>").unwrap_err().contains("nested"));
+        assert!(parse_ssd(
+            "<ssd:System name='a'><ssd:Elements><ssd:System name='b'/></ssd:Elements></ssd:System>"
+        )
+        .unwrap_err()
+        .contains("nested"));
         assert!(parse_ssd("<a><b></a>").is_err());
     }
 

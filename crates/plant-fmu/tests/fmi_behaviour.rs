@@ -8,8 +8,8 @@ use std::sync::Mutex;
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{callbacks, Log};
-use inchworm_plant_fmu as fmu;
 use inchworm_fmu_models::PlantFmu;
+use inchworm_plant_fmu as fmu;
 
 const DAC_EARTH: u32 = 1;
 const DAC_NONEARTH: u32 = 2;
@@ -36,7 +36,17 @@ impl Instance {
         let functions = Box::new(callbacks(&log));
         let name = CString::new(name).unwrap();
         let guid = CString::new(model_description::guid::<PlantFmu>()).unwrap();
-        let c = unsafe { fmu::fmi2Instantiate(name.as_ptr(), fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &*functions, fmi2False, fmi2False) };
+        let c = unsafe {
+            fmu::fmi2Instantiate(
+                name.as_ptr(),
+                fmi2CoSimulation,
+                guid.as_ptr(),
+                std::ptr::null(),
+                &*functions,
+                fmi2False,
+                fmi2False,
+            )
+        };
         assert!(!c.is_null(), "fmi2Instantiate failed: {:?}", log.0.lock().unwrap());
         Instance { c, log, _functions: functions }
     }
@@ -79,7 +89,9 @@ impl Instance {
 
     /// Whether a message containing every part was logged with this status.
     fn saw(&self, status: fmi2Status, parts: &[&str]) -> bool {
-        self.logged().iter().any(|m| m.starts_with(&format!("{status}|")) && parts.iter().all(|p| m.contains(p)))
+        self.logged()
+            .iter()
+            .any(|m| m.starts_with(&format!("{status}|")) && parts.iter().all(|p| m.contains(p)))
     }
 
     /// A forward gait of amplitude `y` from sample `k0` (2 ms samples); returns (counts, runner) per sample.
@@ -116,7 +128,11 @@ impl Drop for Instance {
 fn calls_out_of_order_are_refused_and_logged() {
     let i = Instance::new("order");
     assert_eq!(i.step(0.0, 0.002), fmi2Error);
-    assert!(i.saw(fmi2Error, &["fmi2DoStep", "illegal call sequence", "Instantiated"]), "{:?}", i.logged());
+    assert!(
+        i.saw(fmi2Error, &["fmi2DoStep", "illegal call sequence", "Instantiated"]),
+        "{:?}",
+        i.logged()
+    );
     assert_eq!(unsafe { fmu::fmi2ExitInitializationMode(i.c) }, fmi2Error);
     assert_eq!(unsafe { fmu::fmi2Terminate(i.c) }, fmi2Error);
     // The refusals changed nothing: the normal sequence still works.
@@ -137,9 +153,15 @@ fn null_and_foreign_pointers_are_refused_without_a_crash() {
     let i = Instance::init("pointers");
     let vr = ENCODER_COUNTS;
     assert_eq!(unsafe { fmu::fmi2GetInteger(i.c, &vr, 1, std::ptr::null_mut()) }, fmi2Error);
-    assert_eq!(unsafe { fmu::fmi2GetReal(std::ptr::null_mut(), &vr, 1, std::ptr::null_mut()) }, fmi2Error);
+    assert_eq!(
+        unsafe { fmu::fmi2GetReal(std::ptr::null_mut(), &vr, 1, std::ptr::null_mut()) },
+        fmi2Error
+    );
     let mut bogus = [0u64; 16];
-    assert_eq!(unsafe { fmu::fmi2DoStep(bogus.as_mut_ptr() as fmi2Component, 0.0, 0.002, fmi2True) }, fmi2Error);
+    assert_eq!(
+        unsafe { fmu::fmi2DoStep(bogus.as_mut_ptr() as fmi2Component, 0.0, 0.002, fmi2True) },
+        fmi2Error
+    );
     assert_eq!(unsafe { fmu::fmi2SetFMUstate(i.c, bogus.as_mut_ptr() as fmi2FMUstate) }, fmi2Error);
     assert!(i.saw(fmi2Error, &["fmi2SetFMUstate", "not created"]));
 }
@@ -149,11 +171,41 @@ fn instantiate_refuses_a_wrong_guid_or_model_exchange() {
     let log = Box::new(Log(Mutex::new(Vec::new())));
     let functions = callbacks(&log);
     let guid = CString::new(model_description::guid::<PlantFmu>()).unwrap();
-    let c = unsafe { fmu::fmi2Instantiate(c"x".as_ptr(), fmi2CoSimulation, c"{wrong}".as_ptr(), std::ptr::null(), &functions, 0, 0) };
+    let c = unsafe {
+        fmu::fmi2Instantiate(
+            c"x".as_ptr(),
+            fmi2CoSimulation,
+            c"{wrong}".as_ptr(),
+            std::ptr::null(),
+            &functions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
-    let c = unsafe { fmu::fmi2Instantiate(c"x".as_ptr(), fmi2ModelExchange, guid.as_ptr(), std::ptr::null(), &functions, 0, 0) };
+    let c = unsafe {
+        fmu::fmi2Instantiate(
+            c"x".as_ptr(),
+            fmi2ModelExchange,
+            guid.as_ptr(),
+            std::ptr::null(),
+            &functions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
-    let c = unsafe { fmu::fmi2Instantiate(std::ptr::null(), fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &functions, 0, 0) };
+    let c = unsafe {
+        fmu::fmi2Instantiate(
+            std::ptr::null(),
+            fmi2CoSimulation,
+            guid.as_ptr(),
+            std::ptr::null(),
+            &functions,
+            0,
+            0,
+        )
+    };
     assert!(c.is_null());
     let logged = log.0.lock().unwrap().clone();
     assert!(logged.iter().any(|m| m.contains("fmuGUID") && m.contains("{wrong}")), "{logged:?}");
@@ -166,7 +218,11 @@ fn nan_input_is_refused_and_the_instance_stays_usable() {
     let i = Instance::init("nan");
     assert_eq!(i.set_real(DAC_EXTENSION, 4.0), fmi2OK);
     assert_eq!(i.set_real(DAC_EXTENSION, f64::NAN), fmi2Error);
-    assert!(i.saw(fmi2Error, &["fmi2SetReal", "dac_extension", "NaN", "keeping 4 V"]), "{:?}", i.logged());
+    assert!(
+        i.saw(fmi2Error, &["fmi2SetReal", "dac_extension", "NaN", "keeping 4 V"]),
+        "{:?}",
+        i.logged()
+    );
     assert_eq!(i.real(DAC_EXTENSION), (fmi2OK, 4.0), "the last valid value is kept");
     assert_eq!(i.set_real(DAC_NONEARTH, f64::INFINITY), fmi2Error);
     assert_eq!(i.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
@@ -200,7 +256,11 @@ fn unknown_value_references_and_wrong_types_are_errors() {
     assert!(i.saw(fmi2Error, &["fmi2GetInteger", "runner_position", "Real"]));
     assert_eq!(i.set_real(RUNNER_POSITION, 1.0), fmi2Error, "outputs cannot be set");
     assert!(i.saw(fmi2Error, &["runner_position", "cannot be set"]));
-    assert_eq!(i.set_real(M_P, 1.0), fmi2Error, "fixed parameters cannot be set after initialization");
+    assert_eq!(
+        i.set_real(M_P, 1.0),
+        fmi2Error,
+        "fixed parameters cannot be set after initialization"
+    );
     let mut s: fmi2String = std::ptr::null();
     assert_eq!(unsafe { fmu::fmi2GetString(i.c, &7, 1, &mut s) }, fmi2Error);
     let mut b = 0;
@@ -216,7 +276,11 @@ fn bad_parameters_fail_initialization_naming_the_parameter() {
         assert_eq!(i.set_real(vr, value), fmi2OK, "validated at initialization, as a whole");
         assert_eq!(unsafe { fmu::fmi2EnterInitializationMode(i.c) }, fmi2OK);
         assert_eq!(unsafe { fmu::fmi2ExitInitializationMode(i.c) }, fmi2Error);
-        assert!(i.saw(fmi2Error, &["fmi2ExitInitializationMode", name]), "{name}: {:?}", i.logged());
+        assert!(
+            i.saw(fmi2Error, &["fmi2ExitInitializationMode", name]),
+            "{name}: {:?}",
+            i.logged()
+        );
         assert_eq!(i.step(0.0, 0.002), fmi2Error, "no stepping after a failed initialization");
         assert_eq!(unsafe { fmu::fmi2Reset(i.c) }, fmi2OK, "reset recovers the instance");
     }
@@ -241,7 +305,11 @@ fn step_time_and_size_are_checked_with_a_relative_tolerance() {
         assert!((t - kh).abs() < 1e-12);
     }
     assert_eq!(i.step(1000.0 * 0.002, 0.002), fmi2OK, "k·h after 1000 steps of t += h");
-    assert_eq!(i.step(2.002 + 1e-6, 0.002), fmi2Error, "a step that does not start at the FMU time");
+    assert_eq!(
+        i.step(2.002 + 1e-6, 0.002),
+        fmi2Error,
+        "a step that does not start at the FMU time"
+    );
     assert!(i.saw(fmi2Error, &["currentCommunicationPoint", "does not match"]));
     let mut last = 0.0;
     assert_eq!(unsafe { fmu::fmi2GetRealStatus(i.c, fmi2LastSuccessfulTime, &mut last) }, fmi2OK);
@@ -263,7 +331,10 @@ fn unsupported_functions_return_error_with_a_reason() {
     assert_eq!(unsafe { fmu::fmi2SetRealInputDerivatives(i.c, &vr, 1, &order, &v) }, fmi2Error);
     assert!(i.saw(fmi2Error, &["fmi2SetRealInputDerivatives", "canInterpolateInputs"]));
     let mut out = 0.0;
-    assert_eq!(unsafe { fmu::fmi2GetDirectionalDerivative(i.c, &vr, 1, &vr, 1, &v, &mut out) }, fmi2Error);
+    assert_eq!(
+        unsafe { fmu::fmi2GetDirectionalDerivative(i.c, &vr, 1, &vr, 1, &v, &mut out) },
+        fmi2Error
+    );
     let mut s: fmi2String = std::ptr::null();
     assert_eq!(unsafe { fmu::fmi2GetStringStatus(i.c, fmi2PendingStatus, &mut s) }, fmi2Error);
 }
@@ -296,7 +367,11 @@ fn get_and_set_state_replays_the_trajectory_bit_for_bit() {
     assert!(first.iter().any(|&(c, _)| c != first[0].0), "the replayed gait moved the runner");
     assert_eq!(unsafe { fmu::fmi2FreeFMUstate(i.c, &mut state) }, fmi2OK);
     assert!(state.is_null());
-    assert_eq!(unsafe { fmu::fmi2FreeFMUstate(i.c, &mut state) }, fmi2OK, "freeing NULL is allowed");
+    assert_eq!(
+        unsafe { fmu::fmi2FreeFMUstate(i.c, &mut state) },
+        fmi2OK,
+        "freeing NULL is allowed"
+    );
 }
 
 fn serialize(i: &Instance) -> Vec<u8> {
@@ -305,16 +380,33 @@ fn serialize(i: &Instance) -> Vec<u8> {
     let mut size = 0usize;
     assert_eq!(unsafe { fmu::fmi2SerializedFMUstateSize(i.c, state, &mut size) }, fmi2OK);
     let mut bytes = vec![0u8; size];
-    assert_eq!(unsafe { fmu::fmi2SerializeFMUstate(i.c, state, bytes.as_mut_ptr() as *mut fmi2Byte, size) }, fmi2OK);
+    assert_eq!(
+        unsafe {
+            fmu::fmi2SerializeFMUstate(i.c, state, bytes.as_mut_ptr() as *mut fmi2Byte, size)
+        },
+        fmi2OK
+    );
     let mut small = vec![0u8; size - 1];
-    assert_eq!(unsafe { fmu::fmi2SerializeFMUstate(i.c, state, small.as_mut_ptr() as *mut fmi2Byte, size - 1) }, fmi2Error);
+    assert_eq!(
+        unsafe {
+            fmu::fmi2SerializeFMUstate(i.c, state, small.as_mut_ptr() as *mut fmi2Byte, size - 1)
+        },
+        fmi2Error
+    );
     assert_eq!(unsafe { fmu::fmi2FreeFMUstate(i.c, &mut state) }, fmi2OK);
     bytes
 }
 
 fn deserialize(i: &Instance, bytes: &[u8]) -> fmi2Status {
     let mut state: fmi2FMUstate = std::ptr::null_mut();
-    let s = unsafe { fmu::fmi2DeSerializeFMUstate(i.c, bytes.as_ptr() as *const fmi2Byte, bytes.len(), &mut state) };
+    let s = unsafe {
+        fmu::fmi2DeSerializeFMUstate(
+            i.c,
+            bytes.as_ptr() as *const fmi2Byte,
+            bytes.len(),
+            &mut state,
+        )
+    };
     if s != fmi2OK {
         return s;
     }

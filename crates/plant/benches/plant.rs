@@ -23,10 +23,15 @@ const REPEATS: usize = 60;
 
 /// The 60 s input sequence and the reference trace's encoder counts of its first second.
 fn sequence() -> (Vec<Dac>, Vec<i64>) {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/reference/plant-check-trace-fia20.csv"
+    );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let rows: Vec<Vec<f64>> = text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
-    let one: Vec<Dac> = rows.iter().map(|f| Dac { earth: f[1], nonearth: f[2], extension: f[3] }).collect();
+    let rows: Vec<Vec<f64>> =
+        text.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let one: Vec<Dac> =
+        rows.iter().map(|f| Dac { earth: f[1], nonearth: f[2], extension: f[3] }).collect();
     let counts = rows.iter().map(|f| f[4] as i64).collect();
     (one.iter().cycle().take(one.len() * REPEATS).copied().collect(), counts)
 }
@@ -108,7 +113,8 @@ fn compare_paths(gaits: &[Dac]) {
             full.push(run_exact_path(1e-9, seq, true));
             bound.push(run_exact_path(1e-9, seq, false));
         }
-        let pick = |v: Vec<Run>| v.into_iter().min_by(|a, b| a.total_s.total_cmp(&b.total_s)).unwrap();
+        let pick =
+            |v: Vec<Run>| v.into_iter().min_by(|a, b| a.total_s.total_cmp(&b.total_s)).unwrap();
         let (full, bound) = (pick(full), pick(bound));
         let long = bound.skipped + bound.scanned;
         println!("  {name:<16} full scan | {}", summary(&full, sim_s));
@@ -123,7 +129,11 @@ fn compare_paths(gaits: &[Dac]) {
             "  {:<16} ratio {:.2}x faster (mean step), results {}",
             "",
             full.total_s / bound.total_s,
-            if full.bits == bound.bits && full.counts == bound.counts { "bit-identical" } else { "DIFFER (bug)" }
+            if full.bits == bound.bits && full.counts == bound.counts {
+                "bit-identical"
+            } else {
+                "DIFFER (bug)"
+            }
         );
     }
 }
@@ -136,7 +146,14 @@ fn run_rk4(h: f64, seq: &[Dac]) -> Run {
         plant.step(*d, H);
         counts.push(plant.encoder_counts());
     }
-    Run { counts, step_us: Vec::new(), total_s: start.elapsed().as_secs_f64(), bits: 0, skipped: 0, scanned: 0 }
+    Run {
+        counts,
+        step_us: Vec::new(),
+        total_s: start.elapsed().as_secs_f64(),
+        bits: 0,
+        skipped: 0,
+        scanned: 0,
+    }
 }
 
 fn max_dev(a: &[i64], b: &[i64]) -> i64 {
@@ -167,13 +184,20 @@ fn main() {
         percentile(&sorted, 0.99),
         sorted[sorted.len() - 1]
     );
-    println!("  real-time factor: {:.0}x ({:.3} s wall for {sim_s:.0} s)", sim_s / exact.total_s, exact.total_s);
+    println!(
+        "  real-time factor: {:.0}x ({:.3} s wall for {sim_s:.0} s)",
+        sim_s / exact.total_s,
+        exact.total_s
+    );
     println!(
         "  encoder trace vs rel_tol 1e-11 (100x tighter, {:.0}x real time): max |diff| {} counts over {sim_s:.0} s",
         sim_s / tight.total_s,
         max_dev(&exact.counts, &tight.counts)
     );
-    println!("  vs the SPEC 2.9 reference trace (first 1 s): max |diff| {} counts", max_dev(&exact.counts, &reference));
+    println!(
+        "  vs the SPEC 2.9 reference trace (first 1 s): max |diff| {} counts",
+        max_dev(&exact.counts, &reference)
+    );
     println!();
     compare_paths(&seq);
     println!();

@@ -5,10 +5,8 @@
 use inchworm_plant::{Dac, Plant, PlantParams};
 
 fn main() {
-    let quiet: usize = std::env::var("QUIET_STEPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(10_000);
+    let quiet: usize =
+        std::env::var("QUIET_STEPS").ok().and_then(|s| s.parse().ok()).unwrap_or(10_000);
     let mut plant = Plant::new(PlantParams::fia20()).unwrap();
     // The SPEC 2.9 gaits of the reference trace (1 s).
     let path = concat!(
@@ -18,14 +16,7 @@ fn main() {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     for line in text.lines().skip(1) {
         let f: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        plant.step(
-            Dac {
-                earth: f[1],
-                nonearth: f[2],
-                extension: f[3],
-            },
-            0.002,
-        );
+        plant.step(Dac { earth: f[1], nonearth: f[2], extension: f[3] }, 0.002);
     }
     // Settle, so every configuration used below has its tables built.
     for _ in 0..500 {

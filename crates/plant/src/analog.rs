@@ -45,7 +45,8 @@ mod tests {
         let rows = chain_rows(&p);
         // DC: b1 = u, V = G b1.
         let (u, b1, b2, v) = (1.0, 1.0, 0.0, p.amp_gain);
-        let d: Vec<f64> = rows.iter().map(|r| r[0] * b1 + r[1] * b2 + r[2] * v + r[3] * u).collect();
+        let d: Vec<f64> =
+            rows.iter().map(|r| r[0] * b1 + r[1] * b2 + r[2] * v + r[3] * u).collect();
         assert!(d.iter().all(|x| x.abs() < 1e-9), "DC point is an equilibrium: {d:?}");
     }
 }

@@ -63,7 +63,6 @@ pub struct StepReport {
     pub event_budget_exhausted: bool,
 }
 
-
 impl Mode {
     /// The mode the two brakes make (SPEC 2.2 table).
     pub fn from_brakes(earth_closed: bool, nonearth_closed: bool) -> Mode {
@@ -147,7 +146,10 @@ struct ChainRemainder {
 }
 
 /// `e^{A ticks}` as the product of the dyadic table entries.
-fn product<const D: usize>(phi: &[nalgebra::SMatrix<f64, D, D>; linear::LEVELS], ticks: u64) -> nalgebra::SMatrix<f64, D, D> {
+fn product<const D: usize>(
+    phi: &[nalgebra::SMatrix<f64, D, D>; linear::LEVELS],
+    ticks: u64,
+) -> nalgebra::SMatrix<f64, D, D> {
     let mut m = nalgebra::SMatrix::<f64, D, D>::identity();
     for (l, p) in phi.iter().enumerate() {
         if ticks & (1 << l) != 0 {
@@ -234,7 +236,12 @@ impl Plant {
         let mut volts = Chain::zeros();
         volts[2] = 1.0;
         let scan_level = linear::scan_level(params.rel_tol);
-        let chain = Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], scan_level, |m| m.exp()));
+        let chain = Arc::new(Propagators::new(
+            linear::chain_matrix(&params),
+            vec![volts],
+            scan_level,
+            |m| m.exp(),
+        ));
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
         let armed = Armed::of(&hysteresis);
@@ -343,7 +350,8 @@ impl Plant {
                 left = 0;
             } else {
                 let level = 63 - left.leading_zeros() as usize;
-                let (consumed, event) = if watching { self.piece(level, &mut report) } else { self.blind(level) };
+                let (consumed, event) =
+                    if watching { self.piece(level, &mut report) } else { self.blind(level) };
                 events += u32::from(event);
                 left -= consumed;
             }
@@ -402,7 +410,8 @@ impl Plant {
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
         for l in (self.resolution_level()..level).rev() {
-            let (zc, ec, nc) = (mul_vec(&cfg.phi[l], &z), mul_vec(&chain.phi[l], &e), mul_vec(&chain.phi[l], &n));
+            let (zc, ec, nc) =
+                (mul_vec(&cfg.phi[l], &z), mul_vec(&chain.phi[l], &e), mul_vec(&chain.phi[l], &n));
             if !stop(&zc, &ec, &nc) {
                 (z, e, n) = (zc, ec, nc);
                 offset += 1 << l;
@@ -410,7 +419,8 @@ impl Plant {
         }
         // The first resolution interval at whose end the stop condition holds.
         let r = self.resolution_level().min(level);
-        let (z, e, n) = (mul_vec(&cfg.phi[r], &z), mul_vec(&chain.phi[r], &e), mul_vec(&chain.phi[r], &n));
+        let (z, e, n) =
+            (mul_vec(&cfg.phi[r], &z), mul_vec(&chain.phi[r], &e), mul_vec(&chain.phi[r], &n));
         (self.z, self.earth, self.nonearth) = (z, e, n);
         let event = watch.event(&z, &e, &n);
         if event {
@@ -430,11 +440,16 @@ impl Plant {
             self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
         }
         if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
-            self.chain_remainder = Some(ChainRemainder { ticks, phi: product(&self.chain.phi, ticks) });
+            self.chain_remainder =
+                Some(ChainRemainder { ticks, phi: product(&self.chain.phi, ticks) });
         }
         let phi = &self.remainders[key].as_ref().expect("just filled").phi;
         let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
-        let (z1, e1, n1) = (mul_vec(phi, &self.z), mul_vec(chain_phi, &self.earth), mul_vec(chain_phi, &self.nonearth));
+        let (z1, e1, n1) = (
+            mul_vec(phi, &self.z),
+            mul_vec(chain_phi, &self.earth),
+            mul_vec(chain_phi, &self.nonearth),
+        );
         let watch = self.watch(cfg);
         if watch.event(&z1, &e1, &n1) {
             return false;
@@ -468,7 +483,11 @@ impl Plant {
         let watch = self.watch(cfg);
         if points >= MIN_BOUND_POINTS && !self.scan_always {
             if self.provably_clear(cfg, &watch) {
-                debug_assert_eq!(self.full_scan(cfg, &watch, points), points, "the scan bound missed an event");
+                debug_assert_eq!(
+                    self.full_scan(cfg, &watch, points),
+                    points,
+                    "the scan bound missed an event"
+                );
                 self.scan_stats.skipped += 1;
                 return points;
             }
@@ -523,14 +542,16 @@ impl Plant {
         };
         // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
         // stays on its side of V_th, as does V_N.
-        if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed) {
+        if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed)
+        {
             return false;
         }
         debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
         let Some(s) = cfg.split(&self.z) else {
             return false;
         };
-        let (Some((xi_lo, xi_hi)), Some((rate_lo, rate_hi))) = (cfg.range(0, &s), cfg.range(1, &s)) else {
+        let (Some((xi_lo, xi_hi)), Some((rate_lo, rate_hi))) = (cfg.range(0, &s), cfg.range(1, &s))
+        else {
             return false;
         };
         if watch.direction > 0.0 {
@@ -590,7 +611,8 @@ impl Plant {
         let vth = self.params.v_th;
         let earth_closed = self.earth[2] < vth;
         let nonearth_closed = self.nonearth[2] >= vth;
-        report.brake_events += u32::from(earth_closed != self.earth_closed) + u32::from(nonearth_closed != self.nonearth_closed);
+        report.brake_events += u32::from(earth_closed != self.earth_closed)
+            + u32::from(nonearth_closed != self.nonearth_closed);
         self.earth_closed = earth_closed;
         self.nonearth_closed = nonearth_closed;
         let mode = Mode::from_brakes(earth_closed, nonearth_closed);
@@ -670,7 +692,10 @@ impl Plant {
     fn build_config(&mut self, key: usize) {
         let w_s = self.hysteresis.sliding_weight();
         let a = linear::system_matrix(&self.params, self.mode, w_s);
-        let watched = vec![linear::xi_row(&self.params, w_s), linear::drive_rate_row(&self.params, self.mode)];
+        let watched = vec![
+            linear::xi_row(&self.params, w_s),
+            linear::drive_rate_row(&self.params, self.mode),
+        ];
         let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level, |m| m.exp()));
         self.configs[key] = Some(t);
     }
@@ -766,12 +791,14 @@ impl Plant {
         next.hysteresis.sliding = r.u8()?;
         next.hysteresis.direction = r.u8()? as i8;
         next.drive_offset = r.f64()?;
-        next.slip_events = u32::try_from(r.u64()?).map_err(|_| "plant state: slip count out of range")?;
+        next.slip_events =
+            u32::try_from(r.u64()?).map_err(|_| "plant state: slip count out of range")?;
         next.encoder_counts = r.u64()? as i64;
         next.rng = r.u64()?;
         r.finish()?;
         next.armed = Armed::of(&next.hysteresis);
-        if next.hysteresis.sliding >= 1 << N_PLAYS || !(-1..=1).contains(&next.hysteresis.direction) {
+        if next.hysteresis.sliding >= 1 << N_PLAYS || !(-1..=1).contains(&next.hysteresis.direction)
+        {
             return Err("plant state: invalid hysteresis flags".into());
         }
         if Mode::from_brakes(next.earth_closed, next.nonearth_closed) != next.mode {

@@ -73,7 +73,10 @@ pub fn mul_vec<const D: usize>(m: &SMatrix<f64, D, D>, x: &SVector<f64, D>) -> S
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn mul_vec_avx<const D: usize>(m: &SMatrix<f64, D, D>, x: &SVector<f64, D>) -> SVector<f64, D> {
+unsafe fn mul_vec_avx<const D: usize>(
+    m: &SMatrix<f64, D, D>,
+    x: &SVector<f64, D>,
+) -> SVector<f64, D> {
     SVector::from(gemv_columns::<D>(m.as_slice(), x.as_slice()))
 }
 
@@ -219,7 +222,8 @@ impl<const D: usize> Propagators<D> {
     ) -> Self {
         // Every level from its own exponential: squaring the finest one 31 times would
         // double its rounding error at each level.
-        let phi: [SMatrix<f64, D, D>; LEVELS] = std::array::from_fn(|l| exp(a * (TICK * (1u64 << l) as f64)));
+        let phi: [SMatrix<f64, D, D>; LEVELS] =
+            std::array::from_fn(|l| exp(a * (TICK * (1u64 << l) as f64)));
         let step = phi[scan_level];
         let scan_points = 1 << (LEVELS - 1 - scan_level);
         let mut scan = Vec::with_capacity(scan_points * watched.len());
@@ -263,7 +267,10 @@ impl<const D: usize> Propagators<D> {
         if finite {
             for k in 0..=self.scan_points {
                 let v = if k == 0 { self.watched[o].dot(&s.z) } else { self.scanned(k, o, &s.z) };
-                assert!(lo <= v && v <= hi, "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]");
+                assert!(
+                    lo <= v && v <= hi,
+                    "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]"
+                );
             }
         }
         finite.then_some((lo, hi))

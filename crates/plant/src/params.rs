@@ -118,11 +118,7 @@ impl PlantParams {
 
     /// The 6-µm device: weaker transducer and brake disturbance.
     pub fn fia6() -> Self {
-        PlantParams {
-            t_em: 2.5,
-            f_d0: 105.0,
-            ..Self::fia20()
-        }
+        PlantParams { t_em: 2.5, f_d0: 105.0, ..Self::fia20() }
     }
 
     /// Checks every value; the error names the first offending parameter.
@@ -171,7 +167,13 @@ impl PlantParams {
             }
         }
         if !(1e-12..=1e-6).contains(&self.rel_tol) {
-            return err("rel_tol", format!("must be within [1e-12, 1e-6] (event time resolution in s), got {}", self.rel_tol));
+            return err(
+                "rel_tol",
+                format!(
+                    "must be within [1e-12, 1e-6] (event time resolution in s), got {}",
+                    self.rel_tol
+                ),
+            );
         }
         for i in 0..N_PLAYS {
             let (r, w) = (self.play_radius[i], self.play_weight[i]);
@@ -183,7 +185,10 @@ impl PlantParams {
             if i > 0 && r <= self.play_radius[i - 1] {
                 return err(
                     rname,
-                    format!("play radii must be strictly increasing, got {r} after {}", self.play_radius[i - 1]),
+                    format!(
+                        "play radii must be strictly increasing, got {r} after {}",
+                        self.play_radius[i - 1]
+                    ),
                 );
             }
             if !w.is_finite() || w < 0.0 {

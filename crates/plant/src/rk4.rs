@@ -157,7 +157,8 @@ impl Rk4Plant {
         self.time += dt;
         let xi = self.xi(&s);
         for i in 0..N_PLAYS {
-            self.hysteresis.memory[i] = play(self.hysteresis.memory[i], xi, self.hysteresis.radius[i]);
+            self.hysteresis.memory[i] =
+                play(self.hysteresis.memory[i], xi, self.hysteresis.radius[i]);
         }
     }
 
@@ -199,7 +200,10 @@ mod tests {
     /// the same equations must agree with it as the exact solver does.
     #[test]
     fn rk4_at_5_us_reproduces_the_reference_trace() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/reference/plant-check-trace-fia20.csv"
+        );
         let text = std::fs::read_to_string(path).unwrap();
         let mut plant = Rk4Plant::new(PlantParams::fia20(), 5e-6);
         let mut worst = (0, 0.0);
@@ -213,6 +217,11 @@ mod tests {
             }
             assert_eq!(plant.mode() as u8, f[5].parse::<u8>().unwrap(), "mode at t = {}", v(0));
         }
-        assert!(worst.0 <= 2, "RK4 differs from the reference by {} counts at t = {} s", worst.0, worst.1);
+        assert!(
+            worst.0 <= 2,
+            "RK4 differs from the reference by {} counts at t = {} s",
+            worst.0,
+            worst.1
+        );
     }
 }

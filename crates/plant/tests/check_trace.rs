@@ -15,7 +15,10 @@ struct Row {
 }
 
 fn reference() -> Vec<Row> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/reference/plant-check-trace-fia20.csv"
+    );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
     text.lines()
         .skip(1)
@@ -73,7 +76,10 @@ fn check_values_and_trace_match_the_reference() {
         }
     }
     eprintln!("worst encoder deviation {} counts at t = {} s", worst.0, worst.1);
-    eprintln!("worst runner position deviation {:.3e} m at t = {} s", worst_runner.0, worst_runner.1);
+    eprintln!(
+        "worst runner position deviation {:.3e} m at t = {} s",
+        worst_runner.0, worst_runner.1
+    );
 
     let expect_ext = [18.210, 19.383, -19.342, 6.633, -6.690];
     let expect_bd = [4.685, 4.853, 3.902, 4.687, 4.244];
@@ -81,14 +87,29 @@ fn check_values_and_trace_match_the_reference() {
     let forward = [true, true, false, true, false];
     let mut failures = Vec::new();
     for g in 0..5 {
-        let enc: Vec<f64> = out[g * 100..(g + 1) * 100].iter().map(|o| o.0 as f64 * 1.2e-3).collect();
+        let enc: Vec<f64> =
+            out[g * 100..(g + 1) * 100].iter().map(|o| o.0 as f64 * 1.2e-3).collect();
         let s = segment_averages(&enc);
         let moved = if forward[g] { s[3] - s[2] } else { s[4] - s[3] };
         let bd = (s[6] - s[0]) - moved;
-        eprintln!("gait {}: EXT_moved {moved:.4} (ref {}), BD {bd:.4} (ref {}), s7 {:.4} (ref {})", g + 1, expect_ext[g], expect_bd[g], s[6], expect_pos[g]);
-        for (name, got, want) in [("EXT_moved", moved, expect_ext[g]), ("BD", bd, expect_bd[g]), ("s7", s[6], expect_pos[g])] {
+        eprintln!(
+            "gait {}: EXT_moved {moved:.4} (ref {}), BD {bd:.4} (ref {}), s7 {:.4} (ref {})",
+            g + 1,
+            expect_ext[g],
+            expect_bd[g],
+            s[6],
+            expect_pos[g]
+        );
+        for (name, got, want) in [
+            ("EXT_moved", moved, expect_ext[g]),
+            ("BD", bd, expect_bd[g]),
+            ("s7", s[6], expect_pos[g]),
+        ] {
             if (got - want).abs() > 0.010 {
-                failures.push(format!("gait {}: {name} = {got:.4} µm, expected {want} ± 0.010 µm", g + 1));
+                failures.push(format!(
+                    "gait {}: {name} = {got:.4} µm, expected {want} ± 0.010 µm",
+                    g + 1
+                ));
             }
         }
     }
@@ -100,5 +121,10 @@ fn check_values_and_trace_match_the_reference() {
         worst_runner.0,
         worst_runner.1
     );
-    assert!(worst.0 <= 2, "encoder differs from the reference trace by {} counts at t = {} s (tolerance 2)", worst.0, worst.1);
+    assert!(
+        worst.0 <= 2,
+        "encoder differs from the reference trace by {} counts at t = {} s (tolerance 2)",
+        worst.0,
+        worst.1
+    );
 }

@@ -36,7 +36,10 @@ fn uniform(state: &mut u64) -> f64 {
 }
 
 fn gait() -> Vec<Dac> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../../shared/reference/plant-check-trace-fia20.csv"
+    );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
     text.lines()
         .skip(1)
@@ -178,5 +181,9 @@ const GOLDEN_FIA6_TIGHT: u64 = 0x41b4_dff6_7e8b_940d;
 #[test]
 fn golden_trace_fia6_tight_tolerance_is_bit_identical() {
     // Another device and a 100x tighter tolerance: a 4x finer scan of 512 points per piece.
-    check("fia6, rel_tol 1e-11", PlantParams { rel_tol: 1e-11, ..PlantParams::fia6() }, GOLDEN_FIA6_TIGHT);
+    check(
+        "fia6, rel_tol 1e-11",
+        PlantParams { rel_tol: 1e-11, ..PlantParams::fia6() },
+        GOLDEN_FIA6_TIGHT,
+    );
 }

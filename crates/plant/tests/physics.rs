@@ -28,7 +28,8 @@ fn chain_step_response(p: &PlantParams, u: f64, t: f64) -> f64 {
     let sub = |a: C, b: C| C(a.0 - b.0, a.1 - b.1);
     let w = 2.0 * std::f64::consts::PI * p.f_bessel / 1.36165;
     let wa = 2.0 * std::f64::consts::PI * p.f_amp;
-    let poles = [C(-1.5 * w, w * 3f64.sqrt() / 2.0), C(-1.5 * w, -w * 3f64.sqrt() / 2.0), C(-wa, 0.0)];
+    let poles =
+        [C(-1.5 * w, w * 3f64.sqrt() / 2.0), C(-1.5 * w, -w * 3f64.sqrt() / 2.0), C(-wa, 0.0)];
     let gain = p.amp_gain * wa * 3.0 * w * w * u;
     let mut y = p.amp_gain * u;
     for (k, &pk) in poles.iter().enumerate() {
@@ -74,7 +75,10 @@ fn brake_switch_is_located_at_the_analytic_crossing() {
         }
     }
     let analytic = 0.5 * (lo + hi);
-    for (name, d, mode) in [("non-earth", dac(0.0, 10.0, 0.0), Mode::Locked), ("earth", dac(10.0, 0.0, 0.0), Mode::Free)] {
+    for (name, d, mode) in [
+        ("non-earth", dac(0.0, 10.0, 0.0), Mode::Locked),
+        ("earth", dac(10.0, 0.0, 0.0), Mode::Free),
+    ] {
         let mut plant = Plant::new(p.clone()).unwrap();
         let r = plant.step(d, H);
         let t = r.first_brake_event.expect("a brake switch in the first 2 ms");
@@ -83,7 +87,11 @@ fn brake_switch_is_located_at_the_analytic_crossing() {
             err.abs() <= 10e-9,
             "{name} brake switch at {t:.12} s, analytic crossing {analytic:.12} s: error {err:.3e} s > 10 ns"
         );
-        assert!(err >= 0.0 && err <= 2.0 * p.rel_tol, "{name}: located {err:.3e} s after the crossing, resolution {}", p.rel_tol);
+        assert!(
+            err >= 0.0 && err <= 2.0 * p.rel_tol,
+            "{name}: located {err:.3e} s after the crossing, resolution {}",
+            p.rel_tol
+        );
         assert_eq!((r.brake_events, plant.mode()), (1, mode), "{name}");
     }
     // A 100x tighter tolerance moves the located time by less than the default resolution.
@@ -124,7 +132,10 @@ fn gait_walks_through_hold_locked_drive_locked_hold_with_their_jump_conditions()
     }
     let static_shift = 175.0 / (3.0e7 + 5.0e6 + 2.0e4);
     let settled = plant.outputs().runner_position;
-    assert!((settled - static_shift).abs() < 0.25 * static_shift, "brake disturbance shift {settled:.3e} m, static estimate {static_shift:.3e} m");
+    assert!(
+        (settled - static_shift).abs() < 0.25 * static_shift,
+        "brake disturbance shift {settled:.3e} m, static estimate {static_shift:.3e} m"
+    );
     assert!(peak > settled, "the runner-flexure mode rings after the switch");
 
     // Extension moves runner and node 3 together.
@@ -142,7 +153,11 @@ fn gait_walks_through_hold_locked_drive_locked_hold_with_their_jump_conditions()
     assert_eq!(plant.velocities()[3], 0.0);
     hold(&mut plant, dac(0.0, 0.0, 0.0), 14);
     assert_eq!(plant.outputs().runner_position, runner_locked, "HOLD must keep the runner still");
-    assert!(plant.outputs().extension.abs() < 2e-6, "extension retracted: {:.3e}", plant.outputs().extension);
+    assert!(
+        plant.outputs().extension.abs() < 2e-6,
+        "extension retracted: {:.3e}",
+        plant.outputs().extension
+    );
     assert_eq!(plant.outputs().slip_events, 0);
 }
 
@@ -171,7 +186,11 @@ fn opening_both_brakes_slips_the_runner_and_counts_it() {
     hold(&mut plant, dac(10.0, 0.0, 0.0), 3);
     let o = plant.outputs();
     assert_eq!(o.slip_events, 1);
-    assert!(o.runner_position < 0.5 * start, "runner slipped from {start:.3e} m to {:.3e} m", o.runner_position);
+    assert!(
+        o.runner_position < 0.5 * start,
+        "runner slipped from {start:.3e} m to {:.3e} m",
+        o.runner_position
+    );
     // Closing the earth brake again clamps it wherever it is: HOLD, no new slip.
     hold(&mut plant, dac(0.0, 0.0, 0.0), 5);
     assert_eq!((plant.mode(), plant.outputs().slip_events), (Mode::Hold, 1));
@@ -195,11 +214,22 @@ fn locked_stack_charge_traces_the_prandtl_ishlinskii_loop() {
     let peak = m[0] + p.play_radius[0];
     assert!(peak >= xi && peak - xi < 1.0, "ξ peak {peak} V, final ξ {xi} V");
     for (i, (mi, r)) in m.iter().zip(p.play_radius).enumerate() {
-        assert!((mi + r - peak).abs() < 1e-9, "play {} memory {mi} V after the rise, expected {} V", i + 1, peak - r);
+        assert!(
+            (mi + r - peak).abs() < 1e-9,
+            "play {} memory {mi} V after the rise, expected {} V",
+            i + 1,
+            peak - r
+        );
     }
-    let h_sum = |m: [f64; 5], xi: f64| (0..5).map(|i| p.play_weight[i] * play(m[i], xi, p.play_radius[i])).sum::<f64>();
+    let h_sum = |m: [f64; 5], xi: f64| {
+        (0..5).map(|i| p.play_weight[i] * play(m[i], xi, p.play_radius[i])).sum::<f64>()
+    };
     let vx = plant.outputs().voltage_extension;
-    assert!((xi + h_sum(m, xi) - vx).abs() < 1e-6, "ξ + H[ξ] = {} V, V_X = {vx} V", xi + h_sum(m, xi));
+    assert!(
+        (xi + h_sum(m, xi) - vx).abs() < 1e-6,
+        "ξ + H[ξ] = {} V, V_X = {vx} V",
+        xi + h_sum(m, xi)
+    );
     // Down to 20 V: the plays whose band ξ left are dragged to ξ_trough + r, the others keep
     // their memory from the rise.
     hold(&mut plant, dac(0.0, 10.0, 2.0), 40);
@@ -209,7 +239,13 @@ fn locked_stack_charge_traces_the_prandtl_ishlinskii_loop() {
     assert!(trough <= xi2 && xi2 - trough < 1.0);
     for i in 0..5 {
         let expect = play(m[i], trough, p.play_radius[i]);
-        assert!((m2[i] - expect).abs() < 1e-9, "play {} memory {} V after the fall, expected {} V", i + 1, m2[i], expect);
+        assert!(
+            (m2[i] - expect).abs() < 1e-9,
+            "play {} memory {} V after the fall, expected {} V",
+            i + 1,
+            m2[i],
+            expect
+        );
     }
     assert_eq!(m2[2..], m[2..], "the plays of radius 30..50 V keep their memory from the rise");
     assert!(m2[1] < m[1], "the radius-20 V play was dragged down");
@@ -222,7 +258,12 @@ fn encoder_rounds_half_away_from_zero_and_noise_is_seeded() {
     let noisy = PlantParams { encoder_noise: 3e-9, noise_seed: 42, ..PlantParams::fia20() };
     let run = |p: PlantParams| {
         let mut plant = Plant::new(p).unwrap();
-        (0..200).map(|_| { plant.step(dac(0.0, 0.0, 0.0), H); plant.outputs().encoder_counts }).collect::<Vec<_>>()
+        (0..200)
+            .map(|_| {
+                plant.step(dac(0.0, 0.0, 0.0), H);
+                plant.outputs().encoder_counts
+            })
+            .collect::<Vec<_>>()
     };
     let a = run(noisy.clone());
     let b = run(noisy.clone());
@@ -240,7 +281,14 @@ fn state_round_trip_replays_bit_for_bit() {
     hold(&mut plant, dac(10.0, 10.0, 0.0), 3);
     let mut bytes = Vec::new();
     plant.save_state(&mut bytes);
-    let cont = |p: &mut Plant| (0..30).map(|_| { p.step(dac(10.0, 10.0, 5.0), H); p.positions() }).collect::<Vec<_>>();
+    let cont = |p: &mut Plant| {
+        (0..30)
+            .map(|_| {
+                p.step(dac(10.0, 10.0, 5.0), H);
+                p.positions()
+            })
+            .collect::<Vec<_>>()
+    };
     let first = cont(&mut plant);
     let mut fresh = Plant::new(PlantParams::fia20()).unwrap();
     fresh.load_state(&bytes).unwrap();
@@ -275,20 +323,44 @@ fn random_drive_with_random_step_sizes_stays_finite_and_consistent() {
         seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         (seed >> 11) as f64 / (1u64 << 53) as f64
     };
-    for params in [PlantParams::fia20(), PlantParams::fia6(), PlantParams { gamma: 0.5, ..PlantParams::fia20() }] {
+    for params in [
+        PlantParams::fia20(),
+        PlantParams::fia6(),
+        PlantParams { gamma: 0.5, ..PlantParams::fia20() },
+    ] {
         let mut plant = Plant::new(params.clone()).unwrap();
         let mut t = 0.0;
         for k in 0..20_000 {
-            let pick = |u: f64| if u < 0.2 { 5.0 } else if u < 0.4 { 0.0 } else if u < 0.6 { 10.0 } else { 10.0 * u };
+            let pick = |u: f64| {
+                if u < 0.2 {
+                    5.0
+                } else if u < 0.4 {
+                    0.0
+                } else if u < 0.6 {
+                    10.0
+                } else {
+                    10.0 * u
+                }
+            };
             let d = dac(pick(next()), pick(next()), 10.0 * next());
             let h = 1e-4 + 4.9e-3 * next();
             let r = plant.step(d, h);
             t += h;
             assert!(!r.event_budget_exhausted, "step {k}: event budget exhausted");
             let o = plant.outputs();
-            assert!(o.runner_position.is_finite() && o.extension.is_finite(), "step {k}: non-finite state");
-            assert!(o.runner_position.abs() < 0.01 && o.extension.abs() < 1e-4, "step {k}: runaway {o:?}");
-            assert_eq!(o.mode, Mode::from_brakes(o.voltage_earth < params.v_th, o.voltage_nonearth >= params.v_th), "step {k}");
+            assert!(
+                o.runner_position.is_finite() && o.extension.is_finite(),
+                "step {k}: non-finite state"
+            );
+            assert!(
+                o.runner_position.abs() < 0.01 && o.extension.abs() < 1e-4,
+                "step {k}: runaway {o:?}"
+            );
+            assert_eq!(
+                o.mode,
+                Mode::from_brakes(o.voltage_earth < params.v_th, o.voltage_nonearth >= params.v_th),
+                "step {k}"
+            );
         }
         assert!((plant.time() - t).abs() < 1e-9);
     }

@@ -28,7 +28,10 @@ impl<'a> Reader<'a> {
     }
     fn take<const K: usize>(&mut self) -> Result<[u8; K], String> {
         let end = self.pos + K;
-        let s = self.bytes.get(self.pos..end).ok_or_else(|| format!("{} truncated at byte {}", self.what, self.pos))?;
+        let s = self
+            .bytes
+            .get(self.pos..end)
+            .ok_or_else(|| format!("{} truncated at byte {}", self.what, self.pos))?;
         self.pos = end;
         Ok(s.try_into().expect("slice has length K"))
     }

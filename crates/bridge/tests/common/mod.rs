@@ -37,7 +37,14 @@ impl Mechanism for DirectPlant {
         Ok(self.0.outputs().encoder_counts as i32)
     }
     fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
-        self.0.step(Dac { earth: code_to_volts(codes[0]), nonearth: code_to_volts(codes[1]), extension: code_to_volts(codes[2]) }, H);
+        self.0.step(
+            Dac {
+                earth: code_to_volts(codes[0]),
+                nonearth: code_to_volts(codes[1]),
+                extension: code_to_volts(codes[2]),
+            },
+            H,
+        );
         self.counts()
     }
 }

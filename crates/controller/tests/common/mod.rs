@@ -76,7 +76,12 @@ pub struct Record {
 
 /// Jacobi coupling at 2 ms: at each communication point both sides get the other's
 /// outputs of the previous point; the controller's answer is held one interval later.
-pub fn run(p: Params, plant: &mut StepPlant, reference: impl Fn(f64) -> f64, seconds: f64) -> Vec<Record> {
+pub fn run(
+    p: Params,
+    plant: &mut StepPlant,
+    reference: impl Fn(f64) -> f64,
+    seconds: f64,
+) -> Vec<Record> {
     let mut c = Controller::new(p).expect("valid parameters");
     let mut dac = [0.0; 3];
     let mut counts = plant.counts();

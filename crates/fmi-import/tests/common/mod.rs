@@ -47,8 +47,7 @@ pub fn entries(path: &Path) -> Vec<(String, Vec<u8>)> {
 pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) {
     let mut w = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
     for (name, bytes) in entries {
-        w.start_file(name.as_str(), zip::write::SimpleFileOptions::default())
-            .unwrap();
+        w.start_file(name.as_str(), zip::write::SimpleFileOptions::default()).unwrap();
         w.write_all(bytes).unwrap();
     }
     w.finish().unwrap();

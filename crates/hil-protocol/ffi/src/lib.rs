@@ -260,10 +260,7 @@ fn to_packet(p: &IwPacket) -> Option<Packet> {
             reason: FaultReason::from_u8(p.fault_reason)?,
             detail: p.fault_detail,
         }),
-        IW_TYPE_DAC => Frame::Dac(DacSample {
-            tick: p.tick,
-            codes: p.codes,
-        }),
+        IW_TYPE_DAC => Frame::Dac(DacSample { tick: p.tick, codes: p.codes }),
         IW_TYPE_ENCODER => {
             if p.status & !iw::status::ALL != 0 {
                 return None;
@@ -423,16 +420,9 @@ pub unsafe extern "C" fn iw_watchdog_init(w: *mut IwWatchdog, limit: u32) {
         if w.is_null() {
             return;
         }
-        let storage = IwWatchdog {
-            init_tag: WATCHDOG_TAG,
-            reserved: 0,
-            opaque: [0; 4],
-        };
+        let storage = IwWatchdog { init_tag: WATCHDOG_TAG, reserved: 0, opaque: [0; 4] };
         core::ptr::write(w, storage);
-        core::ptr::write(
-            (*w).opaque.as_mut_ptr() as *mut Watchdog,
-            Watchdog::new(limit),
-        );
+        core::ptr::write((*w).opaque.as_mut_ptr() as *mut Watchdog, Watchdog::new(limit));
     })
 }
 
@@ -520,9 +510,7 @@ pub unsafe extern "C" fn iw_watchdog_output(
 /// NULL or uninitialised `w`, since it outputs safe codes).
 #[no_mangle]
 pub unsafe extern "C" fn iw_watchdog_status(w: *const IwWatchdog) -> u16 {
-    guard(IW_STATUS_SAFE, || {
-        watchdog(w).map_or(IW_STATUS_SAFE, |w| w.status_bits())
-    })
+    guard(IW_STATUS_SAFE, || watchdog(w).map_or(IW_STATUS_SAFE, |w| w.status_bits()))
 }
 
 /// IW_STATE_DISARMED, IW_STATE_ARMED, IW_STATE_SAFE, or IW_ERR_NULL.

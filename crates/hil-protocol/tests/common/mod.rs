@@ -5,9 +5,7 @@ use inchworm_hil_protocol::*;
 
 /// Parses "49 57 01 ..." into bytes.
 pub fn hex(s: &str) -> Vec<u8> {
-    s.split_whitespace()
-        .map(|b| u8::from_str_radix(b, 16).unwrap())
-        .collect()
+    s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
 }
 
 /// Recomputes the CRC trailer of a frame after a deliberate edit, so the test reaches
@@ -43,54 +41,22 @@ pub fn all_packets() -> Vec<Packet> {
         }),
         Frame::Arm,
         Frame::Disarm,
-        Frame::Fault(Fault {
-            reason: FaultReason::Silence,
-            detail: 3,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::SequenceGap,
-            detail: u32::MAX,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::LinkDead,
-            detail: 0,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::Corrupt,
-            detail: 17,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::Overrun,
-            detail: 1,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::Operator,
-            detail: 0,
-        }),
-        Frame::Fault(Fault {
-            reason: FaultReason::ProtocolMismatch,
-            detail: 2,
-        }),
-        Frame::Dac(DacSample {
-            tick: 0,
-            codes: [0, 0, 0],
-        }),
-        Frame::Dac(DacSample {
-            tick: u32::MAX,
-            codes: [65535, 1, 32768],
-        }),
+        Frame::Fault(Fault { reason: FaultReason::Silence, detail: 3 }),
+        Frame::Fault(Fault { reason: FaultReason::SequenceGap, detail: u32::MAX }),
+        Frame::Fault(Fault { reason: FaultReason::LinkDead, detail: 0 }),
+        Frame::Fault(Fault { reason: FaultReason::Corrupt, detail: 17 }),
+        Frame::Fault(Fault { reason: FaultReason::Overrun, detail: 1 }),
+        Frame::Fault(Fault { reason: FaultReason::Operator, detail: 0 }),
+        Frame::Fault(Fault { reason: FaultReason::ProtocolMismatch, detail: 2 }),
+        Frame::Dac(DacSample { tick: 0, codes: [0, 0, 0] }),
+        Frame::Dac(DacSample { tick: u32::MAX, codes: [65535, 1, 32768] }),
         Frame::Encoder(EncoderSample {
             tick: u32::MAX,
             counts: i32::MIN,
             status: status::ALL,
             echo_seq: 65535,
         }),
-        Frame::Encoder(EncoderSample {
-            tick: 1,
-            counts: -1,
-            status: 0,
-            echo_seq: 0,
-        }),
+        Frame::Encoder(EncoderSample { tick: 1, counts: -1, status: 0, echo_seq: 0 }),
         Frame::Encoder(EncoderSample {
             tick: 2,
             counts: i32::MAX,

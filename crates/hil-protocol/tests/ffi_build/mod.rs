@@ -41,12 +41,7 @@ fn json_str<'a>(line: &'a str, key: &str) -> Option<&'a str> {
 pub fn build_ffi(target: &Path) -> (PathBuf, PathBuf) {
     let manifest = crate_dir().join("ffi/Cargo.toml");
     let out = Command::new(env!("CARGO"))
-        .args([
-            "build",
-            "--release",
-            "--message-format=json-render-diagnostics",
-            "--manifest-path",
-        ])
+        .args(["build", "--release", "--message-format=json-render-diagnostics", "--manifest-path"])
         .arg(&manifest)
         .arg("--target-dir")
         .arg(target)
@@ -75,11 +70,7 @@ pub fn build_ffi(target: &Path) -> (PathBuf, PathBuf) {
     let header_dir =
         header_dir.expect("cargo reported no build-script out_dir for inchworm-hil-ffi");
     let lib = lib.expect("cargo reported no libinchworm_hil.a");
-    assert!(
-        header_dir.join("inchworm_hil.h").is_file(),
-        "no header in {}",
-        header_dir.display()
-    );
+    assert!(header_dir.join("inchworm_hil.h").is_file(), "no header in {}", header_dir.display());
     assert!(lib.is_file(), "{} missing", lib.display());
     (header_dir, lib)
 }
