@@ -25,7 +25,7 @@ const REPEATS: usize = 60;
 fn sequence() -> (Vec<Dac>, Vec<i64>) {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/reference/plant-check-trace-fia20.csv"
+        "/../../tests/data/plant-check-trace-fia20-passive.csv"
     );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     let rows: Vec<Vec<f64>> =
@@ -43,7 +43,7 @@ fn regulation(gaits: &[Dac]) -> Vec<Dac> {
     let mut seq = Vec::new();
     for _ in 0..10 {
         seq.extend_from_slice(one);
-        seq.extend(std::iter::repeat(Dac::default()).take(2500));
+        seq.extend(std::iter::repeat_n(Dac::default(), 2500));
     }
     seq
 }

@@ -11,7 +11,7 @@ fn main() {
     // The SPEC 2.9 gaits of the reference trace (1 s).
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/reference/plant-check-trace-fia20.csv"
+        "/../../tests/data/plant-check-trace-fia20-passive.csv"
     );
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     for line in text.lines().skip(1) {

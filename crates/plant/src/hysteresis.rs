@@ -1,26 +1,41 @@
-//! Prandtl–Ishlinskii hysteresis on the PZT charge (SPEC 2.4).
+//! Passive hysteresis on the PZT charge: a Maxwell-slip sum of stop operators
+//! (docs/model.md §2.4).
 //!
-//! The solver propagates the plays exactly: between events every play is either stuck
-//! (memory constant) or dragged by `ξ` in the current direction, so `u_h = W_s ξ + c0`
-//! is affine in `ξ`, and the whole plant is linear. This module owns the play memories
-//! and answers the questions the event loop asks: which plays slide, what `W_s` and `c0`
-//! are, and where the next play starts to move.
+//! Element i is an elastic capacitance of weight `w_i` with a slip limit `r_i`: its output
+//! is `E_i = clamp(ξ − p_i, −r_i, r_i)`, where `p_i` is the memory of the play operator
+//! `F_r[ξ] = min(ξ + r, max(ξ − r, F_r⁻))`, so `E_i = ξ − F_{r_i}[ξ]`. The element *sticks*
+//! while `|ξ − p_i| < r_i` (output `ξ − p_i`, linear in `ξ`) and *slips* once the bound is
+//! reached (output `±r_i`, constant, memory dragged along). The power into the element,
+//! `u_h q̇ = d/dt (C Σ w_i E_i² / 2) + C Σ w_i r_i |ṗ_i|`, is stored energy plus a dissipation
+//! that is never negative: the form is passive.
+//!
+//! The solver propagates the elements exactly: between events every element either sticks
+//! or slips in the current direction, so `u_h = W ξ + c0` is affine in `ξ` with `W` the
+//! weight of the sticking elements, and the whole plant is linear. This module owns the
+//! memories and answers the questions the event loop asks: which elements slip, what `W`
+//! and `c0` are, and where the next element starts to slip.
 
 use crate::params::N_PLAYS;
 
-/// One backlash (play) operator: `F_r[ξ](t) = min(ξ + r, max(ξ − r, F_r(t⁻)))`.
+/// One backlash (play) operator: `F_r[ξ](t) = min(ξ + r, max(ξ − r, F_r(t⁻)))`. Its output
+/// is the memory `p` of the stop operator of the same radius.
 pub fn play(memory: f64, xi: f64, radius: f64) -> f64 {
     (xi - radius).max(memory).min(xi + radius)
 }
 
-/// The plays of the stack and which of them the charge is dragging right now.
+/// One stop operator (elastic-plastic element) with memory `p`: `clamp(ξ − p, −r, r)`.
+pub fn stop(memory: f64, xi: f64, radius: f64) -> f64 {
+    (xi - memory).clamp(-radius, radius)
+}
+
+/// The elements of the stack and which of them slip right now.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Hysteresis {
     pub radius: [f64; N_PLAYS],
     pub weight: [f64; N_PLAYS],
-    /// Play outputs (their memories), V.
+    /// Element memories `p_i` (the play outputs), V.
     pub memory: [f64; N_PLAYS],
-    /// Bit i set: play i is being dragged in `direction`.
+    /// Bit i set: element i slips in `direction`.
     pub sliding: u8,
     /// +1 while `ξ` rises, −1 while it falls, 0 at rest.
     pub direction: i8,
@@ -31,14 +46,14 @@ impl Hysteresis {
         Hysteresis { radius, weight, memory: [0.0; N_PLAYS], sliding: 0, direction: 0 }
     }
 
-    /// `H[ξ]` with the memories held: the static Prandtl–Ishlinskii sum.
+    /// `H[ξ] = Σ w_i clamp(ξ − p_i, −r_i, r_i)` with the memories held.
     pub fn output_held(&self, xi: f64) -> f64 {
-        (0..N_PLAYS).map(|i| self.weight[i] * play(self.memory[i], xi, self.radius[i])).sum()
+        (0..N_PLAYS).map(|i| self.weight[i] * stop(self.memory[i], xi, self.radius[i])).sum()
     }
 
-    /// Solves `ξ + H[ξ] = drive` with the memories held (SPEC 2.4). The left side is
-    /// strictly increasing and piecewise linear with kinks at `p_i ± r_i`, so walking the
-    /// kinks gives the root exactly.
+    /// Solves `ξ + H[ξ] = drive` with the memories held (docs/model.md §2.4). The left side
+    /// is strictly increasing (slope between 1 and `1 + Σ w_i`) and piecewise linear with
+    /// kinks at `p_i ± r_i`, so walking the kinks gives the root exactly.
     pub fn solve_xi(&self, drive: f64) -> f64 {
         let f = |xi: f64| xi + self.output_held(xi) - drive;
         let mut kinks = [0.0; 2 * N_PLAYS];
@@ -63,29 +78,30 @@ impl Hysteresis {
             (false, true) => hi - 1.0,
             (false, false) => 0.0,
         };
-        // On this piece f(ξ) = (1 + W) ξ + b: slope from the sliding plays at the probe.
+        // On this piece f(ξ) = (1 + W) ξ + b, W the weight of the elements that stick there.
         let slope = 1.0
             + (0..N_PLAYS)
-                .filter(|&i| (probe - self.memory[i]).abs() > self.radius[i])
+                .filter(|&i| (probe - self.memory[i]).abs() < self.radius[i])
                 .map(|i| self.weight[i])
                 .sum::<f64>();
         probe - f(probe) / slope
     }
 
-    /// Sum of the weights of the sliding plays.
-    pub fn sliding_weight(&self) -> f64 {
-        (0..N_PLAYS).filter(|&i| self.sliding & (1 << i) != 0).map(|i| self.weight[i]).sum()
+    /// `W` in `u_h = W ξ + c0`: the weight of the sticking elements.
+    pub fn sticking_weight(&self) -> f64 {
+        (0..N_PLAYS).filter(|&i| self.sliding & (1 << i) == 0).map(|i| self.weight[i]).sum()
     }
 
-    /// `c0` in `u_h = W_s ξ + c0` for the current sliding set and direction.
+    /// `c0` in `u_h = W ξ + c0` for the current slipping set and direction: a sticking
+    /// element adds `−w_i p_i`, a slipping one its constant output `±w_i r_i`.
     pub fn offset(&self) -> f64 {
         let s = f64::from(self.direction);
         (0..N_PLAYS)
             .map(|i| {
                 if self.sliding & (1 << i) != 0 {
-                    -s * self.weight[i] * self.radius[i]
+                    s * self.weight[i] * self.radius[i]
                 } else {
-                    self.weight[i] * self.memory[i]
+                    -self.weight[i] * self.memory[i]
                 }
             })
             .sum()
@@ -157,15 +173,18 @@ mod tests {
     }
 
     #[test]
-    fn sliding_set_affine_form_matches_the_operator() {
-        // Drag ξ up from 0 to 35: plays of radius 10, 20, 30 slide, 40 and 50 stay.
+    fn slipping_set_affine_form_matches_the_operator() {
+        // Drag ξ up from 0 to 35: elements of radius 10, 20, 30 slip, 40 and 50 stick.
         let mut h = fia20();
         h.sync(35.0, 1);
         assert_eq!(h.sliding, 0b00111);
-        let w = h.sliding_weight();
-        assert!((w - 0.21).abs() < 1e-15);
+        let w = h.sticking_weight();
+        assert!((w - 0.09).abs() < 1e-15);
         let affine = w * 35.0 + h.offset();
         assert!((affine - h.output_held(35.0)).abs() < 1e-12);
+        // Slipping elements sit at their limits, sticking ones are strained elastically.
+        let expect = 0.08 * 10.0 + 0.07 * 20.0 + 0.06 * 30.0 + 0.05 * 35.0 + 0.04 * 35.0;
+        assert!((h.output_held(35.0) - expect).abs() < 1e-12);
         let (up, down) = h.next_thresholds();
         assert_eq!((up, down), (40.0, -40.0));
         // Reversal: all stick at their dragged positions.
@@ -173,5 +192,17 @@ mod tests {
         assert_eq!(h.sliding, 0);
         assert_eq!(h.memory, [25.0, 15.0, 5.0, 0.0, 0.0]);
         assert_eq!(h.next_thresholds(), (35.0, 15.0));
+        assert!((h.sticking_weight() * 35.0 + h.offset() - h.output_held(35.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stop_is_the_complement_of_play() {
+        let (mut p, r) = (0.0, 10.0);
+        for xi in [5.0, 30.0, 25.0, 10.0, -30.0, -25.0, 0.0] {
+            let e = stop(p, xi, r);
+            p = play(p, xi, r);
+            assert_eq!(e, xi - p, "stop output at xi = {xi}");
+            assert!(e.abs() <= r);
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! The plant as a piecewise linear system, and its exact propagation.
 //!
-//! Between events (a brake threshold crossing, a play starting to slide, `ξ` reversing
-//! while plays slide) every mode with a fixed sliding set is linear time-invariant with
+//! Between events (a brake threshold crossing, a hysteresis element starting to slip, `ξ`
+//! reversing while elements slip) every mode with a fixed slipping set is linear time-invariant with
 //! the DAC inputs held, so the exact solution over a duration `τ` is `z(τ) = e^{Aτ} z(0)`
 //! for the state augmented with its constant inputs. Durations are counted in ticks of
 //! 2⁻³⁰ s (0.93 ns); the propagators `e^{A 2^l tick}` are tabulated per configuration,
@@ -52,7 +52,7 @@ pub mod ix {
     /// Constant inputs carried as states with zero derivative.
     pub const ONE: usize = 11;
     pub const UX: usize = 12;
-    /// Hysteresis offset `c0` in `u_h = W_s ξ + c0`.
+    /// Hysteresis offset `c0` in `u_h = W ξ + c0`.
     pub const C0: usize = 13;
 }
 
@@ -330,8 +330,8 @@ pub fn kappa(p: &PlantParams) -> f64 {
     p.t_em / p.c
 }
 
-/// Rate matrix of the mechanics plus the extension channel in `mode`, with sliding plays
-/// of total weight `w_s` (SPEC 2.3, 2.4, 2.5).
+/// Rate matrix of the mechanics plus the extension channel in `mode`, with sticking
+/// hysteresis elements of total weight `w_s` (SPEC 2.3, 2.4, 2.5).
 pub fn system_matrix(p: &PlantParams, mode: Mode, w_s: f64) -> Matrix {
     use ix::*;
     let mut a = Matrix::zeros();
@@ -362,7 +362,7 @@ pub fn system_matrix(p: &PlantParams, mode: Mode, w_s: f64) -> Matrix {
     let f3 = row(&[(Y3, k), (Y2, -k), (V3, c), (V2, -c)]);
     let f_f = row(&[(Y3, p.k_f), (V3, p.c_f)]);
     let g = p.t_em / (1.0 + w_s);
-    // F_p = T_em (ξ − κδ) with ξ = (V_X + κδ − c0)/(1 + W_s): sliding plays soften the stack.
+    // F_p = T_em (ξ − κδ) with ξ = (V_X + κδ − c0)/(1 + W): sticking elements stiffen the stack.
     let f_p = row(&[(VX, g), (C0, -g), (Y3, -g * w_s * kap)]);
     let f_e = row(&[(Y4, p.k_e), (V4, p.c_e)]);
     let f_d = row(&[(ONE, p.f_d0), (Y4, -p.gamma * p.k_e)]);
@@ -395,7 +395,7 @@ pub fn system_matrix(p: &PlantParams, mode: Mode, w_s: f64) -> Matrix {
     a
 }
 
-/// Row giving `ξ` from the state, for a configuration with sliding weight `w_s`.
+/// Row giving `ξ` from the state, for a configuration with sticking weight `w_s`.
 pub fn xi_row(p: &PlantParams, w_s: f64) -> Vector {
     let mut r = Vector::zeros();
     let s = 1.0 / (1.0 + w_s);

@@ -202,7 +202,7 @@ mod tests {
     fn rk4_at_5_us_reproduces_the_reference_trace() {
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/reference/plant-check-trace-fia20.csv"
+            "/../../tests/data/plant-check-trace-fia20-passive.csv"
         );
         let text = std::fs::read_to_string(path).unwrap();
         let mut plant = Rk4Plant::new(PlantParams::fia20(), 5e-6);

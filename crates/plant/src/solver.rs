@@ -1,0 +1,459 @@
+//! The event-driven exact solver: propagation by the tabulated `e^{A 2^l tick}`, scans of
+//! the watched functionals, bisection to the first event, and the jump conditions.
+
+use crate::configs::{product, table, ChainRemainder, Remainder};
+use crate::hysteresis::Hysteresis;
+use crate::linear::{self, ix, mul_vec, Chain, Propagators, Vector, TICK};
+use crate::noise::gaussian;
+use crate::Dac;
+use crate::{Mode, Plant, StepReport};
+
+/// A step that needs more events than this is pathological (chattering at a threshold):
+/// event detection is suspended for the rest of that step and the step reports it.
+const MAX_EVENTS_PER_STEP: u32 = 100_000;
+
+/// A scan of fewer points than this is cheaper than the bound that could skip it.
+const MIN_BOUND_POINTS: usize = 16;
+
+/// The play thresholds and the sliding direction the event loop watches, a function of
+/// the hysteresis state alone.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Armed {
+    up: f64,
+    down: f64,
+    direction: f64,
+}
+
+impl Armed {
+    pub(crate) fn of(h: &Hysteresis) -> Armed {
+        let (up, down) = h.next_thresholds();
+        Armed { up, down, direction: f64::from(h.direction) * f64::from(u8::from(h.sliding != 0)) }
+    }
+}
+
+/// What the event loop watches during one piece, frozen at its start.
+struct Watch<'a> {
+    vth: f64,
+    earth_closed: bool,
+    nonearth_closed: bool,
+    /// The configuration's watched rows (`linear::xi_row`, `linear::drive_rate_row`).
+    xi_row: &'a Vector,
+    rate_row: &'a Vector,
+    direction: f64,
+    up: f64,
+    down: f64,
+}
+
+impl Watch<'_> {
+    fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
+        (e[2] < self.vth) != self.earth_closed || (n[2] >= self.vth) != self.nonearth_closed
+    }
+
+    fn play_event(&self, z: &Vector) -> bool {
+        self.play_event_at(self.xi_row.dot(z), self.rate_row.dot(z))
+    }
+
+    /// `rate` has the sign of `ξ̇`.
+    fn play_event_at(&self, xi: f64, rate: f64) -> bool {
+        if self.direction != 0.0 {
+            self.direction * rate <= 0.0
+                || (self.direction > 0.0 && xi >= self.up)
+                || (self.direction < 0.0 && xi <= self.down)
+        } else {
+            xi >= self.up || xi <= self.down
+        }
+    }
+
+    /// Whether `ξ`, turning round between two points `dt` apart, may reach a threshold in
+    /// between: its excursion beyond the end values is below `dt · max|ξ̇|`.
+    fn extremum_may_cross(&self, xi0: f64, xi1: f64, rate0: f64, rate1: f64, dt: f64) -> bool {
+        let reach = dt * (rate0.abs() + rate1.abs()) * self.xi_row[ix::VX];
+        xi0.max(xi1) + reach >= self.up || xi0.min(xi1) - reach <= self.down
+    }
+
+    fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
+        self.brakes_changed(e, n) || self.play_event(z)
+    }
+}
+
+impl Plant {
+    /// Advances by `h` seconds with the DAC volts held (zero-order hold). Volts outside
+    /// 0–10 V are clamped and a non-finite value counts as 0 V; the FMU layer refuses
+    /// those before they get here. A non-positive or non-finite `h` does nothing.
+    pub fn step(&mut self, dac: Dac, h: f64) -> StepReport {
+        let mut report = StepReport::default();
+        if !(h > 0.0 && h.is_finite()) {
+            return report;
+        }
+        let volts = |v: f64| if v.is_finite() { v.clamp(0.0, 10.0) } else { 0.0 };
+        self.z[ix::UX] = volts(dac.extension);
+        self.earth[3] = volts(dac.earth);
+        self.nonearth[3] = volts(dac.nonearth);
+        self.sync_hysteresis();
+
+        let exact = h / TICK;
+        let mut left = exact.floor() as u64;
+        let rest = (exact - exact.floor()) * TICK;
+        let mut events = 0u32;
+        let scan_level = self.chain.scan_level;
+        let fine = 1u64 << scan_level;
+        let total = left;
+        let t0 = self.time;
+        while left > 0 {
+            let brakes_before = report.brake_events;
+            let watching = events < MAX_EVENTS_PER_STEP;
+            if left >= fine {
+                let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
+                let clear = if watching { self.scan(points) } else { points };
+                if clear > 0 {
+                    let key = self.config();
+                    let cfg = table(&self.configs, key);
+                    let ticks = (clear as u64) << scan_level;
+                    self.z = cfg.advance(self.z, ticks, 0.0);
+                    self.earth = self.chain.advance(self.earth, ticks, 0.0);
+                    self.nonearth = self.chain.advance(self.nonearth, ticks, 0.0);
+                    left -= ticks;
+                }
+                if clear < points {
+                    let (consumed, event) = self.piece(scan_level, &mut report);
+                    events += u32::from(event);
+                    left -= consumed;
+                }
+            } else if events == 0 && self.remainder(left) {
+                // The tail below one scan interval in one product, when nothing happens in it.
+                // Only in steps without events so far: then the tail is the same for every
+                // step of this size and its product is cached, not recomputed.
+                left = 0;
+            } else {
+                let level = 63 - left.leading_zeros() as usize;
+                let (consumed, event) =
+                    if watching { self.piece(level, &mut report) } else { self.blind(level) };
+                events += u32::from(event);
+                left -= consumed;
+            }
+            if report.brake_events > brakes_before && report.first_brake_event.is_none() {
+                report.first_brake_event = Some(t0 + (total - left) as f64 * TICK);
+            }
+        }
+        report.event_budget_exhausted = events >= MAX_EVENTS_PER_STEP;
+        if rest > 0.0 {
+            let key = self.config();
+            let cfg = table(&self.configs, key);
+            self.z = cfg.advance(self.z, 0, rest);
+            self.earth = self.chain.advance(self.earth, 0, rest);
+            self.nonearth = self.chain.advance(self.nonearth, 0, rest);
+        }
+        if self.mode == Mode::Drive {
+            // The runner rides on node 3: remove the rounding drift of the two equal rows.
+            self.z[ix::Y4] = self.z[ix::Y3] + self.drive_offset;
+            self.z[ix::V4] = self.z[ix::V3];
+        }
+        self.time += h;
+        self.sample_encoder();
+        report
+    }
+
+    /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
+    /// Returns the ticks consumed and whether an event was handled.
+    fn piece(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        let chain = &*self.chain;
+        let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
+        let z1 = mul_vec(&cfg.phi[level], &z0);
+        let e1 = mul_vec(&chain.phi[level], &e0);
+        let n1 = mul_vec(&chain.phi[level], &n0);
+        let watch = self.watch(cfg);
+        let hit = watch.event(&z1, &e1, &n1);
+        // With no play sliding, ξ may cross a threshold and come back inside the piece:
+        // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
+        let rate0 = watch.rate_row.dot(&z0);
+        let rate1 = watch.rate_row.dot(&z1);
+        let mut extremum = false;
+        if !hit && watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+            let xi0 = watch.xi_row.dot(&z0);
+            let xi1 = watch.xi_row.dot(&z1);
+            let dt = TICK * (1u64 << level) as f64;
+            extremum = watch.extremum_may_cross(xi0, xi1, rate0, rate1, dt);
+        }
+        if !hit && !extremum {
+            (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+            return (1 << level, false);
+        }
+        let stop = |z: &Vector, e: &Chain, n: &Chain| {
+            watch.event(z, e, n) || (extremum && watch.rate_row.dot(z) * rate0 <= 0.0)
+        };
+        let (mut z, mut e, mut n) = (z0, e0, n0);
+        let mut offset = 0u64;
+        for l in (self.resolution_level()..level).rev() {
+            let (zc, ec, nc) =
+                (mul_vec(&cfg.phi[l], &z), mul_vec(&chain.phi[l], &e), mul_vec(&chain.phi[l], &n));
+            if !stop(&zc, &ec, &nc) {
+                (z, e, n) = (zc, ec, nc);
+                offset += 1 << l;
+            }
+        }
+        // The first resolution interval at whose end the stop condition holds.
+        let r = self.resolution_level().min(level);
+        let (z, e, n) =
+            (mul_vec(&cfg.phi[r], &z), mul_vec(&chain.phi[r], &e), mul_vec(&chain.phi[r], &n));
+        (self.z, self.earth, self.nonearth) = (z, e, n);
+        let event = watch.event(&z, &e, &n);
+        if event {
+            self.handle_event(report);
+        }
+        (offset + (1 << r), event)
+    }
+
+    /// Advances over `ticks` (less than one scan interval) with one cached propagator if no
+    /// event condition and no turn of `ξ` that could reach a threshold lies in it; returns
+    /// false (and changes nothing) otherwise, leaving the interval to the dyadic pieces.
+    fn remainder(&mut self, ticks: u64) -> bool {
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        let fresh = |c: &Option<Remainder>| c.as_ref().is_some_and(|r| r.ticks == ticks);
+        if !fresh(&self.remainders[key]) {
+            self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
+        }
+        if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
+            self.chain_remainder =
+                Some(ChainRemainder { ticks, phi: product(&self.chain.phi, ticks) });
+        }
+        let phi = &self.remainders[key].as_ref().expect("just filled").phi;
+        let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
+        let (z1, e1, n1) = (
+            mul_vec(phi, &self.z),
+            mul_vec(chain_phi, &self.earth),
+            mul_vec(chain_phi, &self.nonearth),
+        );
+        let watch = self.watch(cfg);
+        if watch.event(&z1, &e1, &n1) {
+            return false;
+        }
+        let (rate0, rate1) = (watch.rate_row.dot(&self.z), watch.rate_row.dot(&z1));
+        if watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+            let (xi0, xi1) = (watch.xi_row.dot(&self.z), watch.xi_row.dot(&z1));
+            if watch.extremum_may_cross(xi0, xi1, rate0, rate1, TICK * ticks as f64) {
+                return false;
+            }
+        }
+        (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+        true
+    }
+
+    /// Propagates `2^level` ticks without looking for events (event budget exhausted).
+    fn blind(&mut self, level: usize) -> (u64, bool) {
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        self.z = mul_vec(&cfg.phi[level], &self.z);
+        self.earth = mul_vec(&self.chain.phi[level], &self.earth);
+        self.nonearth = mul_vec(&self.chain.phi[level], &self.nonearth);
+        (1 << level, false)
+    }
+
+    /// Scans up to `points` scan intervals ahead for anything the event loop must stop at,
+    /// using only the tabulated functionals. Returns how many intervals are clear.
+    fn scan(&mut self, points: usize) -> usize {
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        let watch = self.watch(cfg);
+        if points >= MIN_BOUND_POINTS && !self.scan_always {
+            if self.provably_clear(cfg, &watch) {
+                debug_assert_eq!(
+                    self.full_scan(cfg, &watch, points),
+                    points,
+                    "the scan bound missed an event"
+                );
+                self.scan_stats.skipped += 1;
+                return points;
+            }
+            self.scan_stats.scanned += 1;
+        }
+        self.full_scan(cfg, &watch, points)
+    }
+
+    /// `scan` looking at every point.
+    fn full_scan(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch, points: usize) -> usize {
+        let chain = &self.chain;
+        let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
+        let dt = TICK * (1u64 << chain.scan_level) as f64;
+        let mut xi_prev = watch.xi_row.dot(z);
+        let mut rate_prev = watch.rate_row.dot(z);
+        for k in 1..=points {
+            let ve = chain.scanned(k, 0, e);
+            let vn = chain.scanned(k, 0, n);
+            let xi = cfg.scanned(k, 0, z);
+            let rate = cfg.scanned(k, 1, z);
+            let stop = (ve < watch.vth) != watch.earth_closed
+                || (vn >= watch.vth) != watch.nonearth_closed
+                || watch.play_event_at(xi, rate)
+                || (watch.direction == 0.0
+                    && rate * rate_prev < 0.0
+                    && watch.extremum_may_cross(xi_prev, xi, rate_prev, rate, dt));
+            if stop {
+                return k - 1;
+            }
+            xi_prev = xi;
+            rate_prev = rate;
+        }
+        points
+    }
+
+    /// Whether the scan of any number of points (up to a whole top-level piece) from the
+    /// current state is certain to find every point clear, from the bounds of the watched
+    /// functionals over all scan points (`linear::ScanBound`). The test mirrors every
+    /// condition of `scan` on intervals that hold the very values `scan` would compute,
+    /// so `true` means `scan` would return all points; in doubt it says `false`.
+    fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
+        let chain = &self.chain;
+        let brake = |state: &Chain, closed_below: bool| -> bool {
+            let Some((lo, hi)) = chain.split(state).and_then(|s| chain.range(0, &s)) else {
+                return false;
+            };
+            if closed_below {
+                hi < watch.vth
+            } else {
+                lo >= watch.vth
+            }
+        };
+        // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
+        // stays on its side of V_th, as does V_N.
+        if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed)
+        {
+            return false;
+        }
+        debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
+        let Some(s) = cfg.split(&self.z) else {
+            return false;
+        };
+        let (Some((xi_lo, xi_hi)), Some((rate_lo, rate_hi))) = (cfg.range(0, &s), cfg.range(1, &s))
+        else {
+            return false;
+        };
+        if watch.direction > 0.0 {
+            // Sliding up: ξ̇ stays positive and ξ below the next onset.
+            rate_lo > 0.0 && xi_hi < watch.up
+        } else if watch.direction < 0.0 {
+            rate_hi < 0.0 && xi_lo > watch.down
+        } else {
+            // Nothing slides: ξ stays between the onsets, and so does any turn of ξ between
+            // two points. The same floating-point operations as `extremum_may_cross` on
+            // bounds of its arguments: rounding is monotone, so these bound its results.
+            let gain = watch.xi_row[ix::VX];
+            if gain.is_nan() || gain < 0.0 {
+                return false;
+            }
+            let rate_max = rate_lo.abs().max(rate_hi.abs());
+            let dt = TICK * (1u64 << chain.scan_level) as f64;
+            let reach = dt * (rate_max + rate_max) * watch.xi_row[ix::VX];
+            xi_hi + reach < watch.up && xi_lo - reach > watch.down
+        }
+    }
+
+    /// Finest bisection level: event times are located to `rel_tol` seconds of simulated
+    /// time (1 ns by default, SPEC 2.2 asks for 10 ns or better).
+    fn resolution_level(&self) -> usize {
+        let ticks = (self.params.rel_tol / TICK).max(1.0);
+        (ticks.log2().floor() as usize).min(self.chain.scan_level)
+    }
+
+    /// What to watch in the current configuration, whose table is `cfg`: its watched rows
+    /// are `ξ` and the sign of `ξ̇` (built from the same parameters, so the same bits).
+    fn watch<'a>(&self, cfg: &'a Propagators<{ linear::N }>) -> Watch<'a> {
+        let Armed { up, down, direction } = self.armed;
+        #[cfg(debug_assertions)]
+        {
+            let fresh = Armed::of(&self.hysteresis);
+            assert!(fresh.up.to_bits() == up.to_bits() && fresh.down.to_bits() == down.to_bits());
+            assert!(fresh.direction.to_bits() == direction.to_bits());
+        }
+        debug_assert!(
+            cfg.watched[0] == linear::xi_row(&self.params, self.hysteresis.sticking_weight())
+                && cfg.watched[1] == linear::drive_rate_row(&self.params, self.mode)
+        );
+        Watch {
+            vth: self.params.v_th,
+            earth_closed: self.earth_closed,
+            nonearth_closed: self.nonearth_closed,
+            xi_row: &cfg.watched[0],
+            rate_row: &cfg.watched[1],
+            direction,
+            up,
+            down,
+        }
+    }
+
+    /// Applies the brake switches and the hysteresis changes found at the current state.
+    fn handle_event(&mut self, report: &mut StepReport) {
+        let vth = self.params.v_th;
+        let earth_closed = self.earth[2] < vth;
+        let nonearth_closed = self.nonearth[2] >= vth;
+        report.brake_events += u32::from(earth_closed != self.earth_closed)
+            + u32::from(nonearth_closed != self.nonearth_closed);
+        self.earth_closed = earth_closed;
+        self.nonearth_closed = nonearth_closed;
+        let mode = Mode::from_brakes(earth_closed, nonearth_closed);
+        if mode != self.mode {
+            self.switch_mode(mode);
+            if mode == Mode::Free {
+                report.slips += 1;
+            }
+        }
+        self.sync_hysteresis();
+    }
+
+    /// The jump conditions of SPEC 2.2.
+    fn switch_mode(&mut self, mode: Mode) {
+        let z = &mut self.z;
+        match mode {
+            Mode::Locked => {
+                for i in [ix::V1, ix::V2, ix::V3, ix::V4] {
+                    z[i] = 0.0;
+                }
+            }
+            Mode::Drive => {
+                let m3 = linear::masses(&self.params).m3;
+                let m_r = self.params.m_r;
+                self.drive_offset = z[ix::Y4] - z[ix::Y3];
+                let v = (m3 * z[ix::V3] + m_r * z[ix::V4]) / (m3 + m_r);
+                z[ix::V3] = v;
+                z[ix::V4] = v;
+            }
+            Mode::Hold => z[ix::V4] = 0.0,
+            Mode::Free => self.slip_events += 1,
+        }
+        self.mode = mode;
+    }
+
+    /// Brings the play memories and the sliding set up to the current `ξ` and its direction,
+    /// and writes the resulting offset `c0` into the state.
+    fn sync_hysteresis(&mut self) {
+        // The rows of the current configuration, from its table if it has one (same bits).
+        let (xi, rate) = match &self.configs[self.config_key()] {
+            Some(cfg) => (cfg.watched[0].dot(&self.z), cfg.watched[1].dot(&self.z)),
+            None => (
+                linear::xi_row(&self.params, self.hysteresis.sticking_weight()).dot(&self.z),
+                linear::drive_rate_row(&self.params, self.mode).dot(&self.z),
+            ),
+        };
+        let sign = if rate > 0.0 {
+            1
+        } else if rate < 0.0 {
+            -1
+        } else {
+            0
+        };
+        self.hysteresis.sync(xi, sign);
+        self.armed = Armed::of(&self.hysteresis);
+        self.z[ix::C0] = self.hysteresis.offset();
+    }
+
+    fn sample_encoder(&mut self) {
+        let mut x = self.z[ix::Y4];
+        if self.params.encoder_noise > 0.0 {
+            x += self.params.encoder_noise * gaussian(&mut self.rng);
+        }
+        // f64::round rounds half away from zero, as SPEC 2.6 asks.
+        self.encoder_counts = (x / self.params.q_enc).round() as i64;
+    }
+}
