@@ -202,6 +202,20 @@ impl Plant {
         self.scan_stats
     }
 
+    /// Sets the mechanical state: positions as deviations from rest (`x_i − i L_p/3`,
+    /// `x4 − L_r`, m) and velocities (m/s), keeping the mode. In DRIVE the runner's offset
+    /// to node 3 is taken from `y`. For tests that start a ring from a given energy.
+    #[doc(hidden)]
+    pub fn set_mechanics(&mut self, y: [f64; 4], v: [f64; 4]) {
+        for (i, j) in [ix::Y1, ix::Y2, ix::Y3, ix::Y4].into_iter().enumerate() {
+            self.z[j] = y[i];
+        }
+        for (i, j) in [ix::V1, ix::V2, ix::V3, ix::V4].into_iter().enumerate() {
+            self.z[j] = v[i];
+        }
+        self.drive_offset = y[3] - y[2];
+    }
+
     /// Play memories (V), for inspection and tests.
     pub fn play_memories(&self) -> [f64; N_PLAYS] {
         self.hysteresis.memory

@@ -4,9 +4,9 @@
 //! reversing while elements slip) every mode with a fixed slipping set is linear time-invariant with
 //! the DAC inputs held, so the exact solution over a duration `τ` is `z(τ) = e^{Aτ} z(0)`
 //! for the state augmented with its constant inputs. Durations are counted in ticks of
-//! 2⁻³⁰ s (0.93 ns); the propagators `e^{A 2^l tick}` are tabulated per configuration,
+//! 2⁻⁴⁰ s (0.91 ps); the propagators `e^{A 2^l tick}` are tabulated per configuration,
 //! so any duration is a product of at most a few dozen table entries, and bisection for
-//! an event walks down the same table, locating it to one tick.
+//! an event walks down the same table, locating it to the event-time resolution (`rel_tol`).
 
 use nalgebra::{SMatrix, SVector};
 
