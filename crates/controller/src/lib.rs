@@ -57,10 +57,10 @@ pub const DAC_MAX_CODE: u16 = u16::MAX;
 /// inverse scale factor at the default basis peaks, and the brake disturbance in m). See
 /// docs/controller-design.md for the run that produced them and how to redo it.
 pub const CALIBRATED_WEIGHTS: [f64; 10] = [
-    -1.281184, -0.798710, -0.362067, -0.121618, -0.039168, 0.032832, 0.122618, 0.352949, 0.799790,
-    1.297726,
+    -1.172492, -0.833551, -0.444175, -0.174458, -0.054124, 0.052323, 0.176492, 0.436781, 0.872245,
+    1.105740,
 ];
-pub const CALIBRATED_DISTURBANCE: f64 = 4.3814e-6;
+pub const CALIBRATED_DISTURBANCE: f64 = 4.7012e-6;
 
 /// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
 pub const NOMINAL_WEIGHTS: [f64; 10] = [-1.2, -0.8, -0.4, -0.15, -0.05, 0.05, 0.15, 0.4, 0.8, 1.2];
