@@ -1,4 +1,5 @@
-"""Shared fixtures of the FMPy cross-tool tests: the built FMUs and the SPEC reference data."""
+"""Shared fixtures of the FMPy cross-tool tests: the built FMUs and the check data of
+tests/data (docs/model.md §2.9)."""
 import csv
 import pathlib
 
@@ -6,12 +7,18 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DIST = ROOT / "dist"
-REFERENCE = ROOT.parent / "shared" / "reference" / "plant-check-trace-fia20.csv"
+DATA = ROOT / "tests" / "data"
+REFERENCE = DATA / "plant-check-trace-fia20-passive.csv"
 
-# SPEC 2.9 check values (µm), gaits +1, +1, -1, +0.3, -0.3.
-CHECK_EXT_MOVED = [18.210, 19.383, -19.342, 6.633, -6.690]
-CHECK_BD = [4.685, 4.853, 3.902, 4.687, 4.244]
-CHECK_S7 = [22.895, 47.130, 31.691, 43.010, 40.565]
+
+def check_values(device):
+    """[(EXT_moved, BD, position after)] in µm of the five check gaits of `device`."""
+    with open(DATA / "plant-check-values.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["device"] == device]
+    assert len(rows) == 5, f"{device}: five check-value rows"
+    return [(float(r["ext_moved_um"]), float(r["bd_um"]), float(r["position_after_um"])) for r in rows]
+
+
 FORWARD = [True, True, False, True, False]
 WINDOWS = [(9, 13), (24, 28), (38, 42), (53, 57), (66, 70), (81, 85), (95, 99)]
 
@@ -61,7 +68,7 @@ def write_gait_input(rows, path):
 
 
 def raw_measurements(counts):
-    """SPEC 3.3 raw measurements of 100-sample gaits from encoder counts (sample k = counts[k-1])."""
+    """docs/model.md §3.3 raw measurements of 100-sample gaits from encoder counts (sample k = counts[k-1])."""
     out = []
     for g in range(len(counts) // 100):
         enc = [c * 1.2e-3 for c in counts[g * 100:(g + 1) * 100]]
@@ -71,10 +78,12 @@ def raw_measurements(counts):
     return out
 
 
-def assert_check_values(counts):
+def assert_check_values(counts, device="fia20"):
     failures = []
+    expect = check_values(device)
     for g, (moved, bd, s7) in enumerate(raw_measurements(counts)):
-        for name, got, want in [("EXT_moved", moved, CHECK_EXT_MOVED[g]), ("BD", bd, CHECK_BD[g]), ("s7", s7, CHECK_S7[g])]:
+        ext_ref, bd_ref, s7_ref = expect[g]
+        for name, got, want in [("EXT_moved", moved, ext_ref), ("BD", bd, bd_ref), ("s7", s7, s7_ref)]:
             if abs(got - want) > 0.010:
-                failures.append(f"gait {g + 1}: {name} = {got:.4f} µm, expected {want} ± 0.010 µm")
+                failures.append(f"{device} gait {g + 1}: {name} = {got:.4f} µm, expected {want} ± 0.010 µm")
     assert not failures, "\n".join(failures)

@@ -1,4 +1,4 @@
-"""InchwormPlant.fmu in FMPy: validation, default simulation, SPEC 2.9 check values,
+"""InchwormPlant.fmu in FMPy: validation, default simulation, docs/model.md §2.9 check values,
 sample-by-sample reference trace, through both FMPy's Python API and its command line."""
 import csv
 import pathlib
@@ -65,15 +65,15 @@ def test_check_values_and_trace_through_fmpy(plant_fmu, reference_rows, tmp_path
     ref_counts = np.array([r["encoder_counts_after"] for r in reference_rows])
     dev = np.abs(np.array(counts) - ref_counts)
     k = int(np.argmax(dev))
-    assert dev[k] <= 2, f"encoder differs from the reference by {dev[k]} counts at t = {reference_rows[k]['time'] + 0.002} s"
+    assert dev[k] <= 1, f"encoder differs from the reference by {dev[k]} counts at t = {reference_rows[k]['time'] + 0.002} s"
     ref_modes = np.array([r["mode_after"] for r in reference_rows])
     assert np.array_equal(result["mode"][1:], ref_modes)
 
 
-def test_fia6_parameters_change_the_result(plant_fmu, reference_rows, tmp_path):
-    fia20 = simulate_reference(plant_fmu, reference_rows, tmp_path)
+def test_fia6_check_values_through_fmpy(plant_fmu, reference_rows, tmp_path):
+    # The gait volts do not depend on the device: the fia20 trace's inputs drive fia6 too.
     fia6 = simulate_reference(plant_fmu, reference_rows, tmp_path, start_values={"T_em": 2.5, "F_d0": 105.0})
-    assert abs(fia6["runner_position"][-1]) < 0.6 * abs(fia20["runner_position"][-1])
+    assert_check_values(list(fia6["encoder_counts"][1:]), "fia6")
 
 
 def test_command_line_simulate_with_input_file(plant_fmu, reference_rows, tmp_path):
