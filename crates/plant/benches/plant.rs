@@ -71,7 +71,7 @@ fn run_exact_path(rel_tol: f64, seq: &[Dac], scan_always: bool) -> Run {
     let start = Instant::now();
     for d in seq {
         let t = Instant::now();
-        plant.step(*d, H);
+        plant.step(*d, H).unwrap();
         step_us.push(t.elapsed().as_secs_f64() * 1e6);
         let o = plant.outputs();
         counts.push(o.encoder_counts);

@@ -16,15 +16,15 @@ fn main() {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"));
     for line in text.lines().skip(1) {
         let f: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        plant.step(Dac { earth: f[1], nonearth: f[2], extension: f[3] }, 0.002);
+        plant.step(Dac { earth: f[1], nonearth: f[2], extension: f[3] }, 0.002).unwrap();
     }
     // Settle, so every configuration used below has its tables built.
     for _ in 0..500 {
-        plant.step(Dac::default(), 0.002);
+        plant.step(Dac::default(), 0.002).unwrap();
     }
     let mut sum = 0i64;
     for _ in 0..quiet {
-        plant.step(Dac::default(), 0.002);
+        plant.step(Dac::default(), 0.002).unwrap();
         sum = sum.wrapping_add(plant.outputs().encoder_counts);
     }
     let s = plant.scan_stats();

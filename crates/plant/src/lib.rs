@@ -21,6 +21,7 @@ use hysteresis::Hysteresis;
 use linear::{ix, Chain, Propagators, Vector};
 pub use params::{ParamError, PlantParams, N_PLAYS};
 use solver::Armed;
+pub use solver::{StepError, MAX_STEP};
 
 /// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

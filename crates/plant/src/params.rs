@@ -121,67 +121,56 @@ impl PlantParams {
         PlantParams { t_em: 2.5, f_d0: 105.0, ..Self::fia20() }
     }
 
-    /// Checks every value; the error names the first offending parameter.
-    pub fn validate(&self) -> Result<(), ParamError> {
-        fn err(field: impl Into<String>, reason: impl Into<String>) -> Result<(), ParamError> {
-            Err(ParamError { field: field.into(), reason: reason.into() })
-        }
-        let positive = [
+    /// The scalar parameters with their FMU names, values and valid ranges.
+    fn scalars(&self) -> [(&'static str, f64); 22] {
+        [
             ("m_p", self.m_p),
             ("k_p", self.k_p),
+            ("c_p", self.c_p),
             ("m_b", self.m_b),
             ("k_f", self.k_f),
+            ("c_f", self.c_f),
             ("m_r", self.m_r),
+            ("k_e", self.k_e),
+            ("c_e", self.c_e),
             ("L_p", self.l_p),
+            ("L_r", self.l_r),
             ("T_em", self.t_em),
             ("C", self.c),
+            ("F_d0", self.f_d0),
+            ("gamma", self.gamma),
             ("V_th", self.v_th),
             ("f_bessel", self.f_bessel),
             ("amp_gain", self.amp_gain),
             ("f_amp", self.f_amp),
             ("q_enc", self.q_enc),
-            ("rel_tol", self.rel_tol),
-        ];
-        let non_negative = [
-            ("c_p", self.c_p),
-            ("c_f", self.c_f),
-            ("k_e", self.k_e),
-            ("c_e", self.c_e),
-            ("gamma", self.gamma),
             ("encoder_noise", self.encoder_noise),
-        ];
-        let finite = [("L_r", self.l_r), ("F_d0", self.f_d0)];
-        for (name, v) in positive.iter().chain(non_negative.iter()).chain(finite.iter()) {
-            if !v.is_finite() {
-                return err(*name, format!("must be finite, got {v}"));
-            }
+            ("rel_tol", self.rel_tol),
+        ]
+    }
+
+    /// Checks every value against its range (`range`); the error names the first offending
+    /// parameter, its value and the range.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        fn err(field: impl Into<String>, reason: impl Into<String>) -> Result<(), ParamError> {
+            Err(ParamError { field: field.into(), reason: reason.into() })
         }
-        for (name, v) in positive {
-            if v <= 0.0 {
-                return err(name, format!("must be > 0, got {v}"));
+        let check = |name: &str, v: f64| -> Result<(), ParamError> {
+            let (lo, hi, unit) = range(name).expect("every parameter has a range");
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                err(name, format!("must be within [{lo:e}, {hi:e}] {unit}, got {v:e}"))
             }
-        }
-        for (name, v) in non_negative {
-            if v < 0.0 {
-                return err(name, format!("must be >= 0, got {v}"));
-            }
-        }
-        if !(1e-12..=1e-6).contains(&self.rel_tol) {
-            return err(
-                "rel_tol",
-                format!(
-                    "must be within [1e-12, 1e-6] (event time resolution in s), got {}",
-                    self.rel_tol
-                ),
-            );
+        };
+        for (name, v) in self.scalars() {
+            check(name, v)?;
         }
         for i in 0..N_PLAYS {
             let (r, w) = (self.play_radius[i], self.play_weight[i]);
             let rname = format!("play_radius[{}]", i + 1);
-            let wname = format!("play_weight[{}]", i + 1);
-            if !r.is_finite() || r <= 0.0 {
-                return err(rname, format!("must be finite and > 0, got {r}"));
-            }
+            check_named(&rname, "play_radius", r)?;
+            check_named(&format!("play_weight[{}]", i + 1), "play_weight", w)?;
             if i > 0 && r <= self.play_radius[i - 1] {
                 return err(
                     rname,
@@ -191,18 +180,53 @@ impl PlantParams {
                     ),
                 );
             }
-            if !w.is_finite() || w < 0.0 {
-                return err(wname, format!("must be finite and >= 0, got {w}"));
-            }
-        }
-        // The mechanism's 2.1 kHz and 18 kHz modes need the analog chain to be a low-pass well below them;
-        // faster filters are allowed but the solver's step control assumes they stay below 1 MHz.
-        if self.f_bessel > 1e6 {
-            return err("f_bessel", format!("must be <= 1e6 Hz, got {}", self.f_bessel));
-        }
-        if self.f_amp > 1e6 {
-            return err("f_amp", format!("must be <= 1e6 Hz, got {}", self.f_amp));
         }
         Ok(())
     }
+}
+
+/// Checks an element of an array parameter against the range of its array.
+fn check_named(name: &str, array: &str, v: f64) -> Result<(), ParamError> {
+    let (lo, hi, unit) = range(array).expect("every parameter has a range");
+    if v.is_finite() && (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(ParamError {
+            field: name.into(),
+            reason: format!("must be within [{lo:e}, {hi:e}] {unit}, got {v:e}"),
+        })
+    }
+}
+
+/// Valid range `[min, max]` and unit of each parameter (by FMU name; `play_radius` and
+/// `play_weight` for every element of those arrays). The ranges span two to four decades
+/// around the nominal devices, so any physically sensible actuator fits, and they keep
+/// every configuration's propagators finite and its step's work bounded: the stiffest
+/// corner (`k_p` 1e10 N/m on 0.1 g) rings at ~3 MHz, which the exact propagation still
+/// represents (docs/model.md §2.8).
+pub fn range(name: &str) -> Option<(f64, f64, &'static str)> {
+    Some(match name {
+        "m_p" | "m_b" => (1e-4, 10.0, "kg"),
+        "m_r" => (1e-4, 100.0, "kg"),
+        "k_p" => (1e5, 1e10, "N/m"),
+        "k_f" => (1e3, 1e10, "N/m"),
+        "k_e" => (0.0, 1e9, "N/m"),
+        "c_p" | "c_f" | "c_e" => (0.0, 1e5, "N s/m"),
+        "L_p" => (1e-4, 1.0, "m"),
+        "L_r" => (-1.0, 1.0, "m"),
+        "T_em" => (1e-3, 1e3, "N/V"),
+        "C" => (1e-10, 1e-2, "F"),
+        "play_radius" => (1e-3, 1e3, "V"),
+        "play_weight" => (0.0, 10.0, "(dimensionless)"),
+        "F_d0" => (-1e4, 1e4, "N"),
+        "gamma" => (0.0, 100.0, "(dimensionless)"),
+        "V_th" => (1e-3, 1e4, "V"),
+        // The analog chain stays a low-pass below 1 MHz: the solver's scan interval assumes it.
+        "f_bessel" | "f_amp" => (1.0, 1e6, "Hz"),
+        "amp_gain" => (1e-3, 1e3, "V/V"),
+        "q_enc" => (1e-12, 1e-3, "m"),
+        "encoder_noise" => (0.0, 1e-3, "m"),
+        "rel_tol" => (1e-12, 1e-6, "s (event time resolution)"),
+        _ => return None,
+    })
 }

@@ -8,9 +8,96 @@ use crate::noise::gaussian;
 use crate::Dac;
 use crate::{Mode, Plant, StepReport};
 
-/// A step that needs more events than this is pathological (chattering at a threshold):
-/// event detection is suspended for the rest of that step and the step reports it.
-const MAX_EVENTS_PER_STEP: u32 = 100_000;
+/// The longest step `Plant::step` takes (s): 1000 s of simulated time is at most 2¹⁹
+/// top-level pieces, a fraction of a second of work.
+pub const MAX_STEP: f64 = 1000.0;
+
+/// Why `Plant::step` refused or undid a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepError {
+    /// `h` is not in `(0, MAX_STEP]` (s).
+    StepSize { h: f64 },
+    /// The state would not have been finite after the step that starts at `time` (s).
+    NonFinite { time: f64 },
+}
+
+impl std::fmt::Display for StepError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepError::StepSize { h } => {
+                write!(f, "step size {h} s is outside (0, {MAX_STEP}] s")
+            }
+            StepError::NonFinite { time } => write!(
+                f,
+                "the step from t = {time} s would leave a non-finite state (the parameters are outside what the solver can represent); the plant is unchanged"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for StepError {}
+
+/// The dynamic state of a plant, to undo a step.
+struct Snapshot {
+    time: f64,
+    z: Vector,
+    earth: Chain,
+    nonearth: Chain,
+    brakes: (bool, bool),
+    mode: Mode,
+    hysteresis: Hysteresis,
+    armed: Armed,
+    drive_offset: f64,
+    slip_events: u32,
+    encoder_counts: i64,
+    rng: u64,
+}
+
+impl Snapshot {
+    fn take(p: &Plant) -> Snapshot {
+        Snapshot {
+            time: p.time,
+            z: p.z,
+            earth: p.earth,
+            nonearth: p.nonearth,
+            brakes: (p.earth_closed, p.nonearth_closed),
+            mode: p.mode,
+            hysteresis: p.hysteresis.clone(),
+            armed: p.armed,
+            drive_offset: p.drive_offset,
+            slip_events: p.slip_events,
+            encoder_counts: p.encoder_counts,
+            rng: p.rng,
+        }
+    }
+
+    fn restore(self, p: &mut Plant) {
+        p.time = self.time;
+        p.z = self.z;
+        p.earth = self.earth;
+        p.nonearth = self.nonearth;
+        (p.earth_closed, p.nonearth_closed) = self.brakes;
+        p.mode = self.mode;
+        p.hysteresis = self.hysteresis;
+        p.armed = self.armed;
+        p.drive_offset = self.drive_offset;
+        p.slip_events = self.slip_events;
+        p.encoder_counts = self.encoder_counts;
+        p.rng = self.rng;
+    }
+}
+
+/// Events a step may locate per 2 ms of its length (a nominal gait step has a few dozen).
+/// More is pathological (chattering at a threshold, or hysteresis radii far below the
+/// ring amplitude): event detection is suspended for the rest of that step and the step
+/// reports it. This bounds the work of a step by its length.
+const EVENTS_PER_2_MS: u64 = 2_000;
+
+/// The event budget of a step of `h` seconds.
+fn event_budget(h: f64) -> u32 {
+    let periods = (h / 0.002).ceil().max(1.0) as u64;
+    u32::try_from(periods.saturating_mul(EVENTS_PER_2_MS)).unwrap_or(u32::MAX)
+}
 
 /// A scan of fewer points than this is cheaper than the bound that could skip it.
 const MIN_BOUND_POINTS: usize = 16;
@@ -79,12 +166,36 @@ impl Watch<'_> {
 impl Plant {
     /// Advances by `h` seconds with the DAC volts held (zero-order hold). Volts outside
     /// 0–10 V are clamped and a non-finite value counts as 0 V; the FMU layer refuses
-    /// those before they get here. A non-positive or non-finite `h` does nothing.
-    pub fn step(&mut self, dac: Dac, h: f64) -> StepReport {
-        let mut report = StepReport::default();
-        if !(h > 0.0 && h.is_finite()) {
-            return report;
+    /// those before they get here.
+    ///
+    /// `h` must be in `(0, MAX_STEP]`: the work of one step is bounded by `h` (at most one
+    /// top-level piece of 1.95 ms per 1.95 ms simulated, plus at most `EVENTS_PER_2_MS` located
+    /// events per 2 ms). A step whose state would not be finite (parameters at the edge of
+    /// their ranges can make a configuration's propagator overflow) is undone: the plant is
+    /// left as it was before the call, and the error says when it happened.
+    pub fn step(&mut self, dac: Dac, h: f64) -> Result<StepReport, StepError> {
+        if !(h > 0.0 && h <= MAX_STEP) {
+            return Err(StepError::StepSize { h });
         }
+        let before = Snapshot::take(self);
+        let report = self.advance_held(dac, h);
+        let finite = self.time.is_finite()
+            && self
+                .z
+                .iter()
+                .chain(self.earth.iter())
+                .chain(self.nonearth.iter())
+                .all(|v| v.is_finite());
+        if !finite {
+            let time = before.time;
+            before.restore(self);
+            return Err(StepError::NonFinite { time });
+        }
+        Ok(report)
+    }
+
+    fn advance_held(&mut self, dac: Dac, h: f64) -> StepReport {
+        let mut report = StepReport::default();
         let volts = |v: f64| if v.is_finite() { v.clamp(0.0, 10.0) } else { 0.0 };
         self.z[ix::UX] = volts(dac.extension);
         self.earth[3] = volts(dac.earth);
@@ -95,13 +206,14 @@ impl Plant {
         let mut left = exact.floor() as u64;
         let rest = (exact - exact.floor()) * TICK;
         let mut events = 0u32;
+        let budget = event_budget(h);
         let scan_level = self.chain.scan_level;
         let fine = 1u64 << scan_level;
         let total = left;
         let t0 = self.time;
         while left > 0 {
             let brakes_before = report.brake_events;
-            let watching = events < MAX_EVENTS_PER_STEP;
+            let watching = events < budget;
             if left >= fine {
                 let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
                 let clear = if watching { self.scan(points) } else { points };
@@ -135,7 +247,7 @@ impl Plant {
                 report.first_brake_event = Some(t0 + (total - left) as f64 * TICK);
             }
         }
-        report.event_budget_exhausted = events >= MAX_EVENTS_PER_STEP;
+        report.event_budget_exhausted = events >= budget;
         if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);

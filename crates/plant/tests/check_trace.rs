@@ -58,7 +58,7 @@ fn run(params: PlantParams, rows: &[Row]) -> Vec<(i64, u8, f64)> {
     let mut plant = Plant::new(params).unwrap();
     rows.iter()
         .map(|r| {
-            plant.step(r.dac, 0.002);
+            plant.step(r.dac, 0.002).unwrap();
             let o = plant.outputs();
             (o.encoder_counts, o.mode as u8, o.runner_position)
         })

@@ -123,7 +123,7 @@ pub fn trace_hash(params: PlantParams, scan_always: bool) -> Trace {
     let mut state = Vec::new();
     let seq = sequence();
     for (d, dt) in &seq {
-        let r: StepReport = plant.step(*d, *dt);
+        let r: StepReport = plant.step(*d, *dt).unwrap();
         let o = plant.outputs();
         h.word(o.encoder_counts as u64);
         for v in [

@@ -46,7 +46,7 @@ fn cycle(plant: &mut Plant, lo: f64, hi: f64) -> (f64, f64) {
         .chain(std::iter::repeat_n(lo, 100));
     for u in path {
         for _ in 0..sub {
-            plant.step(dac(0.0, 10.0, u), H / sub as f64);
+            plant.step(dac(0.0, 10.0, u), H / sub as f64).unwrap();
             let xi1 = plant.charge_voltage();
             let uh1 = hysteresis_voltage(&p, plant.play_memories(), xi1);
             energy += p.c * 0.5 * (uh + uh1) * (xi1 - xi);
@@ -64,7 +64,7 @@ fn closed_cycles_in_locked_dissipate_the_maxwell_slip_loop_area() {
     let p = PlantParams::fia20();
     let mut plant = Plant::new(p.clone()).unwrap();
     for _ in 0..20 {
-        plant.step(dac(0.0, 10.0, 1.0), H);
+        plant.step(dac(0.0, 10.0, 1.0), H).unwrap();
     }
     for (lo, hi) in [(1.0, 9.0), (2.0, 6.0), (3.0, 3.8), (0.5, 10.0), (4.0, 7.0)] {
         // The first cycle from a new range sets the memories; the second is closed.
@@ -129,12 +129,12 @@ fn ring(plant: &mut Plant, d: Dac, track: impl Fn(&Plant) -> f64) -> Vec<f64> {
     let dt = 5e-6;
     // The first step brings the elements to their slip limits (a state set by hand may
     // strain them beyond): the energy is watched from there on.
-    plant.step(d, dt);
+    plant.step(d, dt).unwrap();
     let mut energy = stored_energy(plant);
     let e0 = energy;
     let mut trace = Vec::new();
     for k in 0..12_000 {
-        plant.step(d, dt);
+        plant.step(d, dt).unwrap();
         let e = stored_energy(plant);
         assert!(
             e <= energy + 1e-9 * e0,
@@ -172,7 +172,7 @@ fn a_ring_from_1_m_per_s_in_drive_decays() {
     // Non-earth closes, then the earth opens: DRIVE with the extension unpowered.
     for (samples, d) in [(15, dac(0.0, 10.0, 0.0)), (20, dac(10.0, 10.0, 0.0))] {
         for _ in 0..samples {
-            plant.step(d, H);
+            plant.step(d, H).unwrap();
         }
     }
     assert_eq!(plant.mode(), Mode::Drive);

@@ -11,7 +11,7 @@ fn dac(earth: f64, nonearth: f64, extension: f64) -> Dac {
 
 fn hold(plant: &mut Plant, d: Dac, samples: usize) {
     for _ in 0..samples {
-        plant.step(d, H);
+        plant.step(d, H).unwrap();
     }
 }
 
@@ -50,7 +50,7 @@ fn chain_step_response(p: &PlantParams, u: f64, t: f64) -> f64 {
 fn long_idle_run_stays_at_rest_to_the_count() {
     let mut plant = Plant::new(PlantParams::fia20()).unwrap();
     for k in 0..5000 {
-        let r = plant.step(dac(0.0, 0.0, 0.0), H);
+        let r = plant.step(dac(0.0, 0.0, 0.0), H).unwrap();
         let o = plant.outputs();
         assert_eq!((o.encoder_counts, o.mode, r.brake_events), (0, Mode::Hold, 0), "sample {k}");
     }
@@ -80,7 +80,7 @@ fn brake_switch_is_located_at_the_analytic_crossing() {
         ("earth", dac(10.0, 0.0, 0.0), Mode::Free),
     ] {
         let mut plant = Plant::new(p.clone()).unwrap();
-        let r = plant.step(d, H);
+        let r = plant.step(d, H).unwrap();
         let t = r.first_brake_event.expect("a brake switch in the first 2 ms");
         let err = t - analytic;
         assert!(
@@ -97,7 +97,7 @@ fn brake_switch_is_located_at_the_analytic_crossing() {
     // A 100x tighter tolerance moves the located time by less than the default resolution.
     let tight = PlantParams { rel_tol: 1e-11, ..p.clone() };
     let mut plant = Plant::new(tight).unwrap();
-    let t = plant.step(dac(0.0, 10.0, 0.0), H).first_brake_event.unwrap();
+    let t = plant.step(dac(0.0, 10.0, 0.0), H).unwrap().first_brake_event.unwrap();
     assert!((t - analytic).abs() <= 2e-11, "tight tolerance: error {:.3e} s", t - analytic);
 }
 
@@ -123,7 +123,7 @@ fn gait_walks_through_hold_locked_drive_locked_hold_with_their_jump_conditions()
     let offset = x4 - x3;
     let mut peak = 0.0f64;
     for _ in 0..13 {
-        plant.step(dac(10.0, 10.0, 0.0), H);
+        plant.step(dac(10.0, 10.0, 0.0), H).unwrap();
         let [_, _, x3, x4] = plant.positions();
         assert!(((x4 - x3) - offset).abs() < 1e-15, "runner left node 3 in DRIVE");
         let [_, _, v3, v4] = plant.velocities();
@@ -204,7 +204,7 @@ fn opening_both_brakes_slips_the_runner_and_counts_it() {
     assert!(start > 20e-6);
     // Earth opens with the non-earth open: FREE, the environment spring pulls the runner
     // back; its period is 2π √(m_r / k_e) = 17.2 ms, so after 8 ms it is near the far side.
-    let r = plant.step(dac(10.0, 0.0, 0.0), H);
+    let r = plant.step(dac(10.0, 0.0, 0.0), H).unwrap();
     assert_eq!((r.slips, plant.mode()), (1, Mode::Free));
     hold(&mut plant, dac(10.0, 0.0, 0.0), 3);
     let o = plant.outputs();
@@ -293,7 +293,7 @@ fn encoder_rounds_half_away_from_zero_and_noise_is_seeded() {
         let mut plant = Plant::new(p).unwrap();
         (0..200)
             .map(|_| {
-                plant.step(dac(0.0, 0.0, 0.0), H);
+                plant.step(dac(0.0, 0.0, 0.0), H).unwrap();
                 plant.outputs().encoder_counts
             })
             .collect::<Vec<_>>()
@@ -317,7 +317,7 @@ fn state_round_trip_replays_bit_for_bit() {
     let cont = |p: &mut Plant| {
         (0..30)
             .map(|_| {
-                p.step(dac(10.0, 10.0, 5.0), H);
+                p.step(dac(10.0, 10.0, 5.0), H).unwrap();
                 p.positions()
             })
             .collect::<Vec<_>>()
@@ -377,7 +377,7 @@ fn random_drive_with_random_step_sizes_stays_finite_and_consistent() {
             };
             let d = dac(pick(next()), pick(next()), 10.0 * next());
             let h = 1e-4 + 4.9e-3 * next();
-            let r = plant.step(d, h);
+            let r = plant.step(d, h).unwrap();
             t += h;
             assert!(!r.event_budget_exhausted, "step {k}: event budget exhausted");
             let o = plant.outputs();

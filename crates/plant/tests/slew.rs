@@ -13,7 +13,7 @@ fn slew(gamma: f64, gaits: usize) -> (Vec<f64>, u32) {
     for _ in 0..gaits {
         for k in 1..=100 {
             let [earth, nonearth, extension] = timing.volts(Direction::Forward, 1.0, k);
-            plant.step(Dac { earth, nonearth, extension }, 0.002);
+            plant.step(Dac { earth, nonearth, extension }, 0.002).unwrap();
         }
         after.push(plant.outputs().runner_position);
     }
