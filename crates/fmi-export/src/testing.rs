@@ -16,6 +16,15 @@ use crate::Model;
 /// Messages logged, as "status|category|message".
 pub struct Log(pub Mutex<Vec<String>>);
 
+/// The distinct categories of logged "status|category|message" lines, sorted.
+pub fn categories_of(lines: &[String]) -> Vec<String> {
+    let mut cats: Vec<String> =
+        lines.iter().filter_map(|l| l.split('|').nth(1)).map(str::to_string).collect();
+    cats.sort();
+    cats.dedup();
+    cats
+}
+
 // Defined with the two arguments the layer passes ("%s" and the text): a Rust function
 // cannot be variadic, and on the x86-64 and AArch64 Linux ABIs fixed pointer arguments
 // arrive where a variadic callee reads them.
@@ -136,6 +145,19 @@ impl<M: Model> Harness<M> {
 
     pub fn logged(&self) -> Vec<String> {
         self.log.0.lock().unwrap().clone()
+    }
+
+    /// The messages logged so far, removed from the log.
+    pub fn take_logged(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.0.lock().unwrap())
+    }
+
+    /// `fmi2SetDebugLogging` with these category names.
+    pub fn set_debug_logging(&self, on: bool, categories: &[&str]) -> fmi2Status {
+        let names: Vec<CString> = categories.iter().map(|c| CString::new(*c).unwrap()).collect();
+        let ptrs: Vec<fmi2String> = names.iter().map(|c| c.as_ptr()).collect();
+        let on = if on { fmi2True } else { fmi2False };
+        unsafe { api::fmi2SetDebugLogging::<M>(self.c, on, ptrs.len(), ptrs.as_ptr()) }
     }
 
     /// Whether a message with this status containing every part was logged.
