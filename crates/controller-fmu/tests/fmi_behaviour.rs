@@ -3,7 +3,7 @@
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
-use inchworm_fmi_export::testing::Harness;
+use inchworm_fmi_export::testing::{categories_of, Harness};
 use inchworm_fmu_models::ControllerFmu;
 
 type H = Harness<ControllerFmu>;
@@ -114,6 +114,41 @@ fn state_round_trips_replay_bit_for_bit() {
     bad[10] ^= 0x20;
     assert_eq!(b.deserialize(&bad), fmi2Error);
     assert!(b.saw(fmi2Error, &["fmi2DeSerializeFMUstate"]));
+}
+
+#[test]
+fn debug_logging_enables_exactly_the_named_categories() {
+    let h = H::init("logging");
+    assert_eq!(h.set_real(REFERENCE, 60e-6), fmi2OK);
+    drive(&h, 0, 150);
+    assert_eq!(h.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
+
+    assert_eq!(h.set_debug_logging(true, &["logEvents"]), fmi2OK);
+    assert_eq!(h.set_real(REFERENCE, -40e-6), fmi2OK);
+    drive(&h, 150, 300);
+    let events = h.take_logged();
+    assert_eq!(
+        events,
+        ["0|logEvents|control iteration near t = 0.6 s: 4 full step(s) and fraction 1.0000, disturbance estimate 0.1009 um"]
+    );
+
+    assert_eq!(h.set_debug_logging(true, &[]), fmi2OK);
+    assert_eq!(h.set_real(REFERENCE, 30e-6), fmi2OK);
+    drive(&h, 450, 600);
+    let all = h.take_logged();
+    assert_eq!(categories_of(&all), ["logAll", "logEvents"]);
+    assert!(all.iter().any(|l| l.starts_with("0|logEvents|control iteration")), "{all:?}");
+    assert_eq!(all.iter().filter(|l| l.as_str() == "0|logAll|fmi2DoStep").count(), 600);
+    assert_eq!(all.iter().filter(|l| l.as_str() == "0|logAll|fmi2SetInteger").count(), 600);
+
+    assert_eq!(h.set_debug_logging(false, &["logEvents", "logAll"]), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    assert_eq!(h.set_real(REFERENCE, 0.0), fmi2OK);
+    drive(&h, 1050, 600);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
+
+    assert_eq!(h.set_debug_logging(true, &["logEvent"]), fmi2Error);
+    assert!(h.saw(fmi2Error, &["fmi2SetDebugLogging", "unknown log category \"logEvent\""]));
 }
 
 #[test]

@@ -74,6 +74,11 @@ unsafe impl<M: Model> Send for Harness<M> {}
 impl<M: Model> Harness<M> {
     /// An instance in state Instantiated.
     pub fn new(name: &str) -> Self {
+        Self::with_logging(name, false)
+    }
+
+    /// An instance in state Instantiated, with `loggingOn` as given.
+    pub fn with_logging(name: &str, logging_on: bool) -> Self {
         let log = Box::new(Log(Mutex::new(Vec::new())));
         let functions = Box::new(callbacks(&log));
         let name = CString::new(name).unwrap();
@@ -86,7 +91,7 @@ impl<M: Model> Harness<M> {
                 std::ptr::null(),
                 &*functions,
                 fmi2False,
-                fmi2False,
+                if logging_on { fmi2True } else { fmi2False },
             )
         };
         assert!(!c.is_null(), "fmi2Instantiate failed: {:?}", log.0.lock().unwrap());

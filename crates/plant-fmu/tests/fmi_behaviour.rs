@@ -7,7 +7,7 @@ use std::sync::Mutex;
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
-use inchworm_fmi_export::testing::{callbacks, Log};
+use inchworm_fmi_export::testing::{callbacks, categories_of, Harness, Log};
 use inchworm_fmu_models::PlantFmu;
 use inchworm_plant_fmu as fmu;
 
@@ -85,6 +85,18 @@ impl Instance {
 
     fn logged(&self) -> Vec<String> {
         self.log.0.lock().unwrap().clone()
+    }
+
+    fn take_logged(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.0.lock().unwrap())
+    }
+
+    fn set_debug_logging(
+        &self,
+        on: fmi2Boolean,
+        categories: &[*const std::ffi::c_char],
+    ) -> fmi2Status {
+        unsafe { fmu::fmi2SetDebugLogging(self.c, on, categories.len(), categories.as_ptr()) }
     }
 
     /// Whether a message containing every part was logged with this status.
@@ -339,18 +351,94 @@ fn unsupported_functions_return_error_with_a_reason() {
     assert_eq!(unsafe { fmu::fmi2GetStringStatus(i.c, fmi2PendingStatus, &mut s) }, fmi2Error);
 }
 
+/// Asserts that every line is a debug (fmi2OK) message and returns the categories seen.
+fn debug_categories(lines: &[String]) -> Vec<String> {
+    assert!(lines.iter().all(|l| l.starts_with("0|")), "{lines:?}");
+    categories_of(lines)
+}
+
 #[test]
-fn debug_logging_categories_select_event_messages() {
+fn debug_logging_enables_exactly_the_named_categories() {
     let i = Instance::init("logging");
     i.gait(0, 1.0);
-    assert!(!i.logged().iter().any(|m| m.contains("logEvents")), "no events without debug logging");
-    let cats = [c"logEvents".as_ptr()];
-    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, cats.as_ptr()) }, fmi2OK);
+    assert_eq!(i.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
+
+    // Only logEvents: the gait's brake switches and nothing of logAll's call trace.
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logEvents".as_ptr()]), fmi2OK);
     i.gait(100, 1.0);
-    assert!(i.saw(fmi2OK, &["logEvents", "brake switch", "Hold -> Locked"]), "{:?}", i.logged());
-    let bad = [c"logNonsense".as_ptr()];
-    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, bad.as_ptr()) }, fmi2Error);
-    assert!(i.saw(fmi2Error, &["unknown log category", "logNonsense"]));
+    let events = i.take_logged();
+    assert_eq!(debug_categories(&events), ["logEvents"]);
+    assert!(events.iter().all(|l| l.contains("brake switch")), "{events:?}");
+    assert!(events.iter().any(|l| l.contains("Hold -> Locked")), "{events:?}");
+
+    // None named: every category, so the trace of each call comes too.
+    assert_eq!(i.set_debug_logging(fmi2True, &[]), fmi2OK);
+    i.gait(200, 1.0);
+    let all = i.take_logged();
+    assert_eq!(debug_categories(&all), ["logAll", "logEvents"]);
+    assert_eq!(all.iter().filter(|l| l.contains("|logEvents|")).count(), events.len());
+    assert_eq!(all.iter().filter(|l| l.ends_with("|logAll|fmi2DoStep")).count(), 100);
+    assert_eq!(all.iter().filter(|l| l.ends_with("|logAll|fmi2SetReal")).count(), 300);
+
+    // Off with a category named disables that one only.
+    assert_eq!(i.set_debug_logging(fmi2False, &[c"logAll".as_ptr()]), fmi2OK);
+    // The call itself is traced under the setting it replaces.
+    assert_eq!(i.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    i.gait(300, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logEvents"]);
+
+    // logAll alone selects every message.
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logAll".as_ptr()]), fmi2OK);
+    i.gait(400, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logAll", "logEvents"]);
+
+    // Off with none named disables all; warnings and errors still go out.
+    assert_eq!(i.set_debug_logging(fmi2False, &[]), fmi2OK);
+    assert_eq!(i.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    i.gait(500, 1.0);
+    assert_eq!(i.take_logged(), Vec::<String>::new());
+    assert_eq!(i.set_real(DAC_EARTH, 12.0), fmi2Warning);
+    let warned = i.take_logged();
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(
+        warned[0].starts_with("1|logStatusWarning|fmi2SetReal: dac_earth = 12 V"),
+        "{warned:?}"
+    );
+}
+
+#[test]
+fn unknown_or_null_log_categories_are_refused_and_change_nothing() {
+    let i = Instance::init("bad categories");
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logEvents".as_ptr()]), fmi2OK);
+    let bad = [c"logAll".as_ptr(), c"logNonsense".as_ptr()];
+    assert_eq!(i.set_debug_logging(fmi2True, &bad), fmi2Error);
+    let refused = i.take_logged();
+    assert_eq!(refused.len(), 1, "{refused:?}");
+    assert!(
+        refused[0].starts_with(
+            "3|logStatusError|fmi2SetDebugLogging: unknown log category \"logNonsense\" (this FMU has logEvents, logStatusWarning, logStatusError, logAll)"
+        ),
+        "{refused:?}"
+    );
+    assert_eq!(i.set_debug_logging(fmi2False, &[std::ptr::null()]), fmi2Error);
+    assert!(i.saw(fmi2Error, &["fmi2SetDebugLogging", "a category name is NULL"]));
+    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, std::ptr::null()) }, fmi2Error);
+    assert!(i.saw(fmi2Error, &["fmi2SetDebugLogging", "categories is NULL"]));
+    i.take_logged();
+    // Still logEvents only, as before the refused calls.
+    i.gait(0, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logEvents"]);
+}
+
+#[test]
+fn logging_on_at_instantiation_enables_every_category() {
+    let h = Harness::<PlantFmu>::with_logging("on", true);
+    assert_eq!(h.setup(), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetupExperiment"]);
+    assert_eq!(h.set_debug_logging(false, &["logAll"]), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    assert_eq!(h.enter(), fmi2OK);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
 }
 
 #[test]
