@@ -293,3 +293,102 @@ pub struct ModelInfo {
     /// An HTML fragment for `documentation/index.html`: the model, its modes, its limits.
     pub documentation_html: &'static str,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DAC: Variable = Variable::input("dac", 1, 0.0, Some("V"), "")
+        .with_range(0.0, 10.0)
+        .worded("DAC volts", "DAC range");
+
+    #[test]
+    fn inputs_are_clamped_into_their_range_and_non_finite_values_refused() {
+        assert_eq!(DAC.admit_real(4.5, 1.0), Ok((4.5, None)));
+        assert_eq!(
+            DAC.admit_real(12.5, 1.0),
+            Ok((
+                10.0,
+                Some("dac = 12.5 V is outside the DAC range 0-10 V, clamped to 10 V".into())
+            ))
+        );
+        assert_eq!(DAC.admit_real(-0.5, 1.0).unwrap().0.to_bits(), 0.0f64.to_bits());
+        // -0 is inside [0, 10]: kept as it came, sign and all.
+        assert_eq!(DAC.admit_real(-0.0, 1.0).unwrap(), (-0.0, None));
+        assert_eq!(DAC.admit_real(-0.0, 1.0).unwrap().0.to_bits(), (-0.0f64).to_bits());
+        assert_eq!(
+            DAC.admit_real(f64::NAN, 4.0),
+            Err("dac = NaN refused: DAC volts must be finite; keeping 4 V".into())
+        );
+        assert_eq!(
+            DAC.admit_real(f64::NEG_INFINITY, 4.0),
+            Err("dac = -inf refused: DAC volts must be finite; keeping 4 V".into())
+        );
+    }
+
+    #[test]
+    fn plain_wording_one_sided_ranges_and_parameters() {
+        let v = Variable::input("u", 2, 0.0, None, "").with_range(1.0, 2.0);
+        assert_eq!(
+            v.admit_real(3.0, 0.0),
+            Ok((2.0, Some("u = 3 is outside the declared range 1-2, clamped to 2".into())))
+        );
+        let mut up = Variable::input("u", 2, 0.0, Some("m"), "");
+        up.max = Some(2.0);
+        assert_eq!(
+            up.admit_real(3.0, 0.0),
+            Ok((
+                2.0,
+                Some("u = 3 m is outside the declared range up to 2 m, clamped to 2 m".into())
+            ))
+        );
+        let mut from = Variable::input("u", 2, 0.0, None, "");
+        from.min = Some(2.0);
+        assert_eq!(
+            from.admit_real(1.0, 0.0).unwrap().1.unwrap(),
+            "u = 1 is outside the declared range from 2, clamped to 2"
+        );
+        // A table whose min exceeds its max clamps without panicking.
+        let crossed = Variable::input("x", 3, 0.0, None, "").with_range(5.0, 1.0);
+        assert_eq!(crossed.admit_real(3.0, 0.0).unwrap().0, 5.0);
+        // Only inputs are clamped; a parameter's range is the model's to check.
+        let p = Variable::parameter("p", 4, 1.0, None, "").with_range(0.0, 1.0);
+        assert_eq!(p.admit_real(7.0, 1.0), Ok((7.0, None)));
+        assert_eq!(
+            p.admit_real(f64::INFINITY, 1.0),
+            Err("p = inf refused: must be finite; keeping 1".into())
+        );
+    }
+
+    #[test]
+    fn typed_constructors_declare_what_fmi_requires() {
+        let role = |v: Variable| (v.kind, v.causality, v.variability, v.initial, v.start);
+        let fixed = (Causality::Parameter, Variability::Fixed, Some(Initial::Exact));
+        assert_eq!(
+            role(Variable::integer_parameter("n", 1, 7, None, "")),
+            (Kind::Integer, fixed.0, fixed.1, fixed.2, Start::Integer(7))
+        );
+        assert_eq!(
+            role(Variable::boolean_parameter("b", 2, true, "")),
+            (Kind::Boolean, fixed.0, fixed.1, fixed.2, Start::Boolean(true))
+        );
+        assert_eq!(
+            role(Variable::integer_input("i", 3, -2, None, "")),
+            (Kind::Integer, Causality::Input, Variability::Discrete, None, Start::Integer(-2))
+        );
+        assert_eq!(
+            role(Variable::boolean_input("j", 4, false, "")),
+            (Kind::Boolean, Causality::Input, Variability::Discrete, None, Start::Boolean(false))
+        );
+        assert_eq!(
+            role(Variable::output("o", 5, Kind::Integer, None, "")),
+            (
+                Kind::Integer,
+                Causality::Output,
+                Variability::Discrete,
+                Some(Initial::Calculated),
+                Start::None
+            )
+        );
+    }
+}

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use crate::api;
 use crate::ffi::*;
 use crate::model_description::guid;
-use crate::Model;
+use crate::{state_blob, Model};
 
 /// Messages logged, as "status|category|message".
 pub struct Log(pub Mutex<Vec<String>>);
@@ -59,6 +59,18 @@ pub fn callbacks(log: &Log) -> fmi2CallbackFunctions {
         stepFinished: None,
         componentEnvironment: log as *const Log as *mut c_void,
     }
+}
+
+/// The model's payload inside a serialized FMU state of `M`.
+pub fn payload_of<M: Model>(blob: &[u8]) -> Vec<u8> {
+    state_blob::decode(guid::<M>(), blob).expect("a blob of M").1.to_vec()
+}
+
+/// `blob` with its payload replaced and its CRC made right again, to test how a model
+/// payload that passes the frame's checks is read.
+pub fn with_payload<M: Model>(blob: &[u8], payload: &[u8]) -> Vec<u8> {
+    let (header, _) = state_blob::decode(guid::<M>(), blob).expect("a blob of M");
+    state_blob::encode(guid::<M>(), &header, payload)
 }
 
 pub struct Harness<M: Model> {

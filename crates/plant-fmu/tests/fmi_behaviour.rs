@@ -7,8 +7,8 @@ use std::sync::Mutex;
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
-use inchworm_fmi_export::testing::{callbacks, categories_of, Harness, Log};
-use inchworm_fmu_models::PlantFmu;
+use inchworm_fmi_export::testing::{callbacks, categories_of, payload_of, Harness, Log};
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_plant_fmu as fmu;
 
 const DAC_EARTH: u32 = 1;
@@ -538,6 +538,44 @@ fn corrupt_truncated_and_foreign_state_blobs_are_refused() {
     assert_eq!(b.integer(MODE), (fmi2OK, 1));
 }
 
+/// The payload of an uninitialized plant with m_p = 0.03, dac_nonearth = 3.5 and
+/// noise_seed = -7, as the encoder before the table-driven parameter save wrote it
+/// (state format 1): the parameters in table order as f64, the seed as its unsigned
+/// pattern, the three DAC volts, then 0 for "no plant yet".
+const PLANT_FORMAT_1: &str = concat!(
+    "b81e85eb51b89e3f00000000389c7c410000000000002e407b14ae47e17aa43f00000000d0125341",
+    "0000000000003440333333333333c33f000000000088d34000000000000024403bdf4f8d976ea23f",
+    "00000000000000009a999999999921408dedb5a0f7c6d03e00000000000024400000000000003440",
+    "0000000000003e40000000000000444000000000000049407b14ae47e17ab43fec51b81e85ebb13f",
+    "b81e85eb51b8ae3f9a9999999999a93f7b14ae47e17aa43f0000000000e065400000000000000000",
+    "00000000000049400000000000c0724000000000000024400000000000b07d404cce61e3a79d143e",
+    "95d626e80b2e113e0000000000000000000020ffffffef4100000000000000000000000000000c40",
+    "000000000000000000",
+);
+
+fn hex(s: &str) -> Vec<u8> {
+    (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+}
+
+#[test]
+fn state_payload_keeps_format_1_byte_for_byte() {
+    const NOISE_SEED: u32 = 132;
+    let a = Harness::<PlantFmu>::new("format");
+    // In initialization mode, where the restored copy may be read back.
+    assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
+    assert_eq!(a.set_real(M_P, 0.03), fmi2OK);
+    assert_eq!(a.set_real(DAC_NONEARTH, 3.5), fmi2OK);
+    assert_eq!(a.set_integer(NOISE_SEED, -7), fmi2OK);
+    let blob = a.serialize();
+    assert_eq!(payload_of::<PlantFmu>(&blob), hex(PLANT_FORMAT_1));
+    let b = Harness::<PlantFmu>::new("restored");
+    assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
+    assert_eq!(b.real(M_P), (fmi2OK, 0.03));
+    assert_eq!(b.real(DAC_NONEARTH), (fmi2OK, 3.5));
+    assert_eq!(b.integer(NOISE_SEED), (fmi2OK, -7));
+    assert_eq!(b.serialize(), blob);
+}
+
 #[test]
 fn eight_instances_on_eight_threads_match_eight_serial_runs() {
     let amplitudes = [1.0, 0.9, 0.5, 0.3, 0.1, 0.2, 0.6, 0.75];
@@ -563,4 +601,13 @@ fn committed_model_description_matches_the_variable_table() {
         committed == generated,
         "{path} differs from the variable table: run `cargo run --release -p fmu-build` and commit modelDescription/"
     );
+}
+
+#[test]
+fn the_guid_is_computed_once_per_model() {
+    let (a, b) = (model_description::guid::<PlantFmu>(), model_description::guid::<PlantFmu>());
+    assert!(std::ptr::eq(a, b), "the second call returned a fresh string");
+    assert_ne!(a, model_description::guid::<ControllerFmu>());
+    let xml = model_description::model_description::<PlantFmu>();
+    assert!(xml.contains(&format!("guid=\"{a}\"")));
 }
