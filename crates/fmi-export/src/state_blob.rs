@@ -103,7 +103,7 @@ fn parameters<M: Model>() -> impl Iterator<Item = &'static Variable> {
 /// The model's payload: its parameters, walked from the table so that no model writes
 /// them by hand, then its own state. Each parameter is an f64: a Real as is, a Boolean
 /// as 0 or 1, an Integer as its 32-bit pattern read unsigned (lossless, and the bytes
-/// format 1 has always had for the plant's seed).
+/// format 1 has always had for Integer parameters).
 pub fn save_model<M: Model>(model: &M) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
     let mut w = Writer(&mut out);

@@ -65,7 +65,7 @@ pub struct Variable {
 }
 
 /// Words the layer puts into the messages about a variable, so that they speak the
-/// model's language ("DAC volts must be finite") without the layer knowing the model.
+/// model's language ("valve openings must be finite") without the layer knowing the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Wording {
     /// What the values are, as in "<quantity> must be finite"; `None`: "must be finite".
@@ -298,31 +298,31 @@ pub struct ModelInfo {
 mod tests {
     use super::*;
 
-    const DAC: Variable = Variable::input("dac", 1, 0.0, Some("V"), "")
+    const VALVE: Variable = Variable::input("valve", 1, 0.0, Some("%"), "")
         .with_range(0.0, 10.0)
-        .worded("DAC volts", "DAC range");
+        .worded("valve openings", "valve range");
 
     #[test]
     fn inputs_are_clamped_into_their_range_and_non_finite_values_refused() {
-        assert_eq!(DAC.admit_real(4.5, 1.0), Ok((4.5, None)));
+        assert_eq!(VALVE.admit_real(4.5, 1.0), Ok((4.5, None)));
         assert_eq!(
-            DAC.admit_real(12.5, 1.0),
+            VALVE.admit_real(12.5, 1.0),
             Ok((
                 10.0,
-                Some("dac = 12.5 V is outside the DAC range 0-10 V, clamped to 10 V".into())
+                Some("valve = 12.5 % is outside the valve range 0-10 %, clamped to 10 %".into())
             ))
         );
-        assert_eq!(DAC.admit_real(-0.5, 1.0).unwrap().0.to_bits(), 0.0f64.to_bits());
+        assert_eq!(VALVE.admit_real(-0.5, 1.0).unwrap().0.to_bits(), 0.0f64.to_bits());
         // -0 is inside [0, 10]: kept as it came, sign and all.
-        assert_eq!(DAC.admit_real(-0.0, 1.0).unwrap(), (-0.0, None));
-        assert_eq!(DAC.admit_real(-0.0, 1.0).unwrap().0.to_bits(), (-0.0f64).to_bits());
+        assert_eq!(VALVE.admit_real(-0.0, 1.0).unwrap(), (-0.0, None));
+        assert_eq!(VALVE.admit_real(-0.0, 1.0).unwrap().0.to_bits(), (-0.0f64).to_bits());
         assert_eq!(
-            DAC.admit_real(f64::NAN, 4.0),
-            Err("dac = NaN refused: DAC volts must be finite; keeping 4 V".into())
+            VALVE.admit_real(f64::NAN, 4.0),
+            Err("valve = NaN refused: valve openings must be finite; keeping 4 %".into())
         );
         assert_eq!(
-            DAC.admit_real(f64::NEG_INFINITY, 4.0),
-            Err("dac = -inf refused: DAC volts must be finite; keeping 4 V".into())
+            VALVE.admit_real(f64::NEG_INFINITY, 4.0),
+            Err("valve = -inf refused: valve openings must be finite; keeping 4 %".into())
         );
     }
 
