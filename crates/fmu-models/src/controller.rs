@@ -345,8 +345,9 @@ impl Model for ControllerFmu {
         w.f64(self.reference);
         w.u8(u8::from(self.last.is_some()));
         if let Some(s) = &self.last {
-            let scalars = [s.servo_error, s.disturbance_estimate, s.step_forward, s.step_backward];
-            for v in s.dac.iter().chain(&scalars).chain(&[s.fraction]).chain(&s.scale_weights) {
+            let (e, d, f, b) =
+                (s.servo_error, s.disturbance_estimate, s.step_forward, s.step_backward);
+            for v in s.dac.iter().chain(&[e, d, f, b, s.fraction]).chain(&s.scale_weights) {
                 w.f64(*v);
             }
             // The board's widths: 16-bit DAC codes, a 32-bit step count.
