@@ -119,11 +119,11 @@ fn variable<M: Model>(vr: u32) -> Option<&'static Variable> {
 }
 
 /// The variable behind `vr`, if it exists and has type `kind`.
-fn lookup<M: Model>(func: &str, vr: u32, kind: Kind) -> Result<&'static Variable, String> {
+fn lookup<M: Model>(vr: u32, kind: Kind) -> Result<&'static Variable, String> {
     match variable::<M>(vr) {
-        None => Err(format!("{func}: unknown value reference {vr}")),
+        None => Err(format!("unknown value reference {vr}")),
         Some(v) if v.kind != kind => {
-            Err(format!("{func}: value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind))
+            Err(format!("value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind))
         }
         Some(v) => Ok(v),
     }
@@ -347,7 +347,7 @@ macro_rules! getter {
                     return refuse(inst, FUNC, "vr or value is NULL");
                 };
                 for (r, out) in vrs.iter().zip(values.iter_mut()) {
-                    let got = lookup::<M>(FUNC, *r, $kind).and_then(|_| inst.model.$get(*r));
+                    let got = lookup::<M>(*r, $kind).and_then(|_| inst.model.$get(*r));
                     match got {
                         Ok(v) => *out = $conv(v),
                         Err(msg) => return refuse(inst, FUNC, &msg),
@@ -368,7 +368,7 @@ getter!(fmi2GetBoolean, fmi2Boolean, Kind::Boolean, get_boolean, |v: bool| if v 
 });
 
 /// Whether the variable may be set in the instance's current state.
-fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Result<(), String> {
+fn check_settable<M: Model>(inst: &Instance<M>, v: &Variable) -> Result<(), String> {
     let ok = match inst.state {
         State::Instantiated | State::InitializationMode => v.settable_before_init(),
         _ => v.settable_after_init(),
@@ -377,7 +377,7 @@ fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Res
         Ok(())
     } else {
         Err(format!(
-            "{func}: {} ({:?}, {:?}) cannot be set in state {}",
+            "{} ({:?}, {:?}) cannot be set in state {}",
             v.name,
             v.causality,
             v.variability,
@@ -403,11 +403,10 @@ macro_rules! setter {
                 // not stop the others, and the call reports the worst outcome.
                 let mut status = fmi2OK;
                 for (r, v) in vrs.iter().zip(values.iter()) {
-                    let result = lookup::<M>(FUNC, *r, $kind).and_then(|var| {
-                        check_settable(inst, FUNC, var)?;
-                        let (value, warning) = $admit(&inst.model, var, $conv(*v))
-                            .map_err(|m| format!("{FUNC}: {m}"))?;
-                        inst.model.$set(*r, value).map_err(|m| format!("{FUNC}: {m}"))?;
+                    let result = lookup::<M>(*r, $kind).and_then(|var| {
+                        check_settable(inst, var)?;
+                        let (value, warning) = $admit(&inst.model, var, $conv(*v))?;
+                        inst.model.$set(*r, value)?;
                         Ok(warning)
                     });
                     match result {
