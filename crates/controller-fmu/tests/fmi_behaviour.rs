@@ -3,7 +3,7 @@
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
-use inchworm_fmi_export::testing::Harness;
+use inchworm_fmi_export::testing::{categories_of, payload_of, with_payload, Harness};
 use inchworm_fmu_models::ControllerFmu;
 
 type H = Harness<ControllerFmu>;
@@ -114,6 +114,114 @@ fn state_round_trips_replay_bit_for_bit() {
     bad[10] ^= 0x20;
     assert_eq!(b.deserialize(&bad), fmi2Error);
     assert!(b.saw(fmi2Error, &["fmi2DeSerializeFMUstate"]));
+}
+
+#[test]
+fn debug_logging_enables_exactly_the_named_categories() {
+    let h = H::init("logging");
+    assert_eq!(h.set_real(REFERENCE, 60e-6), fmi2OK);
+    drive(&h, 0, 150);
+    assert_eq!(h.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
+
+    assert_eq!(h.set_debug_logging(true, &["logEvents"]), fmi2OK);
+    assert_eq!(h.set_real(REFERENCE, -40e-6), fmi2OK);
+    drive(&h, 150, 300);
+    let events = h.take_logged();
+    assert_eq!(
+        events,
+        ["0|logEvents|control iteration near t = 0.6 s: 4 full step(s) and fraction 1.0000, disturbance estimate 0.1009 um"]
+    );
+
+    assert_eq!(h.set_debug_logging(true, &[]), fmi2OK);
+    assert_eq!(h.set_real(REFERENCE, 30e-6), fmi2OK);
+    drive(&h, 450, 600);
+    let all = h.take_logged();
+    assert_eq!(categories_of(&all), ["logAll", "logEvents"]);
+    assert!(all.iter().any(|l| l.starts_with("0|logEvents|control iteration")), "{all:?}");
+    assert_eq!(all.iter().filter(|l| l.as_str() == "0|logAll|fmi2DoStep").count(), 600);
+    assert_eq!(all.iter().filter(|l| l.as_str() == "0|logAll|fmi2SetInteger").count(), 600);
+
+    assert_eq!(h.set_debug_logging(false, &["logEvents", "logAll"]), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    assert_eq!(h.set_real(REFERENCE, 0.0), fmi2OK);
+    drive(&h, 1050, 600);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
+
+    assert_eq!(h.set_debug_logging(true, &["logEvent"]), fmi2Error);
+    assert!(h.saw(fmi2Error, &["fmi2SetDebugLogging", "unknown log category \"logEvent\""]));
+}
+
+/// The payload of an uninitialized controller with prefilter on, samples_per_step = 50
+/// and encoder_counts = -12, as the encoder before the table-driven parameter save wrote
+/// it (state format 1): parameters in table order as f64, the inputs, no sample, no
+/// controller.
+const CONTROLLER_FORMAT_1: &str = concat!(
+    "000000000000f03f000000000000f03f000000000000f03f000000000000f03f0000000000000000",
+    "00000000000049400ad7a3703d0ad73f9a9999999999e93f9a9999999999e93f9a9999999999a93f",
+    "f168e388b5f8d43efca9f1d24d62503f48afbc9af2d77a3e7b14ae47e17a743f48afbc9af2d76a3e",
+    "4cce61e3a79d143ec271bd0f7e60d23e54e41071732af9be8dedb5a0f7c6f0be8dedb5a0f7c6e0be",
+    "54e41071732ac9be8dedb5a0f7c6b0be8dedb5a0f7c6b03e54e41071732ac93e8dedb5a0f7c6e03e",
+    "8dedb5a0f7c6f03e54e41071732af93e128942cbba7ff4bf029f1f46088fe9bf467efd101b2cd7bf",
+    "90dc9a745b22bfbff37519fed30da4bf8448861c5bcfa03f38a3e6abe463bf3f55fa0967b796d63f",
+    "f25eb532e197e93fccb392567cc3f43f00000000000028c000000000000000000000",
+);
+
+fn hex(s: &str) -> Vec<u8> {
+    (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+}
+
+const PREFILTER: u32 = 101;
+
+#[test]
+fn state_payload_keeps_format_1_byte_for_byte() {
+    let a = H::new("format");
+    // In initialization mode, where the restored copy may be read back.
+    assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
+    assert_eq!(a.set_boolean(PREFILTER, true), fmi2OK);
+    assert_eq!(a.set_integer(SAMPLES_PER_STEP, 50), fmi2OK);
+    assert_eq!(a.set_integer(ENCODER_COUNTS, -12), fmi2OK);
+    let blob = a.serialize();
+    assert_eq!(payload_of::<ControllerFmu>(&blob), hex(CONTROLLER_FORMAT_1));
+    let b = H::new("restored");
+    assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
+    assert_eq!(b.boolean(PREFILTER), (fmi2OK, true));
+    assert_eq!(b.integer(SAMPLES_PER_STEP), (fmi2OK, 50));
+    assert_eq!(b.integer(ENCODER_COUNTS), (fmi2OK, -12));
+    assert_eq!(b.serialize(), blob);
+}
+
+#[test]
+fn parameters_a_master_could_not_have_set_are_refused_in_a_state() {
+    let a = H::new("source");
+    let blob = a.serialize();
+    let payload = payload_of::<ControllerFmu>(&blob);
+    // Parameters in table order: feedforward, prefilter, ..., samples_per_step 6th, deadband 5th.
+    let at = |i: usize, x: f64| {
+        let mut p = payload.clone();
+        p[8 * i..8 * i + 8].copy_from_slice(&x.to_le_bytes());
+        with_payload::<ControllerFmu>(&blob, &p)
+    };
+    let b = H::new("target");
+    for (bytes, why) in [
+        (at(1, 0.5), "parameter prefilter has the invalid Boolean value 0.5"),
+        (at(5, 1.5), "parameter samples_per_step has the invalid Integer value 1.5"),
+        (at(5, -1.0), "parameter samples_per_step has the invalid Integer value -1"),
+        (at(4, f64::NAN), "parameter deadband has the invalid Real value NaN"),
+        (
+            with_payload::<ControllerFmu>(&blob, &payload[..100]),
+            "model state truncated in its 37 parameters",
+        ),
+        (
+            with_payload::<ControllerFmu>(&blob, &[&payload[..], &[0]].concat()),
+            "controller FMU state: trailing bytes after an uninitialized controller",
+        ),
+    ] {
+        assert_eq!(b.deserialize(&bytes), fmi2Error, "{why}");
+        let expected =
+            format!("3|logStatusError|fmi2DeSerializeFMUstate: model state refused: {why}");
+        assert_eq!(b.take_logged(), [expected]);
+    }
+    assert_eq!(b.deserialize(&blob), fmi2OK, "the refusals left the instance usable");
 }
 
 #[test]

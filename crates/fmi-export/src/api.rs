@@ -24,7 +24,7 @@ use std::os::raw::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::ffi::*;
-use crate::instance::{Instance, Snapshot, State, INSTANCE_MAGIC, LOG_CATEGORIES};
+use crate::instance::{Categories, Instance, LogCategory, Snapshot, State, INSTANCE_MAGIC};
 use crate::table::{Kind, Variable};
 use crate::{model_description, state_blob, Message, Model};
 
@@ -43,11 +43,6 @@ const SETTABLE: u16 = I | IM | SC;
 const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E;
 const STATUS_CALLS: u16 = SC | SIP | SF | SCA | T;
 
-const CAT_EVENTS: usize = 0;
-const CAT_WARNING: usize = 1;
-const CAT_ERROR: usize = 2;
-const CAT_ALL: usize = 3;
-
 /// Runs `body` on the instance behind `c` if the call is allowed in its state.
 unsafe fn with_instance<M: Model>(
     c: fmi2Component,
@@ -65,12 +60,12 @@ unsafe fn with_instance<M: Model>(
     if inst.state as u16 & allowed == 0 {
         inst.log(
             fmi2Error,
-            CAT_ERROR,
+            LogCategory::StatusError,
             &format!("{func}: illegal call sequence: not allowed in state {}", inst.state.name()),
         );
         return fmi2Error;
     }
-    inst.log(fmi2OK, CAT_ALL, func);
+    inst.log(fmi2OK, LogCategory::All, func);
     match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
         Ok(status) => status,
         Err(panic) => {
@@ -82,7 +77,7 @@ unsafe fn with_instance<M: Model>(
             inst.state = State::Fatal;
             inst.log(
                 fmi2Fatal,
-                CAT_ERROR,
+                LogCategory::StatusError,
                 &format!("{func}: internal error, instance unusable: {what}"),
             );
             fmi2Fatal
@@ -91,7 +86,7 @@ unsafe fn with_instance<M: Model>(
 }
 
 fn refuse<M: Model>(inst: &Instance<M>, func: &str, why: &str) -> fmi2Status {
-    inst.log(fmi2Error, CAT_ERROR, &format!("{func}: {why}"));
+    inst.log(fmi2Error, LogCategory::StatusError, &format!("{func}: {why}"));
     fmi2Error
 }
 
@@ -124,11 +119,11 @@ fn variable<M: Model>(vr: u32) -> Option<&'static Variable> {
 }
 
 /// The variable behind `vr`, if it exists and has type `kind`.
-fn lookup<M: Model>(func: &str, vr: u32, kind: Kind) -> Result<&'static Variable, String> {
+fn lookup<M: Model>(vr: u32, kind: Kind) -> Result<&'static Variable, String> {
     match variable::<M>(vr) {
-        None => Err(format!("{func}: unknown value reference {vr}")),
+        None => Err(format!("unknown value reference {vr}")),
         Some(v) if v.kind != kind => {
-            Err(format!("{func}: value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind))
+            Err(format!("value reference {vr} ({}) is {:?}, not {kind:?}", v.name, v.kind))
         }
         Some(v) => Ok(v),
     }
@@ -142,6 +137,10 @@ pub fn fmi2GetVersion() -> *const c_char {
     fmi2Version.as_ptr() as *const c_char
 }
 
+/// FMI 2.0 section 2.1.5: on with no categories enables all of them; on with categories
+/// enables exactly those; off with categories disables those; off with none disables
+/// all. A NULL or unknown name refuses the whole call and changes nothing, so a master's
+/// typo cannot leave half of its request applied.
 pub unsafe fn fmi2SetDebugLogging<M: Model>(
     c: fmi2Component,
     loggingOn: fmi2Boolean,
@@ -149,37 +148,39 @@ pub unsafe fn fmi2SetDebugLogging<M: Model>(
     categories: *const fmi2String,
 ) -> fmi2Status {
     with_instance::<M>(c, "fmi2SetDebugLogging", LIVE, |inst| {
+        const FUNC: &str = "fmi2SetDebugLogging";
         let Some(names) = slice(categories, nCategories) else {
-            return refuse(inst, "fmi2SetDebugLogging", "categories is NULL");
+            return refuse(inst, FUNC, "categories is NULL");
         };
-        inst.logging_on = loggingOn != fmi2False;
-        if names.is_empty() {
-            inst.categories = [inst.logging_on; LOG_CATEGORIES.len()];
-            return fmi2OK;
-        }
-        let mut status = fmi2OK;
+        let mut named = Vec::with_capacity(names.len());
         for &p in names {
             if p.is_null() {
-                status =
-                    worst(status, refuse(inst, "fmi2SetDebugLogging", "a category name is NULL"));
-                continue;
+                return refuse(inst, FUNC, "a category name is NULL; logging left unchanged");
             }
             let name = CStr::from_ptr(p).to_string_lossy();
-            match LOG_CATEGORIES.iter().position(|(n, _)| *n == name) {
-                Some(i) => inst.categories[i] = inst.logging_on,
+            match LogCategory::from_name(&name) {
+                Some(cat) => named.push(cat),
                 None => {
-                    status = worst(
-                        status,
-                        refuse(
-                            inst,
-                            "fmi2SetDebugLogging",
-                            &format!("unknown log category \"{name}\""),
+                    let known: Vec<_> = LogCategory::ALL.iter().map(|c| c.name()).collect();
+                    return refuse(
+                        inst,
+                        FUNC,
+                        &format!(
+                            "unknown log category \"{name}\" (this FMU has {}); logging left unchanged",
+                            known.join(", ")
                         ),
-                    )
+                    );
                 }
             }
         }
-        status
+        let named = Categories::of(&named);
+        inst.categories = match (loggingOn != fmi2False, names.is_empty()) {
+            (true, true) => Categories::ALL,
+            (true, false) => named,
+            (false, true) => Categories::NONE,
+            (false, false) => inst.categories.without(named),
+        };
+        fmi2OK
     })
 }
 
@@ -346,7 +347,7 @@ macro_rules! getter {
                     return refuse(inst, FUNC, "vr or value is NULL");
                 };
                 for (r, out) in vrs.iter().zip(values.iter_mut()) {
-                    let got = lookup::<M>(FUNC, *r, $kind).and_then(|_| inst.model.$get(*r));
+                    let got = lookup::<M>(*r, $kind).and_then(|_| inst.model.$get(*r));
                     match got {
                         Ok(v) => *out = $conv(v),
                         Err(msg) => return refuse(inst, FUNC, &msg),
@@ -367,7 +368,7 @@ getter!(fmi2GetBoolean, fmi2Boolean, Kind::Boolean, get_boolean, |v: bool| if v 
 });
 
 /// Whether the variable may be set in the instance's current state.
-fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Result<(), String> {
+fn check_settable<M: Model>(inst: &Instance<M>, v: &Variable) -> Result<(), String> {
     let ok = match inst.state {
         State::Instantiated | State::InitializationMode => v.settable_before_init(),
         _ => v.settable_after_init(),
@@ -376,7 +377,7 @@ fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Res
         Ok(())
     } else {
         Err(format!(
-            "{func}: {} ({:?}, {:?}) cannot be set in state {}",
+            "{} ({:?}, {:?}) cannot be set in state {}",
             v.name,
             v.causality,
             v.variability,
@@ -386,7 +387,7 @@ fn check_settable<M: Model>(inst: &Instance<M>, func: &str, v: &Variable) -> Res
 }
 
 macro_rules! setter {
-    ($name:ident, $cty:ty, $kind:expr, $set:ident, $conv:expr) => {
+    ($name:ident, $cty:ty, $kind:expr, $set:ident, $conv:expr, $admit:expr) => {
         pub unsafe fn $name<M: Model>(
             c: fmi2Component,
             vr: *const fmi2ValueReference,
@@ -402,15 +403,20 @@ macro_rules! setter {
                 // not stop the others, and the call reports the worst outcome.
                 let mut status = fmi2OK;
                 for (r, v) in vrs.iter().zip(values.iter()) {
-                    let result = lookup::<M>(FUNC, *r, $kind)
-                        .and_then(|var| check_settable(inst, FUNC, var))
-                        .and_then(|_| {
-                            inst.model.$set(*r, $conv(*v)).map_err(|m| format!("{FUNC}: {m}"))
-                        });
+                    let result = lookup::<M>(*r, $kind).and_then(|var| {
+                        check_settable(inst, var)?;
+                        let (value, warning) = $admit(&inst.model, var, $conv(*v))?;
+                        inst.model.$set(*r, value)?;
+                        Ok(warning)
+                    });
                     match result {
                         Ok(None) => {}
                         Ok(Some(warning)) => {
-                            inst.log(fmi2Warning, CAT_WARNING, &format!("{FUNC}: {warning}"));
+                            inst.log(
+                                fmi2Warning,
+                                LogCategory::StatusWarning,
+                                &format!("{FUNC}: {warning}"),
+                            );
                             status = worst(status, fmi2Warning);
                         }
                         Err(msg) => status = worst(status, refuse(inst, FUNC, &msg)),
@@ -422,9 +428,26 @@ macro_rules! setter {
     };
 }
 
-setter!(fmi2SetReal, fmi2Real, Kind::Real, set_real, |v: f64| v);
-setter!(fmi2SetInteger, fmi2Integer, Kind::Integer, set_integer, |v: i32| v);
-setter!(fmi2SetBoolean, fmi2Boolean, Kind::Boolean, set_boolean, |v: fmi2Boolean| v != fmi2False);
+/// A Real is admitted by its table entry (finite; an input clamped into its range).
+fn admit_real<M: Model>(m: &M, v: &Variable, x: f64) -> Result<(f64, Option<String>), String> {
+    v.admit_real(x, m.get_real(v.vr)?)
+}
+
+/// Integers and Booleans have no value a model could refuse by the table.
+fn admit_any<M: Model, T>(_: &M, _: &Variable, x: T) -> Result<(T, Option<String>), String> {
+    Ok((x, None))
+}
+
+setter!(fmi2SetReal, fmi2Real, Kind::Real, set_real, |v: f64| v, admit_real::<M>);
+setter!(fmi2SetInteger, fmi2Integer, Kind::Integer, set_integer, |v: i32| v, admit_any::<M, i32>);
+setter!(
+    fmi2SetBoolean,
+    fmi2Boolean,
+    Kind::Boolean,
+    set_boolean,
+    |v: fmi2Boolean| v != fmi2False,
+    admit_any::<M, bool>
+);
 
 pub unsafe fn fmi2GetString<M: Model>(
     c: fmi2Component,
@@ -464,16 +487,15 @@ pub unsafe fn fmi2SetString<M: Model>(
     })
 }
 
-fn encode_snapshot<M: Model>(s: &Snapshot<M>) -> Vec<u8> {
-    let mut payload = Vec::new();
-    s.model.save(&mut payload);
+fn encode_snapshot<M: Model>(s: &Snapshot<M>) -> Result<Vec<u8>, String> {
+    let payload = state_blob::save_model(&s.model)?;
     let h = state_blob::Header {
         state: s.state,
         time: s.time,
         start_time: s.start_time,
         stop_time: s.stop_time,
     };
-    state_blob::encode(&model_description::guid::<M>(), &h, &payload)
+    Ok(state_blob::encode(model_description::guid::<M>(), &h, &payload))
 }
 
 /// The snapshot behind `state` if this instance handed it out.
@@ -558,10 +580,13 @@ pub unsafe fn fmi2SerializedFMUstateSize<M: Model>(
             return refuse(inst, "fmi2SerializedFMUstateSize", "size is NULL");
         }
         match own_snapshot(inst, state) {
-            Some(s) => {
-                *size = encode_snapshot(s).len();
-                fmi2OK
-            }
+            Some(s) => match encode_snapshot(s) {
+                Ok(blob) => {
+                    *size = blob.len();
+                    fmi2OK
+                }
+                Err(msg) => refuse(inst, "fmi2SerializedFMUstateSize", &msg),
+            },
             None => refuse(
                 inst,
                 "fmi2SerializedFMUstateSize",
@@ -582,7 +607,10 @@ pub unsafe fn fmi2SerializeFMUstate<M: Model>(
         let Some(s) = own_snapshot(inst, state) else {
             return refuse(inst, FUNC, "FMUstate was not created by this instance");
         };
-        let blob = encode_snapshot(s);
+        let blob = match encode_snapshot(s) {
+            Ok(blob) => blob,
+            Err(msg) => return refuse(inst, FUNC, &msg),
+        };
         let Some(out) = slice_mut(bytes as *mut u8, size) else {
             return refuse(inst, FUNC, "serializedState is NULL");
         };
@@ -613,14 +641,14 @@ pub unsafe fn fmi2DeSerializeFMUstate<M: Model>(
         let (Some(blob), false) = (slice(bytes as *const u8, size), state.is_null()) else {
             return refuse(inst, FUNC, "serializedState or FMUstate is NULL");
         };
-        let (header, payload) = match state_blob::decode(&model_description::guid::<M>(), blob) {
+        let (header, payload) = match state_blob::decode(model_description::guid::<M>(), blob) {
             Ok(x) => x,
             Err(msg) => return refuse(inst, FUNC, &msg),
         };
-        let mut model = M::new();
-        if let Err(msg) = model.load(payload) {
-            return refuse(inst, FUNC, &format!("model state refused: {msg}"));
-        }
+        let model = match state_blob::load_model::<M>(payload) {
+            Ok(m) => m,
+            Err(msg) => return refuse(inst, FUNC, &format!("model state refused: {msg}")),
+        };
         let snap = Snapshot {
             model,
             state: header.state,
@@ -642,7 +670,7 @@ pub unsafe fn fmi2GetDirectionalDerivative<M: Model>(
     _dvUnknown: *mut fmi2Real,
 ) -> fmi2Status {
     with_instance::<M>(c, "fmi2GetDirectionalDerivative", GETTABLE, |inst| {
-        refuse(inst, "fmi2GetDirectionalDerivative", "not supported: providesDirectionalDerivative is false (the plant is hybrid; use finite differences over fmi2GetFMUstate)")
+        refuse(inst, "fmi2GetDirectionalDerivative", "not supported: providesDirectionalDerivative is false (estimate derivatives by finite differences over fmi2GetFMUstate and fmi2SetFMUstate)")
     })
 }
 
@@ -654,7 +682,7 @@ pub unsafe fn fmi2SetRealInputDerivatives<M: Model>(
     _value: *const fmi2Real,
 ) -> fmi2Status {
     with_instance::<M>(c, "fmi2SetRealInputDerivatives", SETTABLE, |inst| {
-        refuse(inst, "fmi2SetRealInputDerivatives", "not supported: canInterpolateInputs is false (inputs are held constant over a step, as a DAC holds them)")
+        refuse(inst, "fmi2SetRealInputDerivatives", "not supported: canInterpolateInputs is false (inputs are held constant over each communication step)")
     })
 }
 
@@ -716,9 +744,13 @@ pub unsafe fn fmi2DoStep<M: Model>(
                 let mut status = fmi2OK;
                 for m in messages {
                     match m {
-                        Message::Event(text) => inst.log(fmi2OK, CAT_EVENTS, &text),
+                        Message::Event(text) => inst.log(fmi2OK, LogCategory::Events, &text),
                         Message::Warning(text) => {
-                            inst.log(fmi2Warning, CAT_WARNING, &format!("{FUNC}: {text}"));
+                            inst.log(
+                                fmi2Warning,
+                                LogCategory::StatusWarning,
+                                &format!("{FUNC}: {text}"),
+                            );
                             status = fmi2Warning;
                         }
                     }

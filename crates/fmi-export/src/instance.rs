@@ -38,13 +38,72 @@ impl State {
     }
 }
 
-/// Log categories declared in `modelDescription.xml`, in this order.
-pub const LOG_CATEGORIES: [(&str, &str); 4] = [
-    ("logEvents", "Model events: brake switches, mode changes, slips"),
-    ("logStatusWarning", "Calls that returned fmi2Warning"),
-    ("logStatusError", "Calls that returned fmi2Error or fmi2Fatal"),
-    ("logAll", "Everything, including each call"),
-];
+/// The log categories of `modelDescription.xml`, in the order declared there. Names
+/// follow the standard's recommendations (FMI 2.0 section 2.2.4); `logAll` is the one
+/// that selects every message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogCategory {
+    Events,
+    StatusWarning,
+    StatusError,
+    All,
+}
+
+impl LogCategory {
+    pub const ALL: [LogCategory; 4] = [
+        LogCategory::Events,
+        LogCategory::StatusWarning,
+        LogCategory::StatusError,
+        LogCategory::All,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            LogCategory::Events => "logEvents",
+            LogCategory::StatusWarning => "logStatusWarning",
+            LogCategory::StatusError => "logStatusError",
+            LogCategory::All => "logAll",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<LogCategory> {
+        LogCategory::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// The description in `modelDescription.xml`: what counts as an event is the model's
+    /// to say; the other categories are the layer's own.
+    pub fn description<M: Model>(self) -> &'static str {
+        match self {
+            LogCategory::Events => M::info().log_events,
+            LogCategory::StatusWarning => "Calls that returned fmi2Warning",
+            LogCategory::StatusError => "Calls that returned fmi2Error or fmi2Fatal",
+            LogCategory::All => "Everything, including each call",
+        }
+    }
+
+    fn bit(self) -> u8 {
+        1 << self as u8
+    }
+}
+
+/// The set of enabled categories, one bit per [`LogCategory`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Categories(u8);
+
+impl Categories {
+    pub const NONE: Categories = Categories(0);
+    pub const ALL: Categories = Categories((1 << LogCategory::ALL.len()) - 1);
+
+    pub fn of(cats: &[LogCategory]) -> Categories {
+        Categories(cats.iter().fold(0, |b, c| b | c.bit()))
+    }
+    pub fn without(self, other: Categories) -> Categories {
+        Categories(self.0 & !other.0)
+    }
+    pub fn contains(self, c: LogCategory) -> bool {
+        self.0 & c.bit() != 0
+    }
+}
 
 /// Guards against a master passing a pointer that is not one of our instances (or a
 /// freed one): checked before anything else is read.
@@ -54,8 +113,8 @@ pub struct Instance<M: Model> {
     pub magic: u64,
     pub name: CString,
     pub callbacks: fmi2CallbackFunctions,
-    pub logging_on: bool,
-    pub categories: [bool; LOG_CATEGORIES.len()],
+    /// Categories whose debug messages (status fmi2OK) reach the logger.
+    pub categories: Categories,
     pub state: State,
     pub model: M,
     pub time: f64,
@@ -83,8 +142,7 @@ impl<M: Model> Instance<M> {
             magic: INSTANCE_MAGIC,
             name,
             callbacks,
-            logging_on,
-            categories: [true; LOG_CATEGORIES.len()],
+            categories: if logging_on { Categories::ALL } else { Categories::NONE },
             state: State::Instantiated,
             model: M::new(),
             time: 0.0,
@@ -96,16 +154,18 @@ impl<M: Model> Instance<M> {
     }
 
     /// Sends a message to the master's logger. Errors and warnings always go out (the
-    /// master needs them to understand a status); other categories only with debug
-    /// logging on and the category enabled.
-    pub fn log(&self, status: fmi2Status, category: usize, message: &str) {
+    /// master needs them to understand a status, and FMI 2.0 section 2.1.5 has the FMU
+    /// report why a call failed); debug messages only in an enabled category, or with
+    /// `logAll` enabled.
+    pub fn log(&self, status: fmi2Status, category: LogCategory, message: &str) {
         let Some(logger) = self.callbacks.logger else { return };
         let wanted = status >= fmi2Warning
-            || (self.logging_on && (self.categories[category] || self.categories[3]));
+            || self.categories.contains(category)
+            || self.categories.contains(LogCategory::All);
         if !wanted {
             return;
         }
-        let cat = CString::new(LOG_CATEGORIES[category].0).unwrap_or_default();
+        let cat = CString::new(category.name()).unwrap_or_default();
         // Interior NULs would truncate the message; replace them rather than drop it.
         let msg = CString::new(message.replace('\0', " ")).unwrap_or_default();
         let fmt = b"%s\0";

@@ -1,13 +1,15 @@
 //! Generic FMI 2.0 Co-Simulation export.
 //!
 //! A model implements [`Model`]: its variable table, start values, get/set by value
-//! reference, initialization, one communication step, and its state as bytes. This crate
-//! owns everything else, once for every FMU: the C ABI ([`ffi`]), the instance state
-//! machine with the standard's allowed-call table, argument checks, `catch_unwind` on
-//! every entry point, logging through the master's callback, FMU state snapshots and
-//! their versioned serialized form, and `modelDescription.xml`. An FMU crate is its model
-//! plus one [`export_fmi2!`] line, as in the Modelica Association's Reference-FMUs, where
-//! all FMI glue is shared and each model is a small equations file.
+//! reference, initialization, one communication step, and its dynamic state as bytes.
+//! This crate owns everything else, once for every FMU: the C ABI ([`ffi`]), the instance
+//! state machine with the standard's allowed-call table, argument checks (types, states,
+//! finite values, the declared ranges of inputs), `catch_unwind` on every entry point,
+//! logging through the master's callback, FMU state snapshots and their versioned
+//! serialized form with the parameters saved from the table, and `modelDescription.xml`.
+//! An FMU crate is its model plus one [`export_fmi2!`] line, as in the Modelica
+//! Association's Reference-FMUs, where all FMI glue is shared and each model is a small
+//! equations file.
 
 pub mod api;
 mod export;
@@ -18,21 +20,16 @@ mod state_blob;
 mod table;
 pub mod testing;
 
-pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable};
-
-/// The name of the variable with value reference `vr`, for messages ("?" if none).
-pub fn variable_name(variables: &[Variable], vr: u32) -> &'static str {
-    variables.iter().find(|v| v.vr == vr).map_or("?", |v| v.name)
-}
-
-/// Outcome of setting one value: accepted, or accepted after a change the master should
-/// hear about (e.g. a voltage clamped into range).
-pub type SetResult = Result<Option<String>, String>;
+pub use inchworm_state_bytes::{Reader, Writer};
+pub use instance::LogCategory;
+pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording};
 
 /// Something a step has to tell the master.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Message {
+    /// Logged under `logEvents` (debug logging, status fmi2OK).
     Event(String),
+    /// Logged under `logStatusWarning`; the step returns fmi2Warning.
     Warning(String),
 }
 
@@ -54,9 +51,11 @@ pub trait Model: Clone + Send + 'static {
     fn get_real(&self, vr: u32) -> Result<f64, String>;
     fn get_integer(&self, vr: u32) -> Result<i32, String>;
     fn get_boolean(&self, vr: u32) -> Result<bool, String>;
-    fn set_real(&mut self, vr: u32, value: f64) -> SetResult;
-    fn set_integer(&mut self, vr: u32, value: i32) -> SetResult;
-    fn set_boolean(&mut self, vr: u32, value: bool) -> SetResult;
+    /// Stores a value the layer has admitted: finite, and for an input inside its
+    /// declared range (clamped there, with a warning to the master, if it was not).
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
+    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), String>;
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String>;
 
     /// Called by `fmi2ExitInitializationMode`: validate parameters and build the model.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;
@@ -73,8 +72,10 @@ pub trait Model: Clone + Send + 'static {
     /// (the step succeeded, with status fmi2Warning).
     fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String>;
 
-    /// Appends everything needed to continue bit for bit: parameters, inputs, state.
-    fn save(&self, out: &mut Vec<u8>);
-    /// Restores what [`Model::save`] wrote; on error `self` is unchanged.
-    fn load(&mut self, bytes: &[u8]) -> Result<(), String>;
+    /// Appends everything beyond the parameters needed to continue bit for bit: inputs
+    /// and dynamic state. The layer saves the parameters before it, from the table.
+    fn save_state(&self, w: &mut Writer);
+    /// Restores what [`Model::save_state`] wrote, into a fresh model whose parameters the
+    /// layer has already restored; on error the layer discards the model.
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
 }

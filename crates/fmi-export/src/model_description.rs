@@ -1,8 +1,11 @@
 //! `modelDescription.xml` and `documentation/index.html`, generated from a model's table.
 
+use std::any::TypeId;
+use std::collections::HashMap;
 use std::fmt::Write;
+use std::sync::{Mutex, OnceLock, PoisonError};
 
-use crate::instance::LOG_CATEGORIES;
+use crate::instance::LogCategory;
 use crate::table::{Causality, Initial, Kind, Start, Variability, Variable};
 use crate::Model;
 
@@ -104,7 +107,8 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
         let _ = writeln!(w, "  </UnitDefinitions>");
     }
     let _ = writeln!(w, "  <LogCategories>");
-    for (name, desc) in LOG_CATEGORIES {
+    for cat in LogCategory::ALL {
+        let (name, desc) = (cat.name(), cat.description::<M>());
         let _ = writeln!(w, "    <Category name=\"{name}\" description=\"{}\"/>", escape(desc));
     }
     let _ = writeln!(w, "  </LogCategories>");
@@ -170,7 +174,17 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
 
 /// The GUID: a digest of the generated description, so it changes exactly when the
 /// interface does and a stale modelDescription.xml is caught at fmi2Instantiate.
-pub fn guid<M: Model>() -> String {
+/// Computed once per model type and library: it costs a whole XML generation, and
+/// fmi2Instantiate and every state (de)serialization ask for it.
+pub fn guid<M: Model>() -> &'static str {
+    // A static in a generic function is one for all its instances, hence the map.
+    static GUIDS: OnceLock<Mutex<HashMap<TypeId, &'static str>>> = OnceLock::new();
+    let mut guids =
+        GUIDS.get_or_init(Default::default).lock().unwrap_or_else(PoisonError::into_inner);
+    guids.entry(TypeId::of::<M>()).or_insert_with(|| Box::leak(digest::<M>().into_boxed_str()))
+}
+
+fn digest<M: Model>() -> String {
     let text = xml_with_guid::<M>(GUID_PLACEHOLDER);
     let fnv = |seed: u64| {
         text.bytes().fold(seed, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
@@ -188,7 +202,7 @@ pub fn guid<M: Model>() -> String {
 
 /// The complete `modelDescription.xml`.
 pub fn model_description<M: Model>() -> String {
-    xml_with_guid::<M>(&guid::<M>())
+    xml_with_guid::<M>(guid::<M>())
 }
 
 /// `documentation/index.html`: the model's own text and the variable table.

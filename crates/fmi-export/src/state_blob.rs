@@ -4,8 +4,15 @@
 //! Layout, little-endian: magic `IWFS` (4) | format version u16 | reserved u16 |
 //! GUID length u16 + GUID bytes | FMI state u16 | time f64 | start time f64 |
 //! stop time f64 (NaN = none) | payload length u64 | payload | CRC-32 of all before (u32).
+//!
+//! The payload is the model's: every parameter in table order as an f64 (see
+//! [`save_model`]), then what [`Model::save_state`] appends.
+
+use inchworm_state_bytes::{Reader, Writer};
 
 use crate::instance::State;
+use crate::table::{Causality, Kind, Variable};
+use crate::Model;
 
 const MAGIC: &[u8; 4] = b"IWFS";
 pub const FORMAT_VERSION: u16 = 1;
@@ -87,6 +94,57 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
         return Err("serialized state has a non-finite time".into());
     }
     Ok((Header { state, time, start_time, stop_time: (!stop.is_nan()).then_some(stop) }, payload))
+}
+
+fn parameters<M: Model>() -> impl Iterator<Item = &'static Variable> {
+    M::variables().iter().filter(|v| v.causality == Causality::Parameter)
+}
+
+/// The model's payload: its parameters, walked from the table so that no model writes
+/// them by hand, then its own state. Each parameter is an f64: a Real as is, a Boolean
+/// as 0 or 1, an Integer as its 32-bit pattern read unsigned (lossless, and the bytes
+/// format 1 has always had for Integer parameters).
+pub fn save_model<M: Model>(model: &M) -> Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    let mut w = Writer(&mut out);
+    for v in parameters::<M>() {
+        w.f64(match v.kind {
+            Kind::Real => model.get_real(v.vr)?,
+            Kind::Integer => f64::from(model.get_integer(v.vr)? as u32),
+            Kind::Boolean => f64::from(u8::from(model.get_boolean(v.vr)?)),
+        });
+    }
+    model.save_state(&mut w);
+    Ok(out)
+}
+
+/// A fresh model with what [`save_model`] wrote, each parameter admitted as a master's
+/// value would be.
+pub fn load_model<M: Model>(payload: &[u8]) -> Result<M, String> {
+    let n = parameters::<M>().count();
+    let (params, rest) = payload
+        .split_at_checked(8 * n)
+        .ok_or_else(|| format!("model state truncated in its {n} parameters"))?;
+    let mut r = Reader::new(params, "model parameters");
+    let mut model = M::new();
+    for v in parameters::<M>() {
+        let x = r.f64()?;
+        let bad = || format!("parameter {} has the invalid {:?} value {x}", v.name, v.kind);
+        match v.kind {
+            Kind::Real => match v.admit_real(x, f64::NAN) {
+                Ok((y, None)) => model.set_real(v.vr, y)?,
+                _ => return Err(bad()),
+            },
+            Kind::Integer if x.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&x) => {
+                model.set_integer(v.vr, x as u32 as i32)?
+            }
+            Kind::Boolean if x == 0.0 || x == 1.0 => model.set_boolean(v.vr, x == 1.0)?,
+            _ => return Err(bad()),
+        }
+    }
+    r.finish()?;
+    model.load_state(rest)?;
+    Ok(model)
 }
 
 #[cfg(test)]

@@ -55,13 +55,68 @@ pub struct Variable {
     pub start: Start,
     /// Unit name, declared in [`ModelInfo::units`].
     pub unit: Option<&'static str>,
+    /// The declared range. An input with a range is clamped into it on set, with a
+    /// warning; a parameter's range is the model's to check at initialization.
     pub min: Option<f64>,
     pub max: Option<f64>,
     pub description: &'static str,
+    /// How the layer's messages name this variable's values and range.
+    pub wording: Wording,
+}
+
+/// Words the layer puts into the messages about a variable, so that they speak the
+/// model's language ("valve openings must be finite") without the layer knowing the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wording {
+    /// What the values are, as in "<quantity> must be finite"; `None`: "must be finite".
+    pub quantity: Option<&'static str>,
+    /// What the declared range is called, as in "outside the <range> 0-10 V".
+    pub range: &'static str,
+}
+
+impl Wording {
+    pub const PLAIN: Wording = Wording { quantity: None, range: "declared range" };
 }
 
 impl Variable {
-    /// A parameter fixed at initialization.
+    const fn new(
+        name: &'static str,
+        vr: u32,
+        kind: Kind,
+        (causality, variability, initial): (Causality, Variability, Option<Initial>),
+        start: Start,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        Variable {
+            name,
+            vr,
+            kind,
+            causality,
+            variability,
+            initial,
+            start,
+            unit,
+            min: None,
+            max: None,
+            description,
+            wording: Wording::PLAIN,
+        }
+    }
+
+    const fn fixed_parameter(
+        name: &'static str,
+        vr: u32,
+        kind: Kind,
+        start: Start,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        let role = (Causality::Parameter, Variability::Fixed, Some(Initial::Exact));
+        Variable::new(name, vr, kind, role, start, unit, description)
+    }
+
+    /// A Real parameter fixed at initialization.
     pub const fn parameter(
         name: &'static str,
         vr: u32,
@@ -69,22 +124,31 @@ impl Variable {
         unit: Option<&'static str>,
         description: &'static str,
     ) -> Self {
-        Variable {
-            name,
-            vr,
-            kind: Kind::Real,
-            causality: Causality::Parameter,
-            variability: Variability::Fixed,
-            initial: Some(Initial::Exact),
-            start: Start::Real(start),
-            unit,
-            min: None,
-            max: None,
-            description,
-        }
+        Variable::fixed_parameter(name, vr, Kind::Real, Start::Real(start), unit, description)
     }
 
-    /// A continuous real input.
+    /// An Integer parameter fixed at initialization.
+    pub const fn integer_parameter(
+        name: &'static str,
+        vr: u32,
+        start: i32,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        Variable::fixed_parameter(name, vr, Kind::Integer, Start::Integer(start), unit, description)
+    }
+
+    /// A Boolean parameter fixed at initialization.
+    pub const fn boolean_parameter(
+        name: &'static str,
+        vr: u32,
+        start: bool,
+        description: &'static str,
+    ) -> Self {
+        Variable::fixed_parameter(name, vr, Kind::Boolean, Start::Boolean(start), None, description)
+    }
+
+    /// A continuous Real input.
     pub const fn input(
         name: &'static str,
         vr: u32,
@@ -92,19 +156,31 @@ impl Variable {
         unit: Option<&'static str>,
         description: &'static str,
     ) -> Self {
-        Variable {
-            name,
-            vr,
-            kind: Kind::Real,
-            causality: Causality::Input,
-            variability: Variability::Continuous,
-            initial: None,
-            start: Start::Real(start),
-            unit,
-            min: None,
-            max: None,
-            description,
-        }
+        let role = (Causality::Input, Variability::Continuous, None);
+        Variable::new(name, vr, Kind::Real, role, Start::Real(start), unit, description)
+    }
+
+    /// An Integer input: discrete, as FMI 2.0 requires of every Integer.
+    pub const fn integer_input(
+        name: &'static str,
+        vr: u32,
+        start: i32,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        let role = (Causality::Input, Variability::Discrete, None);
+        Variable::new(name, vr, Kind::Integer, role, Start::Integer(start), unit, description)
+    }
+
+    /// A Boolean input: discrete, as FMI 2.0 requires of every Boolean.
+    pub const fn boolean_input(
+        name: &'static str,
+        vr: u32,
+        start: bool,
+        description: &'static str,
+    ) -> Self {
+        let role = (Causality::Input, Variability::Discrete, None);
+        Variable::new(name, vr, Kind::Boolean, role, Start::Boolean(start), None, description)
     }
 
     /// An output computed by the model (`initial="calculated"`, no start value).
@@ -119,19 +195,8 @@ impl Variable {
             Kind::Real => Variability::Continuous,
             _ => Variability::Discrete,
         };
-        Variable {
-            name,
-            vr,
-            kind,
-            causality: Causality::Output,
-            variability,
-            initial: Some(Initial::Calculated),
-            start: Start::None,
-            unit,
-            min: None,
-            max: None,
-            description,
-        }
+        let role = (Causality::Output, variability, Some(Initial::Calculated));
+        Variable::new(name, vr, kind, role, Start::None, unit, description)
     }
 
     /// Piecewise constant: changes only at communication points.
@@ -146,10 +211,45 @@ impl Variable {
         self
     }
 
-    pub const fn with_kind_start(mut self, kind: Kind, start: Start) -> Self {
-        self.kind = kind;
-        self.start = start;
+    /// The words of [`Wording`] for this variable's messages.
+    pub const fn worded(mut self, quantity: &'static str, range: &'static str) -> Self {
+        self.wording = Wording { quantity: Some(quantity), range };
         self
+    }
+
+    /// What a model gets when a master sets this Real to `value` while it holds
+    /// `current`: a non-finite value is refused (the model keeps `current`); an input
+    /// outside its declared range is clamped into it, with the warning to log.
+    pub fn admit_real(&self, value: f64, current: f64) -> Result<(f64, Option<String>), String> {
+        let name = self.name;
+        let unit = self.unit.map(|u| format!(" {u}")).unwrap_or_default();
+        if !value.is_finite() {
+            let what = self.wording.quantity.map(|q| format!("{q} ")).unwrap_or_default();
+            return Err(format!(
+                "{name} = {value} refused: {what}must be finite; keeping {current}{unit}"
+            ));
+        }
+        if self.causality != Causality::Input {
+            return Ok((value, None));
+        }
+        // Not f64::clamp: it panics on a table whose min exceeds its max.
+        let clamped = match (self.min, self.max) {
+            (Some(min), _) if value < min => min,
+            (_, Some(max)) if value > max => max,
+            _ => return Ok((value, None)),
+        };
+        let range = match (self.min, self.max) {
+            (Some(min), Some(max)) => format!("{min}-{max}"),
+            (Some(min), None) => format!("from {min}"),
+            (None, _) => format!("up to {}", clamped),
+        };
+        Ok((
+            clamped,
+            Some(format!(
+                "{name} = {value}{unit} is outside the {} {range}{unit}, clamped to {clamped}{unit}",
+                self.wording.range
+            )),
+        ))
     }
 
     /// Whether a master may set it in a state (FMI 2.0 CS, section 4.2.4).
@@ -165,7 +265,8 @@ impl Variable {
     }
 }
 
-/// A unit and its SI base-unit exponents (kg, m, s, A, K, mol, cd, rad) and factor.
+/// A unit as its exponents of the SI base units kg, m, s and A, the only ones the models
+/// need (factor 1, offset 0: every unit here is coherent SI).
 #[derive(Clone, Copy, Debug)]
 pub struct Unit {
     pub name: &'static str,
@@ -187,6 +288,107 @@ pub struct ModelInfo {
     pub default_step_size: f64,
     pub default_tolerance: f64,
     pub units: &'static [Unit],
+    /// What this model reports under `logEvents`, for the category's description.
+    pub log_events: &'static str,
     /// An HTML fragment for `documentation/index.html`: the model, its modes, its limits.
     pub documentation_html: &'static str,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const VALVE: Variable = Variable::input("valve", 1, 0.0, Some("%"), "")
+        .with_range(0.0, 10.0)
+        .worded("valve openings", "valve range");
+
+    #[test]
+    fn inputs_are_clamped_into_their_range_and_non_finite_values_refused() {
+        assert_eq!(VALVE.admit_real(4.5, 1.0), Ok((4.5, None)));
+        assert_eq!(
+            VALVE.admit_real(12.5, 1.0),
+            Ok((
+                10.0,
+                Some("valve = 12.5 % is outside the valve range 0-10 %, clamped to 10 %".into())
+            ))
+        );
+        assert_eq!(VALVE.admit_real(-0.5, 1.0).unwrap().0.to_bits(), 0.0f64.to_bits());
+        // -0 is inside [0, 10]: kept as it came, sign and all.
+        assert_eq!(VALVE.admit_real(-0.0, 1.0).unwrap(), (-0.0, None));
+        assert_eq!(VALVE.admit_real(-0.0, 1.0).unwrap().0.to_bits(), (-0.0f64).to_bits());
+        assert_eq!(
+            VALVE.admit_real(f64::NAN, 4.0),
+            Err("valve = NaN refused: valve openings must be finite; keeping 4 %".into())
+        );
+        assert_eq!(
+            VALVE.admit_real(f64::NEG_INFINITY, 4.0),
+            Err("valve = -inf refused: valve openings must be finite; keeping 4 %".into())
+        );
+    }
+
+    #[test]
+    fn plain_wording_one_sided_ranges_and_parameters() {
+        let v = Variable::input("u", 2, 0.0, None, "").with_range(1.0, 2.0);
+        assert_eq!(
+            v.admit_real(3.0, 0.0),
+            Ok((2.0, Some("u = 3 is outside the declared range 1-2, clamped to 2".into())))
+        );
+        let mut up = Variable::input("u", 2, 0.0, Some("m"), "");
+        up.max = Some(2.0);
+        assert_eq!(
+            up.admit_real(3.0, 0.0),
+            Ok((
+                2.0,
+                Some("u = 3 m is outside the declared range up to 2 m, clamped to 2 m".into())
+            ))
+        );
+        let mut from = Variable::input("u", 2, 0.0, None, "");
+        from.min = Some(2.0);
+        assert_eq!(
+            from.admit_real(1.0, 0.0).unwrap().1.unwrap(),
+            "u = 1 is outside the declared range from 2, clamped to 2"
+        );
+        // A table whose min exceeds its max clamps without panicking.
+        let crossed = Variable::input("x", 3, 0.0, None, "").with_range(5.0, 1.0);
+        assert_eq!(crossed.admit_real(3.0, 0.0).unwrap().0, 5.0);
+        // Only inputs are clamped; a parameter's range is the model's to check.
+        let p = Variable::parameter("p", 4, 1.0, None, "").with_range(0.0, 1.0);
+        assert_eq!(p.admit_real(7.0, 1.0), Ok((7.0, None)));
+        assert_eq!(
+            p.admit_real(f64::INFINITY, 1.0),
+            Err("p = inf refused: must be finite; keeping 1".into())
+        );
+    }
+
+    #[test]
+    fn typed_constructors_declare_what_fmi_requires() {
+        let role = |v: Variable| (v.kind, v.causality, v.variability, v.initial, v.start);
+        let fixed = (Causality::Parameter, Variability::Fixed, Some(Initial::Exact));
+        assert_eq!(
+            role(Variable::integer_parameter("n", 1, 7, None, "")),
+            (Kind::Integer, fixed.0, fixed.1, fixed.2, Start::Integer(7))
+        );
+        assert_eq!(
+            role(Variable::boolean_parameter("b", 2, true, "")),
+            (Kind::Boolean, fixed.0, fixed.1, fixed.2, Start::Boolean(true))
+        );
+        assert_eq!(
+            role(Variable::integer_input("i", 3, -2, None, "")),
+            (Kind::Integer, Causality::Input, Variability::Discrete, None, Start::Integer(-2))
+        );
+        assert_eq!(
+            role(Variable::boolean_input("j", 4, false, "")),
+            (Kind::Boolean, Causality::Input, Variability::Discrete, None, Start::Boolean(false))
+        );
+        assert_eq!(
+            role(Variable::output("o", 5, Kind::Integer, None, "")),
+            (
+                Kind::Integer,
+                Causality::Output,
+                Variability::Discrete,
+                Some(Initial::Calculated),
+                Start::None
+            )
+        );
+    }
 }

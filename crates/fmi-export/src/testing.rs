@@ -11,10 +11,19 @@ use std::sync::Mutex;
 use crate::api;
 use crate::ffi::*;
 use crate::model_description::guid;
-use crate::Model;
+use crate::{state_blob, Model};
 
 /// Messages logged, as "status|category|message".
 pub struct Log(pub Mutex<Vec<String>>);
+
+/// The distinct categories of logged "status|category|message" lines, sorted.
+pub fn categories_of(lines: &[String]) -> Vec<String> {
+    let mut cats: Vec<String> =
+        lines.iter().filter_map(|l| l.split('|').nth(1)).map(str::to_string).collect();
+    cats.sort();
+    cats.dedup();
+    cats
+}
 
 // Defined with the two arguments the layer passes ("%s" and the text): a Rust function
 // cannot be variadic, and on the x86-64 and AArch64 Linux ABIs fixed pointer arguments
@@ -52,6 +61,18 @@ pub fn callbacks(log: &Log) -> fmi2CallbackFunctions {
     }
 }
 
+/// The model's payload inside a serialized FMU state of `M`.
+pub fn payload_of<M: Model>(blob: &[u8]) -> Vec<u8> {
+    state_blob::decode(guid::<M>(), blob).expect("a blob of M").1.to_vec()
+}
+
+/// `blob` with its payload replaced and its CRC made right again, to test how a model
+/// payload that passes the frame's checks is read.
+pub fn with_payload<M: Model>(blob: &[u8], payload: &[u8]) -> Vec<u8> {
+    let (header, _) = state_blob::decode(guid::<M>(), blob).expect("a blob of M");
+    state_blob::encode(guid::<M>(), &header, payload)
+}
+
 pub struct Harness<M: Model> {
     pub c: fmi2Component,
     log: Box<Log>,
@@ -65,6 +86,11 @@ unsafe impl<M: Model> Send for Harness<M> {}
 impl<M: Model> Harness<M> {
     /// An instance in state Instantiated.
     pub fn new(name: &str) -> Self {
+        Self::with_logging(name, false)
+    }
+
+    /// An instance in state Instantiated, with `loggingOn` as given.
+    pub fn with_logging(name: &str, logging_on: bool) -> Self {
         let log = Box::new(Log(Mutex::new(Vec::new())));
         let functions = Box::new(callbacks(&log));
         let name = CString::new(name).unwrap();
@@ -77,7 +103,7 @@ impl<M: Model> Harness<M> {
                 std::ptr::null(),
                 &*functions,
                 fmi2False,
-                fmi2False,
+                if logging_on { fmi2True } else { fmi2False },
             )
         };
         assert!(!c.is_null(), "fmi2Instantiate failed: {:?}", log.0.lock().unwrap());
@@ -136,6 +162,19 @@ impl<M: Model> Harness<M> {
 
     pub fn logged(&self) -> Vec<String> {
         self.log.0.lock().unwrap().clone()
+    }
+
+    /// The messages logged so far, removed from the log.
+    pub fn take_logged(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.0.lock().unwrap())
+    }
+
+    /// `fmi2SetDebugLogging` with these category names.
+    pub fn set_debug_logging(&self, on: bool, categories: &[&str]) -> fmi2Status {
+        let names: Vec<CString> = categories.iter().map(|c| CString::new(*c).unwrap()).collect();
+        let ptrs: Vec<fmi2String> = names.iter().map(|c| c.as_ptr()).collect();
+        let on = if on { fmi2True } else { fmi2False };
+        unsafe { api::fmi2SetDebugLogging::<M>(self.c, on, ptrs.len(), ptrs.as_ptr()) }
     }
 
     /// Whether a message with this status containing every part was logged.

@@ -10,9 +10,7 @@
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
 };
-use inchworm_fmi_export::{
-    Causality, Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable,
-};
+use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
 
 mod vr {
     pub const ENCODER_COUNTS: u32 = 1;
@@ -55,424 +53,70 @@ mod vr {
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
+#[rustfmt::skip]
 static VARIABLES: [Variable; 62] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
-    Variable::input(
-        "encoder_counts",
-        vr::ENCODER_COUNTS,
-        0.0,
-        None,
-        "Encoder reading of the plant (counts of q_enc)",
-    )
-    .with_kind_start(Kind::Integer, Start::Integer(0))
-    .discrete(),
-    Variable::output(
-        "dac_earth",
-        vr::DAC_EARTH,
-        Kind::Real,
-        V,
-        "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)",
-    )
-    .discrete(),
-    Variable::output(
-        "dac_nonearth",
-        vr::DAC_NONEARTH,
-        Kind::Real,
-        V,
-        "Non-earth-brake DAC volts (16-bit quantized)",
-    )
-    .discrete(),
-    Variable::output(
-        "dac_extension",
-        vr::DAC_EXTENSION,
-        Kind::Real,
-        V,
-        "Extension DAC volts (16-bit quantized)",
-    )
-    .discrete(),
-    Variable::output(
-        "dac_earth_code",
-        vr::DAC_EARTH_CODE,
-        Kind::Integer,
-        None,
-        "16-bit DAC code (0-65535) of dac_earth",
-    ),
-    Variable::output(
-        "dac_nonearth_code",
-        vr::DAC_NONEARTH_CODE,
-        Kind::Integer,
-        None,
-        "16-bit DAC code (0-65535) of dac_nonearth",
-    ),
-    Variable::output(
-        "dac_extension_code",
-        vr::DAC_EXTENSION_CODE,
-        Kind::Integer,
-        None,
-        "16-bit DAC code (0-65535) of dac_extension",
-    ),
-    Variable::output("servo_error", vr::SERVO_ERROR, Kind::Real, M, "reference - encoder position")
-        .discrete(),
-    Variable::output(
-        "disturbance_estimate",
-        vr::DISTURBANCE_ESTIMATE,
-        Kind::Real,
-        M,
-        "Kalman estimate of the brake disturbance per step",
-    )
-    .discrete(),
-    Variable::output(
-        "step_forward",
-        vr::STEP_FORWARD,
-        Kind::Real,
-        M,
-        "Estimated full forward step (with the disturbance)",
-    )
-    .discrete(),
-    Variable::output(
-        "step_backward",
-        vr::STEP_BACKWARD,
-        Kind::Real,
-        M,
-        "Estimated full backward step (negative)",
-    )
-    .discrete(),
+    Variable::integer_input("encoder_counts", vr::ENCODER_COUNTS, 0, None, "Encoder reading of the plant (counts of q_enc)"),
+    Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
+    Variable::output("dac_nonearth", vr::DAC_NONEARTH, Kind::Real, V, "Non-earth-brake DAC volts (16-bit quantized)").discrete(),
+    Variable::output("dac_extension", vr::DAC_EXTENSION, Kind::Real, V, "Extension DAC volts (16-bit quantized)").discrete(),
+    Variable::output("dac_earth_code", vr::DAC_EARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_earth"),
+    Variable::output("dac_nonearth_code", vr::DAC_NONEARTH_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_nonearth"),
+    Variable::output("dac_extension_code", vr::DAC_EXTENSION_CODE, Kind::Integer, None, "16-bit DAC code (0-65535) of dac_extension"),
+    Variable::output("servo_error", vr::SERVO_ERROR, Kind::Real, M, "reference - encoder position").discrete(),
+    Variable::output("disturbance_estimate", vr::DISTURBANCE_ESTIMATE, Kind::Real, M, "Kalman estimate of the brake disturbance per step").discrete(),
+    Variable::output("step_forward", vr::STEP_FORWARD, Kind::Real, M, "Estimated full forward step (with the disturbance)").discrete(),
+    Variable::output("step_backward", vr::STEP_BACKWARD, Kind::Real, M, "Estimated full backward step (negative)").discrete(),
     Variable::output("n_steps", vr::N_STEPS, Kind::Integer, None, "Full steps of the current move"),
-    Variable::output(
-        "fraction",
-        vr::FRACTION,
-        Kind::Real,
-        None,
-        "Amplitude of the current move's fractional step (-1..1)",
-    )
-    .discrete(),
+    Variable::output("fraction", vr::FRACTION, Kind::Real, None, "Amplitude of the current move's fractional step (-1..1)").discrete(),
     Variable::output("moving", vr::MOVING, Kind::Boolean, None, "A step is being executed"),
-    Variable::output(
-        "scale_weights[1]",
-        vr::SCALE_WEIGHTS,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 1",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[2]",
-        vr::SCALE_WEIGHTS + 1,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 2",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[3]",
-        vr::SCALE_WEIGHTS + 2,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 3",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[4]",
-        vr::SCALE_WEIGHTS + 3,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 4",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[5]",
-        vr::SCALE_WEIGHTS + 4,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 5",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[6]",
-        vr::SCALE_WEIGHTS + 5,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 6",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[7]",
-        vr::SCALE_WEIGHTS + 6,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 7",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[8]",
-        vr::SCALE_WEIGHTS + 7,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 8",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[9]",
-        vr::SCALE_WEIGHTS + 8,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 9",
-    )
-    .discrete(),
-    Variable::output(
-        "scale_weights[10]",
-        vr::SCALE_WEIGHTS + 9,
-        Kind::Real,
-        None,
-        "Estimated inverse scale factor weight 10",
-    )
-    .discrete(),
-    Variable::parameter(
-        "feedforward",
-        vr::FEEDFORWARD,
-        0.0,
-        None,
-        "Feed the reference increment forward (feedback sees it one iteration later)",
-    )
-    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter("prefilter", vr::PREFILTER, 0.0, None, "Prefilter the reference")
-        .with_kind_start(Kind::Boolean, Start::Boolean(false)),
-    Variable::parameter(
-        "use_scale_factor_estimate",
-        vr::USE_SCALE_FACTOR_ESTIMATE,
-        0.0,
-        None,
-        "Use the estimated inverse scale factor (else scale_weights_start)",
-    )
-    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter(
-        "use_disturbance_estimate",
-        vr::USE_DISTURBANCE_ESTIMATE,
-        0.0,
-        None,
-        "Use the estimated brake disturbance (else 0)",
-    )
-    .with_kind_start(Kind::Boolean, Start::Boolean(true)),
-    Variable::parameter(
-        "deadband",
-        vr::DEADBAND,
-        0.0,
-        M,
-        "No step while |reference - position| is below this (0 = always step)",
-    ),
-    Variable::parameter(
-        "samples_per_step",
-        vr::SAMPLES_PER_STEP,
-        0.0,
-        None,
-        "Samples of 2 ms per step (7..10000)",
-    )
-    .with_kind_start(Kind::Integer, Start::Integer(100)),
-    Variable::parameter(
-        "compensator_gain",
-        vr::COMPENSATOR_GAIN,
-        0.36,
-        None,
-        "K of C(z) = K (z - a)/(z - 1)",
-    ),
-    Variable::parameter(
-        "compensator_zero",
-        vr::COMPENSATOR_ZERO,
-        0.8,
-        None,
-        "a of C(z) = K (z - a)/(z - 1)",
-    ),
-    Variable::parameter(
-        "prefilter_pole",
-        vr::PREFILTER_POLE,
-        0.8,
-        None,
-        "Prefilter r_f <- p r_f + (1 - p) r",
-    ),
-    Variable::parameter(
-        "weight_prior",
-        vr::WEIGHT_PRIOR,
-        0.05,
-        None,
-        "Prior 1-sigma of each scale-factor weight",
-    ),
-    Variable::parameter(
-        "disturbance_prior",
-        vr::DISTURBANCE_PRIOR,
-        5e-6,
-        M,
-        "Prior 1-sigma of the disturbance",
-    ),
-    Variable::parameter(
-        "weight_process_noise",
-        vr::WEIGHT_PROCESS_NOISE,
-        1e-3,
-        None,
-        "Process noise of the weights per sqrt(s)",
-    ),
-    Variable::parameter(
-        "disturbance_process_noise",
-        vr::DISTURBANCE_PROCESS_NOISE,
-        0.1e-6,
-        M,
-        "Process noise of the disturbance per sqrt(s)",
-    ),
-    Variable::parameter(
-        "ext_cmd_noise",
-        vr::EXT_CMD_NOISE,
-        5e-3,
-        None,
-        "Measurement noise of EXT_cmd",
-    ),
+    Variable::output("scale_weights[1]", vr::SCALE_WEIGHTS, Kind::Real, None, "Estimated inverse scale factor weight 1").discrete(),
+    Variable::output("scale_weights[2]", vr::SCALE_WEIGHTS + 1, Kind::Real, None, "Estimated inverse scale factor weight 2").discrete(),
+    Variable::output("scale_weights[3]", vr::SCALE_WEIGHTS + 2, Kind::Real, None, "Estimated inverse scale factor weight 3").discrete(),
+    Variable::output("scale_weights[4]", vr::SCALE_WEIGHTS + 3, Kind::Real, None, "Estimated inverse scale factor weight 4").discrete(),
+    Variable::output("scale_weights[5]", vr::SCALE_WEIGHTS + 4, Kind::Real, None, "Estimated inverse scale factor weight 5").discrete(),
+    Variable::output("scale_weights[6]", vr::SCALE_WEIGHTS + 5, Kind::Real, None, "Estimated inverse scale factor weight 6").discrete(),
+    Variable::output("scale_weights[7]", vr::SCALE_WEIGHTS + 6, Kind::Real, None, "Estimated inverse scale factor weight 7").discrete(),
+    Variable::output("scale_weights[8]", vr::SCALE_WEIGHTS + 7, Kind::Real, None, "Estimated inverse scale factor weight 8").discrete(),
+    Variable::output("scale_weights[9]", vr::SCALE_WEIGHTS + 8, Kind::Real, None, "Estimated inverse scale factor weight 9").discrete(),
+    Variable::output("scale_weights[10]", vr::SCALE_WEIGHTS + 9, Kind::Real, None, "Estimated inverse scale factor weight 10").discrete(),
+    Variable::boolean_parameter("feedforward", vr::FEEDFORWARD, true, "Feed the reference increment forward (feedback sees it one iteration later)"),
+    Variable::boolean_parameter("prefilter", vr::PREFILTER, false, "Prefilter the reference"),
+    Variable::boolean_parameter("use_scale_factor_estimate", vr::USE_SCALE_FACTOR_ESTIMATE, true, "Use the estimated inverse scale factor (else scale_weights_start)"),
+    Variable::boolean_parameter("use_disturbance_estimate", vr::USE_DISTURBANCE_ESTIMATE, true, "Use the estimated brake disturbance (else 0)"),
+    Variable::parameter("deadband", vr::DEADBAND, 0.0, M, "No step while |reference - position| is below this (0 = always step)"),
+    Variable::integer_parameter("samples_per_step", vr::SAMPLES_PER_STEP, 100, None, "Samples of 2 ms per step (7..10000)"),
+    Variable::parameter("compensator_gain", vr::COMPENSATOR_GAIN, 0.36, None, "K of C(z) = K (z - a)/(z - 1)"),
+    Variable::parameter("compensator_zero", vr::COMPENSATOR_ZERO, 0.8, None, "a of C(z) = K (z - a)/(z - 1)"),
+    Variable::parameter("prefilter_pole", vr::PREFILTER_POLE, 0.8, None, "Prefilter r_f <- p r_f + (1 - p) r"),
+    Variable::parameter("weight_prior", vr::WEIGHT_PRIOR, 0.05, None, "Prior 1-sigma of each scale-factor weight"),
+    Variable::parameter("disturbance_prior", vr::DISTURBANCE_PRIOR, 5e-6, M, "Prior 1-sigma of the disturbance"),
+    Variable::parameter("weight_process_noise", vr::WEIGHT_PROCESS_NOISE, 1e-3, None, "Process noise of the weights per sqrt(s)"),
+    Variable::parameter("disturbance_process_noise", vr::DISTURBANCE_PROCESS_NOISE, 0.1e-6, M, "Process noise of the disturbance per sqrt(s)"),
+    Variable::parameter("ext_cmd_noise", vr::EXT_CMD_NOISE, 5e-3, None, "Measurement noise of EXT_cmd"),
     Variable::parameter("bd_noise", vr::BD_NOISE, 0.05e-6, M, "Measurement noise of BD"),
     Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
-    Variable::parameter(
-        "disturbance_start",
-        vr::DISTURBANCE_START,
-        CALIBRATED_DISTURBANCE,
-        M,
-        "Initial disturbance estimate (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "basis_peak[1]",
-        vr::BASIS_PEAK,
-        -2.4e-05,
-        M,
-        "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[2]",
-        vr::BASIS_PEAK + 1,
-        -1.6e-05,
-        M,
-        "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[3]",
-        vr::BASIS_PEAK + 2,
-        -8e-06,
-        M,
-        "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[4]",
-        vr::BASIS_PEAK + 3,
-        -3e-06,
-        M,
-        "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[5]",
-        vr::BASIS_PEAK + 4,
-        -1e-06,
-        M,
-        "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[6]",
-        vr::BASIS_PEAK + 5,
-        1e-06,
-        M,
-        "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[7]",
-        vr::BASIS_PEAK + 6,
-        3e-06,
-        M,
-        "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[8]",
-        vr::BASIS_PEAK + 7,
-        8e-06,
-        M,
-        "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[9]",
-        vr::BASIS_PEAK + 8,
-        1.6e-05,
-        M,
-        "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "basis_peak[10]",
-        vr::BASIS_PEAK + 9,
-        2.4e-05,
-        M,
-        "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[1]",
-        vr::SCALE_WEIGHTS_START,
-        CALIBRATED_WEIGHTS[0],
-        None,
-        "Initial inverse scale factor weight 1 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[2]",
-        vr::SCALE_WEIGHTS_START + 1,
-        CALIBRATED_WEIGHTS[1],
-        None,
-        "Initial inverse scale factor weight 2 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[3]",
-        vr::SCALE_WEIGHTS_START + 2,
-        CALIBRATED_WEIGHTS[2],
-        None,
-        "Initial inverse scale factor weight 3 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[4]",
-        vr::SCALE_WEIGHTS_START + 3,
-        CALIBRATED_WEIGHTS[3],
-        None,
-        "Initial inverse scale factor weight 4 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[5]",
-        vr::SCALE_WEIGHTS_START + 4,
-        CALIBRATED_WEIGHTS[4],
-        None,
-        "Initial inverse scale factor weight 5 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[6]",
-        vr::SCALE_WEIGHTS_START + 5,
-        CALIBRATED_WEIGHTS[5],
-        None,
-        "Initial inverse scale factor weight 6 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[7]",
-        vr::SCALE_WEIGHTS_START + 6,
-        CALIBRATED_WEIGHTS[6],
-        None,
-        "Initial inverse scale factor weight 7 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[8]",
-        vr::SCALE_WEIGHTS_START + 7,
-        CALIBRATED_WEIGHTS[7],
-        None,
-        "Initial inverse scale factor weight 8 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[9]",
-        vr::SCALE_WEIGHTS_START + 8,
-        CALIBRATED_WEIGHTS[8],
-        None,
-        "Initial inverse scale factor weight 9 (fia20 calibration)",
-    ),
-    Variable::parameter(
-        "scale_weights_start[10]",
-        vr::SCALE_WEIGHTS_START + 9,
-        CALIBRATED_WEIGHTS[9],
-        None,
-        "Initial inverse scale factor weight 10 (fia20 calibration)",
-    ),
+    Variable::parameter("disturbance_start", vr::DISTURBANCE_START, CALIBRATED_DISTURBANCE, M, "Initial disturbance estimate (fia20 calibration)"),
+    Variable::parameter("basis_peak[1]", vr::BASIS_PEAK, -2.4e-05, M, "Peak 1 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[2]", vr::BASIS_PEAK + 1, -1.6e-05, M, "Peak 2 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[3]", vr::BASIS_PEAK + 2, -8e-06, M, "Peak 3 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[4]", vr::BASIS_PEAK + 3, -3e-06, M, "Peak 4 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[5]", vr::BASIS_PEAK + 4, -1e-06, M, "Peak 5 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[6]", vr::BASIS_PEAK + 5, 1e-06, M, "Peak 6 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[7]", vr::BASIS_PEAK + 6, 3e-06, M, "Peak 7 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[8]", vr::BASIS_PEAK + 7, 8e-06, M, "Peak 8 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[9]", vr::BASIS_PEAK + 8, 1.6e-05, M, "Peak 9 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("basis_peak[10]", vr::BASIS_PEAK + 9, 2.4e-05, M, "Peak 10 of the fuzzy basis (strictly increasing, 5 < 0 < 6)"),
+    Variable::parameter("scale_weights_start[1]", vr::SCALE_WEIGHTS_START, CALIBRATED_WEIGHTS[0], None, "Initial inverse scale factor weight 1 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[2]", vr::SCALE_WEIGHTS_START + 1, CALIBRATED_WEIGHTS[1], None, "Initial inverse scale factor weight 2 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[3]", vr::SCALE_WEIGHTS_START + 2, CALIBRATED_WEIGHTS[2], None, "Initial inverse scale factor weight 3 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[4]", vr::SCALE_WEIGHTS_START + 3, CALIBRATED_WEIGHTS[3], None, "Initial inverse scale factor weight 4 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[5]", vr::SCALE_WEIGHTS_START + 4, CALIBRATED_WEIGHTS[4], None, "Initial inverse scale factor weight 5 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[6]", vr::SCALE_WEIGHTS_START + 5, CALIBRATED_WEIGHTS[5], None, "Initial inverse scale factor weight 6 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[7]", vr::SCALE_WEIGHTS_START + 6, CALIBRATED_WEIGHTS[6], None, "Initial inverse scale factor weight 7 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
+    Variable::parameter("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
 ];
 
 static UNITS: [Unit; 2] =
@@ -488,6 +132,7 @@ static INFO: ModelInfo = ModelInfo {
     default_step_size: 0.002,
     default_tolerance: 1e-9,
     units: &UNITS,
+    log_events: "Model events: control iterations (full steps, fraction, disturbance estimate)",
     documentation_html: include_str!("controller.html"),
 };
 
@@ -621,36 +266,31 @@ impl Model for ControllerFmu {
         }
     }
 
-    fn set_real(&mut self, r: u32, value: f64) -> SetResult {
-        let name = inchworm_fmi_export::variable_name(&VARIABLES, r);
-        if !value.is_finite() {
-            let keep = self.get_real(r).unwrap_or(f64::NAN);
-            return Err(format!("{name} = {value} refused: must be finite; keeping {keep}"));
-        }
+    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
         if r == vr::REFERENCE {
             self.reference = value;
-            return Ok(None);
+            return Ok(());
         }
         // Parameters are validated together at fmi2ExitInitializationMode.
         *real_param(&mut self.params, r)
             .ok_or_else(|| format!("no settable Real variable with value reference {r}"))? = value;
-        Ok(None)
+        Ok(())
     }
 
-    fn set_integer(&mut self, r: u32, value: i32) -> SetResult {
+    fn set_integer(&mut self, r: u32, value: i32) -> Result<(), String> {
         match r {
             vr::ENCODER_COUNTS => self.encoder_counts = value,
             vr::SAMPLES_PER_STEP => self.params.samples_per_step = value.max(0) as u32,
             _ => return Err(format!("no settable Integer variable with value reference {r}")),
         }
-        Ok(None)
+        Ok(())
     }
 
-    fn set_boolean(&mut self, r: u32, value: bool) -> SetResult {
+    fn set_boolean(&mut self, r: u32, value: bool) -> Result<(), String> {
         *bool_param(&mut self.params, r)
             .ok_or_else(|| format!("no settable Boolean variable with value reference {r}"))? =
             value;
-        Ok(None)
+        Ok(())
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
@@ -700,88 +340,44 @@ impl Model for ControllerFmu {
         Ok(messages)
     }
 
-    fn save(&self, out: &mut Vec<u8>) {
-        let mut p = self.params.clone();
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
-            let x = match v.kind {
-                Kind::Real => *real_param(&mut p, v.vr).expect("table and accessors agree"),
-                Kind::Boolean => f64::from(u8::from(
-                    *bool_param(&mut p, v.vr).expect("table and accessors agree"),
-                )),
-                Kind::Integer => f64::from(p.samples_per_step),
-            };
-            out.extend_from_slice(&x.to_le_bytes());
-        }
-        out.extend_from_slice(&f64::from(self.encoder_counts).to_le_bytes());
-        out.extend_from_slice(&self.reference.to_le_bytes());
-        match &self.last {
-            None => out.push(0),
-            Some(s) => {
-                out.push(1);
-                for v in s
-                    .dac
-                    .iter()
-                    .chain(
-                        [
-                            s.servo_error,
-                            s.disturbance_estimate,
-                            s.step_forward,
-                            s.step_backward,
-                            s.fraction,
-                        ]
-                        .iter(),
-                    )
-                    .chain(s.scale_weights.iter())
-                {
-                    out.extend_from_slice(&v.to_le_bytes());
-                }
-                for c in s.codes {
-                    out.extend_from_slice(&c.to_le_bytes());
-                }
-                out.extend_from_slice(&s.n_steps.to_le_bytes());
-                out.extend_from_slice(&[
-                    u8::from(s.moving),
-                    u8::from(s.iterated),
-                    u8::from(s.no_root),
-                ]);
+    fn save_state(&self, w: &mut Writer) {
+        w.f64(f64::from(self.encoder_counts));
+        w.f64(self.reference);
+        w.u8(u8::from(self.last.is_some()));
+        if let Some(s) = &self.last {
+            let (e, d, f, b) =
+                (s.servo_error, s.disturbance_estimate, s.step_forward, s.step_backward);
+            for v in s.dac.iter().chain(&[e, d, f, b, s.fraction]).chain(&s.scale_weights) {
+                w.f64(*v);
             }
+            // The board's widths: 16-bit DAC codes, a 32-bit step count.
+            s.codes.iter().for_each(|c| w.0.extend_from_slice(&c.to_le_bytes()));
+            w.0.extend_from_slice(&s.n_steps.to_le_bytes());
+            [s.moving, s.iterated, s.no_root].into_iter().for_each(|b| w.u8(u8::from(b)));
         }
-        match &self.controller {
-            None => out.push(0),
-            Some(c) => {
-                out.push(1);
-                c.save_state(out);
-            }
+        w.u8(u8::from(self.controller.is_some()));
+        if let Some(c) = &self.controller {
+            c.save_state(w.0);
         }
     }
 
-    fn load(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut r = Bytes { b: bytes, pos: 0 };
-        let mut next = ControllerFmu::new();
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
-            let x = r.f64()?;
-            match v.kind {
-                Kind::Real => {
-                    *real_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? = x
-                }
-                Kind::Boolean => {
-                    *bool_param(&mut next.params, v.vr).ok_or("parameter table mismatch")? =
-                        x != 0.0
-                }
-                Kind::Integer => next.params.samples_per_step = x as u32,
-            }
-        }
-        next.encoder_counts = r.f64()? as i32;
-        next.reference = r.f64()?;
-        if r.u8()? == 1 {
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        // The last sample has a fixed size, so the controller's own bytes start at a
+        // known offset: inputs, marker, sample, marker.
+        let head = if bytes.get(16) == Some(&1) { 18 + SAMPLE_BYTES } else { 18 };
+        let (head, own) = bytes.split_at_checked(head).ok_or("controller FMU state truncated")?;
+        let mut r = Reader::new(head, "controller FMU state");
+        self.encoder_counts = r.f64()? as i32;
+        self.reference = r.f64()?;
+        if r.bool()? {
             let mut f = [0.0; 18];
             for v in f.iter_mut() {
                 *v = r.f64()?;
             }
-            let codes = [r.u16()?, r.u16()?, r.u16()?];
-            let n_steps = u32::from_le_bytes(r.take(4)?.try_into().expect("4 bytes"));
-            let flags = r.take(3)?;
-            next.last = Some(Sample {
+            let mut code = || Ok::<_, String>(u16::from_le_bytes(le(&mut r)?));
+            let codes = [code()?, code()?, code()?];
+            let n_steps = u32::from_le_bytes(le(&mut r)?);
+            self.last = Some(Sample {
                 dac: [f[0], f[1], f[2]],
                 codes,
                 servo_error: f[3],
@@ -791,44 +387,33 @@ impl Model for ControllerFmu {
                 fraction: f[7],
                 scale_weights: std::array::from_fn(|i| f[8 + i]),
                 n_steps,
-                moving: flags[0] != 0,
-                iterated: flags[1] != 0,
-                no_root: flags[2] != 0,
+                moving: r.bool()?,
+                iterated: r.bool()?,
+                no_root: r.bool()?,
             });
         }
-        match r.u8()? {
-            0 if r.pos == bytes.len() => {}
-            1 => {
-                let mut c = Controller::new(next.params.clone())
-                    .map_err(|e| format!("state holds invalid parameters: {e}"))?;
-                c.load_state(&bytes[r.pos..])?;
-                next.controller = Some(c);
-            }
-            _ => return Err("controller FMU state: bad marker or trailing bytes".into()),
+        if r.bool()? {
+            let mut c = Controller::new(self.params.clone())
+                .map_err(|e| format!("state holds invalid parameters: {e}"))?;
+            c.load_state(own)?;
+            self.controller = Some(c);
+        } else if !own.is_empty() {
+            return Err(
+                "controller FMU state: trailing bytes after an uninitialized controller".into()
+            );
         }
-        *self = next;
-        Ok(())
+        r.finish()
     }
 }
 
-struct Bytes<'a> {
-    b: &'a [u8],
-    pos: usize,
-}
+/// A saved [`Sample`]: 18 f64, three u16 codes, a u32 step count and three flags.
+const SAMPLE_BYTES: usize = 18 * 8 + 3 * 2 + 4 + 3;
 
-impl Bytes<'_> {
-    fn take(&mut self, n: usize) -> Result<&[u8], String> {
-        let s = self.b.get(self.pos..self.pos + n).ok_or("controller FMU state truncated")?;
-        self.pos += n;
-        Ok(s)
+/// `N` little-endian bytes: the state-bytes Reader reads no u16 or u32.
+fn le<const N: usize>(r: &mut Reader) -> Result<[u8; N], String> {
+    let mut b = [0; N];
+    for x in b.iter_mut() {
+        *x = r.u8()?;
     }
-    fn f64(&mut self) -> Result<f64, String> {
-        Ok(f64::from_le_bytes(self.take(8)?.try_into().expect("8 bytes")))
-    }
-    fn u16(&mut self) -> Result<u16, String> {
-        Ok(u16::from_le_bytes(self.take(2)?.try_into().expect("2 bytes")))
-    }
-    fn u8(&mut self) -> Result<u8, String> {
-        Ok(self.take(1)?[0])
-    }
+    Ok(b)
 }

@@ -2,7 +2,7 @@
 //! interface of SPEC section 5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, SetResult, Start, Unit, Variable};
+use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, N_PLAYS};
 
 /// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
@@ -52,9 +52,9 @@ const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
 static VARIABLES: [Variable; 47] = [
-    Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
-    Variable::input("dac_nonearth", vr::DAC_NONEARTH, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
-    Variable::input("dac_extension", vr::DAC_EXTENSION, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, 10.0),
+    Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
+    Variable::input("dac_nonearth", vr::DAC_NONEARTH, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
+    Variable::input("dac_extension", vr::DAC_EXTENSION, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
     Variable::output("encoder_counts", vr::ENCODER_COUNTS, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero"),
     Variable::output("encoder_position", vr::ENCODER_POSITION, Kind::Real, M, "encoder_counts * q_enc"),
     Variable::output("runner_position", vr::RUNNER_POSITION, Kind::Real, M, "True runner position x4 - L_r"),
@@ -98,7 +98,7 @@ static VARIABLES: [Variable; 47] = [
     Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
     Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event location tolerance: brake switches and play events located to this time (1e-12..1e-6)"),
     Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)"),
-    Variable::parameter("noise_seed", vr::NOISE_SEED, 0.0, None, "Seed of the encoder noise generator").with_kind_start(Kind::Integer, Start::Integer(1)),
+    Variable::integer_parameter("noise_seed", vr::NOISE_SEED, 1, None, "Seed of the encoder noise generator"),
 ];
 
 static UNITS: [Unit; 10] = [
@@ -124,6 +124,7 @@ static INFO: ModelInfo = ModelInfo {
     default_step_size: 0.002,
     default_tolerance: 1e-9,
     units: &UNITS,
+    log_events: "Model events: brake switches, mode changes, slips",
     documentation_html: include_str!("plant.html"),
 };
 
@@ -155,19 +156,14 @@ impl PlantFmu {
     fn outputs(&self) -> Outputs {
         self.plant.as_ref().map_or(REST, Plant::outputs)
     }
-
-    fn param_mut(&mut self, vr: u32) -> Option<&mut f64> {
-        param_field(&mut self.params, vr)
-    }
-
-    fn dac_mut(&mut self, vr: u32) -> Option<&mut f64> {
-        dac_field(&mut self.dac, vr)
-    }
 }
 
-/// The parameter behind a value reference: one mapping serves get, set, save and load.
-fn param_field(p: &mut PlantParams, vr: u32) -> Option<&mut f64> {
+/// The input or Real parameter behind a value reference: one mapping serves get and set.
+fn real_field<'a>(d: &'a mut Dac, p: &'a mut PlantParams, vr: u32) -> Option<&'a mut f64> {
     Some(match vr {
+        vr::DAC_EARTH => &mut d.earth,
+        vr::DAC_NONEARTH => &mut d.nonearth,
+        vr::DAC_EXTENSION => &mut d.extension,
         vr::M_P => &mut p.m_p,
         vr::K_P => &mut p.k_p,
         vr::C_P => &mut p.c_p,
@@ -200,15 +196,6 @@ fn param_field(p: &mut PlantParams, vr: u32) -> Option<&mut f64> {
     })
 }
 
-fn dac_field(d: &mut Dac, vr: u32) -> Option<&mut f64> {
-    match vr {
-        vr::DAC_EARTH => Some(&mut d.earth),
-        vr::DAC_NONEARTH => Some(&mut d.nonearth),
-        vr::DAC_EXTENSION => Some(&mut d.extension),
-        _ => None,
-    }
-}
-
 impl Model for PlantFmu {
     fn info() -> &'static ModelInfo {
         &INFO
@@ -231,13 +218,8 @@ impl Model for PlantFmu {
             vr::VOLTAGE_EARTH => o.voltage_earth,
             vr::VOLTAGE_NONEARTH => o.voltage_nonearth,
             vr::VOLTAGE_EXTENSION => o.voltage_extension,
-            _ => {
-                let (mut dac, mut params) = (self.dac, self.params.clone());
-                match dac_field(&mut dac, r).or_else(|| param_field(&mut params, r)) {
-                    Some(v) => *v,
-                    None => return Err(format!("no Real variable with value reference {r}")),
-                }
-            }
+            _ => *real_field(&mut self.dac.clone(), &mut self.params.clone(), r)
+                .ok_or_else(|| format!("no Real variable with value reference {r}"))?,
         })
     }
 
@@ -265,47 +247,24 @@ impl Model for PlantFmu {
         }
     }
 
-    fn set_real(&mut self, r: u32, value: f64) -> SetResult {
-        let name = inchworm_fmi_export::variable_name(&VARIABLES, r);
-        if let Some(slot) = self.dac_mut(r) {
-            if !value.is_finite() {
-                return Err(format!(
-                    "{name} = {value} refused: DAC volts must be finite; keeping {} V",
-                    *slot
-                ));
-            }
-            let clamped = value.clamp(0.0, 10.0);
-            *slot = clamped;
-            return Ok((clamped != value).then(|| {
-                format!(
-                    "{name} = {value} V is outside the DAC range 0-10 V, clamped to {clamped} V"
-                )
-            }));
-        }
-        if let Some(slot) = self.param_mut(r) {
-            if !value.is_finite() {
-                return Err(format!("{name} = {value} refused: parameters must be finite"));
-            }
-            // Validated as a whole at fmi2ExitInitializationMode, where the relations
-            // between parameters (sorted play radii) can be checked.
-            *slot = value;
-            return Ok(None);
-        }
-        Err(format!("no settable Real variable with value reference {r}"))
+    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
+        // Parameters are validated as a whole at fmi2ExitInitializationMode, where the
+        // relations between them (sorted play radii) can be checked.
+        *real_field(&mut self.dac, &mut self.params, r)
+            .ok_or_else(|| format!("no settable Real with value reference {r}"))? = value;
+        Ok(())
     }
 
-    fn set_integer(&mut self, r: u32, value: i32) -> SetResult {
+    fn set_integer(&mut self, r: u32, value: i32) -> Result<(), String> {
         match r {
-            vr::NOISE_SEED => {
-                self.params.noise_seed = value as u32 as u64;
-                Ok(None)
-            }
-            _ => Err(format!("no settable Integer variable with value reference {r}")),
+            vr::NOISE_SEED => self.params.noise_seed = value as u32 as u64,
+            _ => return Err(format!("no settable Integer with value reference {r}")),
         }
+        Ok(())
     }
 
-    fn set_boolean(&mut self, r: u32, _value: bool) -> SetResult {
-        Err(format!("no settable Boolean variable with value reference {r}"))
+    fn set_boolean(&mut self, r: u32, _value: bool) -> Result<(), String> {
+        Err(format!("no settable Boolean with value reference {r}"))
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
@@ -343,62 +302,29 @@ impl Model for PlantFmu {
         Ok(messages)
     }
 
-    fn save(&self, out: &mut Vec<u8>) {
-        // Parameters in table order, then inputs, then the plant (if initialized).
-        for v in
-            VARIABLES.iter().filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
-        {
-            let x = match v.kind {
-                Kind::Real => self.get_real(v.vr).unwrap_or(f64::NAN),
-                _ => self.params.noise_seed as f64,
-            };
-            out.extend_from_slice(&x.to_le_bytes());
-        }
+    fn save_state(&self, w: &mut Writer) {
         for x in [self.dac.earth, self.dac.nonearth, self.dac.extension] {
-            out.extend_from_slice(&x.to_le_bytes());
+            w.f64(x);
         }
-        match &self.plant {
-            None => out.push(0),
-            Some(p) => {
-                out.push(1);
-                p.save_state(out);
-            }
+        w.u8(u8::from(self.plant.is_some()));
+        if let Some(p) = &self.plant {
+            p.save_state(w.0);
         }
     }
 
-    fn load(&mut self, bytes: &[u8]) -> Result<(), String> {
-        let mut next = PlantFmu::new();
-        let mut pos = 0;
-        let f64_next = |pos: &mut usize| -> Result<f64, String> {
-            let b = bytes.get(*pos..*pos + 8).ok_or("plant FMU state truncated")?;
-            *pos += 8;
-            Ok(f64::from_le_bytes(b.try_into().expect("8 bytes")))
-        };
-        for v in
-            VARIABLES.iter().filter(|v| v.causality == inchworm_fmi_export::Causality::Parameter)
-        {
-            let x = f64_next(&mut pos)?;
-            match v.kind {
-                Kind::Real => *next.param_mut(v.vr).ok_or("parameter table mismatch")? = x,
-                _ => next.params.noise_seed = x as u64,
-            }
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        // Three DAC volts and the plant marker, then the plant's own bytes.
+        let (head, plant) = bytes.split_at_checked(25).ok_or("plant FMU state truncated")?;
+        let mut r = Reader::new(head, "plant FMU state");
+        self.dac = Dac { earth: r.f64()?, nonearth: r.f64()?, extension: r.f64()? };
+        if r.bool()? {
+            let mut p =
+                Plant::new(self.params.clone()).map_err(|e| format!("state holds invalid {e}"))?;
+            p.load_state(plant)?;
+            self.plant = Some(p);
+        } else if !plant.is_empty() {
+            return Err("plant FMU state: trailing bytes after an uninitialized plant".into());
         }
-        next.dac = Dac {
-            earth: f64_next(&mut pos)?,
-            nonearth: f64_next(&mut pos)?,
-            extension: f64_next(&mut pos)?,
-        };
-        match bytes.get(pos) {
-            Some(0) if pos + 1 == bytes.len() => {}
-            Some(1) => {
-                let mut plant = Plant::new(next.params.clone())
-                    .map_err(|e| format!("state holds invalid {e}"))?;
-                plant.load_state(&bytes[pos + 1..])?;
-                next.plant = Some(plant);
-            }
-            _ => return Err("plant FMU state: bad plant marker or trailing bytes".into()),
-        }
-        *self = next;
         Ok(())
     }
 }

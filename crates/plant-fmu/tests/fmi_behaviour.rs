@@ -7,8 +7,8 @@ use std::sync::Mutex;
 
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
-use inchworm_fmi_export::testing::{callbacks, Log};
-use inchworm_fmu_models::PlantFmu;
+use inchworm_fmi_export::testing::{callbacks, categories_of, payload_of, Harness, Log};
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_plant_fmu as fmu;
 
 const DAC_EARTH: u32 = 1;
@@ -85,6 +85,18 @@ impl Instance {
 
     fn logged(&self) -> Vec<String> {
         self.log.0.lock().unwrap().clone()
+    }
+
+    fn take_logged(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.0.lock().unwrap())
+    }
+
+    fn set_debug_logging(
+        &self,
+        on: fmi2Boolean,
+        categories: &[*const std::ffi::c_char],
+    ) -> fmi2Status {
+        unsafe { fmu::fmi2SetDebugLogging(self.c, on, categories.len(), categories.as_ptr()) }
     }
 
     /// Whether a message containing every part was logged with this status.
@@ -223,6 +235,11 @@ fn nan_input_is_refused_and_the_instance_stays_usable() {
         "{:?}",
         i.logged()
     );
+    assert_eq!(
+        i.logged(),
+        ["3|logStatusError|fmi2SetReal: dac_extension = NaN refused: DAC volts must be finite; keeping 4 V"],
+        "the function is named once, then the reason"
+    );
     assert_eq!(i.real(DAC_EXTENSION), (fmi2OK, 4.0), "the last valid value is kept");
     assert_eq!(i.set_real(DAC_NONEARTH, f64::INFINITY), fmi2Error);
     assert_eq!(i.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
@@ -234,7 +251,10 @@ fn nan_input_is_refused_and_the_instance_stays_usable() {
 fn out_of_range_volts_are_clamped_with_a_warning() {
     let i = Instance::init("range");
     assert_eq!(i.set_real(DAC_EARTH, 12.5), fmi2Warning);
-    assert!(i.saw(fmi2Warning, &["dac_earth", "12.5", "clamped to 10"]), "{:?}", i.logged());
+    assert_eq!(
+        i.logged(),
+        ["1|logStatusWarning|fmi2SetReal: dac_earth = 12.5 V is outside the DAC range 0-10 V, clamped to 10 V"]
+    );
     assert_eq!(i.real(DAC_EARTH), (fmi2OK, 10.0));
     assert_eq!(i.set_real(DAC_NONEARTH, -0.5), fmi2Warning);
     assert_eq!(i.real(DAC_NONEARTH), (fmi2OK, 0.0));
@@ -251,7 +271,7 @@ fn out_of_range_volts_are_clamped_with_a_warning() {
 fn unknown_value_references_and_wrong_types_are_errors() {
     let i = Instance::init("vr");
     assert_eq!(i.real(999).0, fmi2Error);
-    assert!(i.saw(fmi2Error, &["fmi2GetReal", "unknown value reference 999"]));
+    assert_eq!(i.logged(), ["3|logStatusError|fmi2GetReal: unknown value reference 999"]);
     assert_eq!(i.integer(RUNNER_POSITION).0, fmi2Error, "runner_position is Real");
     assert!(i.saw(fmi2Error, &["fmi2GetInteger", "runner_position", "Real"]));
     assert_eq!(i.set_real(RUNNER_POSITION, 1.0), fmi2Error, "outputs cannot be set");
@@ -339,18 +359,94 @@ fn unsupported_functions_return_error_with_a_reason() {
     assert_eq!(unsafe { fmu::fmi2GetStringStatus(i.c, fmi2PendingStatus, &mut s) }, fmi2Error);
 }
 
+/// Asserts that every line is a debug (fmi2OK) message and returns the categories seen.
+fn debug_categories(lines: &[String]) -> Vec<String> {
+    assert!(lines.iter().all(|l| l.starts_with("0|")), "{lines:?}");
+    categories_of(lines)
+}
+
 #[test]
-fn debug_logging_categories_select_event_messages() {
+fn debug_logging_enables_exactly_the_named_categories() {
     let i = Instance::init("logging");
     i.gait(0, 1.0);
-    assert!(!i.logged().iter().any(|m| m.contains("logEvents")), "no events without debug logging");
-    let cats = [c"logEvents".as_ptr()];
-    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, cats.as_ptr()) }, fmi2OK);
+    assert_eq!(i.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
+
+    // Only logEvents: the gait's brake switches and nothing of logAll's call trace.
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logEvents".as_ptr()]), fmi2OK);
     i.gait(100, 1.0);
-    assert!(i.saw(fmi2OK, &["logEvents", "brake switch", "Hold -> Locked"]), "{:?}", i.logged());
-    let bad = [c"logNonsense".as_ptr()];
-    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, bad.as_ptr()) }, fmi2Error);
-    assert!(i.saw(fmi2Error, &["unknown log category", "logNonsense"]));
+    let events = i.take_logged();
+    assert_eq!(debug_categories(&events), ["logEvents"]);
+    assert!(events.iter().all(|l| l.contains("brake switch")), "{events:?}");
+    assert!(events.iter().any(|l| l.contains("Hold -> Locked")), "{events:?}");
+
+    // None named: every category, so the trace of each call comes too.
+    assert_eq!(i.set_debug_logging(fmi2True, &[]), fmi2OK);
+    i.gait(200, 1.0);
+    let all = i.take_logged();
+    assert_eq!(debug_categories(&all), ["logAll", "logEvents"]);
+    assert_eq!(all.iter().filter(|l| l.contains("|logEvents|")).count(), events.len());
+    assert_eq!(all.iter().filter(|l| l.ends_with("|logAll|fmi2DoStep")).count(), 100);
+    assert_eq!(all.iter().filter(|l| l.ends_with("|logAll|fmi2SetReal")).count(), 300);
+
+    // Off with a category named disables that one only.
+    assert_eq!(i.set_debug_logging(fmi2False, &[c"logAll".as_ptr()]), fmi2OK);
+    // The call itself is traced under the setting it replaces.
+    assert_eq!(i.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    i.gait(300, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logEvents"]);
+
+    // logAll alone selects every message.
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logAll".as_ptr()]), fmi2OK);
+    i.gait(400, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logAll", "logEvents"]);
+
+    // Off with none named disables all; warnings and errors still go out.
+    assert_eq!(i.set_debug_logging(fmi2False, &[]), fmi2OK);
+    assert_eq!(i.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    i.gait(500, 1.0);
+    assert_eq!(i.take_logged(), Vec::<String>::new());
+    assert_eq!(i.set_real(DAC_EARTH, 12.0), fmi2Warning);
+    let warned = i.take_logged();
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(
+        warned[0].starts_with("1|logStatusWarning|fmi2SetReal: dac_earth = 12 V"),
+        "{warned:?}"
+    );
+}
+
+#[test]
+fn unknown_or_null_log_categories_are_refused_and_change_nothing() {
+    let i = Instance::init("bad categories");
+    assert_eq!(i.set_debug_logging(fmi2True, &[c"logEvents".as_ptr()]), fmi2OK);
+    let bad = [c"logAll".as_ptr(), c"logNonsense".as_ptr()];
+    assert_eq!(i.set_debug_logging(fmi2True, &bad), fmi2Error);
+    let refused = i.take_logged();
+    assert_eq!(refused.len(), 1, "{refused:?}");
+    assert!(
+        refused[0].starts_with(
+            "3|logStatusError|fmi2SetDebugLogging: unknown log category \"logNonsense\" (this FMU has logEvents, logStatusWarning, logStatusError, logAll)"
+        ),
+        "{refused:?}"
+    );
+    assert_eq!(i.set_debug_logging(fmi2False, &[std::ptr::null()]), fmi2Error);
+    assert!(i.saw(fmi2Error, &["fmi2SetDebugLogging", "a category name is NULL"]));
+    assert_eq!(unsafe { fmu::fmi2SetDebugLogging(i.c, fmi2True, 1, std::ptr::null()) }, fmi2Error);
+    assert!(i.saw(fmi2Error, &["fmi2SetDebugLogging", "categories is NULL"]));
+    i.take_logged();
+    // Still logEvents only, as before the refused calls.
+    i.gait(0, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logEvents"]);
+}
+
+#[test]
+fn logging_on_at_instantiation_enables_every_category() {
+    let h = Harness::<PlantFmu>::with_logging("on", true);
+    assert_eq!(h.setup(), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetupExperiment"]);
+    assert_eq!(h.set_debug_logging(false, &["logAll"]), fmi2OK);
+    assert_eq!(h.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
+    assert_eq!(h.enter(), fmi2OK);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
 }
 
 #[test]
@@ -450,6 +546,44 @@ fn corrupt_truncated_and_foreign_state_blobs_are_refused() {
     assert_eq!(b.integer(MODE), (fmi2OK, 1));
 }
 
+/// The payload of an uninitialized plant with m_p = 0.03, dac_nonearth = 3.5 and
+/// noise_seed = -7, as the encoder before the table-driven parameter save wrote it
+/// (state format 1): the parameters in table order as f64, the seed as its unsigned
+/// pattern, the three DAC volts, then 0 for "no plant yet".
+const PLANT_FORMAT_1: &str = concat!(
+    "b81e85eb51b89e3f00000000389c7c410000000000002e407b14ae47e17aa43f00000000d0125341",
+    "0000000000003440333333333333c33f000000000088d34000000000000024403bdf4f8d976ea23f",
+    "00000000000000009a999999999921408dedb5a0f7c6d03e00000000000024400000000000003440",
+    "0000000000003e40000000000000444000000000000049407b14ae47e17ab43fec51b81e85ebb13f",
+    "b81e85eb51b8ae3f9a9999999999a93f7b14ae47e17aa43f0000000000e065400000000000000000",
+    "00000000000049400000000000c0724000000000000024400000000000b07d404cce61e3a79d143e",
+    "95d626e80b2e113e0000000000000000000020ffffffef4100000000000000000000000000000c40",
+    "000000000000000000",
+);
+
+fn hex(s: &str) -> Vec<u8> {
+    (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+}
+
+#[test]
+fn state_payload_keeps_format_1_byte_for_byte() {
+    const NOISE_SEED: u32 = 132;
+    let a = Harness::<PlantFmu>::new("format");
+    // In initialization mode, where the restored copy may be read back.
+    assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
+    assert_eq!(a.set_real(M_P, 0.03), fmi2OK);
+    assert_eq!(a.set_real(DAC_NONEARTH, 3.5), fmi2OK);
+    assert_eq!(a.set_integer(NOISE_SEED, -7), fmi2OK);
+    let blob = a.serialize();
+    assert_eq!(payload_of::<PlantFmu>(&blob), hex(PLANT_FORMAT_1));
+    let b = Harness::<PlantFmu>::new("restored");
+    assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
+    assert_eq!(b.real(M_P), (fmi2OK, 0.03));
+    assert_eq!(b.real(DAC_NONEARTH), (fmi2OK, 3.5));
+    assert_eq!(b.integer(NOISE_SEED), (fmi2OK, -7));
+    assert_eq!(b.serialize(), blob);
+}
+
 #[test]
 fn eight_instances_on_eight_threads_match_eight_serial_runs() {
     let amplitudes = [1.0, 0.9, 0.5, 0.3, 0.1, 0.2, 0.6, 0.75];
@@ -475,4 +609,13 @@ fn committed_model_description_matches_the_variable_table() {
         committed == generated,
         "{path} differs from the variable table: run `cargo run --release -p fmu-build` and commit modelDescription/"
     );
+}
+
+#[test]
+fn the_guid_is_computed_once_per_model() {
+    let (a, b) = (model_description::guid::<PlantFmu>(), model_description::guid::<PlantFmu>());
+    assert!(std::ptr::eq(a, b), "the second call returned a fresh string");
+    assert_ne!(a, model_description::guid::<ControllerFmu>());
+    let xml = model_description::model_description::<PlantFmu>();
+    assert!(xml.contains(&format!("guid=\"{a}\"")));
 }
