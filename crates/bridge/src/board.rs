@@ -8,8 +8,12 @@
 //! Lock-step: the controller drives. A DAC frame for the board's current tick is applied
 //! at once (one step) and answered with the count at the end of the interval; a repeat of
 //! the previous tick (the controller lost the answer) gets the stored answer again without
-//! stepping, so retransmissions never step the plant twice. The watchdog still runs on the
-//! wall clock: no valid frame for N periods latches the safe state.
+//! stepping, so retransmissions never step the plant twice. The controller owns time here,
+//! so the watchdog counts missed periods in the lock-step sense: N DAC transmissions lost
+//! in a row (the sequence gap of the next one) latch the safe state, while wall-clock
+//! silence only counts towards the dead-link bound (`dead_link_periods`), which catches a
+//! controller that is gone but not one that is slow (docs/hil-protocol.md, "Lock-step:
+//! what a missed period is").
 
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -17,7 +21,7 @@ use std::time::Duration;
 
 use inchworm_hil_protocol::{
     decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello,
-    Packet, Role, SeqTracker, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
+    Packet, Role, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
@@ -30,6 +34,9 @@ pub struct BoardConfig {
     pub period: Duration,
     pub watchdog_periods: u32,
     pub lockstep: bool,
+    /// Lock-step: wall-clock periods without any valid frame before the link counts as
+    /// dead; unused in real time, where silence itself is the watchdog's measure.
+    pub dead_link_periods: u32,
     pub overrun: OverrunPolicy,
 }
 
@@ -39,6 +46,7 @@ impl Default for BoardConfig {
             period: crate::PERIOD,
             watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS,
             lockstep: false,
+            dead_link_periods: inchworm_hil_protocol::LOCKSTEP_DEAD_LINK_PERIODS,
             overrun: OverrunPolicy::Soft,
         }
     }
@@ -97,7 +105,11 @@ impl<M: Mechanism> Board<M> {
         let mut board = Board {
             cfg,
             mech,
-            wd: Watchdog::new(cfg.watchdog_periods),
+            wd: if cfg.lockstep {
+                Watchdog::lockstep(cfg.watchdog_periods, cfg.dead_link_periods)
+            } else {
+                Watchdog::new(cfg.watchdog_periods)
+            },
             dac_seq: SeqTracker::new(),
             enc_seq: 0,
             ctl_seq: 0,
@@ -116,10 +128,11 @@ impl<M: Mechanism> Board<M> {
             log,
         };
         board.write_log(Record::Meta(format!(
-            "role=board\nprotocol={VERSION}\nperiod_us={}\nwatchdog_periods={}\nlockstep={}\noverrun={:?}",
+            "role=board\nprotocol={VERSION}\nperiod_us={}\nwatchdog_periods={}\nlockstep={}\ndead_link_periods={}\noverrun={:?}",
             cfg.period.as_micros(),
             cfg.watchdog_periods,
             cfg.lockstep,
+            cfg.dead_link_periods,
             cfg.overrun
         )));
         Ok(board)
@@ -331,8 +344,16 @@ impl<M: Mechanism> Board<M> {
     }
 
     fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {
-        if !self.counters.link.sequence(self.dac_seq.accept(seq)) {
+        let verdict = self.dac_seq.accept(seq);
+        if !self.counters.link.sequence(verdict) {
             return Ok(());
+        }
+        if let SeqVerdict::Gap { missing } = verdict {
+            // Lock-step: the lost transmissions are the missed periods (a no-op in real
+            // time, where the wall clock counted them).
+            if let Some(f) = self.wd.frames_lost(u32::from(missing)) {
+                self.latch(f, tx)?;
+            }
         }
         if self.wd.state() != BoardState::Armed {
             // Frames never unlatch the safe state; only ARM does.
@@ -357,15 +378,12 @@ impl<M: Mechanism> Board<M> {
             self.requested = d.codes;
             self.last_dac_seq = seq;
             self.last_valid_tick = self.tick;
-            // The frame closes a watchdog period of its own: silence is counted from here.
             self.wd.frame_received();
-            let _ = self.wd.period_elapsed();
             self.step()?;
             self.send_encoder(tx)
         } else if d.tick.wrapping_add(1) == self.tick {
             self.counters.repeats += 1;
             self.wd.frame_received();
-            let _ = self.wd.period_elapsed();
             let (buf, n) = self.reply;
             tx.send(&buf[..n])
         } else {
@@ -399,7 +417,8 @@ impl<M: Mechanism> Board<M> {
         Ok(())
     }
 
-    /// A lock-step period of the wall clock without a valid frame.
+    /// A lock-step period of the wall clock without a valid frame: counts towards the
+    /// dead-link bound only, since a lock-step controller may be slow without being gone.
     pub fn silent_period(&mut self, tx: &mut dyn Transport) -> io::Result<()> {
         if let Some(f) = self.wd.period_elapsed() {
             self.latch(f, tx)?;
@@ -416,8 +435,8 @@ impl<M: Mechanism> Board<M> {
 }
 
 /// Runs the board until `stop` is set. Real time: one step per period. Lock-step: one step
-/// per DAC frame, the watchdog counting wall-clock periods of silence. `lateness_us`
-/// receives the wake-up lateness of every real-time period.
+/// per DAC frame, wall-clock periods of silence counting towards the dead-link bound.
+/// `lateness_us` receives the wake-up lateness of every real-time period.
 pub fn run_board<M: Mechanism>(
     board: &mut Board<M>,
     tx: &mut dyn Transport,

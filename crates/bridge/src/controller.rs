@@ -13,6 +13,7 @@
 //! latches its safe state at once instead of waiting for its watchdog.
 
 use std::io;
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -166,6 +167,294 @@ impl Link<'_> {
     }
 }
 
+fn link_error(e: io::Error) -> String {
+    format!("link: {e}")
+}
+
+fn log_record(log: &mut Option<&mut LogWriter>, r: Record) -> Result<(), String> {
+    match log {
+        Some(l) => l.write(&r).map_err(|e| format!("run log: {e}")),
+        None => Ok(()),
+    }
+}
+
+/// HELLO until the board answers in kind, or `deadline` (ns, [`now_ns`]).
+fn handshake(
+    link: &mut Link,
+    cfg: &ControllerConfig,
+    stop: &AtomicBool,
+    deadline: u64,
+) -> Result<(), String> {
+    let hello = Hello {
+        version: VERSION,
+        role: Role::Controller,
+        period_us: cfg.period.as_micros() as u32,
+        watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS as u8,
+        lockstep: cfg.lockstep,
+    };
+    loop {
+        link.send(Frame::Hello(hello)).map_err(link_error)?;
+        let retry = now_ns() + 100_000_000;
+        while now_ns() < retry {
+            match link.recv(Duration::from_millis(20), cfg.max_gap).map_err(link_error)? {
+                Incoming::Hello(h) if h.role == Role::Board && h.version == VERSION => {
+                    return Ok(());
+                }
+                Incoming::Fault(f) if f.reason == FaultReason::ProtocolMismatch => {
+                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
+                }
+                _ => {}
+            }
+        }
+        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
+            return Err(format!(
+                "no HELLO answer from the board within {:.1} s",
+                cfg.handshake_timeout.as_secs_f64()
+            ));
+        }
+    }
+}
+
+/// ARM until an encoder frame says armed: it carries the tick and count to start from.
+/// `deadline` is the handshake's: one limit for HELLO and ARM together.
+fn arm(
+    link: &mut Link,
+    cfg: &ControllerConfig,
+    stop: &AtomicBool,
+    deadline: u64,
+) -> Result<EncoderSample, String> {
+    link.enc.reset();
+    loop {
+        link.send(Frame::Arm).map_err(link_error)?;
+        let retry = now_ns() + 100_000_000;
+        while now_ns() < retry {
+            if let Incoming::Encoder(e) =
+                link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)?
+            {
+                if e.status & status::ARMED != 0 {
+                    return Ok(e);
+                }
+            }
+        }
+        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
+            return Err(format!(
+                "the board did not arm within {:.1} s",
+                cfg.handshake_timeout.as_secs_f64()
+            ));
+        }
+    }
+}
+
+/// What paces the ticks.
+enum Pacing {
+    /// Each tick waits for the board's answer to its DAC frame.
+    LockStep,
+    /// Each tick waits for its absolute deadline; `last_heard` is the last tick that had a
+    /// valid encoder frame, for the dead-link limit.
+    RealTime { pacer: Pacer, last_heard: u64 },
+}
+
+/// The armed session: the link, the newest count and status, and the report so far.
+struct Session<'a, 'c> {
+    link: Link<'a>,
+    cfg: &'c ControllerConfig,
+    pacing: Pacing,
+    start_tick: u32,
+    counts: i32,
+    board_status: u16,
+    report: ControllerReport,
+}
+
+impl Session<'_, '_> {
+    /// One tick in either pacing: wait for it, send the codes, step the controller, log.
+    /// `Break` ends the run with a link or board fault.
+    fn tick<C: Compensator>(
+        &mut self,
+        k: u64,
+        comp: &mut C,
+        reference: &dyn Fn(f64) -> f64,
+        log: &mut Option<&mut LogWriter>,
+    ) -> Result<ControlFlow<Fault>, String> {
+        if let ControlFlow::Break(f) = self.wait_for_tick(k)? {
+            return Ok(ControlFlow::Break(f));
+        }
+        let tick = self.start_tick.wrapping_add(k as u32);
+        let t = k as f64 * self.cfg.period.as_secs_f64();
+        let r = reference(t);
+        let codes = comp.codes()?;
+        let first_seq =
+            self.link.send(Frame::Dac(DacSample { tick, codes })).map_err(link_error)?;
+        let (answer, seq) = match self.pacing {
+            Pacing::LockStep => match self.await_answer(tick, codes, first_seq)? {
+                ControlFlow::Continue((answer, seq)) => (Some(answer), seq),
+                ControlFlow::Break(f) => return Ok(ControlFlow::Break(f)),
+            },
+            Pacing::RealTime { .. } => (None, first_seq),
+        };
+        comp.step(self.counts, r)?;
+        log_record(
+            log,
+            Record::Controller(ControllerSample {
+                tick,
+                time: t,
+                reference: r,
+                counts: self.counts,
+                codes,
+                status: self.board_status,
+                seq,
+            }),
+        )?;
+        // Lock-step: the answer is the count at the end of this tick's interval, which the
+        // next tick uses; in real time the newest count was taken before the codes.
+        if let Some(answer) = answer {
+            self.counts = answer.counts;
+            self.board_status = answer.status;
+        }
+        self.report.encoder.push(self.counts);
+        self.report.ticks += 1;
+        Ok(ControlFlow::Continue(()))
+    }
+
+    /// Real time: sleeps to tick `k`'s deadline (the overrun policy applies), takes the
+    /// encoder frames that arrived, keeping the newest, and checks for a dead link.
+    /// Lock-step: nothing to wait for, the previous answer started this tick.
+    fn wait_for_tick(&mut self, k: u64) -> Result<ControlFlow<Fault>, String> {
+        let Pacing::RealTime { pacer, last_heard } = &mut self.pacing else {
+            return Ok(ControlFlow::Continue(()));
+        };
+        let wake = pacer.wait();
+        self.report.lateness_us.push(wake.lateness_ns as f64 / 1e3);
+        if wake.overrun {
+            self.link.counters.overruns += 1;
+            let late_us =
+                (wake.lateness_ns + wake.skipped * self.cfg.period.as_nanos() as u64) / 1000;
+            self.report
+                .events
+                .push((k, format!("deadline missed ({} periods skipped)", wake.skipped)));
+            if self.cfg.overrun == OverrunPolicy::Hard {
+                return Ok(ControlFlow::Break(Fault {
+                    reason: FaultReason::Overrun,
+                    detail: late_us as u32,
+                }));
+            }
+        }
+        loop {
+            match self.link.recv(Duration::ZERO, self.cfg.max_gap).map_err(link_error)? {
+                Incoming::Encoder(e) => {
+                    if e.status & status::SAFE != 0 {
+                        return Ok(ControlFlow::Break(Fault {
+                            reason: FaultReason::Silence,
+                            detail: 0,
+                        }));
+                    }
+                    if e.echo_seq != 0 {
+                        let sent = self.link.sent_at[usize::from(e.echo_seq)];
+                        if sent != 0 {
+                            self.report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
+                            self.link.sent_at[usize::from(e.echo_seq)] = 0;
+                        }
+                    }
+                    self.counts = e.counts;
+                    self.board_status = e.status;
+                    *last_heard = k;
+                }
+                Incoming::Fault(f) => return Ok(ControlFlow::Break(f)),
+                Incoming::Hello(_) => {}
+                Incoming::Nothing => break,
+            }
+        }
+        if k - *last_heard > u64::from(self.cfg.dead_after) {
+            return Ok(ControlFlow::Break(Fault {
+                reason: FaultReason::LinkDead,
+                detail: (k - *last_heard) as u32,
+            }));
+        }
+        Ok(ControlFlow::Continue(()))
+    }
+
+    /// Lock-step: waits for the board's answer to tick `tick`, whose DAC frame went out as
+    /// `first_seq`, repeating the frame after each `retransmit_after` without one. Gives
+    /// the answer and the seq of the last transmission.
+    fn await_answer(
+        &mut self,
+        tick: u32,
+        codes: [u16; 3],
+        first_seq: u16,
+    ) -> Result<ControlFlow<Fault, (EncoderSample, u16)>, String> {
+        let mut seq = first_seq;
+        let mut tries = 0;
+        let mut wait_until = now_ns() + self.cfg.retransmit_after.as_nanos() as u64;
+        loop {
+            let now = now_ns();
+            let timeout = Duration::from_nanos(wait_until.saturating_sub(now));
+            match self.link.recv(timeout, self.cfg.max_gap).map_err(link_error)? {
+                Incoming::Encoder(e) if e.status & status::SAFE != 0 => {
+                    return Ok(ControlFlow::Break(Fault {
+                        reason: FaultReason::Silence,
+                        detail: 0,
+                    }));
+                }
+                Incoming::Encoder(e) if e.tick == tick.wrapping_add(1) => {
+                    let sent = self.link.sent_at[usize::from(e.echo_seq)];
+                    if e.echo_seq == seq || e.echo_seq == first_seq {
+                        self.report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
+                    }
+                    return Ok(ControlFlow::Continue((e, seq)));
+                }
+                Incoming::Encoder(_) => self.link.counters.link.stale += 1,
+                Incoming::Fault(f) => return Ok(ControlFlow::Break(f)),
+                Incoming::Hello(_) => {}
+                Incoming::Nothing => {
+                    if now_ns() >= wait_until {
+                        tries += 1;
+                        if tries > self.cfg.max_retransmits {
+                            return Ok(ControlFlow::Break(Fault {
+                                reason: FaultReason::LinkDead,
+                                detail: tries,
+                            }));
+                        }
+                        self.link.counters.retransmits += 1;
+                        seq = self
+                            .link
+                            .send(Frame::Dac(DacSample { tick, codes }))
+                            .map_err(link_error)?;
+                        wait_until = now_ns() + self.cfg.retransmit_after.as_nanos() as u64;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Ends the session: FAULT to the board after a fault, else DISARM; the report.
+    fn finish(
+        mut self,
+        fault: Option<Fault>,
+        log: &mut Option<&mut LogWriter>,
+    ) -> Result<ControllerReport, String> {
+        let tick = self.start_tick.wrapping_add(self.report.ticks as u32);
+        match fault {
+            Some(f) => {
+                let text = describe_fault(&f);
+                // Tell the board, so it latches the safe state now rather than by its watchdog.
+                let _ = self.link.send(Frame::Fault(f));
+                log_record(log, Record::Event { tick, text: format!("fault: {text}") })?;
+                self.report.fault = Some((f, text));
+            }
+            None => {
+                // Twice: a lost DISARM would leave the board to its watchdog, which also ends safe.
+                let _ = self.link.send(Frame::Disarm);
+                let _ = self.link.send(Frame::Disarm);
+                log_record(log, Record::Event { tick, text: "disarmed: end of run".into() })?;
+            }
+        }
+        if let Some(l) = log.as_mut() {
+            let _ = l.sync();
+        }
+        self.report.counters = self.link.counters;
+        Ok(self.report)
+    }
+}
+
 /// Runs the controller side for `cfg.ticks` ticks (or until `stop`). `Err` is for what
 /// stops the bridge itself (a socket or model error); link and board faults end the run
 /// with `report.fault` set.
@@ -186,248 +475,37 @@ pub fn run_controller<C: Compensator>(
         sent_at: vec![0; 1 << 16],
         counters: ControllerCounters::default(),
     };
-    let mut report = ControllerReport::default();
-    let io = |e: io::Error| format!("link: {e}");
-    let log_record = |log: &mut Option<&mut LogWriter>, r: Record| -> Result<(), String> {
-        match log {
-            Some(l) => l.write(&r).map_err(|e| format!("run log: {e}")),
-            None => Ok(()),
-        }
-    };
-
-    // HELLO until the board answers in kind.
-    let hello = Hello {
-        version: VERSION,
-        role: Role::Controller,
-        period_us: cfg.period.as_micros() as u32,
-        watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS as u8,
-        lockstep: cfg.lockstep,
-    };
     let deadline = now_ns() + cfg.handshake_timeout.as_nanos() as u64;
-    'hello: loop {
-        link.send(Frame::Hello(hello)).map_err(io)?;
-        let retry = now_ns() + 100_000_000;
-        while now_ns() < retry {
-            match link.recv(Duration::from_millis(20), cfg.max_gap).map_err(io)? {
-                Incoming::Hello(h) if h.role == Role::Board && h.version == VERSION => break 'hello,
-                Incoming::Fault(f) if f.reason == FaultReason::ProtocolMismatch => {
-                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
-                }
-                _ => {}
-            }
-        }
-        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
-            return Err(format!(
-                "no HELLO answer from the board within {:.1} s",
-                cfg.handshake_timeout.as_secs_f64()
-            ));
-        }
-    }
-
-    // ARM until an encoder frame says armed: it carries the tick and count to start from.
-    link.enc.reset();
-    let start = 'arm: loop {
-        link.send(Frame::Arm).map_err(io)?;
-        let retry = now_ns() + 100_000_000;
-        while now_ns() < retry {
-            if let Incoming::Encoder(e) =
-                link.recv(Duration::from_millis(20), u16::MAX).map_err(io)?
-            {
-                if e.status & status::ARMED != 0 {
-                    break 'arm e;
-                }
-            }
-        }
-        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
-            return Err(format!(
-                "the board did not arm within {:.1} s",
-                cfg.handshake_timeout.as_secs_f64()
-            ));
-        }
-    };
-    report.first_tick = start.tick;
+    handshake(&mut link, cfg, stop, deadline)?;
+    let start = arm(&mut link, cfg, stop, deadline)?;
+    let mut report = ControllerReport { first_tick: start.tick, ..ControllerReport::default() };
     report
         .events
         .push((0, format!("armed at board tick {}, encoder {}", start.tick, start.counts)));
-    let h = cfg.period.as_secs_f64();
-
-    let mut counts = start.counts;
-    let mut board_status = start.status;
-    let fault = if cfg.lockstep {
-        'run: {
-            for k in 0..cfg.ticks {
-                if stop.load(Ordering::Relaxed) {
-                    break 'run Some(Fault { reason: FaultReason::Operator, detail: 0 });
-                }
-                let tick = start.tick.wrapping_add(k as u32);
-                let t = k as f64 * h;
-                let r = reference(t);
-                let codes = comp.codes()?;
-                let first_seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
-                let mut seq = first_seq;
-                let mut tries = 0;
-                let mut wait_until = now_ns() + cfg.retransmit_after.as_nanos() as u64;
-                let answer = loop {
-                    let now = now_ns();
-                    let timeout = Duration::from_nanos(wait_until.saturating_sub(now));
-                    match link.recv(timeout, cfg.max_gap).map_err(io)? {
-                        Incoming::Encoder(e) if e.status & status::SAFE != 0 => {
-                            break 'run Some(Fault { reason: FaultReason::Silence, detail: 0 });
-                        }
-                        Incoming::Encoder(e) if e.tick == tick.wrapping_add(1) => {
-                            let sent = link.sent_at[usize::from(e.echo_seq)];
-                            if e.echo_seq == seq || e.echo_seq == first_seq {
-                                report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
-                            }
-                            break e;
-                        }
-                        Incoming::Encoder(_) => link.counters.link.stale += 1,
-                        Incoming::Fault(f) => break 'run Some(f),
-                        Incoming::Hello(_) => {}
-                        Incoming::Nothing => {
-                            if now_ns() >= wait_until {
-                                tries += 1;
-                                if tries > cfg.max_retransmits {
-                                    break 'run Some(Fault {
-                                        reason: FaultReason::LinkDead,
-                                        detail: tries,
-                                    });
-                                }
-                                link.counters.retransmits += 1;
-                                seq =
-                                    link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
-                                wait_until = now_ns() + cfg.retransmit_after.as_nanos() as u64;
-                            }
-                        }
-                    }
-                };
-                comp.step(counts, r)?;
-                log_record(
-                    &mut log,
-                    Record::Controller(ControllerSample {
-                        tick,
-                        time: t,
-                        reference: r,
-                        counts,
-                        codes,
-                        status: board_status,
-                        seq,
-                    }),
-                )?;
-                counts = answer.counts;
-                board_status = answer.status;
-                report.encoder.push(counts);
-                report.ticks += 1;
-            }
-            None
-        }
+    let pacing = if cfg.lockstep {
+        Pacing::LockStep
     } else {
-        'run: {
-            let mut pacer = Pacer::new(cfg.period);
-            let mut last_heard: u64 = 0;
-            for k in 0..cfg.ticks {
-                if stop.load(Ordering::Relaxed) {
-                    break 'run Some(Fault { reason: FaultReason::Operator, detail: 0 });
-                }
-                let wake = pacer.wait();
-                report.lateness_us.push(wake.lateness_ns as f64 / 1e3);
-                if wake.overrun {
-                    link.counters.overruns += 1;
-                    let late_us =
-                        (wake.lateness_ns + wake.skipped * cfg.period.as_nanos() as u64) / 1000;
-                    report
-                        .events
-                        .push((k, format!("deadline missed ({} periods skipped)", wake.skipped)));
-                    if cfg.overrun == OverrunPolicy::Hard {
-                        break 'run Some(Fault {
-                            reason: FaultReason::Overrun,
-                            detail: late_us as u32,
-                        });
-                    }
-                }
-                loop {
-                    match link.recv(Duration::ZERO, cfg.max_gap).map_err(io)? {
-                        Incoming::Encoder(e) => {
-                            if e.status & status::SAFE != 0 {
-                                break 'run Some(Fault { reason: FaultReason::Silence, detail: 0 });
-                            }
-                            if e.echo_seq != 0 {
-                                let sent = link.sent_at[usize::from(e.echo_seq)];
-                                if sent != 0 {
-                                    report.round_trip_us.push((now_ns() - sent) as f64 / 1e3);
-                                    link.sent_at[usize::from(e.echo_seq)] = 0;
-                                }
-                            }
-                            counts = e.counts;
-                            board_status = e.status;
-                            last_heard = k;
-                        }
-                        Incoming::Fault(f) => break 'run Some(f),
-                        Incoming::Hello(_) => {}
-                        Incoming::Nothing => break,
-                    }
-                }
-                if k - last_heard > u64::from(cfg.dead_after) {
-                    break 'run Some(Fault {
-                        reason: FaultReason::LinkDead,
-                        detail: (k - last_heard) as u32,
-                    });
-                }
-                let tick = start.tick.wrapping_add(k as u32);
-                let t = k as f64 * h;
-                let r = reference(t);
-                let codes = comp.codes()?;
-                let seq = link.send(Frame::Dac(DacSample { tick, codes })).map_err(io)?;
-                comp.step(counts, r)?;
-                log_record(
-                    &mut log,
-                    Record::Controller(ControllerSample {
-                        tick,
-                        time: t,
-                        reference: r,
-                        counts,
-                        codes,
-                        status: board_status,
-                        seq,
-                    }),
-                )?;
-                report.encoder.push(counts);
-                report.ticks += 1;
-            }
-            None
-        }
+        Pacing::RealTime { pacer: Pacer::new(cfg.period), last_heard: 0 }
     };
-
-    match fault {
-        Some(f) => {
-            let text = describe_fault(&f);
-            // Tell the board, so it latches the safe state now rather than by its watchdog.
-            let _ = link.send(Frame::Fault(f));
-            log_record(
-                &mut log,
-                Record::Event {
-                    tick: start.tick.wrapping_add(report.ticks as u32),
-                    text: format!("fault: {text}"),
-                },
-            )?;
-            report.fault = Some((f, text));
+    let mut session = Session {
+        link,
+        cfg,
+        pacing,
+        start_tick: start.tick,
+        counts: start.counts,
+        board_status: start.status,
+        report,
+    };
+    let mut fault = None;
+    for k in 0..cfg.ticks {
+        if stop.load(Ordering::Relaxed) {
+            fault = Some(Fault { reason: FaultReason::Operator, detail: 0 });
+            break;
         }
-        None => {
-            // Twice: a lost DISARM would leave the board to its watchdog, which also ends safe.
-            let _ = link.send(Frame::Disarm);
-            let _ = link.send(Frame::Disarm);
-            log_record(
-                &mut log,
-                Record::Event {
-                    tick: start.tick.wrapping_add(report.ticks as u32),
-                    text: "disarmed: end of run".into(),
-                },
-            )?;
+        if let ControlFlow::Break(f) = session.tick(k, comp, reference, &mut log)? {
+            fault = Some(f);
+            break;
         }
     }
-    if let Some(l) = log.as_mut() {
-        let _ = l.sync();
-    }
-    report.counters = link.counters;
-    Ok(report)
+    session.finish(fault, &mut log)
 }

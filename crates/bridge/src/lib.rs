@@ -30,13 +30,6 @@ pub use inchworm_hil_protocol as protocol;
 /// The communication period of SPEC 5: 500 Hz.
 pub const PERIOD: Duration = Duration::from_millis(2);
 
-/// The DAC's transfer function, 16 bits over 0–10 V. Written as the controller writes its
-/// quantized volts (`code · 10 / 65535`), so the virtual board hands the plant the same
-/// bits a co-simulation master copies across, and lock-step runs reproduce it exactly.
-pub fn code_to_volts(code: u16) -> f64 {
-    f64::from(code) * 10.0 / 65535.0
-}
-
 /// The plant side as the board sees it: DAC codes held for one period in, encoder count out.
 pub trait Mechanism {
     /// The encoder count now (before any step).

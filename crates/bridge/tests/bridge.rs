@@ -36,16 +36,6 @@ fn board_cfg(lockstep: bool) -> BoardConfig {
 }
 
 #[test]
-fn dac_codes_become_the_volts_the_controller_holds() {
-    let _slot = real_time_slot();
-    // The board must hand the plant the very bits the controller's quantizer produces.
-    for code in [0u16, 1, 19661, 32768, 65534, 65535] {
-        let v = f64::from(code) * inchworm_controller::DAC_FULL_SCALE / 65535.0;
-        assert_eq!(inchworm_bridge::code_to_volts(code).to_bits(), v.to_bits(), "code {code}");
-    }
-}
-
-#[test]
 fn lockstep_reproduces_the_cosimulation_exactly() {
     let _slot = real_time_slot();
     let ticks = 1000;
@@ -142,6 +132,113 @@ fn lockstep_rides_through_injected_faults_and_stays_exact() {
         report.counters
     );
     assert_eq!(board.counters.steps, ticks, "a repeated tick never steps the plant twice");
+}
+
+/// [`DirectController`], stalling 20 ms (10 periods) before the codes of every 50th tick.
+struct SlowController(DirectController, u32);
+
+impl Compensator for SlowController {
+    fn codes(&mut self) -> Result<[u16; 3], String> {
+        if self.1 % 50 == 49 {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.0.codes()
+    }
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        self.1 += 1;
+        self.0.step(counts, reference)
+    }
+}
+
+#[test]
+fn the_lock_step_watchdog_counts_lost_transmissions_not_a_slow_controller() {
+    let _slot = real_time_slot();
+    // The default watchdog of 3 periods, in lock-step.
+    let cfg = BoardConfig { lockstep: true, ..BoardConfig::default() };
+    let board = spawn_board(cfg, None);
+    let mut udp = UdpTransport::connect(board.addr).unwrap();
+    let mut slow = SlowController(DirectController::new(), 0);
+    let report = run_controller(
+        &mut slow,
+        &mut udp,
+        &reference,
+        &lockstep(300),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let (board, _) = board.finish();
+    assert!(report.fault.is_none(), "{:?}", report.fault);
+    assert_eq!(report.encoder, cosimulation(300));
+    assert!(board.latches.is_empty(), "{:?}", board.events);
+    assert_eq!(board.counters.steps, 300);
+
+    // Transmissions 150 to 152 lost: the next one shows a gap of 3, the limit.
+    let board = spawn_board(cfg, None);
+    let udp = UdpTransport::connect(board.addr).unwrap();
+    let mut link = FaultyTransport::new(
+        udp,
+        FaultPlan { silence: Some((150, 3)), only_type: Some(0x10), ..FaultPlan::default() },
+    );
+    let mut ctrl = DirectController::new();
+    let report = run_controller(
+        &mut ctrl,
+        &mut link,
+        &reference,
+        &lockstep(1000),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let (board, _) = board.finish();
+    let (fault, text) = report.fault.expect("the board's FAULT");
+    assert_eq!((fault.reason, fault.detail), (FaultReason::Silence, 3), "{text}");
+    // A repeat of an earlier tick (an answer late on a busy machine) moves the window back.
+    let ticks = report.ticks;
+    assert!(ticks <= 150 && ticks + report.counters.retransmits >= 153, "{ticks} ticks");
+    assert_eq!(report.encoder, cosimulation(ticks as usize));
+    assert_eq!(board.latches.len(), 1, "{:?}", board.events);
+    assert_eq!(board.latches[0].fault, fault);
+    assert_eq!(board.counters.steps, ticks);
+}
+
+#[test]
+fn the_lock_step_board_latches_link_dead_when_the_controller_is_gone() {
+    let _slot = real_time_slot();
+    let board = spawn_board(BoardConfig { lockstep: true, ..BoardConfig::default() }, None);
+    let udp = UdpTransport::connect(board.addr).unwrap();
+    // Nothing the controller sends arrives from its 102nd frame on (after HELLO, ARM and
+    // 100 DAC frames), its FAULT included.
+    let mut link = FaultyTransport::new(
+        udp,
+        FaultPlan { silence: Some((102, u64::MAX / 2)), ..FaultPlan::default() },
+    );
+    let mut ctrl = DirectController::new();
+    let report = run_controller(
+        &mut ctrl,
+        &mut link,
+        &reference,
+        &lockstep(1000),
+        None,
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let (fault, text) = report.fault.expect("the controller's own dead-link fault");
+    assert_eq!((fault.reason, fault.detail), (FaultReason::LinkDead, 26), "{text}");
+    // The board's bound is 250 wall-clock periods, 500 ms: give it room, then look.
+    std::thread::sleep(Duration::from_millis(800));
+    let (board, _) = board.finish();
+    let dead = protocol::Fault {
+        reason: FaultReason::LinkDead,
+        detail: protocol::LOCKSTEP_DEAD_LINK_PERIODS,
+    };
+    assert_eq!(
+        board.latches.iter().map(|l| l.fault).collect::<Vec<_>>(),
+        [dead],
+        "{:?}",
+        board.events
+    );
+    assert_eq!(board.counters.steps, report.ticks);
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Generates `inchworm_hil.h` with cbindgen into OUT_DIR (never into the source tree,
 //! so a build cannot dirty the checkout). cbindgen parses only src/lib.rs (`with_src`),
-//! which keeps it from running `cargo metadata` inside the build.
+//! which keeps it from running `cargo metadata` inside the build. The committed copy in
+//! include/ is compared with this one by the protocol crate's tests/c_api.rs.
 
 use std::{env, path::PathBuf};
 

@@ -48,6 +48,13 @@ pub const SAFE_CODES: [u16; 3] = [0, 0, 0];
 /// is jitter, three in a row (6 ms at 500 Hz) is a dead link.
 pub const DEFAULT_WATCHDOG_PERIODS: u32 = 3;
 
+/// Lock-step board: wall-clock periods without any valid frame before the link counts as
+/// dead (500 ms at 2 ms). In lock-step the controller owns time and may take long over a
+/// step, so silence is not a missed period; this bound only catches a controller or link
+/// that is gone, and it is far above the controller's own 25 unanswered repeats (about
+/// 50 ms), so on a live link the controller decides first and tells the board.
+pub const LOCKSTEP_DEAD_LINK_PERIODS: u32 = 250;
+
 /// Frame type ids (header byte 3). Control frames are below 0x10, data frames from 0x10.
 pub mod frame_type {
     /// Session start: version, role and timing of the sender.

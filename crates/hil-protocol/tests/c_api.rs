@@ -1,13 +1,46 @@
 //! Builds the C API (`crates/hil-protocol/ffi`: libinchworm_hil.a + the cbindgen header),
 //! compiles tests/c/roundtrip.c against it with the system C compiler and runs it.
-//! Fails if the library or header does not build, the C program does not compile or
-//! link, or any of its checks fails.
+//! Fails if the library or header does not build, the committed header differs from the
+//! generated one, the C program does not compile or link, or any of its checks fails.
 
 mod ffi_build;
 
 use std::process::Command;
 
-use ffi_build::{build_ffi, compile, crate_dir, target_dir};
+use ffi_build::{build_ffi, compile, crate_dir, include_dir, target_dir};
+
+/// Setting this variable makes the header test write the generated header over the
+/// committed one instead of failing.
+const BLESS: &str = "INCHWORM_HIL_BLESS";
+
+#[test]
+fn the_committed_header_is_what_cbindgen_generates() {
+    let (header_dir, _) = build_ffi(&target_dir());
+    let generated = std::fs::read(header_dir.join("inchworm_hil.h")).unwrap();
+    let committed_path = include_dir().join("inchworm_hil.h");
+    if std::env::var_os(BLESS).is_some() {
+        std::fs::write(&committed_path, &generated).unwrap();
+        return;
+    }
+    let committed = std::fs::read(&committed_path).unwrap_or_default();
+    if committed != generated {
+        let first = committed
+            .split(|&b| b == b'\n')
+            .zip(generated.split(|&b| b == b'\n'))
+            .position(|(a, b)| a != b)
+            .map_or_else(
+                || "the end of the shorter file".to_string(),
+                |i| format!("line {}", i + 1),
+            );
+        panic!(
+            "crates/hil-protocol/ffi/include/inchworm_hil.h differs from the header cbindgen \
+             generates from ffi/src/lib.rs (first at {first}).\n\
+             Regenerate it with\n    \
+             {BLESS}=1 cargo test --release -p inchworm-hil-protocol --test c_api\n\
+             and commit the result."
+        );
+    }
+}
 
 #[test]
 fn c_round_trip_through_static_library() {

@@ -182,3 +182,89 @@ fn first_fault_reason_is_kept() {
     assert_eq!(w.state(), BoardState::Safe(Fault { reason: FaultReason::LinkDead, detail: 0 }));
     assert_eq!(w.output(REQ), SAFE_CODES);
 }
+
+#[test]
+fn lockstep_wall_clock_silence_is_not_a_missed_period() {
+    // The controller is merely slow: 100 silent wall-clock periods, far past the limit of
+    // 3, and the watchdog stays armed; the next frame clears the silence.
+    let mut w = Watchdog::lockstep(3, 250);
+    assert!(w.is_lockstep() && !Watchdog::new(3).is_lockstep());
+    w.arm();
+    w.frame_received();
+    for _ in 0..100 {
+        assert_eq!(w.period_elapsed(), None);
+    }
+    assert_eq!((w.state(), w.missed(), w.silent()), (BoardState::Armed, 0, 99));
+    assert_eq!(w.frames_lost(0), None);
+    w.frame_received();
+    assert_eq!((w.missed(), w.silent()), (0, 0));
+    assert_eq!(w.output(REQ), REQ);
+}
+
+#[test]
+fn lockstep_trips_on_n_lost_transmissions_in_a_row() {
+    for n in 1..=5u32 {
+        let mut w = Watchdog::lockstep(n, 250);
+        w.arm();
+        // Gaps below the limit are isolated losses, repaired by the controller's repeat.
+        for missing in 0..n {
+            assert_eq!(w.frames_lost(missing), None, "limit {n}, gap {missing}");
+            w.frame_received();
+            assert_eq!(w.state(), BoardState::Armed);
+        }
+        let f = Fault { reason: FaultReason::Silence, detail: n + 1 };
+        assert_eq!(w.frames_lost(n + 1), Some(f), "limit {n}");
+        assert_eq!((w.state(), w.missed()), (BoardState::Safe(f), n + 1));
+        // The frame after the gap does not unlatch it, and the trip is reported once.
+        w.frame_received();
+        assert_eq!(w.frames_lost(n), None);
+        assert_eq!(w.state(), BoardState::Safe(f));
+        assert_eq!(w.output(REQ), SAFE_CODES);
+    }
+    let mut w = Watchdog::lockstep(3, 250);
+    w.arm();
+    assert_eq!(w.frames_lost(3), Some(Fault { reason: FaultReason::Silence, detail: 3 }));
+}
+
+#[test]
+fn lockstep_latches_link_dead_after_the_dead_link_bound() {
+    let mut w = Watchdog::lockstep(3, 5);
+    assert_eq!(w.dead_link_limit(), 5);
+    w.arm();
+    for _ in 0..4 {
+        assert_eq!(w.period_elapsed(), None);
+    }
+    let f = Fault { reason: FaultReason::LinkDead, detail: 5 };
+    assert_eq!(w.period_elapsed(), Some(f));
+    assert_eq!(w.state(), BoardState::Safe(f));
+    assert_eq!(w.period_elapsed(), None, "reported once");
+    // A frame in the period resets the bound.
+    let mut w = Watchdog::lockstep(3, 5);
+    w.arm();
+    for _ in 0..20 {
+        for _ in 0..4 {
+            assert_eq!(w.period_elapsed(), None);
+        }
+        w.frame_received();
+        assert_eq!(w.period_elapsed(), None);
+    }
+    assert_eq!(w.state(), BoardState::Armed);
+    // Limits of 0 are clamped to 1, and nothing counts while disarmed.
+    let mut w = Watchdog::lockstep(0, 0);
+    assert_eq!((w.limit(), w.dead_link_limit()), (1, 1));
+    assert_eq!(w.period_elapsed(), None);
+    assert_eq!(w.frames_lost(9), None);
+    w.arm();
+    assert!(w.period_elapsed().is_some());
+}
+
+#[test]
+fn real_time_ignores_sequence_gaps() {
+    // The wall clock already counted the periods the lost frames belonged to.
+    let mut w = Watchdog::new(3);
+    w.arm();
+    assert_eq!(w.frames_lost(10), None);
+    w.frame_received();
+    assert_eq!(w.state(), BoardState::Armed);
+    assert_eq!((w.silent(), w.dead_link_limit()), (0, 0));
+}

@@ -4,7 +4,8 @@
 
 use std::path::Path;
 
-use inchworm_bridge::{code_to_volts, Compensator, Mechanism, PERIOD};
+use inchworm_bridge::{Compensator, Mechanism, PERIOD};
+use inchworm_controller::volts_of_code;
 
 use crate::fmu::{CsFmu, VarType};
 use crate::master::set_param;
@@ -47,7 +48,7 @@ impl Mechanism for FmuMechanism {
     }
 
     fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
-        self.fmu.set_real(&self.dac, &codes.map(code_to_volts)).map_err(|e| e.to_string())?;
+        self.fmu.set_real(&self.dac, &codes.map(volts_of_code)).map_err(|e| e.to_string())?;
         self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())?;
         self.counts()
     }

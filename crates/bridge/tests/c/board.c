@@ -2,6 +2,10 @@
  * lock-step board of docs/hil-protocol.md with the library's codec and watchdog, and a
  * stand-in mechanism with integer arithmetic the Rust test can repeat exactly:
  *     counts += extension_code / 16 - earth_code / 64
+ * The watchdog counts in the lock-step sense (docs/hil-protocol.md, "Lock-step: what a
+ * missed period is"): DAC transmissions lost in a row, from the sequence gap, latch it;
+ * wall-clock silence only counts towards the dead-link bound, since the controller may
+ * be slow.
  * Usage: board <udp-port>. Exits after DISARM, or after 1 s without any frame.
  * Prints one summary line: "c board: <steps> steps, <malformed> malformed, counts <n>,
  * state <0|1|2>, fault <reason>". */
@@ -22,6 +26,8 @@ static int sock;
 static struct sockaddr_in peer;
 static socklen_t peer_len;
 static uint16_t enc_seq, ctl_seq;
+static uint16_t dac_seq; /* last accepted DAC seq, valid when have_dac_seq */
+static int have_dac_seq;
 
 static uint64_t now_us(void) {
     struct timespec ts;
@@ -44,6 +50,17 @@ static void send_packet(IwPacket *p, uint8_t *keep, size_t *keep_len) {
     sendto(sock, buf, n, 0, (struct sockaddr *)&peer, peer_len);
 }
 
+/* The watchdog just latched: tell the controller why, once. */
+static void send_latch(const IwWatchdog *wd, uint8_t *fault) {
+    uint32_t detail = 0;
+    IwPacket f = {0};
+    f.frame_type = IW_TYPE_FAULT;
+    f.fault_reason = iw_watchdog_fault_reason(wd, &detail);
+    f.fault_detail = detail;
+    *fault = f.fault_reason;
+    send_packet(&f, NULL, NULL);
+}
+
 int main(int argc, char **argv) {
     if (argc != 2) {
         fprintf(stderr, "usage: board <udp-port>\n");
@@ -60,7 +77,7 @@ int main(int argc, char **argv) {
     }
 
     IwWatchdog wd;
-    iw_watchdog_init(&wd, IW_DEFAULT_WATCHDOG_PERIODS);
+    iw_watchdog_init_lockstep(&wd, IW_DEFAULT_WATCHDOG_PERIODS, IW_LOCKSTEP_DEAD_LINK_PERIODS);
     uint32_t tick = 0, steps = 0, malformed = 0;
     int32_t counts = 0;
     uint8_t reply[IW_MAX_FRAME];
@@ -71,16 +88,9 @@ int main(int argc, char **argv) {
     for (;;) {
         uint64_t now = now_us();
         if (now >= boundary) {
-            /* A wall-clock period without a valid DAC frame. */
-            int32_t latched = iw_watchdog_period_elapsed(&wd);
-            if (latched > 0) {
-                uint32_t detail = 0;
-                IwPacket f = {0};
-                f.frame_type = IW_TYPE_FAULT;
-                f.fault_reason = iw_watchdog_fault_reason(&wd, &detail);
-                f.fault_detail = detail;
-                fault = f.fault_reason;
-                send_packet(&f, NULL, NULL);
+            /* A wall-clock period without a valid DAC frame: towards the dead-link bound. */
+            if (iw_watchdog_period_elapsed(&wd) > 0) {
+                send_latch(&wd, &fault);
             }
             boundary += 2000;
             if (now - last_frame > 1000000) {
@@ -122,6 +132,7 @@ int main(int argc, char **argv) {
             break;
         case IW_TYPE_ARM:
             iw_watchdog_arm(&wd);
+            have_dac_seq = 0;
             iw_watchdog_frame_received(&wd);
             boundary = now_us() + 2000;
             out.frame_type = IW_TYPE_ENCODER;
@@ -142,6 +153,18 @@ int main(int argc, char **argv) {
             }
             break;
         case IW_TYPE_DAC:
+            if (have_dac_seq) {
+                int16_t d = iw_seq_distance(dac_seq, p.seq);
+                if (d <= 0) {
+                    break; /* duplicate or stale */
+                }
+                /* Each lost transmission is a period the controller waited in vain. */
+                if (d > 1 && iw_watchdog_frames_lost(&wd, (uint32_t)(d - 1)) > 0) {
+                    send_latch(&wd, &fault);
+                }
+            }
+            dac_seq = p.seq;
+            have_dac_seq = 1;
             if (iw_watchdog_state(&wd) != IW_STATE_ARMED) {
                 out.frame_type = IW_TYPE_ENCODER;
                 out.tick = tick;
@@ -151,7 +174,6 @@ int main(int argc, char **argv) {
             } else if (p.tick == tick) {
                 uint16_t applied[3];
                 iw_watchdog_frame_received(&wd);
-                iw_watchdog_period_elapsed(&wd);
                 boundary = now_us() + 2000;
                 iw_watchdog_output(&wd, p.codes, applied);
                 counts += (int32_t)(applied[2] / 16) - (int32_t)(applied[0] / 64);
@@ -165,7 +187,6 @@ int main(int argc, char **argv) {
                 send_packet(&out, reply, &reply_len);
             } else if (p.tick + 1 == tick && reply_len > 0) {
                 iw_watchdog_frame_received(&wd);
-                iw_watchdog_period_elapsed(&wd);
                 boundary = now_us() + 2000;
                 sendto(sock, reply, reply_len, 0, (struct sockaddr *)&peer, peer_len);
             }

@@ -10,8 +10,8 @@ use std::thread::JoinHandle;
 use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::faults::{FaultPlan, FaultyTransport};
 use inchworm_bridge::transport::{Transport, UdpTransport};
-use inchworm_bridge::{code_to_volts, Compensator, Mechanism};
-use inchworm_controller::{Controller, Params};
+use inchworm_bridge::{Compensator, Mechanism};
+use inchworm_controller::{volts_of_code, Controller, Params};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
 pub const H: f64 = 0.002;
@@ -39,9 +39,9 @@ impl Mechanism for DirectPlant {
     fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
         self.0.step(
             Dac {
-                earth: code_to_volts(codes[0]),
-                nonearth: code_to_volts(codes[1]),
-                extension: code_to_volts(codes[2]),
+                earth: volts_of_code(codes[0]),
+                nonearth: volts_of_code(codes[1]),
+                extension: volts_of_code(codes[2]),
             },
             H,
         );

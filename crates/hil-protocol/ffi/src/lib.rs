@@ -43,6 +43,9 @@ pub const IW_MAX_FRAME: usize = 26;
 pub const IW_MAX_COBS_FRAME: usize = 27;
 /// Default watchdog limit in silent periods.
 pub const IW_DEFAULT_WATCHDOG_PERIODS: u32 = 3;
+/// Lock-step board: wall-clock periods without any valid frame before the link counts
+/// as dead (iw_watchdog_init_lockstep).
+pub const IW_LOCKSTEP_DEAD_LINK_PERIODS: u32 = 250;
 
 /// Frame type HELLO (stream 0, 8-byte payload).
 pub const IW_TYPE_HELLO: u8 = 0x01;
@@ -73,7 +76,7 @@ pub const IW_ROLE_BOARD: u8 = 2;
 pub const IW_FAULT_SILENCE: u8 = 1;
 /// FAULT reason: frames lost (detail = gap size).
 pub const IW_FAULT_SEQUENCE_GAP: u8 = 2;
-/// FAULT reason: the transport failed.
+/// FAULT reason: nothing valid from the peer for too long (detail = periods or repeats).
 pub const IW_FAULT_LINK_DEAD: u8 = 3;
 /// FAULT reason: too many bad frames (detail = count).
 pub const IW_FAULT_CORRUPT: u8 = 4;
@@ -426,6 +429,42 @@ pub unsafe extern "C" fn iw_watchdog_init(w: *mut IwWatchdog, limit: u32) {
     })
 }
 
+/// Initialises `*w` for a lock-step board: Disarmed; trips when `limit` DAC
+/// transmissions in a row are lost (iw_watchdog_frames_lost), or with IW_FAULT_LINK_DEAD
+/// after `dead_link_periods` wall-clock periods without a valid frame
+/// (iw_watchdog_period_elapsed). Wall-clock silence below that bound is the controller
+/// taking its time, not a missed period. 0 counts as 1 for both limits.
+#[no_mangle]
+pub unsafe extern "C" fn iw_watchdog_init_lockstep(
+    w: *mut IwWatchdog,
+    limit: u32,
+    dead_link_periods: u32,
+) {
+    guard((), || {
+        if w.is_null() {
+            return;
+        }
+        let storage = IwWatchdog { init_tag: WATCHDOG_TAG, reserved: 0, opaque: [0; 4] };
+        core::ptr::write(w, storage);
+        core::ptr::write(
+            (*w).opaque.as_mut_ptr() as *mut Watchdog,
+            Watchdog::lockstep(limit, dead_link_periods),
+        );
+    })
+}
+
+/// Lock-step: call for a valid DAC frame that came after `missing` lost ones (its
+/// sequence gap, 0 for none), before iw_watchdog_frame_received. Returns the fault
+/// reason (IW_FAULT_SILENCE) if the safe state was latched by this call, else 0 (also
+/// for a real-time watchdog, whose periods the wall clock counts, and for NULL).
+#[no_mangle]
+pub unsafe extern "C" fn iw_watchdog_frames_lost(w: *mut IwWatchdog, missing: u32) -> i32 {
+    guard(0, || match watchdog_mut(w) {
+        Some(w) => w.frames_lost(missing).map_or(0, |f| f.reason as i32),
+        None => 0,
+    })
+}
+
 /// Arms: leaves Disarmed or the latched safe state, clears the missed count.
 #[no_mangle]
 pub unsafe extern "C" fn iw_watchdog_arm(w: *mut IwWatchdog) {
@@ -456,8 +495,9 @@ pub unsafe extern "C" fn iw_watchdog_frame_received(w: *mut IwWatchdog) {
     })
 }
 
-/// Call at the end of every period. Returns the fault reason (IW_FAULT_SILENCE) if the
-/// safe state was latched by this call, else 0 (also for NULL/uninitialised `w`).
+/// Call at the end of every wall-clock period. Returns the fault reason if the safe
+/// state was latched by this call (IW_FAULT_SILENCE in real time, IW_FAULT_LINK_DEAD at
+/// a lock-step watchdog's dead-link bound), else 0 (also for NULL/uninitialised `w`).
 #[no_mangle]
 pub unsafe extern "C" fn iw_watchdog_period_elapsed(w: *mut IwWatchdog) -> i32 {
     guard(0, || match watchdog_mut(w) {
@@ -539,7 +579,7 @@ pub unsafe extern "C" fn iw_watchdog_fault_reason(w: *const IwWatchdog, detail: 
     })
 }
 
-/// Consecutive silent periods counted so far (0 for NULL/uninitialised `w`).
+/// Consecutive missed periods counted so far (0 for NULL/uninitialised `w`).
 #[no_mangle]
 pub unsafe extern "C" fn iw_watchdog_missed(w: *const IwWatchdog) -> u32 {
     guard(0, || watchdog(w).map_or(0, |w| w.missed()))

@@ -236,11 +236,55 @@ static void test_watchdog(void) {
     CHECK(out[0] == 0 && out[1] == 0 && out[2] == 0);
 }
 
+static void test_lockstep_watchdog(void) {
+    const uint16_t requested[3] = {100, 200, 300};
+    uint16_t out[3];
+    uint32_t detail = 0;
+    IwWatchdog w;
+    iw_watchdog_init_lockstep(&w, 3, IW_LOCKSTEP_DEAD_LINK_PERIODS);
+    CHECK(iw_watchdog_state(&w) == IW_STATE_DISARMED);
+    iw_watchdog_arm(&w);
+    iw_watchdog_frame_received(&w);
+    /* A slow controller: wall-clock silence far past the limit is not a missed period. */
+    for (uint32_t i = 1; i < IW_LOCKSTEP_DEAD_LINK_PERIODS; i++) {
+        CHECK(iw_watchdog_period_elapsed(&w) == 0);
+    }
+    CHECK(iw_watchdog_state(&w) == IW_STATE_ARMED && iw_watchdog_missed(&w) == 0);
+    /* Two lost transmissions are repaired by the repeat; three in a row latch. */
+    CHECK(iw_watchdog_frames_lost(&w, 2) == 0);
+    iw_watchdog_frame_received(&w);
+    CHECK(iw_watchdog_period_elapsed(&w) == 0);
+    CHECK(iw_watchdog_frames_lost(&w, 3) == IW_FAULT_SILENCE);
+    CHECK(iw_watchdog_fault_reason(&w, &detail) == IW_FAULT_SILENCE && detail == 3);
+    iw_watchdog_frame_received(&w);
+    iw_watchdog_output(&w, requested, out);
+    CHECK(out[0] == 0 && out[1] == 0 && out[2] == 0);
+
+    /* A dead link: LinkDead at the bound, reported once. */
+    iw_watchdog_arm(&w);
+    for (uint32_t i = 1; i < IW_LOCKSTEP_DEAD_LINK_PERIODS; i++) {
+        CHECK(iw_watchdog_period_elapsed(&w) == 0);
+    }
+    CHECK(iw_watchdog_period_elapsed(&w) == IW_FAULT_LINK_DEAD);
+    CHECK(iw_watchdog_fault_reason(&w, &detail) == IW_FAULT_LINK_DEAD &&
+          detail == IW_LOCKSTEP_DEAD_LINK_PERIODS);
+    CHECK(iw_watchdog_period_elapsed(&w) == 0);
+
+    /* A real-time watchdog leaves gaps to the wall clock; NULL is refused quietly. */
+    iw_watchdog_init(&w, 3);
+    iw_watchdog_arm(&w);
+    CHECK(iw_watchdog_frames_lost(&w, 10) == 0);
+    CHECK(iw_watchdog_state(&w) == IW_STATE_ARMED);
+    CHECK(iw_watchdog_frames_lost(NULL, 10) == 0);
+    iw_watchdog_init_lockstep(NULL, 3, 3);
+}
+
 int main(void) {
     test_dac();
     test_encoder();
     test_control();
     test_watchdog();
+    test_lockstep_watchdog();
     if (failures != 0) {
         printf("inchworm_hil C round trip: %d check(s) FAILED\n", failures);
         return 1;

@@ -2,6 +2,9 @@
 //! and compiles C programs against it with the system C compiler. Shared by the C tests of
 //! this crate and of the bridge (which includes this file by path).
 //!
+//! The C programs include the committed header (`ffi/include/inchworm_hil.h`), the one
+//! firmware engineers use; tests/c_api.rs keeps it equal to what cbindgen generates.
+//!
 //! The ffi crate is its own workspace, so it gets its own target directory under the
 //! workspace's (`<target>/hil-ffi`) and never contends for the lock of the outer build.
 #![allow(dead_code)]
@@ -37,7 +40,13 @@ fn json_str<'a>(line: &'a str, key: &str) -> Option<&'a str> {
     Some(&line[start..start + len])
 }
 
-/// Builds the staticlib; returns (header directory, path of libinchworm_hil.a).
+/// The committed header's directory, for `-I`.
+pub fn include_dir() -> PathBuf {
+    crate_dir().join("ffi/include")
+}
+
+/// Builds the staticlib; returns (directory of the generated header, path of
+/// libinchworm_hil.a).
 pub fn build_ffi(target: &Path) -> (PathBuf, PathBuf) {
     let manifest = crate_dir().join("ffi/Cargo.toml");
     let out = Command::new(env!("CARGO"))
@@ -78,13 +87,13 @@ pub fn build_ffi(target: &Path) -> (PathBuf, PathBuf) {
 /// Compiles `source` against the library and header into `<target>/c-test/<name>`.
 pub fn compile(source: &Path, name: &str) -> PathBuf {
     let target = target_dir();
-    let (header_dir, lib) = build_ffi(&target);
+    let (_, lib) = build_ffi(&target);
     let exe = target.join("c-test").join(name);
     std::fs::create_dir_all(exe.parent().unwrap()).unwrap();
     let cc = std::env::var("CC").unwrap_or_else(|_| "gcc".to_string());
     let out = Command::new(&cc)
         .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-I"])
-        .arg(&header_dir)
+        .arg(include_dir())
         .arg(source)
         .arg(&lib)
         .args(["-lpthread", "-ldl", "-lm", "-o"])
