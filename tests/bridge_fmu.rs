@@ -17,7 +17,7 @@ use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
 use inchworm_bridge::transport::UdpTransport;
 use inchworm_controller::Params;
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist");
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
 
 fn fmu(name: &str) -> PathBuf {

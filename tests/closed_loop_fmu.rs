@@ -8,7 +8,7 @@ use inchworm::closed_loop::{run, run_fmus};
 use inchworm_controller::Params;
 use inchworm_plant::PlantParams;
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist");
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 
 #[test]
 fn fig5_through_the_fmus_equals_the_direct_coupling_bit_for_bit() {

@@ -10,7 +10,7 @@ use inchworm_controller::Params;
 use inchworm_plant::PlantParams;
 
 fn dist(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist").join(name);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
     assert!(
         p.is_file(),
         "{} is missing: run `cargo run --release -p fmu-build` first",

@@ -17,9 +17,9 @@ use fmi::traits::FmiImport;
 
 use inchworm::gait::{self, CHECK_TOLERANCE_UM, CHECK_VALUES, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
-const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist/InchwormPlant.fmu");
+const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist/InchwormPlant.fmu");
 const TRACE: &str =
-    concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/plant-check-trace-fia20.csv");
 /// SPEC 2.9: every sample of the trace within 2 encoder counts.
 const COUNT_TOLERANCE: i64 = 2;
 

@@ -17,8 +17,8 @@ use inchworm_plant::PlantParams;
 const DURATION: f64 = 600.0;
 
 fn main() {
-    // The workspace root: dist/ and .venv/ live there.
-    let root = &Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    // The package is the workspace root: dist/ and .venv/ live there.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dist = root.join("dist");
     let ssp = dist.join("InchwormSystem.ssp");
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");

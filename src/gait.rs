@@ -154,10 +154,8 @@ mod tests {
     /// that came with the SPEC (the plant test replays that file, the CLI generates it).
     #[test]
     fn check_sequence_reproduces_the_reference_trace_inputs() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/reference/plant-check-trace-fia20.csv"
-        );
+        let path =
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/plant-check-trace-fia20.csv");
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
         let rows: Vec<Vec<f64>> = text
             .lines()

@@ -1,5 +1,5 @@
 //! `inchworm`: runs the project's FMUs (or any FMI 2.0 Co-Simulation FMU) and writes results
-//! (CSV) and plots (PNG). The command-line front end is `crates/master/src/main.rs`.
+//! (CSV) and plots (PNG). The command-line front end is `src/main.rs`.
 //!
 //! * [`fmu`]: FMI 2.0 Co-Simulation import (the project's own layer, `inchworm-fmi-import`, re-exported);
 //! * [`gait`]: the stepping gait of SPEC 3, its raw measurements and the SPEC 2.9 check values;
