@@ -1,165 +1,209 @@
 //! The closed loop with the two crates coupled directly (no FMI): plant and controller
 //! exchange DAC volts and encoder counts every 2 ms as a Jacobi master would, the
 //! controller's output at `t` being the sample for `[t + h, t + 2h)`.
+//!
+//! It is the reference the FMU runs are tested against, so it records what the master
+//! records on `InchwormSystem.ssp` ([`recorded`]), under the same names and with the same
+//! t = 0 row; [`LoopView`] reads either trace for the closed-loop analysis of SPEC 4.1.
 
-use std::path::Path;
+use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
+use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
-use inchworm_controller::{Controller, Params, SAMPLE_PERIOD};
-use inchworm_plant::{Dac, Plant, PlantParams};
+use crate::gait::Step;
+use crate::trace::Trace;
 
-use crate::fmu::{CsFmu, FmuError, VarType};
+/// The plan flag of the controller crate's sample: the controller FMU has no such output,
+/// so only the direct coupling records it (see [`LoopView::iterated`]).
+pub const ITERATED: &str = "iterated";
 
-/// One row per communication point `t_k = k h`, k ≥ 1: the plant outputs at `t_k` and the
-/// DAC volts that were held during `[t_{k-1}, t_k)`.
-#[derive(Clone, Debug, Default)]
-pub struct Trace {
-    pub time: Vec<f64>,
-    pub reference: Vec<f64>,
-    pub encoder_counts: Vec<i64>,
-    pub runner_position: Vec<f64>,
-    pub dac: Vec<[f64; 3]>,
-    pub disturbance_estimate: Vec<f64>,
-    pub n_steps: Vec<u32>,
-    pub fraction: Vec<f64>,
-    pub iterated: Vec<bool>,
-    pub scale_weights: [f64; 10],
-    pub q_enc: f64,
+const REFERENCE: &str = "reference";
+const ENCODER_COUNTS: &str = "plant.encoder_counts";
+const ENCODER_POSITION: &str = "plant.encoder_position";
+const RUNNER_POSITION: &str = "plant.runner_position";
+const DAC: [&str; 3] =
+    ["controller.dac_earth", "controller.dac_nonearth", "controller.dac_extension"];
+const DISTURBANCE_ESTIMATE: &str = "controller.disturbance_estimate";
+const N_STEPS: &str = "controller.n_steps";
+const FRACTION: &str = "controller.fraction";
+
+fn scale_weight(i: usize) -> String {
+    format!("controller.scale_weights[{}]", i + 1)
 }
 
+/// The variables of a closed-loop trace, as `component.variable` of `InchwormSystem.ssp`
+/// (the system input `reference` by its connector name).
+pub fn recorded() -> Vec<String> {
+    let mut names: Vec<String> = [REFERENCE, ENCODER_COUNTS, ENCODER_POSITION, RUNNER_POSITION]
+        .iter()
+        .chain(&DAC)
+        .chain(&[DISTURBANCE_ESTIMATE, N_STEPS, FRACTION])
+        .map(|s| s.to_string())
+        .collect();
+    names.extend((0..10).map(scale_weight));
+    names
+}
+
+/// One row in the order of [`recorded`]: the reference and the plant's outputs at the
+/// row's time, the controller's outputs after its latest tick.
+fn row(reference: f64, o: &Outputs, s: &Sample) -> Vec<f64> {
+    let mut v = vec![
+        reference,
+        o.encoder_counts as f64,
+        o.encoder_position,
+        o.runner_position,
+        s.dac[0],
+        s.dac[1],
+        s.dac[2],
+        s.disturbance_estimate,
+        f64::from(s.n_steps),
+        s.fraction,
+    ];
+    v.extend(s.scale_weights);
+    v.push(f64::from(u8::from(s.iterated)));
+    v
+}
+
+/// A controller sample with no plan: `dac` commanded, nothing stepping.
+fn parked(dac: [f64; 3], disturbance_estimate: f64, scale_weights: [f64; 10]) -> Sample {
+    Sample {
+        dac,
+        codes: [0; 3],
+        servo_error: 0.0,
+        disturbance_estimate,
+        step_forward: 0.0,
+        step_backward: 0.0,
+        n_steps: 0,
+        fraction: 0.0,
+        scale_weights,
+        moving: false,
+        iterated: false,
+        no_root: false,
+    }
+}
+
+/// The crates coupled directly over `duration` s: [`recorded`] and [`ITERATED`] at every
+/// communication point `k h`, k ≥ 0.
 pub fn run(
     plant: PlantParams,
     controller: Params,
     reference: impl Fn(f64) -> f64,
     duration: f64,
 ) -> Result<Trace, String> {
-    let q_enc = plant.q_enc;
     let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    // Before its first tick the controller FMU shows the parked sample with the start
+    // estimates; the t = 0 row shows the same.
+    let start = parked([0.0; 3], controller.disturbance_start, controller.scale_weights_start);
     let mut ctrl = Controller::new(controller)?;
     let h = SAMPLE_PERIOD;
     let n = (duration / h).round() as usize;
-    let mut tr = Trace { q_enc, ..Trace::default() };
+    let mut names = recorded();
+    names.push(ITERATED.into());
+    let mut trace = Trace::new(names);
+    trace.rows.reserve(n + 1);
+    trace.push(0.0, row(reference(0.0), &plant.outputs(), &start));
     let mut held = [0.0; 3];
     for k in 0..n {
         let t = k as f64 * h;
-        let r = reference(t);
-        let s = ctrl.tick(plant.outputs().encoder_counts, r);
+        let s = ctrl.tick(plant.outputs().encoder_counts, reference(t));
         plant.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h);
-        let o = plant.outputs();
-        tr.time.push((k + 1) as f64 * h);
-        tr.reference.push(reference((k + 1) as f64 * h));
-        tr.encoder_counts.push(o.encoder_counts);
-        tr.runner_position.push(o.runner_position);
-        tr.dac.push(held);
-        tr.disturbance_estimate.push(s.disturbance_estimate);
-        tr.n_steps.push(s.n_steps);
-        tr.fraction.push(s.fraction);
-        tr.iterated.push(s.iterated);
-        tr.scale_weights = s.scale_weights;
+        let t = (k + 1) as f64 * h;
+        trace.push(t, row(reference(t), &plant.outputs(), &s));
         held = s.dac;
     }
-    Ok(tr)
+    Ok(trace)
 }
 
-/// The same loop through the two FMUs (any FMI 2.0 CS master would do the same): a
-/// Jacobi coupling at 2 ms, plant parameters at their fia20 defaults, the controller's
-/// flags, deadband and start estimates set from `controller`.
-pub fn run_fmus(
-    plant_fmu: &Path,
-    controller_fmu: &Path,
-    plant_params: &[(String, f64)],
-    controller: &Params,
-    reference: impl Fn(f64) -> f64,
-    duration: f64,
-) -> Result<Trace, FmuError> {
-    let mut plant = CsFmu::load(plant_fmu, "plant", false)?;
-    let mut ctrl = CsFmu::load(controller_fmu, "controller", false)?;
-    let h = SAMPLE_PERIOD;
-    plant.enter_initialization(None, 0.0, None)?;
-    ctrl.enter_initialization(None, 0.0, None)?;
-    for (name, value) in plant_params {
-        let vr = plant.vrs_of(&[name.as_str()], VarType::Real)?;
-        plant.set_real(&vr, &[*value])?;
+/// The plant alone driven open loop by `steps` full forward steps from rest (the paper's
+/// Fig. 11), recorded like the loop so the same analysis, CSV and plot read it: the gait's
+/// volts stand in the controller's DAC columns, the reference and the estimates are 0.
+pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, String> {
+    let step = Step::new(1.0)?;
+    let volts: Vec<Dac> = (0..steps).flat_map(|_| step.samples()).collect();
+    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    // The volts commanded at sample k are held over the next one; none after the last.
+    let commanded = |k: usize| {
+        let d = volts.get(k).copied().unwrap_or_default();
+        parked([d.earth, d.nonearth, d.extension], 0.0, [0.0; 10])
+    };
+    let mut names = recorded();
+    names.push(ITERATED.into());
+    let mut trace = Trace::new(names);
+    trace.push(0.0, row(0.0, &plant.outputs(), &commanded(0)));
+    for (k, &dac) in volts.iter().enumerate() {
+        plant.step(dac, SAMPLE_PERIOD);
+        trace.push((k + 1) as f64 * SAMPLE_PERIOD, row(0.0, &plant.outputs(), &commanded(k + 1)));
     }
-    let flags = ctrl.vrs_of(
-        &["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"],
-        VarType::Boolean,
-    )?;
-    ctrl.set_boolean(
-        &flags,
-        &[
-            controller.feedforward,
-            controller.prefilter,
-            controller.use_scale_factor_estimate,
-            controller.use_disturbance_estimate,
-        ],
-    )?;
-    let mut names = vec!["deadband".to_string(), "disturbance_start".to_string()];
-    names.extend((1..=10).map(|i| format!("scale_weights_start[{i}]")));
-    names.extend((1..=10).map(|i| format!("basis_peak[{i}]")));
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let vrs = ctrl.vrs_of(&names, VarType::Real)?;
-    let mut values = vec![controller.deadband, controller.disturbance_start];
-    values.extend(controller.scale_weights_start);
-    values.extend(controller.basis_peaks);
-    ctrl.set_real(&vrs, &values)?;
-    plant.exit_initialization()?;
-    ctrl.exit_initialization()?;
-
-    let dac_names = ["dac_earth", "dac_nonearth", "dac_extension"];
-    let plant_dac = plant.vrs_of(&dac_names, VarType::Real)?;
-    let ctrl_dac = ctrl.vrs_of(&dac_names, VarType::Real)?;
-    let plant_enc = plant.vrs_of(&["encoder_counts"], VarType::Integer)?;
-    let plant_runner = plant.vrs_of(&["runner_position"], VarType::Real)?;
-    let ctrl_enc = ctrl.vrs_of(&["encoder_counts"], VarType::Integer)?;
-    let ctrl_ref = ctrl.vrs_of(&["reference"], VarType::Real)?;
-    let ctrl_out = ctrl.vrs_of(&["disturbance_estimate", "fraction"], VarType::Real)?;
-    let ctrl_steps = ctrl.vrs_of(&["n_steps"], VarType::Integer)?;
-    let weight_names: Vec<String> = (1..=10).map(|i| format!("scale_weights[{i}]")).collect();
-    let weight_names: Vec<&str> = weight_names.iter().map(String::as_str).collect();
-    let ctrl_weights = ctrl.vrs_of(&weight_names, VarType::Real)?;
-
-    let n = (duration / h).round() as usize;
-    let mut tr = Trace { q_enc: 1.2e-9, ..Trace::default() };
-    let (mut enc, mut dac, mut runner, mut out, mut steps) =
-        ([0i32], [0.0; 3], [0.0], [0.0; 2], [0i32]);
-    let mut previous_steps = None;
-    for k in 0..n {
-        let t = k as f64 * h;
-        // Jacobi: both FMUs get the other's outputs at t, then both step.
-        plant.get_integer(&plant_enc, &mut enc)?;
-        ctrl.get_real(&ctrl_dac, &mut dac)?;
-        plant.set_real(&plant_dac, &dac)?;
-        ctrl.set_integer(&ctrl_enc, &enc)?;
-        ctrl.set_real(&ctrl_ref, &[reference(t)])?;
-        plant.do_step(h)?;
-        ctrl.do_step(h)?;
-        plant.get_integer(&plant_enc, &mut enc)?;
-        plant.get_real(&plant_runner, &mut runner)?;
-        ctrl.get_real(&ctrl_out, &mut out)?;
-        ctrl.get_integer(&ctrl_steps, &mut steps)?;
-        tr.time.push((k + 1) as f64 * h);
-        tr.reference.push(reference((k + 1) as f64 * h));
-        tr.encoder_counts.push(i64::from(enc[0]));
-        tr.runner_position.push(runner[0]);
-        tr.dac.push(dac);
-        tr.disturbance_estimate.push(out[0]);
-        tr.fraction.push(out[1]);
-        tr.n_steps.push(steps[0] as u32);
-        // The FMU has no "iterated" output; a new plan shows as a change of its outputs.
-        tr.iterated.push(previous_steps != Some((steps[0], out[1].to_bits())));
-        previous_steps = Some((steps[0], out[1].to_bits()));
-    }
-    let mut w = [0.0; 10];
-    ctrl.get_real(&ctrl_weights, &mut w)?;
-    tr.scale_weights = w;
-    plant.terminate()?;
-    ctrl.terminate()?;
-    Ok(tr)
+    Ok(trace)
 }
 
-impl Trace {
+/// A closed-loop trace read for the analysis: one entry per communication point
+/// `t_k = k h`, k ≥ 1, holding the plant outputs at `t_k` and the DAC volts that were held
+/// during `[t_{k-1}, t_k)`.
+#[derive(Clone, Debug, Default)]
+pub struct LoopView {
+    pub time: Vec<f64>,
+    pub reference: Vec<f64>,
+    pub encoder_counts: Vec<i64>,
+    /// Counts × `q_enc`, as the plant computes it (m).
+    pub encoder_position: Vec<f64>,
+    pub runner_position: Vec<f64>,
+    pub dac: Vec<[f64; 3]>,
+    pub disturbance_estimate: Vec<f64>,
+    pub n_steps: Vec<u32>,
+    pub fraction: Vec<f64>,
+    /// A control iteration ran at this point: the controller crate's flag where the trace
+    /// has it, else a change of the plan outputs (`n_steps`, `fraction`).
+    pub iterated: Vec<bool>,
+    /// The estimate at the end of the run.
+    pub scale_weights: [f64; 10],
+}
+
+impl LoopView {
+    /// Reads a trace holding [`recorded`] (and [`ITERATED`] if it has it).
+    pub fn new(trace: &Trace) -> Result<LoopView, String> {
+        let col = |name: &str| -> Result<Vec<f64>, String> {
+            trace.column(name).ok_or_else(|| format!("the trace has no `{name}`"))
+        };
+        if trace.rows.is_empty() {
+            return Err("the trace is empty".into());
+        }
+        let after = |v: Vec<f64>| v[1..].to_vec();
+        let dac: Vec<Vec<f64>> = DAC.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
+        let n_steps = col(N_STEPS)?;
+        let fraction = col(FRACTION)?;
+        let iterated = match trace.column(ITERATED) {
+            Some(v) => v[1..].iter().map(|&x| x != 0.0).collect(),
+            None => (1..trace.rows.len())
+                .map(|i| {
+                    (n_steps[i], fraction[i].to_bits())
+                        != (n_steps[i - 1], fraction[i - 1].to_bits())
+                })
+                .collect(),
+        };
+        let last = &trace.rows[trace.rows.len() - 1].1;
+        let mut scale_weights = [0.0; 10];
+        for (i, w) in scale_weights.iter_mut().enumerate() {
+            let name = scale_weight(i);
+            *w = last[trace.index(&name).ok_or_else(|| format!("the trace has no `{name}`"))?];
+        }
+        Ok(LoopView {
+            time: after(trace.times()),
+            reference: after(col(REFERENCE)?),
+            encoder_counts: after(col(ENCODER_COUNTS)?).iter().map(|&c| c as i64).collect(),
+            encoder_position: after(col(ENCODER_POSITION)?),
+            runner_position: after(col(RUNNER_POSITION)?),
+            // What the controller commanded at t_{k-1} is what was held up to t_k.
+            dac: (0..trace.rows.len() - 1).map(|i| [dac[0][i], dac[1][i], dac[2][i]]).collect(),
+            disturbance_estimate: after(col(DISTURBANCE_ESTIMATE)?),
+            n_steps: n_steps[1..].iter().map(|&n| n as u32).collect(),
+            fraction: after(fraction),
+            iterated,
+            scale_weights,
+        })
+    }
+
     /// CSV of the run: one row per communication point.
-    pub fn write_csv(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
+    pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         writeln!(w, "time,reference,encoder_counts,runner_position,dac_earth,dac_nonearth,dac_extension,disturbance_estimate,n_steps,fraction")?;
         for i in 0..self.time.len() {
             let d = self.dac[i];
@@ -191,7 +235,7 @@ impl Trace {
 
     /// Position error (m) of sample `i`: reference − encoder position.
     pub fn error(&self, i: usize) -> f64 {
-        self.reference[i] - self.encoder_counts[i] as f64 * self.q_enc
+        self.reference[i] - self.encoder_position[i]
     }
 
     /// First time after which every parked sample is within `tol` of the reference.

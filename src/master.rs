@@ -8,6 +8,7 @@ use std::path::Path;
 
 use crate::fmu::{CsFmu, FmuError, Var, VarType};
 use crate::ssp::{Archive, End};
+use crate::trace::Trace;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coupling {
@@ -38,6 +39,21 @@ pub struct InputTable {
 }
 
 impl InputTable {
+    /// One signal from `(time, value)` rows, held from each time on; the times as
+    /// [`InputTable::parse`] wants them, non-decreasing and finite.
+    pub fn steps(name: &str, rows: &[(f64, f64)]) -> Result<InputTable, String> {
+        if rows.is_empty() || rows.windows(2).any(|w| w[1].0 < w[0].0) {
+            return Err(format!("input `{name}`: times must be non-decreasing, at least one row"));
+        }
+        if rows.iter().any(|(t, v)| !t.is_finite() || !v.is_finite()) {
+            return Err(format!("input `{name}`: times and values must be finite"));
+        }
+        Ok(InputTable {
+            names: vec![name.to_string()],
+            rows: rows.iter().map(|&(t, v)| (t, vec![v])).collect(),
+        })
+    }
+
     pub fn parse(text: &str) -> Result<InputTable, String> {
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = lines.next().ok_or("input CSV is empty")?;
@@ -75,28 +91,6 @@ impl InputTable {
     }
 }
 
-/// What a run recorded: one row per communication point, t = 0 first.
-pub struct Results {
-    pub names: Vec<String>,
-    pub rows: Vec<(f64, Vec<f64>)>,
-}
-
-impl Results {
-    pub fn write_csv(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
-        writeln!(w, "time,{}", self.names.join(","))?;
-        for (t, v) in &self.rows {
-            let vals: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
-            writeln!(w, "{t},{}", vals.join(","))?;
-        }
-        Ok(())
-    }
-
-    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
-        let i = self.names.iter().position(|n| n == name)?;
-        Some(self.rows.iter().map(|(_, v)| v[i]).collect())
-    }
-}
-
 /// A variable of one component, resolved.
 #[derive(Clone, Copy, Debug)]
 struct Port {
@@ -118,6 +112,13 @@ enum Feed {
 enum Source {
     Output(Port),
     Input(usize),
+}
+
+/// A recorded value: a component variable, or a system input at the row's time.
+#[derive(Clone, Copy, Debug)]
+enum Probe {
+    Port(Port),
+    SystemInput(usize),
 }
 
 struct Component {
@@ -281,222 +282,347 @@ impl Batches {
     }
 }
 
-/// Runs `path` (an `.ssp`, or a single `.fmu`).
-pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result<Results, String> {
-    let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
-    let archive = if is_ssp { Some(Archive::open(path)?) } else { None };
-    let mut components = Vec::new();
-    let mut system_inputs: Vec<String> = Vec::new();
-    let mut system_outputs: Vec<String> = Vec::new();
-    let mut connections: Vec<(End, End)> = Vec::new();
-    let (stop, step) = match &archive {
-        Some(a) => {
-            for c in &a.system.components {
-                let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false)
-                    .map_err(|e| format!("component {}: {e}", c.name))?;
-                components.push(Component { name: c.name.clone(), fmu });
-            }
-            for (name, kind) in &a.system.connectors {
-                match kind.as_str() {
-                    "input" => system_inputs.push(name.clone()),
-                    "output" => system_outputs.push(name.clone()),
-                    _ => {}
-                }
-            }
-            connections = a.system.connections.clone();
-            (a.system.stop_time, a.system.step_size)
-        }
-        None => {
+/// A system loaded and not yet initialized: its components instantiated, its connectors
+/// and connections read (phase 1 of [`run`]).
+pub struct System {
+    /// Kept for the parameter sets, and because the components' FMUs were unpacked in it.
+    archive: Option<Archive>,
+    components: Vec<Component>,
+    inputs: Vec<String>,
+    outputs: Vec<String>,
+    connections: Vec<(End, End)>,
+    stop_time: Option<f64>,
+    step_size: Option<f64>,
+}
+
+impl System {
+    /// Loads `path`: an `.ssp` (a flat system of FMI 2.0 CS FMUs), or a single `.fmu`,
+    /// which is a system whose connectors are the FMU's own.
+    pub fn load(path: &Path) -> Result<System, String> {
+        let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+        if !is_ssp {
             let fmu = CsFmu::load(path, "fmu", false).map_err(err)?;
-            let step = fmu.default_step_size();
-            system_inputs = fmu.names_with_causality("input");
-            system_outputs = fmu.names_with_causality("output");
-            // A single FMU is a system whose connectors are the FMU's own.
-            for n in &system_inputs {
-                connections.push((
-                    End { element: None, connector: n.clone() },
-                    End { element: Some("fmu".into()), connector: n.clone() },
-                ));
-            }
-            for n in &system_outputs {
-                connections.push((
-                    End { element: Some("fmu".into()), connector: n.clone() },
-                    End { element: None, connector: n.clone() },
-                ));
-            }
-            components.push(Component { name: "fmu".into(), fmu });
-            (None, step)
+            let step_size = fmu.default_step_size();
+            let inputs = fmu.names_with_causality("input");
+            let outputs = fmu.names_with_causality("output");
+            let end = |element: Option<&str>, n: &String| End {
+                element: element.map(str::to_string),
+                connector: n.clone(),
+            };
+            let connections = inputs
+                .iter()
+                .map(|n| (end(None, n), end(Some("fmu"), n)))
+                .chain(outputs.iter().map(|n| (end(Some("fmu"), n), end(None, n))))
+                .collect();
+            return Ok(System {
+                archive: None,
+                components: vec![Component { name: "fmu".into(), fmu }],
+                inputs,
+                outputs,
+                connections,
+                stop_time: None,
+                step_size,
+            });
         }
-    };
-    let stop = opts.stop_time.or(stop).unwrap_or(1.0);
-    let h = opts.step_size.or(step).unwrap_or(stop / 500.0);
-    if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
-        return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
+        let a = Archive::open(path)?;
+        let mut components = Vec::new();
+        for c in &a.system.components {
+            let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false)
+                .map_err(|e| format!("component {}: {e}", c.name))?;
+            components.push(Component { name: c.name.clone(), fmu });
+        }
+        let kind = |k: &str| -> Vec<String> {
+            a.system
+                .connectors
+                .iter()
+                .filter(|(_, kind)| kind == k)
+                .map(|(n, _)| n.clone())
+                .collect()
+        };
+        Ok(System {
+            inputs: kind("input"),
+            outputs: kind("output"),
+            connections: a.system.connections.clone(),
+            stop_time: a.system.stop_time,
+            step_size: a.system.step_size,
+            components,
+            archive: Some(a),
+        })
     }
 
-    let port = |components: &[Component], element: &str, connector: &str| -> Result<Port, String> {
-        let i = components
+    fn port(&self, element: &str, connector: &str) -> Result<Port, String> {
+        let i = self
+            .components
             .iter()
             .position(|c| c.name == element)
             .ok_or_else(|| format!("no component named `{element}`"))?;
-        let v = components[i].fmu.var(connector).map_err(err)?;
+        let v = self.components[i].fmu.var(connector).map_err(err)?;
         Ok(Port { component: i, vr: v.vr, ty: v.ty })
-    };
-    // Qualified name → port: `component.variable`, or the bare name for a single FMU.
-    let resolve = |components: &[Component], name: &str| -> Result<Port, String> {
-        if archive.is_none() {
-            return port(components, "fmu", name);
+    }
+
+    /// Qualified name → port: `component.variable`, or the bare name for a single FMU.
+    fn resolve(&self, name: &str) -> Result<Port, String> {
+        if self.archive.is_none() {
+            return self.port("fmu", name);
         }
         let (el, var) = name
             .split_once('.')
             .ok_or_else(|| format!("`{name}`: name a component variable as component.variable"))?;
-        port(components, el, var)
-    };
+        self.port(el, var)
+    }
 
-    // Wiring: every input port fed by a component output or a system input.
-    let mut wiring: Vec<(Port, Source)> = Vec::new();
-    let mut system_output_ports: BTreeMap<String, Port> = BTreeMap::new();
-    for (a, b) in &connections {
-        let source = match &a.element {
-            Some(e) => Source::Output(port(&components, e, &a.connector)?),
-            None => {
-                Source::Input(system_inputs.iter().position(|n| *n == a.connector).ok_or_else(
-                    || format!("connection starts at unknown system connector `{}`", a.connector),
-                )?)
-            }
-        };
-        match (&b.element, source) {
-            (Some(e), s) => wiring.push((port(&components, e, &b.connector)?, s)),
-            (None, Source::Output(p)) => {
-                system_output_ports.insert(b.connector.clone(), p);
-            }
-            (None, Source::Input(_)) => {
-                return Err(format!(
-                    "connection from a system input straight to system output `{}`",
-                    b.connector
-                ))
+    /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
+    /// parameter set and then `--param` values in initialization mode, and leaves every
+    /// component at t = 0 ready to step.
+    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, String> {
+        let stop = opts.stop_time.or(self.stop_time).unwrap_or(1.0);
+        let h = opts.step_size.or(self.step_size).unwrap_or(stop / 500.0);
+        if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
+            return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
+        }
+
+        // Wiring: every input port fed by a component output or a system input.
+        let mut wiring: Vec<(Port, Source)> = Vec::new();
+        let mut system_output_ports: BTreeMap<String, Port> = BTreeMap::new();
+        for (a, b) in &self.connections {
+            let source = match &a.element {
+                Some(e) => Source::Output(self.port(e, &a.connector)?),
+                None => Source::Input(
+                    self.inputs.iter().position(|n| *n == a.connector).ok_or_else(|| {
+                        format!("connection starts at unknown system connector `{}`", a.connector)
+                    })?,
+                ),
+            };
+            match (&b.element, source) {
+                (Some(e), s) => wiring.push((self.port(e, &b.connector)?, s)),
+                (None, Source::Output(p)) => {
+                    system_output_ports.insert(b.connector.clone(), p);
+                }
+                (None, Source::Input(_)) => {
+                    return Err(format!(
+                        "connection from a system input straight to system output `{}`",
+                        b.connector
+                    ))
+                }
             }
         }
-    }
-    let input_columns: Vec<Option<usize>> = system_inputs
-        .iter()
-        .map(|n| opts.input.as_ref().and_then(|t| t.names.iter().position(|c| c == n)))
-        .collect();
-    if let Some(t) = &opts.input {
-        for n in &t.names {
-            if !system_inputs.contains(n) {
+        let input_columns: Vec<Option<usize>> = self
+            .inputs
+            .iter()
+            .map(|n| opts.input.as_ref().and_then(|t| t.names.iter().position(|c| c == n)))
+            .collect();
+        if let Some(t) = &opts.input {
+            if let Some(n) = t.names.iter().find(|n| !self.inputs.contains(n)) {
                 return Err(format!(
                     "input CSV column `{n}` is not an input of the system (inputs: {})",
-                    system_inputs.join(", ")
+                    self.inputs.join(", ")
                 ));
             }
         }
+
+        let record_names: Vec<String> =
+            if opts.outputs.is_empty() { self.outputs.clone() } else { opts.outputs.clone() };
+        let mut record = Vec::new();
+        for n in &record_names {
+            // A system input of an SSP has no port to read; a single FMU's inputs are its
+            // own variables and read as such.
+            let system_input = self.archive.as_ref().and(self.inputs.iter().position(|i| i == n));
+            record.push(match (system_output_ports.get(n), system_input) {
+                (Some(p), _) => Probe::Port(*p),
+                (None, Some(i)) => Probe::SystemInput(i),
+                (None, None) => {
+                    Probe::Port(self.resolve(n).map_err(|e| format!("output `{n}`: {e}"))?)
+                }
+            });
+        }
+
+        for c in self.components.iter_mut() {
+            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
+        }
+        let mut values: Vec<(String, String)> = Vec::new();
+        if let Some(set_name) = &opts.parameter_set {
+            let a = self.archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
+            values.extend(a.parameter_set(set_name)?);
+        }
+        values.extend(opts.params.iter().cloned());
+        for (name, text) in &values {
+            let p = self.resolve(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
+            set_text(&mut self.components, p, name, text)?;
+        }
+        for c in self.components.iter_mut() {
+            c.fmu.exit_initialization().map_err(err)?;
+        }
+
+        // The component outputs that feed inputs, each read once per step into `latest`.
+        let mut sources: Vec<Port> = Vec::new();
+        let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); self.components.len()];
+        for (dst, src) in &wiring {
+            let feed = match src {
+                Source::Output(p) => {
+                    let i = sources
+                        .iter()
+                        .position(|q| q.component == p.component && q.vr == p.vr)
+                        .unwrap_or_else(|| {
+                            sources.push(*p);
+                            sources.len() - 1
+                        });
+                    Feed::Latest(i)
+                }
+                Source::Input(i) => Feed::SystemInput(*i),
+            };
+            feeds[dst.component].push((*dst, feed));
+        }
+        let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
+        let record_ports: Vec<Port> = record
+            .iter()
+            .filter_map(|p| if let Probe::Port(p) = p { Some(*p) } else { None })
+            .collect();
+        let mut sim = Simulation {
+            latest: vec![0.0; sources.len()],
+            source_batches: Batches::new(&sources)?,
+            record_batches: Batches::new(&record_ports)?,
+            destination_batches: Batches::new(
+                &destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
+            )?,
+            values: vec![0.0; destinations.len()],
+            port_values: vec![0.0; record_ports.len()],
+            destinations,
+            record,
+            record_names,
+            input: opts.input.clone(),
+            input_columns,
+            coupling: opts.coupling,
+            h,
+            n_steps: (stop / h).round().max(1.0) as u64,
+            k: 0,
+            components: self.components,
+            _archive: self.archive,
+        };
+        sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
+        Ok(sim)
+    }
+}
+
+/// An initialized system stepping on a fixed communication grid `k h` (phase 3 of [`run`]).
+pub struct Simulation {
+    components: Vec<Component>,
+    /// The latest read of every component output that feeds an input.
+    latest: Vec<f64>,
+    source_batches: Batches,
+    destinations: Vec<(Port, Feed)>,
+    destination_batches: Batches,
+    /// The values about to be written to `destinations`.
+    values: Vec<f64>,
+    record: Vec<Probe>,
+    record_names: Vec<String>,
+    record_batches: Batches,
+    port_values: Vec<f64>,
+    input: Option<InputTable>,
+    input_columns: Vec<Option<usize>>,
+    coupling: Coupling,
+    h: f64,
+    n_steps: u64,
+    k: u64,
+    _archive: Option<Archive>,
+}
+
+impl Simulation {
+    /// The communication points to step through: `stop / h`, at least one.
+    pub fn n_steps(&self) -> u64 {
+        self.n_steps
     }
 
-    let record_names: Vec<String> =
-        if opts.outputs.is_empty() { system_outputs.clone() } else { opts.outputs.clone() };
-    let mut record: Vec<Port> = Vec::new();
-    for n in &record_names {
-        match system_output_ports.get(n) {
-            Some(p) => record.push(*p),
-            None => record.push(resolve(&components, n).map_err(|e| format!("output `{n}`: {e}"))?),
+    /// The current communication point, `k h` (not accumulated, so the grid stays exact).
+    pub fn time(&self) -> f64 {
+        self.k as f64 * self.h
+    }
+
+    pub fn record_names(&self) -> &[String] {
+        &self.record_names
+    }
+
+    fn input_value(&self, i: usize, t: f64) -> f64 {
+        match (self.input_columns[i], &self.input) {
+            (Some(col), Some(table)) => table.value(col, t),
+            _ => 0.0,
         }
     }
 
-    // Initialization: parameter set, then --param values.
-    for c in components.iter_mut() {
-        c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
-    }
-    let mut values: Vec<(String, String)> = Vec::new();
-    if let Some(set_name) = &opts.parameter_set {
-        let a = archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
-        values.extend(a.parameter_set(set_name)?);
-    }
-    values.extend(opts.params.iter().cloned());
-    for (name, text) in &values {
-        let p = resolve(&components, name).map_err(|e| format!("parameter `{name}`: {e}"))?;
-        set_text(&mut components, p, name, text)?;
-    }
-    for c in components.iter_mut() {
-        c.fmu.exit_initialization().map_err(err)?;
+    /// Sets the inputs of component `only` (every component if `None`) from the latest
+    /// outputs and the system inputs at the current time.
+    fn feed(&mut self, only: Option<usize>) -> Result<(), String> {
+        let t = self.time();
+        for i in 0..self.destinations.len() {
+            let (dst, feed) = self.destinations[i];
+            if only.is_none_or(|c| c == dst.component) {
+                let v = match feed {
+                    Feed::Latest(j) => self.latest[j],
+                    Feed::SystemInput(j) => self.input_value(j, t),
+                };
+                self.values[i] = v;
+            }
+        }
+        self.destination_batches.write(&mut self.components, &self.values, only)
     }
 
-    let input_value = |k: usize, t: f64| -> f64 {
-        input_columns[k].map_or(0.0, |col| opts.input.as_ref().expect("has columns").value(col, t))
-    };
-    // The component outputs that feed inputs, each read once per step into `latest`.
-    let mut sources: Vec<Port> = Vec::new();
-    let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); components.len()];
-    for (dst, src) in &wiring {
-        let feed = match src {
-            Source::Output(p) => {
-                let i = sources
-                    .iter()
-                    .position(|q| q.component == p.component && q.vr == p.vr)
-                    .unwrap_or_else(|| {
-                        sources.push(*p);
-                        sources.len() - 1
-                    });
-                Feed::Latest(i)
-            }
-            Source::Input(i) => Feed::SystemInput(*i),
-        };
-        feeds[dst.component].push((*dst, feed));
+    /// The recorded variables now, in the order of [`Simulation::record_names`].
+    pub fn sample(&mut self) -> Result<Vec<f64>, String> {
+        self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
+        let t = self.time();
+        let mut ports = self.port_values.iter();
+        self.record
+            .iter()
+            .map(|p| match p {
+                Probe::Port(_) => Ok(*ports.next().expect("one value per recorded port")),
+                Probe::SystemInput(i) => Ok(self.input_value(*i, t)),
+            })
+            .collect()
     }
-    let mut latest = vec![0.0; sources.len()];
-    let mut source_batches = Batches::new(&sources)?;
-    let mut record_batches = Batches::new(&record)?;
-    let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
-    let mut destination_batches =
-        Batches::new(&destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>())?;
-    let mut values = vec![0.0; destinations.len()];
-    source_batches.read(&mut components, &mut latest, None)?;
-    let n_steps = (stop / h).round().max(1.0) as u64;
-    let mut rows = Vec::with_capacity(n_steps as usize + 1);
-    let mut sample = |components: &mut [Component]| -> Result<Vec<f64>, String> {
-        let mut row = vec![0.0; record.len()];
-        record_batches.read(components, &mut row, None)?;
-        Ok(row)
-    };
-    // The first row is the state after initialization.
-    rows.push((0.0, sample(&mut components)?));
-    for k in 0..n_steps {
-        let t = k as f64 * h;
-        let mut feed = |only: Option<usize>,
-                        components: &mut [Component],
-                        latest: &[f64]|
-         -> Result<(), String> {
-            for (v, (dst, feed)) in values.iter_mut().zip(&destinations) {
-                if only.is_none_or(|c| c == dst.component) {
-                    *v = match feed {
-                        Feed::Latest(i) => latest[*i],
-                        Feed::SystemInput(i) => input_value(*i, t),
-                    };
-                }
-            }
-            destination_batches.write(components, &values, only)
-        };
-        match opts.coupling {
+
+    /// One communication step from `k h` to `(k + 1) h`.
+    pub fn step(&mut self) -> Result<(), String> {
+        let h = self.h;
+        match self.coupling {
             Coupling::GaussSeidel => {
-                for ci in 0..components.len() {
-                    feed(Some(ci), &mut components, &latest)?;
-                    components[ci].fmu.do_step(h).map_err(err)?;
-                    source_batches.read(&mut components, &mut latest, Some(ci))?;
+                for ci in 0..self.components.len() {
+                    self.feed(Some(ci))?;
+                    self.components[ci].fmu.do_step(h).map_err(err)?;
+                    self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
                 }
             }
             Coupling::Jacobi => {
-                feed(None, &mut components, &latest)?;
-                for c in components.iter_mut() {
+                self.feed(None)?;
+                for c in self.components.iter_mut() {
                     c.fmu.do_step(h).map_err(err)?;
                 }
-                source_batches.read(&mut components, &mut latest, None)?;
+                self.source_batches.read(&mut self.components, &mut self.latest, None)?;
             }
         }
-        rows.push(((k + 1) as f64 * h, sample(&mut components)?));
-        progress((k + 1) as f64 / n_steps as f64);
+        self.k += 1;
+        Ok(())
     }
-    for c in components.iter_mut() {
-        c.fmu.terminate().map_err(err)?;
+
+    pub fn terminate(mut self) -> Result<(), String> {
+        for c in self.components.iter_mut() {
+            c.fmu.terminate().map_err(err)?;
+        }
+        Ok(())
     }
-    Ok(Results { names: record_names, rows })
+}
+
+/// Runs `path` (an `.ssp`, or a single `.fmu`): loads it, initializes it, steps it to the
+/// stop time and records the chosen variables at every communication point, t = 0 first.
+pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result<Trace, String> {
+    let mut sim = System::load(path)?.initialise(opts)?;
+    let n = sim.n_steps();
+    let mut trace = Trace::new(sim.record_names().to_vec());
+    trace.rows.reserve(n as usize + 1);
+    trace.push(0.0, sim.sample()?);
+    for k in 0..n {
+        sim.step()?;
+        trace.push(sim.time(), sim.sample()?);
+        progress((k + 1) as f64 / n as f64);
+    }
+    sim.terminate()?;
+    Ok(trace)
 }
