@@ -282,6 +282,13 @@ impl Batches {
     }
 }
 
+/// The connections resolved to ports.
+struct Wiring {
+    /// Every connected component input and where it is fed from.
+    inputs: Vec<(Port, Source)>,
+    system_outputs: BTreeMap<String, Port>,
+}
+
 /// A system loaded and not yet initialized: its components instantiated, its connectors
 /// and connections read (phase 1 of [`run`]).
 pub struct System {
@@ -371,19 +378,11 @@ impl System {
         self.port(el, var)
     }
 
-    /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
-    /// parameter set and then `--param` values in initialization mode, and leaves every
-    /// component at t = 0 ready to step.
-    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, String> {
-        let stop = opts.stop_time.or(self.stop_time).unwrap_or(1.0);
-        let h = opts.step_size.or(self.step_size).unwrap_or(stop / 500.0);
-        if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
-            return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
-        }
-
-        // Wiring: every input port fed by a component output or a system input.
-        let mut wiring: Vec<(Port, Source)> = Vec::new();
-        let mut system_output_ports: BTreeMap<String, Port> = BTreeMap::new();
+    /// Every input port fed by a component output or a system input, and the port behind
+    /// each system output connector.
+    fn wire(&self) -> Result<Wiring, String> {
+        let mut wiring = Vec::new();
+        let mut system_outputs = BTreeMap::new();
         for (a, b) in &self.connections {
             let source = match &a.element {
                 Some(e) => Source::Output(self.port(e, &a.connector)?),
@@ -396,7 +395,7 @@ impl System {
             match (&b.element, source) {
                 (Some(e), s) => wiring.push((self.port(e, &b.connector)?, s)),
                 (None, Source::Output(p)) => {
-                    system_output_ports.insert(b.connector.clone(), p);
+                    system_outputs.insert(b.connector.clone(), p);
                 }
                 (None, Source::Input(_)) => {
                     return Err(format!(
@@ -406,36 +405,37 @@ impl System {
                 }
             }
         }
-        let input_columns: Vec<Option<usize>> = self
-            .inputs
+        Ok(Wiring { inputs: wiring, system_outputs })
+    }
+
+    /// What each recorded name reads: a system output's port, an SSP's system input, or
+    /// a component variable.
+    fn probes(
+        &self,
+        names: &[String],
+        system_outputs: &BTreeMap<String, Port>,
+    ) -> Result<Vec<Probe>, String> {
+        names
             .iter()
-            .map(|n| opts.input.as_ref().and_then(|t| t.names.iter().position(|c| c == n)))
-            .collect();
-        if let Some(t) = &opts.input {
-            if let Some(n) = t.names.iter().find(|n| !self.inputs.contains(n)) {
-                return Err(format!(
-                    "input CSV column `{n}` is not an input of the system (inputs: {})",
-                    self.inputs.join(", ")
-                ));
-            }
-        }
+            .map(|n| {
+                // A system input of an SSP has no port to read; a single FMU's inputs are
+                // its own variables and read as such.
+                let system_input =
+                    self.archive.as_ref().and(self.inputs.iter().position(|i| i == n));
+                Ok(match (system_outputs.get(n), system_input) {
+                    (Some(p), _) => Probe::Port(*p),
+                    (None, Some(i)) => Probe::SystemInput(i),
+                    (None, None) => {
+                        Probe::Port(self.resolve(n).map_err(|e| format!("output `{n}`: {e}"))?)
+                    }
+                })
+            })
+            .collect()
+    }
 
-        let record_names: Vec<String> =
-            if opts.outputs.is_empty() { self.outputs.clone() } else { opts.outputs.clone() };
-        let mut record = Vec::new();
-        for n in &record_names {
-            // A system input of an SSP has no port to read; a single FMU's inputs are its
-            // own variables and read as such.
-            let system_input = self.archive.as_ref().and(self.inputs.iter().position(|i| i == n));
-            record.push(match (system_output_ports.get(n), system_input) {
-                (Some(p), _) => Probe::Port(*p),
-                (None, Some(i)) => Probe::SystemInput(i),
-                (None, None) => {
-                    Probe::Port(self.resolve(n).map_err(|e| format!("output `{n}`: {e}"))?)
-                }
-            });
-        }
-
+    /// Initialization mode: the parameter set's values, then `--param` values (so a
+    /// `--param` overrides the set).
+    fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), String> {
         for c in self.components.iter_mut() {
             c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
         }
@@ -452,8 +452,39 @@ impl System {
         for c in self.components.iter_mut() {
             c.fmu.exit_initialization().map_err(err)?;
         }
+        Ok(())
+    }
 
-        // The component outputs that feed inputs, each read once per step into `latest`.
+    /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
+    /// parameters in initialization mode, and leaves every component at t = 0 ready to
+    /// step.
+    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, String> {
+        let stop = opts.stop_time.or(self.stop_time).unwrap_or(1.0);
+        let h = opts.step_size.or(self.step_size).unwrap_or(stop / 500.0);
+        if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
+            return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
+        }
+        let Wiring { inputs: wiring, system_outputs } = self.wire()?;
+        let input_columns: Vec<Option<usize>> = self
+            .inputs
+            .iter()
+            .map(|n| opts.input.as_ref().and_then(|t| t.names.iter().position(|c| c == n)))
+            .collect();
+        if let Some(t) = &opts.input {
+            if let Some(n) = t.names.iter().find(|n| !self.inputs.contains(n)) {
+                return Err(format!(
+                    "input CSV column `{n}` is not an input of the system (inputs: {})",
+                    self.inputs.join(", ")
+                ));
+            }
+        }
+        let record_names: Vec<String> =
+            if opts.outputs.is_empty() { self.outputs.clone() } else { opts.outputs.clone() };
+        let record = self.probes(&record_names, &system_outputs)?;
+        self.set_parameters(opts, stop)?;
+
+        // The component outputs that feed inputs, each read once per step into `latest`;
+        // the inputs grouped by component, so Gauss–Seidel feeds one component at a time.
         let mut sources: Vec<Port> = Vec::new();
         let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); self.components.len()];
         for (dst, src) in &wiring {
