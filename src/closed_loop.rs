@@ -43,8 +43,9 @@ pub fn recorded() -> Vec<String> {
     names
 }
 
-/// One row in the order of [`recorded`]: the reference and the plant's outputs at the
-/// row's time, the controller's outputs after its latest tick.
+/// One row in the order of [`recorded`], then [`ITERATED`]: the reference and the plant's
+/// outputs at the row's time, the controller's outputs after its latest tick (as the FMU
+/// shows them once its step to that time is done).
 fn row(reference: f64, o: &Outputs, s: &Sample) -> Vec<f64> {
     let mut v = vec![
         reference,
