@@ -1,6 +1,6 @@
 //! The HIL bridge with the packaged FMUs: the controller FMU on the controller side, the
 //! plant FMU in the virtual board, over UDP loopback. In lock-step the encoder trace is the
-//! co-simulation's (`run_fmus`, the Jacobi master) sample for sample; the `inchworm`
+//! co-simulation's (the master on `InchwormSystem.ssp`, Jacobi) sample for sample; the `inchworm`
 //! binary does the same as two processes; `inchworm replay` finds no divergence in its
 //! log and finds a changed one.
 
@@ -10,20 +10,35 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use inchworm::bridge::{FmuCompensator, FmuMechanism};
-use inchworm::closed_loop::run_fmus;
+use inchworm::closed_loop::{recorded, LoopView};
+use inchworm::master::{self, Coupling, InputTable, Options};
 use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
 use inchworm_bridge::transport::UdpTransport;
-use inchworm_controller::Params;
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist");
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
 
 fn fmu(name: &str) -> PathBuf {
     let p = Path::new(DIST).join(name);
     assert!(p.is_file(), "build the FMUs first: cargo run --release -p fmu-build");
     p
+}
+
+/// The closed loop through the FMUs by the master, the reference `rows` held piecewise
+/// constant, as the bridge runs it.
+fn cosimulation(rows: &[(f64, f64)], seconds: f64) -> LoopView {
+    let opts = Options {
+        stop_time: Some(seconds),
+        step_size: Some(0.002),
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: None,
+        input: Some(InputTable::steps("reference", rows).unwrap()),
+        outputs: recorded(),
+    };
+    LoopView::new(&master::run(&fmu("InchwormSystem.ssp"), &opts, |_| {}).unwrap()).unwrap()
 }
 
 fn reference(t: f64) -> f64 {
@@ -43,15 +58,7 @@ fn scratch(name: &str) -> PathBuf {
 #[test]
 fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     let seconds = 4.0;
-    let cosim = run_fmus(
-        &fmu("InchwormPlant.fmu"),
-        &fmu("InchwormController.fmu"),
-        &[],
-        &Params::default(),
-        reference,
-        seconds,
-    )
-    .unwrap();
+    let cosim = cosimulation(&[(0.0, 100e-6), (2.0, 40e-6)], seconds);
 
     let stop = Arc::new(AtomicBool::new(false));
     let (tx, rx) = std::sync::mpsc::channel();
@@ -173,16 +180,7 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
 fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
     let seconds = 3.0;
     // The reference from a CSV, as an operator gives it: 100 µm, then 40 µm from 1.5 s.
-    let step = |t: f64| if t < 1.5 { 100e-6 } else { 40e-6 };
-    let cosim = run_fmus(
-        &fmu("InchwormPlant.fmu"),
-        &fmu("InchwormController.fmu"),
-        &[],
-        &Params::default(),
-        step,
-        seconds,
-    )
-    .unwrap();
+    let cosim = cosimulation(&[(0.0, 100e-6), (1.5, 40e-6)], seconds);
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("processes");

@@ -1,42 +1,57 @@
 //! The closed loop three ways gives one trace: (a) the crates coupled directly and (b) the
-//! two packaged FMUs loaded with the `fmi` crate and coupled by a 2 ms Jacobi loop give
-//! bit-identical encoder traces (the FMPy loop (c) is in tests/python).
+//! two packaged FMUs in `InchwormSystem.ssp`, run by the project's master on a 2 ms Jacobi
+//! grid, record bit-identical values in every column (the FMPy loop (c) is in
+//! tests/python).
 
 use std::path::Path;
 
-use inchworm::closed_loop::{run, run_fmus};
-use inchworm_controller::Params;
-use inchworm_plant::PlantParams;
+use inchworm::closed_loop::{recorded, LoopView, ITERATED};
+use inchworm::scenario::{self, Via};
+use inchworm::trace::Trace;
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist");
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
+
+fn ssp() -> std::path::PathBuf {
+    let p = Path::new(DIST).join("InchwormSystem.ssp");
+    assert!(p.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
+    p
+}
+
+/// Every recorded column equal, bit for bit, at every communication point from t = 0.
+fn assert_same(direct: &Trace, fmus: &Trace, what: &str) {
+    assert_eq!(direct.times(), fmus.times(), "{what}: communication points");
+    for name in recorded() {
+        let (d, f) = (direct.column(&name).unwrap(), fmus.column(&name).unwrap());
+        let first = d.iter().zip(&f).position(|(a, b)| a.to_bits() != b.to_bits());
+        assert_eq!(first, None, "{what}: {name} differs first at row {first:?}");
+    }
+}
 
 #[test]
 fn fig5_through_the_fmus_equals_the_direct_coupling_bit_for_bit() {
-    let plant = Path::new(DIST).join("InchwormPlant.fmu");
-    let ctrl = Path::new(DIST).join("InchwormController.fmu");
-    assert!(
-        plant.is_file() && ctrl.is_file(),
-        "build the FMUs first: cargo run --release -p fmu-build"
-    );
-    for p in [
-        Params::default(),
-        Params {
-            feedforward: false,
-            use_scale_factor_estimate: false,
-            use_disturbance_estimate: false,
-            ..Params::default()
-        },
-    ] {
-        let direct = run(PlantParams::fia20(), p.clone(), |_| 100e-6, 10.0).unwrap();
-        let fmus = run_fmus(&plant, &ctrl, &[], &p, |_| 100e-6, 10.0).unwrap();
-        assert_eq!(direct.encoder_counts.len(), fmus.encoder_counts.len());
-        let first_diff =
-            direct.encoder_counts.iter().zip(&fmus.encoder_counts).position(|(a, b)| a != b);
-        assert_eq!(first_diff, None, "encoder traces differ first at sample {first_diff:?}");
-        assert_eq!(direct.dac, fmus.dac);
-        assert_eq!(direct.runner_position, fmus.runner_position);
-        assert_eq!(direct.disturbance_estimate, fmus.disturbance_estimate);
-        assert_eq!(direct.scale_weights, fmus.scale_weights);
-        assert!(fmus.settle_time(1e-6).is_some());
+    let s = scenario::by_name("fig5").unwrap();
+    let ssp = ssp();
+    let direct = s.run(Via::Direct).unwrap();
+    let fmus = s.run(Via::System(&ssp)).unwrap();
+    assert_eq!(direct.len(), 2, "full control and feedback only");
+    for ((d, f), v) in direct.iter().zip(&fmus).zip(&s.variants) {
+        assert_same(d, f, &v.name);
+        // The master records no plan flag: the view derives it from the plan outputs.
+        assert!(d.index(ITERATED).is_some() && f.index(ITERATED).is_none());
+        let (dv, fv) = (LoopView::new(d).unwrap(), LoopView::new(f).unwrap());
+        assert_eq!(dv.dac, fv.dac);
+        assert_eq!(dv.scale_weights, fv.scale_weights);
+        assert_eq!(dv.settle_time(1e-6), fv.settle_time(1e-6));
+        assert!(fv.settle_time(1e-6).is_some(), "{}: settles within 1 µm", v.name);
     }
+}
+
+/// fia6: the plant's parameters reach the FMU from `PlantParams::fia6()` and the
+/// controller's from its own fia6 configuration, and give the direct coupling's trace.
+#[test]
+fn fia6_through_the_fmus_equals_the_direct_coupling_bit_for_bit() {
+    let s = scenario::by_name("fia6").unwrap();
+    let ssp = ssp();
+    let (direct, fmus) = (s.run(Via::Direct).unwrap(), s.run(Via::System(&ssp)).unwrap());
+    assert_same(&direct[0], &fmus[0], "fia6");
 }

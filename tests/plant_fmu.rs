@@ -16,10 +16,11 @@ use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::FmiImport;
 
 use inchworm::gait::{self, CHECK_TOLERANCE_UM, CHECK_VALUES, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
+use inchworm_plant::PlantParams;
 
-const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../dist/InchwormPlant.fmu");
+const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist/InchwormPlant.fmu");
 const TRACE: &str =
-    concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/reference/plant-check-trace-fia20.csv");
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/plant-check-trace-fia20.csv");
 /// SPEC 2.9: every sample of the trace within 2 encoder counts.
 const COUNT_TOLERANCE: i64 = 2;
 
@@ -138,7 +139,7 @@ fn reference_trace_and_check_values_through_the_fmu() {
     let rows = reference();
     assert_eq!(rows.len(), 5 * SAMPLES_PER_STEP, "{TRACE}: expected the five steps of SPEC 2.9");
     let (out, q_enc) = run_fmu(&rows);
-    assert_eq!(q_enc, 1.2e-9, "q_enc start value (SPEC 2.8)");
+    assert_eq!(q_enc, PlantParams::default().q_enc, "q_enc start value (SPEC 2.8)");
 
     let mut failures = Vec::new();
     let mut check_failures = Vec::new();

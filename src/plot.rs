@@ -10,8 +10,10 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
+use crate::closed_loop::LoopView;
 use crate::gait::{SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
-use crate::plant::{mode_name, GaitRun};
+use crate::plant::{self, GaitRun};
+use crate::trace::Trace;
 
 /// Where Debian's `fonts-dejavu-core` puts its sans-serif face.
 pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
@@ -149,11 +151,7 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
         .y_labels(6)
         // 0 and 5 only frame the four modes.
         .y_label_formatter(&|m: &i32| {
-            if (1..=4).contains(m) {
-                mode_name(*m).to_owned()
-            } else {
-                String::new()
-            }
+            plant::mode(*m).map_or(String::new(), |m| format!("{m:?}").to_uppercase())
         })
         .x_desc("time (s)")
         .y_desc("mode")
@@ -164,7 +162,7 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
     }
     let mut steps = Vec::with_capacity(2 * run.samples.len());
     for pair in run.samples.windows(2) {
-        let m = pair[0].out.mode;
+        let m = pair[0].out.mode as i32;
         steps.push((pair[0].time, m));
         steps.push((pair[1].time, m));
     }
@@ -179,7 +177,7 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
 pub fn closed_loop_png(
     title: &str,
     names: &[&str],
-    runs: &[crate::closed_loop::Trace],
+    runs: &[LoopView],
     path: &Path,
 ) -> Result<(), Box<dyn Error>> {
     let (w, h) = (1400u32, 900u32);
@@ -190,8 +188,8 @@ pub fn closed_loop_png(
     let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
     let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
     let um = 1e6;
-    let pos = |r: &crate::closed_loop::Trace| -> Vec<(f64, f64)> {
-        r.time.iter().zip(&r.encoder_counts).map(|(&t, &c)| (t, c as f64 * r.q_enc * um)).collect()
+    let pos = |r: &LoopView| -> Vec<(f64, f64)> {
+        r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * um)).collect()
     };
     let (lo, hi) = runs
         .iter()
@@ -227,11 +225,8 @@ pub fn closed_loop_png(
         if t_end <= 30.0 {
             chart.draw_series(LineSeries::new(pos(r), c.mix(0.25)))?;
         }
-        let parked: Vec<(f64, f64)> = r
-            .parked()
-            .into_iter()
-            .map(|i| (r.time[i], r.encoder_counts[i] as f64 * r.q_enc * um))
-            .collect();
+        let parked: Vec<(f64, f64)> =
+            r.parked().into_iter().map(|i| (r.time[i], r.encoder_position[i] * um)).collect();
         chart
             .draw_series(LineSeries::new(parked, c.stroke_width(2)))?
             .label(format!("{name} (parked samples): {settle}"))
@@ -273,11 +268,7 @@ pub fn closed_loop_png(
 }
 
 /// The recorded variables of an `inchworm run`, one panel each (at most 6), against time.
-pub fn results_png(
-    title: &str,
-    results: &crate::master::Results,
-    path: &Path,
-) -> Result<(), Box<dyn Error>> {
+pub fn trace_png(title: &str, results: &Trace, path: &Path) -> Result<(), Box<dyn Error>> {
     let n = results.names.len().clamp(1, 6);
     let (w, h) = (1400u32, 220 * n as u32 + 60);
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();

@@ -3,8 +3,11 @@
 
 use std::io::Write;
 
+use inchworm_plant::PlantParams;
+pub use inchworm_plant::{Dac, Mode, Outputs};
+
 use crate::fmu::{CsFmu, FmuError, VarType};
-use crate::gait::{self, Dac, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
+use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
 /// The DAC inputs (V), in the order of [`Dac`]'s fields.
 pub const INPUTS: [&str; 3] = ["dac_earth", "dac_nonearth", "dac_extension"];
@@ -17,36 +20,53 @@ const REAL_OUTPUTS: [&str; 6] = [
     "voltage_extension",
 ];
 const INTEGER_OUTPUTS: [&str; 3] = ["encoder_counts", "mode", "slip_events"];
+const BOOLEAN_OUTPUTS: [&str; 2] = ["earth_closed", "nonearth_closed"];
 
-/// The plant's outputs at one communication point (SI units, as the FMU gives them).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Outputs {
-    pub encoder_counts: i32,
-    /// Encoder reading (m): counts × `q_enc`.
-    pub encoder_position: f64,
-    /// True runner position (m).
-    pub runner_position: f64,
-    /// Extension stack elongation (m).
-    pub extension: f64,
-    /// PZT voltages after the analog chain (V).
-    pub voltage_earth: f64,
-    pub voltage_nonearth: f64,
-    pub voltage_extension: f64,
-    /// 1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE (SPEC 2.2).
-    pub mode: i32,
-    /// Entries into FREE so far.
-    pub slip_events: i32,
+/// The plant's `mode` output decoded: the FMU sends [`Mode`]'s discriminant.
+pub fn mode(code: i32) -> Option<Mode> {
+    [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free].into_iter().find(|m| *m as i32 == code)
 }
 
-/// The name SPEC 2.2 gives mode `m`.
-pub fn mode_name(m: i32) -> &'static str {
-    match m {
-        1 => "HOLD",
-        2 => "LOCKED",
-        3 => "DRIVE",
-        4 => "FREE",
-        _ => "?",
-    }
+/// The plant's parameters as the FMU names them (SPEC 2.8), every one of them, as
+/// `plant.<name>` values for the master: the FMU runs exactly `p`, whatever its start
+/// values are.
+pub fn parameters(p: &PlantParams) -> Vec<(String, String)> {
+    let mut v: Vec<(String, f64)> = vec![
+        ("m_p".into(), p.m_p),
+        ("k_p".into(), p.k_p),
+        ("c_p".into(), p.c_p),
+        ("m_b".into(), p.m_b),
+        ("k_f".into(), p.k_f),
+        ("c_f".into(), p.c_f),
+        ("m_r".into(), p.m_r),
+        ("k_e".into(), p.k_e),
+        ("c_e".into(), p.c_e),
+        ("L_p".into(), p.l_p),
+        ("L_r".into(), p.l_r),
+        ("T_em".into(), p.t_em),
+        ("C".into(), p.c),
+    ];
+    v.extend(
+        p.play_radius.iter().enumerate().map(|(i, &r)| (format!("play_radius[{}]", i + 1), r)),
+    );
+    v.extend(
+        p.play_weight.iter().enumerate().map(|(i, &w)| (format!("play_weight[{}]", i + 1), w)),
+    );
+    v.extend([
+        ("F_d0".into(), p.f_d0),
+        ("gamma".into(), p.gamma),
+        ("V_th".into(), p.v_th),
+        ("f_bessel".into(), p.f_bessel),
+        ("amp_gain".into(), p.amp_gain),
+        ("f_amp".into(), p.f_amp),
+        ("q_enc".into(), p.q_enc),
+        ("rel_tol".into(), p.rel_tol),
+        ("encoder_noise".into(), p.encoder_noise),
+    ]);
+    let mut out: Vec<(String, String)> =
+        v.into_iter().map(|(n, x)| (format!("plant.{n}"), format!("{x}"))).collect();
+    out.push(("plant.noise_seed".into(), p.noise_seed.to_string()));
+    out
 }
 
 /// A plant FMU instance, initialized and ready to step from t = 0.
@@ -55,6 +75,7 @@ pub struct Plant {
     inputs: Vec<u32>,
     reals: Vec<u32>,
     integers: Vec<u32>,
+    booleans: Vec<u32>,
     /// Encoder resolution (m), the FMU's `q_enc` parameter.
     pub q_enc: f64,
 }
@@ -66,42 +87,50 @@ impl Plant {
         let inputs = fmu.vrs_of(&INPUTS, VarType::Real)?;
         let reals = fmu.vrs_of(&REAL_OUTPUTS, VarType::Real)?;
         let integers = fmu.vrs_of(&INTEGER_OUTPUTS, VarType::Integer)?;
+        let booleans = fmu.vrs_of(&BOOLEAN_OUTPUTS, VarType::Boolean)?;
         fmu.enter_initialization(None, 0.0, None)?;
         fmu.exit_initialization()?;
         let q_enc = fmu.real("q_enc")?;
-        Ok(Self { fmu, inputs, reals, integers, q_enc })
+        Ok(Self { fmu, inputs, reals, integers, booleans, q_enc })
     }
 
     pub fn time(&self) -> f64 {
         self.fmu.time()
     }
 
-    pub fn outputs(&mut self) -> Result<Outputs, FmuError> {
+    pub fn outputs(&mut self) -> Result<Outputs, String> {
         let mut r = [0.0; 6];
         let mut i = [0; 3];
-        self.fmu.get_real(&self.reals, &mut r)?;
-        self.fmu.get_integer(&self.integers, &mut i)?;
+        let mut b = [false; 2];
+        self.fmu.get_real(&self.reals, &mut r).map_err(|e| e.to_string())?;
+        self.fmu.get_integer(&self.integers, &mut i).map_err(|e| e.to_string())?;
+        self.fmu.get_boolean(&self.booleans, &mut b).map_err(|e| e.to_string())?;
         Ok(Outputs {
-            encoder_counts: i[0],
+            encoder_counts: i64::from(i[0]),
             encoder_position: r[0],
             runner_position: r[1],
             extension: r[2],
             voltage_earth: r[3],
             voltage_nonearth: r[4],
             voltage_extension: r[5],
-            mode: i[1],
-            slip_events: i[2],
+            mode: mode(i[1]).ok_or_else(|| format!("the plant FMU gave mode {}, not 1–4", i[1]))?,
+            earth_closed: b[0],
+            nonearth_closed: b[1],
+            slip_events: u32::try_from(i[2])
+                .map_err(|_| format!("the plant FMU gave {} slip events", i[2]))?,
         })
     }
 
     /// Holds `dac` over one controller sample (one 2 ms `fmi2DoStep`).
-    pub fn step(&mut self, dac: Dac) -> Result<(), FmuError> {
-        self.fmu.set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])?;
-        self.fmu.do_step(SAMPLE_PERIOD_S)
+    pub fn step(&mut self, dac: Dac) -> Result<(), String> {
+        self.fmu
+            .set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])
+            .map_err(|e| e.to_string())?;
+        self.fmu.do_step(SAMPLE_PERIOD_S).map_err(|e| e.to_string())
     }
 
-    pub fn terminate(mut self) -> Result<(), FmuError> {
-        self.fmu.terminate()
+    pub fn terminate(mut self) -> Result<(), String> {
+        self.fmu.terminate().map_err(|e| e.to_string())
     }
 }
 
@@ -125,7 +154,7 @@ pub struct GaitRun {
 
 impl GaitRun {
     /// Drives `plant` through `steps`, 100 samples each.
-    pub fn run(plant: &mut Plant, steps: &[Step]) -> Result<Self, FmuError> {
+    pub fn run(plant: &mut Plant, steps: &[Step]) -> Result<Self, String> {
         let dacs: Vec<Dac> = steps.iter().flat_map(|s| s.samples().collect::<Vec<_>>()).collect();
         let mut samples = Vec::with_capacity(dacs.len() + 1);
         let mut out = plant.outputs()?;
@@ -135,7 +164,7 @@ impl GaitRun {
             out = plant.outputs()?;
         }
         // The sequence ends parked and nothing is commanded after it: the controller idles.
-        samples.push(Sample { time: plant.time(), dac: Dac::IDLE, out });
+        samples.push(Sample { time: plant.time(), dac: Dac::default(), out });
         Ok(Self { steps: steps.to_vec(), samples, q_enc: plant.q_enc })
     }
 
@@ -152,7 +181,7 @@ impl GaitRun {
 
     /// Writes the run as CSV: one row per communication point, SI units (s, V, m), the
     /// DAC volts being those held from that time on, the outputs those at that time.
-    pub fn write_csv(&self, w: &mut impl Write) -> std::io::Result<()> {
+    pub fn write_csv(&self, w: &mut dyn Write) -> std::io::Result<()> {
         writeln!(
             w,
             "time,dac_earth,dac_nonearth,dac_extension,encoder_counts,encoder_position,runner_position,extension,\
@@ -176,7 +205,7 @@ impl GaitRun {
                 real(o.voltage_earth),
                 real(o.voltage_nonearth),
                 real(o.voltage_extension),
-                o.mode,
+                o.mode as i32,
                 o.slip_events
             )?;
         }

@@ -8,6 +8,7 @@
 pub use inchworm_controller::gait::Direction;
 use inchworm_controller::gait::Timing;
 pub use inchworm_controller::measurements::Raw as RawMeasurements;
+use inchworm_plant::Dac;
 
 /// Controller sample period `T_s` (s), SPEC 3.1.
 pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
@@ -15,19 +16,6 @@ pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
 pub const SAMPLES_PER_STEP: usize = 100;
 /// Full-scale DAC output (V).
 pub const DAC_FULL_SCALE_V: f64 = inchworm_controller::DAC_FULL_SCALE;
-
-/// DAC output volts of the three channels, held over one sample.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Dac {
-    pub earth: f64,
-    pub nonearth: f64,
-    pub extension: f64,
-}
-
-impl Dac {
-    /// All channels at 0 V: the parked (idle) sample.
-    pub const IDLE: Dac = Dac { earth: 0.0, nonearth: 0.0, extension: 0.0 };
-}
 
 /// One step of the gait with amplitude `y` in [−1, 1] (a full step is ±1).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -138,8 +126,8 @@ mod tests {
     fn both_gaits_start_and_end_parked() {
         for y in [1.0, 0.3, -0.3, -1.0] {
             let s = Step::new(y).unwrap();
-            assert_eq!(s.dac(1), Dac::IDLE, "y = {y}: sample 1");
-            assert_eq!(s.dac(100), Dac::IDLE, "y = {y}: sample 100");
+            assert_eq!(s.dac(1), Dac::default(), "y = {y}: sample 1");
+            assert_eq!(s.dac(100), Dac::default(), "y = {y}: sample 100");
         }
     }
 
@@ -154,10 +142,8 @@ mod tests {
     /// that came with the SPEC (the plant test replays that file, the CLI generates it).
     #[test]
     fn check_sequence_reproduces_the_reference_trace_inputs() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/reference/plant-check-trace-fia20.csv"
-        );
+        let path =
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/plant-check-trace-fia20.csv");
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
         let rows: Vec<Vec<f64>> = text
             .lines()

@@ -9,44 +9,36 @@ use std::process::Command;
 use std::time::Instant;
 
 use inchworm::closed_loop::run as direct;
-use inchworm::master::{run, Coupling, InputTable, Options};
-use inchworm::scenario::staircase_reference;
+use inchworm::master::run;
+use inchworm::scenario;
 use inchworm_controller::Params;
 use inchworm_plant::PlantParams;
 
 const DURATION: f64 = 600.0;
 
 fn main() {
-    // The workspace root: dist/ and .venv/ live there.
-    let root = &Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    // The package is the workspace root: dist/ and .venv/ live there.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dist = root.join("dist");
     let ssp = dist.join("InchwormSystem.ssp");
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
-    let table = "time,reference\n0,100e-6\n100,60e-6\n200,250e-6\n300,245e-6\n400,130e-6\n500,131.5e-6\n600,20e-6\n";
-    let opts = Options {
-        stop_time: Some(DURATION),
-        step_size: Some(0.002),
-        coupling: Coupling::Jacobi,
-        params: vec![],
-        parameter_set: Some("prefilter".into()),
-        input: Some(InputTable::parse(table).unwrap()),
-        outputs: vec!["plant.encoder_counts".into()],
-    };
+    let s = scenario::by_name("staircase").expect("a scenario");
+    let controller = Params { prefilter: true, ..Params::default() };
+    // The staircase scenario's options, cut to 600 s and to the one column compared, so
+    // the master records no more than the FMPy loop does.
+    let mut opts = s.options(&PlantParams::fia20(), &controller);
+    opts.stop_time = Some(DURATION);
+    opts.outputs = vec!["plant.encoder_counts".into()];
     let t = Instant::now();
     let master = run(&ssp, &opts, |_| {}).expect("master run");
     let master_s = t.elapsed().as_secs_f64();
     let master_final = *master.column("plant.encoder_counts").unwrap().last().unwrap() as i64;
 
     let t = Instant::now();
-    let d = direct(
-        PlantParams::fia20(),
-        Params { prefilter: true, ..Params::default() },
-        staircase_reference,
-        DURATION,
-    )
-    .unwrap();
+    let d = direct(PlantParams::fia20(), controller, |t| s.reference.value(0, t), DURATION)
+        .expect("direct run");
     let direct_s = t.elapsed().as_secs_f64();
-    let direct_final = *d.encoder_counts.last().unwrap();
+    let direct_final = *d.column("plant.encoder_counts").unwrap().last().unwrap() as i64;
 
     let python = root.join(".venv/bin/python");
     let out = Command::new(&python)

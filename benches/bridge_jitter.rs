@@ -29,7 +29,7 @@ fn main() {
     let seconds: f64 =
         std::env::var("IW_BENCH_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(60.0);
     let ticks = (seconds / 0.002).round() as u64;
-    let dist = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist");
+    let dist = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist");
     let (plant, ctrl) = (dist.join("InchwormPlant.fmu"), dist.join("InchwormController.fmu"));
     assert!(
         plant.is_file() && ctrl.is_file(),

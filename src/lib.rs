@@ -1,16 +1,21 @@
 //! `inchworm`: runs the project's FMUs (or any FMI 2.0 Co-Simulation FMU) and writes results
-//! (CSV) and plots (PNG). The command-line front end is `crates/master/src/main.rs`.
+//! (CSV) and plots (PNG). The command-line front end is `src/main.rs`.
 //!
 //! * [`fmu`]: FMI 2.0 Co-Simulation import (the project's own layer, `inchworm-fmi-import`, re-exported);
 //! * [`gait`]: the stepping gait of SPEC 3, its raw measurements and the SPEC 2.9 check values;
 //! * [`plant`]: the `InchwormPlant` FMU's interface (SPEC 5) and an open-loop gait run through it;
 //! * [`plot`]: PNG plots;
-//! * [`closed_loop`], [`scenario`]: the closed loop, direct or through the FMUs, and the paper's scenarios;
-//! * [`master`], [`ssp`]: the co-simulation master for SSP systems and single FMUs;
+//! * [`controller`]: the `InchwormController` FMU's parameters from the controller crate's;
+//! * [`trace`]: what every run records, the master's and the direct coupling's alike;
+//! * [`closed_loop`]: the crates coupled directly (the reference) and the closed-loop analysis;
+//! * [`scenario`]: the paper's scenarios, through the master on the SSP or direct;
+//! * [`master`], [`ssp`]: the co-simulation master for SSP systems and single FMUs, in
+//!   load / initialise / step phases;
 //! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`).
 
 pub mod bridge;
 pub mod closed_loop;
+pub mod controller;
 pub mod fmu;
 pub mod gait;
 pub mod master;
@@ -18,3 +23,4 @@ pub mod plant;
 pub mod plot;
 pub mod scenario;
 pub mod ssp;
+pub mod trace;

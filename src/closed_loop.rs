@@ -1,0 +1,263 @@
+//! The closed loop with the two crates coupled directly (no FMI): plant and controller
+//! exchange DAC volts and encoder counts every 2 ms as a Jacobi master would, the
+//! controller's output at `t` being the sample for `[t + h, t + 2h)`.
+//!
+//! It is the reference the FMU runs are tested against, so it records what the master
+//! records on `InchwormSystem.ssp` ([`recorded`]), under the same names and with the same
+//! t = 0 row; [`LoopView`] reads either trace for the closed-loop analysis of SPEC 4.1.
+
+use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
+use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
+
+use crate::gait::Step;
+use crate::trace::Trace;
+
+/// The plan flag of the controller crate's sample: the controller FMU has no such output,
+/// so only the direct coupling records it (see [`LoopView::iterated`]).
+pub const ITERATED: &str = "iterated";
+
+const REFERENCE: &str = "reference";
+const ENCODER_COUNTS: &str = "plant.encoder_counts";
+const ENCODER_POSITION: &str = "plant.encoder_position";
+const RUNNER_POSITION: &str = "plant.runner_position";
+const DAC: [&str; 3] =
+    ["controller.dac_earth", "controller.dac_nonearth", "controller.dac_extension"];
+const DISTURBANCE_ESTIMATE: &str = "controller.disturbance_estimate";
+const N_STEPS: &str = "controller.n_steps";
+const FRACTION: &str = "controller.fraction";
+
+fn scale_weight(i: usize) -> String {
+    format!("controller.scale_weights[{}]", i + 1)
+}
+
+/// The variables of a closed-loop trace, as `component.variable` of `InchwormSystem.ssp`
+/// (the system input `reference` by its connector name).
+pub fn recorded() -> Vec<String> {
+    let mut names: Vec<String> = [REFERENCE, ENCODER_COUNTS, ENCODER_POSITION, RUNNER_POSITION]
+        .iter()
+        .chain(&DAC)
+        .chain(&[DISTURBANCE_ESTIMATE, N_STEPS, FRACTION])
+        .map(|s| s.to_string())
+        .collect();
+    names.extend((0..10).map(scale_weight));
+    names
+}
+
+/// One row in the order of [`recorded`], then [`ITERATED`]: the reference and the plant's
+/// outputs at the row's time, the controller's outputs after its latest tick (as the FMU
+/// shows them once its step to that time is done).
+fn row(reference: f64, o: &Outputs, s: &Sample) -> Vec<f64> {
+    let mut v = vec![
+        reference,
+        o.encoder_counts as f64,
+        o.encoder_position,
+        o.runner_position,
+        s.dac[0],
+        s.dac[1],
+        s.dac[2],
+        s.disturbance_estimate,
+        f64::from(s.n_steps),
+        s.fraction,
+    ];
+    v.extend(s.scale_weights);
+    v.push(f64::from(u8::from(s.iterated)));
+    v
+}
+
+/// A controller sample with no plan: `dac` commanded, nothing stepping.
+fn parked(dac: [f64; 3], disturbance_estimate: f64, scale_weights: [f64; 10]) -> Sample {
+    Sample {
+        dac,
+        codes: [0; 3],
+        servo_error: 0.0,
+        disturbance_estimate,
+        step_forward: 0.0,
+        step_backward: 0.0,
+        n_steps: 0,
+        fraction: 0.0,
+        scale_weights,
+        moving: false,
+        iterated: false,
+        no_root: false,
+    }
+}
+
+/// The crates coupled directly over `duration` s: [`recorded`] and [`ITERATED`] at every
+/// communication point `k h`, k ≥ 0.
+pub fn run(
+    plant: PlantParams,
+    controller: Params,
+    reference: impl Fn(f64) -> f64,
+    duration: f64,
+) -> Result<Trace, String> {
+    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    // Before its first tick the controller FMU shows the parked sample with the start
+    // estimates; the t = 0 row shows the same.
+    let start = parked([0.0; 3], controller.disturbance_start, controller.scale_weights_start);
+    let mut ctrl = Controller::new(controller)?;
+    let h = SAMPLE_PERIOD;
+    let n = (duration / h).round() as usize;
+    let mut names = recorded();
+    names.push(ITERATED.into());
+    let mut trace = Trace::new(names);
+    trace.rows.reserve(n + 1);
+    trace.push(0.0, row(reference(0.0), &plant.outputs(), &start));
+    let mut held = [0.0; 3];
+    for k in 0..n {
+        let t = k as f64 * h;
+        let s = ctrl.tick(plant.outputs().encoder_counts, reference(t));
+        plant.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h);
+        let t = (k + 1) as f64 * h;
+        trace.push(t, row(reference(t), &plant.outputs(), &s));
+        held = s.dac;
+    }
+    Ok(trace)
+}
+
+/// The plant alone driven open loop by `steps` full forward steps from rest (the paper's
+/// Fig. 11), recorded like the loop so the same analysis, CSV and plot read it: the gait's
+/// volts stand in the controller's DAC columns, the reference and the estimates are 0.
+pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, String> {
+    let step = Step::new(1.0)?;
+    let volts: Vec<Dac> = (0..steps).flat_map(|_| step.samples()).collect();
+    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    // The volts commanded at sample k are held over the next one; none after the last.
+    let commanded = |k: usize| {
+        let d = volts.get(k).copied().unwrap_or_default();
+        parked([d.earth, d.nonearth, d.extension], 0.0, [0.0; 10])
+    };
+    let mut names = recorded();
+    names.push(ITERATED.into());
+    let mut trace = Trace::new(names);
+    trace.push(0.0, row(0.0, &plant.outputs(), &commanded(0)));
+    for (k, &dac) in volts.iter().enumerate() {
+        plant.step(dac, SAMPLE_PERIOD);
+        trace.push((k + 1) as f64 * SAMPLE_PERIOD, row(0.0, &plant.outputs(), &commanded(k + 1)));
+    }
+    Ok(trace)
+}
+
+/// A closed-loop trace read for the analysis: one entry per communication point
+/// `t_k = k h`, k ≥ 1, holding the plant outputs at `t_k` and the DAC volts that were held
+/// during `[t_{k-1}, t_k)`.
+#[derive(Clone, Debug, Default)]
+pub struct LoopView {
+    pub time: Vec<f64>,
+    pub reference: Vec<f64>,
+    pub encoder_counts: Vec<i64>,
+    /// Counts × `q_enc`, as the plant computes it (m).
+    pub encoder_position: Vec<f64>,
+    pub runner_position: Vec<f64>,
+    pub dac: Vec<[f64; 3]>,
+    pub disturbance_estimate: Vec<f64>,
+    pub n_steps: Vec<u32>,
+    pub fraction: Vec<f64>,
+    /// A control iteration ran at this point: the controller crate's flag where the trace
+    /// has it, else a change of the plan outputs (`n_steps`, `fraction`).
+    pub iterated: Vec<bool>,
+    /// The estimate at the end of the run.
+    pub scale_weights: [f64; 10],
+}
+
+impl LoopView {
+    /// Reads a trace holding [`recorded`] (and [`ITERATED`] if it has it).
+    pub fn new(trace: &Trace) -> Result<LoopView, String> {
+        let col = |name: &str| -> Result<Vec<f64>, String> {
+            trace.column(name).ok_or_else(|| format!("the trace has no `{name}`"))
+        };
+        if trace.rows.is_empty() {
+            return Err("the trace is empty".into());
+        }
+        let after = |v: Vec<f64>| v[1..].to_vec();
+        let dac: Vec<Vec<f64>> = DAC.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
+        let n_steps = col(N_STEPS)?;
+        let fraction = col(FRACTION)?;
+        let iterated = match trace.column(ITERATED) {
+            Some(v) => v[1..].iter().map(|&x| x != 0.0).collect(),
+            None => (1..trace.rows.len())
+                .map(|i| {
+                    (n_steps[i], fraction[i].to_bits())
+                        != (n_steps[i - 1], fraction[i - 1].to_bits())
+                })
+                .collect(),
+        };
+        let last = &trace.rows[trace.rows.len() - 1].1;
+        let mut scale_weights = [0.0; 10];
+        for (i, w) in scale_weights.iter_mut().enumerate() {
+            let name = scale_weight(i);
+            *w = last[trace.index(&name).ok_or_else(|| format!("the trace has no `{name}`"))?];
+        }
+        Ok(LoopView {
+            time: after(trace.times()),
+            reference: after(col(REFERENCE)?),
+            encoder_counts: after(col(ENCODER_COUNTS)?).iter().map(|&c| c as i64).collect(),
+            encoder_position: after(col(ENCODER_POSITION)?),
+            runner_position: after(col(RUNNER_POSITION)?),
+            // What the controller commanded at t_{k-1} is what was held up to t_k.
+            dac: (0..trace.rows.len() - 1).map(|i| [dac[0][i], dac[1][i], dac[2][i]]).collect(),
+            disturbance_estimate: after(col(DISTURBANCE_ESTIMATE)?),
+            n_steps: n_steps[1..].iter().map(|&n| n as u32).collect(),
+            fraction: after(fraction),
+            iterated,
+            scale_weights,
+        })
+    }
+
+    /// CSV of the run: one row per communication point.
+    pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        writeln!(w, "time,reference,encoder_counts,runner_position,dac_earth,dac_nonearth,dac_extension,disturbance_estimate,n_steps,fraction")?;
+        for i in 0..self.time.len() {
+            let d = self.dac[i];
+            writeln!(
+                w,
+                "{},{:e},{},{:e},{},{},{},{:e},{},{}",
+                self.time[i],
+                self.reference[i],
+                self.encoder_counts[i],
+                self.runner_position[i],
+                d[0],
+                d[1],
+                d[2],
+                self.disturbance_estimate[i],
+                self.n_steps[i],
+                self.fraction[i]
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Indices of the parked samples (SPEC 4.1): all three DAC outputs zero for the
+    /// previous 8 samples.
+    pub fn parked(&self) -> Vec<usize> {
+        (8..self.time.len())
+            .filter(|&i| self.dac[i - 7..=i].iter().all(|d| d.iter().all(|v| *v == 0.0)))
+            .collect()
+    }
+
+    /// Position error (m) of sample `i`: reference − encoder position.
+    pub fn error(&self, i: usize) -> f64 {
+        self.reference[i] - self.encoder_position[i]
+    }
+
+    /// First time after which every parked sample is within `tol` of the reference.
+    pub fn settle_time(&self, tol: f64) -> Option<f64> {
+        let parked = self.parked();
+        let last_bad = parked.iter().rposition(|&i| self.error(i).abs() > tol);
+        match last_bad {
+            None => parked.first().map(|&i| self.time[i]),
+            Some(j) if j + 1 < parked.len() => Some(self.time[parked[j + 1]]),
+            Some(_) => None,
+        }
+    }
+
+    /// RMS error of the parked samples in `[from, to)` s.
+    pub fn parked_rms(&self, from: f64, to: f64) -> f64 {
+        let e: Vec<f64> = self
+            .parked()
+            .into_iter()
+            .filter(|&i| self.time[i] >= from && self.time[i] < to)
+            .map(|i| self.error(i))
+            .collect();
+        (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
+    }
+}

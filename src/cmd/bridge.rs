@@ -1,0 +1,257 @@
+//! `inchworm bridge`: either end of the HIL bridge (docs/hil-protocol.md) with the FMUs
+//! behind it.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use clap::Args;
+
+use inchworm_bridge::board::{run_board, Board, BoardConfig};
+use inchworm_bridge::controller::{run_controller, ControllerConfig};
+use inchworm_bridge::realtime::{enter_real_time, percentiles};
+use inchworm_bridge::runlog::{LogWriter, Record};
+use inchworm_bridge::transport::{open_serial, CobsTransport, Transport, UdpTransport};
+use inchworm_plant::PlantParams;
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RoleArg {
+    Controller,
+    Board,
+}
+
+#[derive(Args)]
+pub struct BridgeArgs {
+    #[arg(long, value_enum)]
+    pub role: RoleArg,
+    /// Board: the UDP address to listen on. Controller: the board's address.
+    #[arg(long, default_value = "127.0.0.1:50500")]
+    pub addr: String,
+    /// Use a serial line (COBS frames) instead of UDP.
+    #[arg(long)]
+    pub serial: Option<PathBuf>,
+    #[arg(long, default_value_t = 921_600)]
+    pub baud: u32,
+    /// The FMU to run (default: dist/InchwormController.fmu or dist/InchwormPlant.fmu).
+    #[arg(long)]
+    pub fmu: Option<PathBuf>,
+    /// A start value or parameter of the FMU; repeatable.
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// Lock-step: the controller drives each tick and the board answers at once; the
+    /// encoder trace equals the co-simulation's.
+    #[arg(long)]
+    pub lockstep: bool,
+    /// Controller: run this long (s). Board: stop after this long (default: until Ctrl-C).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Controller: CSV `time,reference` (m), held piecewise constant; default 100 µm from t = 0.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Board: periods without a valid frame before the safe state latches.
+    #[arg(long, default_value_t = 3)]
+    pub watchdog: u32,
+    /// Controller: the largest tolerated gap in the encoder stream's sequence.
+    #[arg(long, default_value_t = 3)]
+    pub max_gap: u16,
+    /// Controller: real-time periods without an encoder frame before the link is dead.
+    #[arg(long, default_value_t = 10)]
+    pub dead_after: u32,
+    /// What a missed deadline does: soft (count, log, continue) or hard (fault to the safe state).
+    #[arg(long, default_value = "soft")]
+    pub overrun: inchworm_bridge::OverrunPolicy,
+    /// SCHED_FIFO priority to ask for (needs privileges; refused: a warning, and the run goes on).
+    #[arg(long, default_value_t = 80)]
+    pub rt_priority: i32,
+    /// The run log (every sample and event; crash-proof; `inchworm replay` reads it).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Controller: the encoder trace as CSV.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Set by SIGINT/SIGTERM: the bridge stops at the next period, the board side in its safe
+/// state, the logs flushed.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn request_stop(_: libc::c_int) {
+    STOP.store(true, Ordering::Relaxed);
+}
+
+pub fn run(args: &BridgeArgs) -> Result<(), String> {
+    // SAFETY: the handler only stores to an atomic.
+    unsafe {
+        libc::signal(libc::SIGINT, request_stop as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, request_stop as *const () as libc::sighandler_t);
+    }
+    let params = super::parse_params(&args.params)?;
+    let board_role = args.role == RoleArg::Board;
+    let fmu = args.fmu.clone().unwrap_or_else(|| {
+        PathBuf::from(if board_role {
+            "dist/InchwormPlant.fmu"
+        } else {
+            "dist/InchwormController.fmu"
+        })
+    });
+    let mut transport: Box<dyn Transport> = match &args.serial {
+        Some(path) => {
+            let f = open_serial(path, args.baud).map_err(|e| format!("{}: {e}", path.display()))?;
+            Box::new(CobsTransport::new(f))
+        }
+        None if board_role => Box::new(
+            UdpTransport::bind(&args.addr)
+                .map_err(|e| format!("cannot listen on {}: {e}", args.addr))?,
+        ),
+        None => Box::new(
+            UdpTransport::connect(&args.addr)
+                .map_err(|e| format!("board address {}: {e}", args.addr))?,
+        ),
+    };
+    // The run log streams record by record (crash-proof), so the bridge crate's writer
+    // keeps it open rather than the one-shot `write_file`.
+    let mut log = match &args.log {
+        Some(p) => {
+            super::create_parent(p)?;
+            Some(LogWriter::create(p).map_err(|e| format!("run log: {e}"))?)
+        }
+        None => None,
+    };
+    if !args.lockstep {
+        let rt = enter_real_time(args.rt_priority);
+        for w in &rt.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    let mode = if args.lockstep { "lock-step" } else { "real time, 500 Hz" };
+
+    if board_role {
+        let mechanism = inchworm::bridge::FmuMechanism::load(&fmu, &params)?;
+        let cfg = BoardConfig {
+            lockstep: args.lockstep,
+            watchdog_periods: args.watchdog.max(1),
+            overrun: args.overrun,
+            ..BoardConfig::default()
+        };
+        let mut board = Board::new(mechanism, cfg, log.take())?;
+        let where_ = args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string());
+        println!(
+            "virtual board: {} on {where_} ({mode}, watchdog {} periods); Ctrl-C stops",
+            fmu.display(),
+            cfg.watchdog_periods
+        );
+        if let Some(d) = args.duration {
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_secs_f64(d.max(0.0)));
+                STOP.store(true, Ordering::Relaxed);
+            });
+        }
+        let mut lateness = Vec::new();
+        let result = run_board(&mut board, &mut transport, &STOP, &mut lateness);
+        let c = &board.counters;
+        println!(
+            "board: {} steps; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} while unarmed, {} overruns; final state {:?}",
+            c.steps, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.unarmed, c.overruns, board.state()
+        );
+        for l in &board.latches {
+            println!(
+                "safe state at tick {} ({} periods after the last valid frame): {}",
+                l.tick,
+                l.tick.wrapping_sub(l.last_valid_tick),
+                inchworm_bridge::describe_fault(&l.fault)
+            );
+        }
+        if !lateness.is_empty() {
+            let p = percentiles(&lateness);
+            println!(
+                "wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+                p.p50, p.p99, p.max
+            );
+        }
+        return result.map_err(|e| format!("board: {e}"));
+    }
+
+    let duration = args.duration.unwrap_or(10.0);
+    if !(duration > 0.0 && duration.is_finite()) {
+        return Err(format!("--duration {duration}: must be a positive number of seconds"));
+    }
+    let table = match &args.reference {
+        Some(p) => {
+            let t = super::read_input(p)?;
+            let col = t
+                .names
+                .iter()
+                .position(|n| n == "reference")
+                .ok_or_else(|| format!("{}: no `reference` column", p.display()))?;
+            Some((t, col))
+        }
+        None => None,
+    };
+    let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
+    let mut comp = inchworm::bridge::FmuCompensator::load(&fmu, &params)?;
+    if let Some(l) = log.as_mut() {
+        let mut meta = format!(
+            "role=controller\nfmu={}\nlockstep={}\nduration={duration}\n",
+            fmu.display(),
+            args.lockstep
+        );
+        for (n, v) in &params {
+            meta.push_str(&format!("param={n}={v}\n"));
+        }
+        l.write(&Record::Meta(meta)).map_err(|e| format!("run log: {e}"))?;
+    }
+    let cfg = ControllerConfig {
+        lockstep: args.lockstep,
+        ticks: (duration / inchworm_bridge::PERIOD.as_secs_f64()).round() as u64,
+        max_gap: args.max_gap,
+        dead_after: args.dead_after,
+        overrun: args.overrun,
+        ..ControllerConfig::default()
+    };
+    println!(
+        "controller bridge: {} → board at {} ({mode}), {duration} s",
+        fmu.display(),
+        args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string())
+    );
+    let wall = Instant::now();
+    let report = run_controller(&mut comp, &mut transport, &reference, &cfg, log.as_mut(), &STOP)?;
+    let wall = wall.elapsed().as_secs_f64();
+    let c = &report.counters;
+    println!(
+        "{} ticks in {wall:.2} s; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} retransmits, {} overruns",
+        report.ticks, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.retransmits, c.overruns
+    );
+    if let Some(&last) = report.encoder.last() {
+        let t = report.ticks as f64 * inchworm_bridge::PERIOD.as_secs_f64();
+        println!(
+            "final encoder {last} counts ({:.3} µm; reference {:.3} µm)",
+            f64::from(last) * PlantParams::default().q_enc * 1e6,
+            reference(t) * 1e6
+        );
+    }
+    if !report.lateness_us.is_empty() {
+        let p = percentiles(&report.lateness_us);
+        println!("wake-up lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs", p.p50, p.p99, p.max);
+    }
+    if !report.round_trip_us.is_empty() {
+        let p = percentiles(&report.round_trip_us);
+        println!(
+            "round trip (DAC frame → encoder frame echoing it): p50 {:.1} µs, p99 {:.1} µs",
+            p.p50, p.p99
+        );
+    }
+    if let Some(path) = &args.out {
+        let period = inchworm_bridge::PERIOD.as_secs_f64();
+        super::write_file(path, |w| {
+            writeln!(w, "time,encoder_counts")?;
+            for (k, c) in report.encoder.iter().enumerate() {
+                writeln!(w, "{},{c}", (k + 1) as f64 * period)?;
+            }
+            Ok(())
+        })?;
+    }
+    if let Some((_, text)) = &report.fault {
+        return Err(format!("the run ended in a fault after {} ticks: {text}", report.ticks));
+    }
+    Ok(())
+}

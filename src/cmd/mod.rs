@@ -1,0 +1,71 @@
+//! One module per command of the `inchworm` binary, and what they share: writing a file
+//! and saying so, and `--param NAME=VALUE` lists.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+pub mod bridge;
+pub mod gait;
+pub mod replay;
+pub mod run;
+pub mod scenario;
+
+/// Creates the folder `path` goes in, if it has one and it is missing.
+pub fn create_parent(path: &Path) -> Result<(), String> {
+    match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) => std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display())),
+        None => Ok(()),
+    }
+}
+
+/// Creates `path` (and its folder), writes it through `write`, flushes it and prints
+/// `wrote <path>`: a file is reported only once all of it is on disk, and every error
+/// names the file.
+pub fn write_file(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), String> {
+    create_parent(path)?;
+    let f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut w = BufWriter::new(f);
+    write(&mut w).and_then(|_| w.flush()).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// [`write_file`] for a plot: plotters creates and writes the PNG itself, so this only
+/// makes the folder, draws and reports.
+pub fn write_png(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> Result<(), Box<dyn std::error::Error>>,
+) -> Result<(), String> {
+    create_parent(path)?;
+    draw(path).map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// `--param NAME=VALUE` arguments as (name, value text) pairs.
+pub fn parse_params(params: &[String]) -> Result<Vec<(String, String)>, String> {
+    params
+        .iter()
+        .map(|p| {
+            p.split_once('=')
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .ok_or_else(|| format!("--param {p}: expected NAME=VALUE"))
+        })
+        .collect()
+}
+
+/// A CSV of inputs (`time,<name>,…`) read from `path`; errors name the file.
+pub fn read_input(path: &Path) -> Result<inchworm::master::InputTable, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    inchworm::master::InputTable::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Makes the output folder before a run, so a bad path fails before the work, not after.
+pub fn create_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the output directory: {e}", dir.display()))
+}

@@ -1,0 +1,60 @@
+//! `inchworm scenario`: a named scenario of the paper, through the master on the SSP (or
+//! the crates with `--direct`), each variant as CSV, all of them in one PNG.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use inchworm::closed_loop::LoopView;
+use inchworm::plot;
+use inchworm::scenario::{self, Via};
+
+#[derive(Args)]
+pub struct ScenarioArgs {
+    /// fig5 | staircase | calibration | fia6 | stall
+    pub name: String,
+    /// Folder holding InchwormSystem.ssp (built by `cargo run --release -p fmu-build`).
+    #[arg(long, default_value = "dist")]
+    pub dist: PathBuf,
+    /// Couple the plant and controller crates directly instead of loading the FMUs.
+    #[arg(long)]
+    pub direct: bool,
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    #[arg(long, default_value = plot::DEFAULT_FONT)]
+    pub font: PathBuf,
+}
+
+pub fn run(args: &ScenarioArgs) -> Result<(), String> {
+    let s = scenario::by_name(&args.name).ok_or_else(|| {
+        format!("unknown scenario `{}`; known: {}", args.name, scenario::NAMES.join(", "))
+    })?;
+    plot::load_font(&args.font)?;
+    super::create_dir(&args.out)?;
+    let ssp = args.dist.join("InchwormSystem.ssp");
+    let via = if args.direct { Via::Direct } else { Via::System(&ssp) };
+    let wall = Instant::now();
+    let traces = s.run(via)?;
+    let wall = wall.elapsed().as_secs_f64();
+    let views = traces.iter().map(LoopView::new).collect::<Result<Vec<_>, _>>()?;
+    println!("{} ({})", s.title, s.via_text(via));
+    for (v, r) in s.variants.iter().zip(&views) {
+        println!("  {}", s.summary(v, r));
+    }
+    let sim: f64 = s.duration * views.len() as f64;
+    println!("{sim:.0} s simulated in {wall:.2} s ({:.0}x real time)", sim / wall);
+    for (v, r) in s.variants.iter().zip(&views) {
+        let slug: String = v
+            .name
+            .split(|c: char| !c.is_alphanumeric())
+            .filter(|w| !w.is_empty())
+            .collect::<Vec<_>>()
+            .join("_");
+        super::write_file(&args.out.join(format!("{}_{slug}.csv", s.name)), |w| r.write_csv(w))?;
+    }
+    let names: Vec<&str> = s.variants.iter().map(|v| v.name.as_str()).collect();
+    super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
+        plot::closed_loop_png(s.title, &names, &views, p)
+    })
+}

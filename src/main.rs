@@ -1,0 +1,106 @@
+//! `inchworm`: command-line co-simulation master of the inchworm actuator FMUs.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+use cmd::bridge::BridgeArgs;
+use cmd::gait::GaitArgs;
+use cmd::replay::ReplayArgs;
+use cmd::run::RunArgs;
+use cmd::scenario::ScenarioArgs;
+
+#[derive(Parser)]
+#[command(
+    name = "inchworm",
+    version,
+    about = "Co-simulation of JPL's inchworm actuator: runs its FMI 2.0 FMUs, writes CSV and plots"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Drive the plant FMU open loop with the SPEC 2.9 gait sequence (steps of amplitude
+    /// +1, +1, −1, +0.3, −0.3, 100 samples of 2 ms each), write <out>/gait.csv and
+    /// <out>/gait.png, and print the SPEC 3.3 raw measurements beside the SPEC 2.9 check
+    /// values.
+    ///
+    /// gait.csv has one row per 2 ms communication point from t = 0: the DAC volts held
+    /// from that time over the next sample, and the plant outputs at that time, in SI
+    /// units (s, V, m; mode 1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE).
+    Gait(GaitArgs),
+    /// Run a named scenario of the paper (fig5, staircase, calibration, fia6: closed loops
+    /// through the master on dist/InchwormSystem.ssp, or the crates with --direct; stall:
+    /// open-loop slews of the plant crate), write <out>/<name>_<variant>.csv and
+    /// <out>/<name>.png, and print settle times, RMS and estimates.
+    Scenario(ScenarioArgs),
+    /// Run an SSP system (.ssp) or a single FMI 2.0 Co-Simulation FMU (.fmu) with a fixed
+    /// communication step, and write the chosen variables at every communication point as
+    /// CSV.
+    Run(RunArgs),
+    /// The HIL bridge (docs/hil-protocol.md). `--role controller` runs the controller FMU
+    /// against a driver board (real, or a virtual one); `--role board` is the virtual
+    /// driver board: the plant FMU behind the protocol, for the controller bridge or a real
+    /// controller board. Real time at 500 Hz, or lock-step with --lockstep.
+    Bridge(BridgeArgs),
+    /// Re-run the controller FMU on a controller-side bridge log and report any sample
+    /// whose DAC codes differ from the logged ones.
+    Replay(ReplayArgs),
+}
+
+/// Prints the FMU's logger messages (which the import layer, `inchworm-fmi-import`,
+/// forwards as `log` records with the instance name as target) and the layer's own
+/// warnings on stderr.
+struct StderrLogger;
+
+impl log::Log for StderrLogger {
+    fn enabled(&self, metadata: &log::Metadata) -> bool {
+        metadata.level() <= log::max_level()
+    }
+    fn log(&self, record: &log::Record) {
+        if self.enabled(record.metadata()) {
+            eprintln!("[{}] {}: {}", record.level(), record.target(), record.args());
+        }
+    }
+    fn flush(&self) {}
+}
+
+static LOGGER: StderrLogger = StderrLogger;
+
+fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so printing into a closed pipe panics; a command-line tool
+    // should just stop, as the shell expects.
+    // SAFETY: setting a signal disposition to its default before any thread exists.
+    #[cfg(unix)]
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    let cli = Cli::parse();
+    let level = match &cli.command {
+        Command::Gait(args) if args.fmi_logging => log::LevelFilter::Info,
+        Command::Bridge(_) => log::LevelFilter::Info,
+        _ => log::LevelFilter::Warn,
+    };
+    // Only fails if a logger is already installed, which nothing in this binary does.
+    let _ = log::set_logger(&LOGGER);
+    log::set_max_level(level);
+    let result = match cli.command {
+        Command::Gait(args) => cmd::gait::run(&args),
+        Command::Run(args) => cmd::run::run(&args),
+        Command::Scenario(args) => cmd::scenario::run(&args),
+        Command::Bridge(args) => cmd::bridge::run(&args),
+        Command::Replay(args) => cmd::replay::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,659 @@
+//! A fixed-step co-simulation master for FMI 2.0 Co-Simulation FMUs: a flat SSP system or a
+//! single FMU, Jacobi or Gauss–Seidel coupling, parameters and parameter sets, a CSV of
+//! inputs for unconnected inputs, and the chosen variables recorded at every
+//! communication point.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use crate::fmu::{CsFmu, FmuError, Var, VarType};
+use crate::ssp::{Archive, End};
+use crate::trace::Trace;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coupling {
+    /// Every component steps on the others' outputs from the start of the step.
+    Jacobi,
+    /// Components step in order, each on the outputs the earlier ones just produced.
+    GaussSeidel,
+}
+
+pub struct Options {
+    pub stop_time: Option<f64>,
+    pub step_size: Option<f64>,
+    pub coupling: Coupling,
+    /// `component.variable` (or `variable` for a single FMU) = value text.
+    pub params: Vec<(String, String)>,
+    pub parameter_set: Option<String>,
+    pub input: Option<InputTable>,
+    /// Names to record; empty: every system output connector (or every FMU output).
+    pub outputs: Vec<String>,
+}
+
+/// Piecewise-constant signals from a CSV: `time,<name>,…`; the value at `t` is that of the
+/// last row with `time ≤ t` (a repeated time row marks a jump; the later row wins).
+#[derive(Clone, Debug)]
+pub struct InputTable {
+    pub names: Vec<String>,
+    rows: Vec<(f64, Vec<f64>)>,
+}
+
+impl InputTable {
+    /// One signal from `(time, value)` rows, held from each time on; the times as
+    /// [`InputTable::parse`] wants them, non-decreasing and finite.
+    pub fn steps(name: &str, rows: &[(f64, f64)]) -> Result<InputTable, String> {
+        if rows.is_empty() || rows.windows(2).any(|w| w[1].0 < w[0].0) {
+            return Err(format!("input `{name}`: times must be non-decreasing, at least one row"));
+        }
+        if rows.iter().any(|(t, v)| !t.is_finite() || !v.is_finite()) {
+            return Err(format!("input `{name}`: times and values must be finite"));
+        }
+        Ok(InputTable {
+            names: vec![name.to_string()],
+            rows: rows.iter().map(|&(t, v)| (t, vec![v])).collect(),
+        })
+    }
+
+    pub fn parse(text: &str) -> Result<InputTable, String> {
+        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+        let header = lines.next().ok_or("input CSV is empty")?;
+        let cols: Vec<String> =
+            header.split(',').map(|c| c.trim().trim_matches('"').to_string()).collect();
+        if cols.first().map(String::as_str) != Some("time") || cols.len() < 2 {
+            return Err(format!("input CSV header must be `time,<name>,…`, got `{header}`"));
+        }
+        let mut rows = Vec::new();
+        for (i, l) in lines.enumerate() {
+            let v: Result<Vec<f64>, _> = l.split(',').map(|x| x.trim().parse::<f64>()).collect();
+            let v = v.map_err(|_| format!("input CSV line {}: not all numbers: `{l}`", i + 2))?;
+            if v.len() != cols.len() || v.iter().any(|x| !x.is_finite()) {
+                return Err(format!(
+                    "input CSV line {}: expected {} finite numbers, got `{l}`",
+                    i + 2,
+                    cols.len()
+                ));
+            }
+            if rows.last().is_some_and(|(t, _): &(f64, Vec<f64>)| v[0] < *t) {
+                return Err(format!("input CSV line {}: time goes backwards", i + 2));
+            }
+            rows.push((v[0], v[1..].to_vec()));
+        }
+        if rows.is_empty() {
+            return Err("input CSV has no rows".into());
+        }
+        Ok(InputTable { names: cols[1..].to_vec(), rows })
+    }
+
+    pub fn value(&self, column: usize, t: f64) -> f64 {
+        let tol = 1e-9 * t.abs().max(1e-3);
+        let i = self.rows.partition_point(|(rt, _)| *rt <= t + tol);
+        self.rows[i.saturating_sub(1)].1[column]
+    }
+}
+
+/// A variable of one component, resolved.
+#[derive(Clone, Copy, Debug)]
+struct Port {
+    component: usize,
+    vr: u32,
+    ty: VarType,
+}
+
+/// Where an input gets its value each step: the latest read of a component output, or a
+/// system input.
+#[derive(Clone, Copy, Debug)]
+enum Feed {
+    Latest(usize),
+    SystemInput(usize),
+}
+
+/// Where an input's value comes from.
+#[derive(Clone, Copy, Debug)]
+enum Source {
+    Output(Port),
+    Input(usize),
+}
+
+/// A recorded value: a component variable, or a system input at the row's time.
+#[derive(Clone, Copy, Debug)]
+enum Probe {
+    Port(Port),
+    SystemInput(usize),
+}
+
+struct Component {
+    name: String,
+    fmu: CsFmu,
+}
+
+fn err(e: FmuError) -> String {
+    e.to_string()
+}
+
+fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), String> {
+    set_var(&mut components[p.component].fmu, Var { vr: p.vr, ty: p.ty }, value)
+}
+
+fn set_var(f: &mut CsFmu, v: Var, value: f64) -> Result<(), String> {
+    match v.ty {
+        VarType::Real => f.set_real(&[v.vr], &[value]),
+        VarType::Integer | VarType::Enumeration => f.set_integer(&[v.vr], &[value.round() as i32]),
+        VarType::Boolean => f.set_boolean(&[v.vr], &[value != 0.0]),
+        VarType::String => return Err("String variables cannot be connected".into()),
+    }
+    .map_err(err)
+}
+
+/// A start value or parameter given as text (`--param`, an `.ssv`), checked against the
+/// variable's type.
+fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
+    let value = match ty {
+        VarType::Boolean => match text.trim() {
+            "true" | "1" => 1.0,
+            "false" | "0" => 0.0,
+            t => return Err(format!("{name} = {t}: not a Boolean (true/false)")),
+        },
+        _ => text.trim().parse::<f64>().map_err(|_| format!("{name} = {text}: not a number"))?,
+    };
+    if ty == VarType::Integer && value.fract() != 0.0 {
+        return Err(format!("{name} = {text}: not an integer"));
+    }
+    Ok(value)
+}
+
+fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), String> {
+    set(components, p, parse_value(p.ty, name, text)?)
+}
+
+/// Sets one variable of a single FMU by name from text, as `--param NAME=VALUE` does.
+pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), String> {
+    let v = fmu.var(name).map_err(err)?;
+    set_var(fmu, v, parse_value(v.ty, name, text)?)
+}
+
+/// Ports grouped by component and type, each group one `fmi2Get*`/`fmi2Set*` call: per step
+/// the master crosses the FMI boundary once per group instead of once per variable.
+struct Batches {
+    groups: Vec<Group>,
+}
+
+struct Group {
+    component: usize,
+    ty: VarType,
+    vrs: Vec<u32>,
+    /// Where each value goes in (or comes from) the caller's slice.
+    slots: Vec<usize>,
+    reals: Vec<f64>,
+    integers: Vec<i32>,
+    booleans: Vec<bool>,
+}
+
+impl Batches {
+    fn new(ports: &[Port]) -> Result<Batches, String> {
+        let mut groups: Vec<Group> = Vec::new();
+        for (slot, p) in ports.iter().enumerate() {
+            let ty = match p.ty {
+                VarType::String => {
+                    return Err("String variables cannot be connected or recorded".into())
+                }
+                VarType::Enumeration => VarType::Integer,
+                t => t,
+            };
+            let g = match groups.iter().position(|g| g.component == p.component && g.ty == ty) {
+                Some(i) => &mut groups[i],
+                None => {
+                    groups.push(Group {
+                        component: p.component,
+                        ty,
+                        vrs: vec![],
+                        slots: vec![],
+                        reals: vec![],
+                        integers: vec![],
+                        booleans: vec![],
+                    });
+                    groups.last_mut().expect("just pushed")
+                }
+            };
+            g.vrs.push(p.vr);
+            g.slots.push(slot);
+            g.reals.push(0.0);
+            g.integers.push(0);
+            g.booleans.push(false);
+        }
+        Ok(Batches { groups })
+    }
+
+    fn read(
+        &mut self,
+        components: &mut [Component],
+        out: &mut [f64],
+        only: Option<usize>,
+    ) -> Result<(), String> {
+        for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
+            let f = &mut components[g.component].fmu;
+            match g.ty {
+                VarType::Real => {
+                    f.get_real(&g.vrs, &mut g.reals).map_err(err)?;
+                    g.slots.iter().zip(&g.reals).for_each(|(&s, &v)| out[s] = v);
+                }
+                VarType::Boolean => {
+                    f.get_boolean(&g.vrs, &mut g.booleans).map_err(err)?;
+                    g.slots
+                        .iter()
+                        .zip(&g.booleans)
+                        .for_each(|(&s, &v)| out[s] = f64::from(u8::from(v)));
+                }
+                _ => {
+                    f.get_integer(&g.vrs, &mut g.integers).map_err(err)?;
+                    g.slots.iter().zip(&g.integers).for_each(|(&s, &v)| out[s] = f64::from(v));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn write(
+        &mut self,
+        components: &mut [Component],
+        values: &[f64],
+        only: Option<usize>,
+    ) -> Result<(), String> {
+        for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
+            let f = &mut components[g.component].fmu;
+            match g.ty {
+                VarType::Real => {
+                    g.slots.iter().zip(&mut g.reals).for_each(|(&s, v)| *v = values[s]);
+                    f.set_real(&g.vrs, &g.reals).map_err(err)?;
+                }
+                VarType::Boolean => {
+                    g.slots.iter().zip(&mut g.booleans).for_each(|(&s, v)| *v = values[s] != 0.0);
+                    f.set_boolean(&g.vrs, &g.booleans).map_err(err)?;
+                }
+                _ => {
+                    g.slots
+                        .iter()
+                        .zip(&mut g.integers)
+                        .for_each(|(&s, v)| *v = values[s].round() as i32);
+                    f.set_integer(&g.vrs, &g.integers).map_err(err)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The connections resolved to ports.
+struct Wiring {
+    /// Every connected component input and where it is fed from.
+    inputs: Vec<(Port, Source)>,
+    system_outputs: BTreeMap<String, Port>,
+}
+
+/// A system loaded and not yet initialized: its components instantiated, its connectors
+/// and connections read (phase 1 of [`run`]).
+pub struct System {
+    /// Kept for the parameter sets, and because the components' FMUs were unpacked in it.
+    archive: Option<Archive>,
+    components: Vec<Component>,
+    inputs: Vec<String>,
+    outputs: Vec<String>,
+    connections: Vec<(End, End)>,
+    stop_time: Option<f64>,
+    step_size: Option<f64>,
+}
+
+impl System {
+    /// Loads `path`: an `.ssp` (a flat system of FMI 2.0 CS FMUs), or a single `.fmu`,
+    /// which is a system whose connectors are the FMU's own.
+    pub fn load(path: &Path) -> Result<System, String> {
+        let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+        if !is_ssp {
+            let fmu = CsFmu::load(path, "fmu", false).map_err(err)?;
+            let step_size = fmu.default_step_size();
+            let inputs = fmu.names_with_causality("input");
+            let outputs = fmu.names_with_causality("output");
+            let end = |element: Option<&str>, n: &String| End {
+                element: element.map(str::to_string),
+                connector: n.clone(),
+            };
+            let connections = inputs
+                .iter()
+                .map(|n| (end(None, n), end(Some("fmu"), n)))
+                .chain(outputs.iter().map(|n| (end(Some("fmu"), n), end(None, n))))
+                .collect();
+            return Ok(System {
+                archive: None,
+                components: vec![Component { name: "fmu".into(), fmu }],
+                inputs,
+                outputs,
+                connections,
+                stop_time: None,
+                step_size,
+            });
+        }
+        let a = Archive::open(path)?;
+        let mut components = Vec::new();
+        for c in &a.system.components {
+            let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false)
+                .map_err(|e| format!("component {}: {e}", c.name))?;
+            components.push(Component { name: c.name.clone(), fmu });
+        }
+        let kind = |k: &str| -> Vec<String> {
+            a.system
+                .connectors
+                .iter()
+                .filter(|(_, kind)| kind == k)
+                .map(|(n, _)| n.clone())
+                .collect()
+        };
+        Ok(System {
+            inputs: kind("input"),
+            outputs: kind("output"),
+            connections: a.system.connections.clone(),
+            stop_time: a.system.stop_time,
+            step_size: a.system.step_size,
+            components,
+            archive: Some(a),
+        })
+    }
+
+    fn port(&self, element: &str, connector: &str) -> Result<Port, String> {
+        let i = self
+            .components
+            .iter()
+            .position(|c| c.name == element)
+            .ok_or_else(|| format!("no component named `{element}`"))?;
+        let v = self.components[i].fmu.var(connector).map_err(err)?;
+        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+    }
+
+    /// Qualified name → port: `component.variable`, or the bare name for a single FMU.
+    fn resolve(&self, name: &str) -> Result<Port, String> {
+        if self.archive.is_none() {
+            return self.port("fmu", name);
+        }
+        let (el, var) = name
+            .split_once('.')
+            .ok_or_else(|| format!("`{name}`: name a component variable as component.variable"))?;
+        self.port(el, var)
+    }
+
+    /// Every input port fed by a component output or a system input, and the port behind
+    /// each system output connector.
+    fn wire(&self) -> Result<Wiring, String> {
+        let mut wiring = Vec::new();
+        let mut system_outputs = BTreeMap::new();
+        for (a, b) in &self.connections {
+            let source = match &a.element {
+                Some(e) => Source::Output(self.port(e, &a.connector)?),
+                None => Source::Input(
+                    self.inputs.iter().position(|n| *n == a.connector).ok_or_else(|| {
+                        format!("connection starts at unknown system connector `{}`", a.connector)
+                    })?,
+                ),
+            };
+            match (&b.element, source) {
+                (Some(e), s) => wiring.push((self.port(e, &b.connector)?, s)),
+                (None, Source::Output(p)) => {
+                    system_outputs.insert(b.connector.clone(), p);
+                }
+                (None, Source::Input(_)) => {
+                    return Err(format!(
+                        "connection from a system input straight to system output `{}`",
+                        b.connector
+                    ))
+                }
+            }
+        }
+        Ok(Wiring { inputs: wiring, system_outputs })
+    }
+
+    /// What each recorded name reads: a system output's port, an SSP's system input, or
+    /// a component variable.
+    fn probes(
+        &self,
+        names: &[String],
+        system_outputs: &BTreeMap<String, Port>,
+    ) -> Result<Vec<Probe>, String> {
+        names
+            .iter()
+            .map(|n| {
+                // A system input of an SSP has no port to read; a single FMU's inputs are
+                // its own variables and read as such.
+                let system_input =
+                    self.archive.as_ref().and(self.inputs.iter().position(|i| i == n));
+                Ok(match (system_outputs.get(n), system_input) {
+                    (Some(p), _) => Probe::Port(*p),
+                    (None, Some(i)) => Probe::SystemInput(i),
+                    (None, None) => {
+                        Probe::Port(self.resolve(n).map_err(|e| format!("output `{n}`: {e}"))?)
+                    }
+                })
+            })
+            .collect()
+    }
+
+    /// Initialization mode: the parameter set's values, then `--param` values (so a
+    /// `--param` overrides the set).
+    fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), String> {
+        for c in self.components.iter_mut() {
+            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
+        }
+        let mut values: Vec<(String, String)> = Vec::new();
+        if let Some(set_name) = &opts.parameter_set {
+            let a = self.archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
+            values.extend(a.parameter_set(set_name)?);
+        }
+        values.extend(opts.params.iter().cloned());
+        for (name, text) in &values {
+            let p = self.resolve(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
+            set_text(&mut self.components, p, name, text)?;
+        }
+        for c in self.components.iter_mut() {
+            c.fmu.exit_initialization().map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
+    /// parameters in initialization mode, and leaves every component at t = 0 ready to
+    /// step.
+    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, String> {
+        let stop = opts.stop_time.or(self.stop_time).unwrap_or(1.0);
+        let h = opts.step_size.or(self.step_size).unwrap_or(stop / 500.0);
+        if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
+            return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
+        }
+        let Wiring { inputs: wiring, system_outputs } = self.wire()?;
+        let input_columns: Vec<Option<usize>> = self
+            .inputs
+            .iter()
+            .map(|n| opts.input.as_ref().and_then(|t| t.names.iter().position(|c| c == n)))
+            .collect();
+        if let Some(t) = &opts.input {
+            if let Some(n) = t.names.iter().find(|n| !self.inputs.contains(n)) {
+                return Err(format!(
+                    "input CSV column `{n}` is not an input of the system (inputs: {})",
+                    self.inputs.join(", ")
+                ));
+            }
+        }
+        let record_names: Vec<String> =
+            if opts.outputs.is_empty() { self.outputs.clone() } else { opts.outputs.clone() };
+        let record = self.probes(&record_names, &system_outputs)?;
+        self.set_parameters(opts, stop)?;
+
+        // The component outputs that feed inputs, each read once per step into `latest`;
+        // the inputs grouped by component, so Gauss–Seidel feeds one component at a time.
+        let mut sources: Vec<Port> = Vec::new();
+        let mut feeds: Vec<Vec<(Port, Feed)>> = vec![Vec::new(); self.components.len()];
+        for (dst, src) in &wiring {
+            let feed = match src {
+                Source::Output(p) => {
+                    let i = sources
+                        .iter()
+                        .position(|q| q.component == p.component && q.vr == p.vr)
+                        .unwrap_or_else(|| {
+                            sources.push(*p);
+                            sources.len() - 1
+                        });
+                    Feed::Latest(i)
+                }
+                Source::Input(i) => Feed::SystemInput(*i),
+            };
+            feeds[dst.component].push((*dst, feed));
+        }
+        let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
+        let record_ports: Vec<Port> = record
+            .iter()
+            .filter_map(|p| if let Probe::Port(p) = p { Some(*p) } else { None })
+            .collect();
+        let mut sim = Simulation {
+            latest: vec![0.0; sources.len()],
+            source_batches: Batches::new(&sources)?,
+            record_batches: Batches::new(&record_ports)?,
+            destination_batches: Batches::new(
+                &destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
+            )?,
+            values: vec![0.0; destinations.len()],
+            port_values: vec![0.0; record_ports.len()],
+            destinations,
+            record,
+            record_names,
+            input: opts.input.clone(),
+            input_columns,
+            coupling: opts.coupling,
+            h,
+            n_steps: (stop / h).round().max(1.0) as u64,
+            k: 0,
+            components: self.components,
+            _archive: self.archive,
+        };
+        sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
+        Ok(sim)
+    }
+}
+
+/// An initialized system stepping on a fixed communication grid `k h` (phase 3 of [`run`]).
+pub struct Simulation {
+    components: Vec<Component>,
+    /// The latest read of every component output that feeds an input.
+    latest: Vec<f64>,
+    source_batches: Batches,
+    destinations: Vec<(Port, Feed)>,
+    destination_batches: Batches,
+    /// The values about to be written to `destinations`.
+    values: Vec<f64>,
+    record: Vec<Probe>,
+    record_names: Vec<String>,
+    record_batches: Batches,
+    port_values: Vec<f64>,
+    input: Option<InputTable>,
+    input_columns: Vec<Option<usize>>,
+    coupling: Coupling,
+    h: f64,
+    n_steps: u64,
+    k: u64,
+    _archive: Option<Archive>,
+}
+
+impl Simulation {
+    /// The communication points to step through: `stop / h`, at least one.
+    pub fn n_steps(&self) -> u64 {
+        self.n_steps
+    }
+
+    /// The current communication point, `k h` (not accumulated, so the grid stays exact).
+    pub fn time(&self) -> f64 {
+        self.k as f64 * self.h
+    }
+
+    pub fn record_names(&self) -> &[String] {
+        &self.record_names
+    }
+
+    fn input_value(&self, i: usize, t: f64) -> f64 {
+        match (self.input_columns[i], &self.input) {
+            (Some(col), Some(table)) => table.value(col, t),
+            _ => 0.0,
+        }
+    }
+
+    /// Sets the inputs of component `only` (every component if `None`) from the latest
+    /// outputs and the system inputs at the current time.
+    fn feed(&mut self, only: Option<usize>) -> Result<(), String> {
+        let t = self.time();
+        for i in 0..self.destinations.len() {
+            let (dst, feed) = self.destinations[i];
+            if only.is_none_or(|c| c == dst.component) {
+                let v = match feed {
+                    Feed::Latest(j) => self.latest[j],
+                    Feed::SystemInput(j) => self.input_value(j, t),
+                };
+                self.values[i] = v;
+            }
+        }
+        self.destination_batches.write(&mut self.components, &self.values, only)
+    }
+
+    /// The recorded variables now, in the order of [`Simulation::record_names`].
+    pub fn sample(&mut self) -> Result<Vec<f64>, String> {
+        self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
+        let t = self.time();
+        let mut ports = self.port_values.iter();
+        self.record
+            .iter()
+            .map(|p| match p {
+                Probe::Port(_) => Ok(*ports.next().expect("one value per recorded port")),
+                Probe::SystemInput(i) => Ok(self.input_value(*i, t)),
+            })
+            .collect()
+    }
+
+    /// One communication step from `k h` to `(k + 1) h`.
+    pub fn step(&mut self) -> Result<(), String> {
+        let h = self.h;
+        match self.coupling {
+            Coupling::GaussSeidel => {
+                for ci in 0..self.components.len() {
+                    self.feed(Some(ci))?;
+                    self.components[ci].fmu.do_step(h).map_err(err)?;
+                    self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
+                }
+            }
+            Coupling::Jacobi => {
+                self.feed(None)?;
+                for c in self.components.iter_mut() {
+                    c.fmu.do_step(h).map_err(err)?;
+                }
+                self.source_batches.read(&mut self.components, &mut self.latest, None)?;
+            }
+        }
+        self.k += 1;
+        Ok(())
+    }
+
+    pub fn terminate(mut self) -> Result<(), String> {
+        for c in self.components.iter_mut() {
+            c.fmu.terminate().map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Runs `path` (an `.ssp`, or a single `.fmu`): loads it, initializes it, steps it to the
+/// stop time and records the chosen variables at every communication point, t = 0 first.
+pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result<Trace, String> {
+    let mut sim = System::load(path)?.initialise(opts)?;
+    let n = sim.n_steps();
+    let mut trace = Trace::new(sim.record_names().to_vec());
+    trace.rows.reserve(n as usize + 1);
+    trace.push(0.0, sim.sample()?);
+    for k in 0..n {
+        sim.step()?;
+        trace.push(sim.time(), sim.sample()?);
+        progress((k + 1) as f64 / n as f64);
+    }
+    sim.terminate()?;
+    Ok(trace)
+}
