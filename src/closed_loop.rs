@@ -106,7 +106,9 @@ pub fn run(
     for k in 0..n {
         let t = k as f64 * h;
         let s = ctrl.tick(plant.outputs().encoder_counts, reference(t));
-        plant.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h);
+        plant
+            .step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h)
+            .map_err(|e| e.to_string())?;
         let t = (k + 1) as f64 * h;
         trace.push(t, row(reference(t), &plant.outputs(), &s));
         held = s.dac;
@@ -131,7 +133,7 @@ pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, String>
     let mut trace = Trace::new(names);
     trace.push(0.0, row(0.0, &plant.outputs(), &commanded(0)));
     for (k, &dac) in volts.iter().enumerate() {
-        plant.step(dac, SAMPLE_PERIOD);
+        plant.step(dac, SAMPLE_PERIOD).map_err(|e| e.to_string())?;
         trace.push((k + 1) as f64 * SAMPLE_PERIOD, row(0.0, &plant.outputs(), &commanded(k + 1)));
     }
     Ok(trace)

@@ -70,7 +70,7 @@ fn run_direct(dac: Dac, n: usize) -> Vec<(i64, f64)> {
     let mut p = Plant::new(PlantParams::fia20()).unwrap();
     (0..n)
         .map(|_| {
-            p.step(dac, H);
+            p.step(dac, H).unwrap();
             let o = p.outputs();
             (o.encoder_counts, o.runner_position)
         })

@@ -66,38 +66,38 @@ static VARIABLES: [Variable; 47] = [
     Variable::output("earth_closed", vr::EARTH_CLOSED, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)"),
     Variable::output("nonearth_closed", vr::NONEARTH_CLOSED, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)"),
     Variable::output("slip_events", vr::SLIP_EVENTS, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)"),
-    Variable::parameter("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass"),
-    Variable::parameter("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness"),
-    Variable::parameter("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping"),
-    Variable::parameter("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3"),
-    Variable::parameter("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness"),
-    Variable::parameter("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping"),
-    Variable::parameter("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass"),
-    Variable::parameter("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner"),
-    Variable::parameter("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner"),
-    Variable::parameter("L_p", vr::L_P, 0.036, M, "Extension PZT rest length"),
-    Variable::parameter("L_r", vr::L_R, 0.0, M, "Runner rest position"),
-    Variable::parameter("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio"),
-    Variable::parameter("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance"),
-    Variable::parameter("play_radius[1]", vr::PLAY_RADIUS, 10.0, V, "Play operator radius 1 (radii strictly increasing)"),
-    Variable::parameter("play_radius[2]", vr::PLAY_RADIUS + 1, 20.0, V, "Play operator radius 2"),
-    Variable::parameter("play_radius[3]", vr::PLAY_RADIUS + 2, 30.0, V, "Play operator radius 3"),
-    Variable::parameter("play_radius[4]", vr::PLAY_RADIUS + 3, 40.0, V, "Play operator radius 4"),
-    Variable::parameter("play_radius[5]", vr::PLAY_RADIUS + 4, 50.0, V, "Play operator radius 5"),
-    Variable::parameter("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Play operator weight 1"),
-    Variable::parameter("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Play operator weight 2"),
-    Variable::parameter("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Play operator weight 3"),
-    Variable::parameter("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Play operator weight 4"),
-    Variable::parameter("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Play operator weight 5"),
-    Variable::parameter("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE"),
-    Variable::parameter("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load"),
-    Variable::parameter("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage"),
-    Variable::parameter("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency"),
-    Variable::parameter("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain"),
-    Variable::parameter("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency"),
-    Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count"),
-    Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event location tolerance: brake switches and play events located to this time (1e-12..1e-6)"),
-    Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)"),
+    Variable::parameter("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass").with_range(1e-4, 10.0),
+    Variable::parameter("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness").with_range(1e5, 1e10),
+    Variable::parameter("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping").with_range(0.0, 1e5),
+    Variable::parameter("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3").with_range(1e-4, 10.0),
+    Variable::parameter("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness").with_range(1000.0, 1e10),
+    Variable::parameter("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping").with_range(0.0, 1e5),
+    Variable::parameter("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass").with_range(1e-4, 100.0),
+    Variable::parameter("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner").with_range(0.0, 1e9),
+    Variable::parameter("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner").with_range(0.0, 1e5),
+    Variable::parameter("L_p", vr::L_P, 0.036, M, "Extension PZT rest length").with_range(1e-4, 1.0),
+    Variable::parameter("L_r", vr::L_R, 0.0, M, "Runner rest position").with_range(-1.0, 1.0),
+    Variable::parameter("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio").with_range(0.001, 1000.0),
+    Variable::parameter("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance").with_range(1e-10, 0.01),
+    Variable::parameter("play_radius[1]", vr::PLAY_RADIUS, 15.0, V, "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)").with_range(0.001, 1000.0),
+    Variable::parameter("play_radius[2]", vr::PLAY_RADIUS + 1, 30.0, V, "Hysteresis element 2: slip radius").with_range(0.001, 1000.0),
+    Variable::parameter("play_radius[3]", vr::PLAY_RADIUS + 2, 45.0, V, "Hysteresis element 3: slip radius").with_range(0.001, 1000.0),
+    Variable::parameter("play_radius[4]", vr::PLAY_RADIUS + 3, 60.0, V, "Hysteresis element 4: slip radius").with_range(0.001, 1000.0),
+    Variable::parameter("play_radius[5]", vr::PLAY_RADIUS + 4, 75.0, V, "Hysteresis element 5: slip radius").with_range(0.001, 1000.0),
+    Variable::parameter("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Hysteresis element 1: weight (capacitance C / weight)").with_range(0.0, 10.0),
+    Variable::parameter("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Hysteresis element 2: weight (capacitance C / weight)").with_range(0.0, 10.0),
+    Variable::parameter("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Hysteresis element 3: weight (capacitance C / weight)").with_range(0.0, 10.0),
+    Variable::parameter("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Hysteresis element 4: weight (capacitance C / weight)").with_range(0.0, 10.0),
+    Variable::parameter("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Hysteresis element 5: weight (capacitance C / weight)").with_range(0.0, 10.0),
+    Variable::parameter("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE").with_range(-1e4, 1e4),
+    Variable::parameter("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load").with_range(0.0, 100.0),
+    Variable::parameter("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage").with_range(0.001, 1e4),
+    Variable::parameter("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency").with_range(1.0, 1e6),
+    Variable::parameter("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain").with_range(0.001, 1000.0),
+    Variable::parameter("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency").with_range(1.0, 1e6),
+    Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count").with_range(1e-12, 0.001),
+    Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6),
+    Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001),
     Variable::integer_parameter("noise_seed", vr::NOISE_SEED, 1, None, "Seed of the encoder noise generator"),
 ];
 
@@ -117,7 +117,7 @@ static UNITS: [Unit; 10] = [
 static INFO: ModelInfo = ModelInfo {
     model_name: "InchwormPlant",
     model_identifier: "InchwormPlant",
-    description: "JPL flight inchworm actuator: driver-board analog chain, three-element PZT with Prandtl-Ishlinskii hysteresis, brakes with events at V_th, flexure, runner, brake disturbance, 1.2 nm encoder",
+    description: "JPL flight inchworm actuator: driver-board analog chain, three-element PZT with passive Maxwell-slip hysteresis, brakes with events at V_th, flexure, runner, brake disturbance, 1.2 nm encoder",
     version: env!("CARGO_PKG_VERSION"),
     default_start_time: 0.0,
     default_stop_time: 1.0,
@@ -276,7 +276,7 @@ impl Model for PlantFmu {
     fn do_step(&mut self, _t: f64, h: f64) -> Result<Vec<Message>, String> {
         let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
         let before = plant.mode();
-        let report = plant.step(self.dac, h);
+        let report = plant.step(self.dac, h).map_err(|e| e.to_string())?;
         let mut messages = Vec::new();
         if report.brake_events > 0 {
             messages.push(Message::Event(format!(
@@ -326,5 +326,36 @@ impl Model for PlantFmu {
             return Err("plant FMU state: trailing bytes after an uninitialized plant".into());
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use inchworm_fmi_export::{Causality, Start};
+
+    /// The table is the FMU's public description; the plant crate holds the defaults and the
+    /// ranges. Every parameter's start and min/max must be the plant's own.
+    #[test]
+    fn parameter_starts_and_ranges_are_the_plant_crates() {
+        let fmu = PlantFmu::new();
+        let mut checked = 0;
+        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
+            let base = v.name.split('[').next().unwrap();
+            match v.start {
+                Start::Real(start) => {
+                    assert_eq!(start, fmu.get_real(v.vr).unwrap(), "{}: start", v.name);
+                    let (lo, hi, _) = inchworm_plant::params::range(base)
+                        .unwrap_or_else(|| panic!("{} has no range in the plant crate", v.name));
+                    assert_eq!((v.min, v.max), (Some(lo), Some(hi)), "{}: range", v.name);
+                    checked += 1;
+                }
+                Start::Integer(start) => {
+                    assert_eq!(start, fmu.get_integer(v.vr).unwrap(), "{}: start", v.name)
+                }
+                _ => panic!("{}: unexpected start {:?}", v.name, v.start),
+            }
+        }
+        assert_eq!(checked, 32);
     }
 }

@@ -37,14 +37,16 @@ impl Mechanism for DirectPlant {
         Ok(self.0.outputs().encoder_counts as i32)
     }
     fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
-        self.0.step(
-            Dac {
-                earth: volts_of_code(codes[0]),
-                nonearth: volts_of_code(codes[1]),
-                extension: volts_of_code(codes[2]),
-            },
-            H,
-        );
+        self.0
+            .step(
+                Dac {
+                    earth: volts_of_code(codes[0]),
+                    nonearth: volts_of_code(codes[1]),
+                    extension: volts_of_code(codes[2]),
+                },
+                H,
+            )
+            .map_err(|e| e.to_string())?;
         self.counts()
     }
 }
