@@ -4,7 +4,7 @@
 //!
 //! It is the reference the FMU runs are tested against, so it records what the master
 //! records on `InchwormSystem.ssp` ([`recorded`]), under the same names and with the same
-//! t = 0 row; [`LoopView`] reads either trace for the closed-loop analysis of SPEC 4.1.
+//! t = 0 row; [`LoopView`] reads either trace for the closed-loop analysis of docs/model.md §4.1.
 
 use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
@@ -228,7 +228,7 @@ impl LoopView {
         Ok(())
     }
 
-    /// Indices of the parked samples (SPEC 4.1): all three DAC outputs zero for the
+    /// Indices of the parked samples (docs/model.md §4.1): all three DAC outputs zero for the
     /// previous 8 samples.
     pub fn parked(&self) -> Vec<usize> {
         (8..self.time.len())

@@ -1,4 +1,4 @@
-//! The stepping gait of SPEC section 3 and its raw measurements, plus the SPEC 2.9 check
+//! The stepping gait of docs/model.md §3 and its raw measurements, plus the docs/model.md §2.9 check
 //! sequence and values.
 //!
 //! This is the open-loop gait the `inchworm gait` command drives the plant FMU with; the
@@ -10,9 +10,9 @@ use inchworm_controller::gait::Timing;
 pub use inchworm_controller::measurements::Raw as RawMeasurements;
 use inchworm_plant::Dac;
 
-/// Controller sample period `T_s` (s), SPEC 3.1.
+/// Controller sample period `T_s` (s), docs/model.md §3.1.
 pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
-/// Samples per step (`T_sp = 100 · T_s = 0.2 s`), SPEC 3.1.
+/// Samples per step (`T_sp = 100 · T_s = 0.2 s`), docs/model.md §3.1.
 pub const SAMPLES_PER_STEP: usize = 100;
 /// Full-scale DAC output (V).
 pub const DAC_FULL_SCALE_V: f64 = inchworm_controller::DAC_FULL_SCALE;
@@ -46,12 +46,12 @@ impl Step {
     }
 
     /// Commanded extension fraction `w_ext(k)` of 1-based sample `k`: DAC volts / 10,
-    /// before quantization, positive in both gaits (SPEC 3.1, 4).
+    /// before quantization, positive in both gaits (docs/model.md §3.1, §4).
     pub fn extension_fraction(&self, k: usize) -> f64 {
         self.dac(k).extension / DAC_FULL_SCALE_V
     }
 
-    /// DAC volts held during 1-based sample `k` of this step (SPEC 3.2, unquantized).
+    /// DAC volts held during 1-based sample `k` of this step (docs/model.md §3.2, unquantized).
     pub fn dac(&self, k: usize) -> Dac {
         assert!(
             (1..=SAMPLES_PER_STEP).contains(&k),
@@ -68,7 +68,7 @@ impl Step {
     }
 }
 
-/// SPEC 3.3 from the encoder samples `w_enc(1..=100)` of one step (`enc[k − 1]` is the
+/// docs/model.md §3.3 from the encoder samples `w_enc(1..=100)` of one step (`enc[k − 1]` is the
 /// reading at the end of sample k, in any length unit) and the step that was commanded.
 pub fn raw_measurements(step: &Step, enc: &[f64]) -> RawMeasurements {
     assert_eq!(
@@ -85,10 +85,10 @@ pub fn raw_measurements(step: &Step, enc: &[f64]) -> RawMeasurements {
     )
 }
 
-/// SPEC 2.9: the five step amplitudes of the check run (fia20, from rest).
+/// docs/model.md §2.9: the five step amplitudes of the check run (from rest).
 pub const CHECK_AMPLITUDES: [f64; 5] = [1.0, 1.0, -1.0, 0.3, -0.3];
 
-/// SPEC 2.9 check values of one step, µm.
+/// Check values of one step (docs/model.md §2.9), µm.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CheckValues {
     pub ext_moved_um: f64,
@@ -96,20 +96,33 @@ pub struct CheckValues {
     pub position_after_um: f64,
 }
 
-/// SPEC 2.9: the independent reference integration's raw measurements, one per step of
-/// [`CHECK_AMPLITUDES`].
-pub const CHECK_VALUES: [CheckValues; 5] = [
-    CheckValues { ext_moved_um: 18.210, bd_um: 4.685, position_after_um: 22.895 },
-    CheckValues { ext_moved_um: 19.383, bd_um: 4.853, position_after_um: 47.130 },
-    CheckValues { ext_moved_um: -19.342, bd_um: 3.902, position_after_um: 31.691 },
-    CheckValues { ext_moved_um: 6.633, bd_um: 4.687, position_after_um: 43.010 },
-    CheckValues { ext_moved_um: -6.690, bd_um: 4.244, position_after_um: 40.565 },
-];
+/// `tests/data/plant-check-values.csv`, compiled in, so the command holds a run to the very
+/// file the tests read (its README says where the values come from).
+const CHECK_VALUES_CSV: &str = include_str!("../tests/data/plant-check-values.csv");
 
-/// SPEC 2.9: a correct plant matches every check value within this (µm).
+/// The independent reference integration's raw measurements for `device` (`fia20` or
+/// `fia6`), one per step of [`CHECK_AMPLITUDES`]; empty for another device.
+pub fn check_values(device: &str) -> Vec<CheckValues> {
+    CHECK_VALUES_CSV
+        .lines()
+        .skip(1)
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let v =
+                |i: usize| f[i].trim().parse::<f64>().expect("tests/data check values are numbers");
+            (f[0] == device).then(|| CheckValues {
+                ext_moved_um: v(3),
+                bd_um: v(4),
+                position_after_um: v(5),
+            })
+        })
+        .collect()
+}
+
+/// docs/model.md §2.9: a correct plant matches every check value within this (µm).
 pub const CHECK_TOLERANCE_UM: f64 = 0.010;
 
-/// The SPEC 2.9 check sequence repeated `repeat` times.
+/// The §2.9 check sequence repeated `repeat` times.
 pub fn check_sequence(repeat: usize) -> Vec<Step> {
     let one: Vec<Step> = CHECK_AMPLITUDES
         .iter()
@@ -138,12 +151,12 @@ mod tests {
         assert!(Step::new(-1.0).is_ok());
     }
 
-    /// The generated check sequence must be exactly the DAC columns of the reference trace
-    /// that came with the SPEC (the plant test replays that file, the CLI generates it).
+    /// The generated check sequence must be exactly the DAC columns of the check trace in
+    /// tests/data (the plant test replays that file, the CLI generates it).
     #[test]
     fn check_sequence_reproduces_the_reference_trace_inputs() {
         let path =
-            concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/reference/plant-check-trace-fia20.csv");
+            concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/plant-check-trace-fia20-passive.csv");
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
         let rows: Vec<Vec<f64>> = text
             .lines()
@@ -194,5 +207,18 @@ mod tests {
         assert_eq!(m.ext_moved, 0.0);
         assert_eq!(m.ext_cmd, -0.5);
         assert_eq!(m.bd, 11.0);
+    }
+}
+
+#[cfg(test)]
+mod check_value_tests {
+    use super::*;
+
+    #[test]
+    fn both_devices_have_five_check_values() {
+        assert_eq!(check_values("fia20").len(), 5);
+        assert_eq!(check_values("fia6").len(), 5);
+        assert_eq!(check_values("fia20")[0].ext_moved_um, 22.757);
+        assert!(check_values("fia9").is_empty());
     }
 }

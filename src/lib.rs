@@ -2,8 +2,8 @@
 //! (CSV) and plots (PNG). The command-line front end is `src/main.rs`.
 //!
 //! * [`fmu`]: FMI 2.0 Co-Simulation import (the project's own layer, `inchworm-fmi-import`, re-exported);
-//! * [`gait`]: the stepping gait of SPEC 3, its raw measurements and the SPEC 2.9 check values;
-//! * [`plant`]: the `InchwormPlant` FMU's interface (SPEC 5) and an open-loop gait run through it;
+//! * [`gait`]: the stepping gait of docs/model.md §3, its raw measurements and the docs/model.md §2.9 check values;
+//! * [`plant`]: the `InchwormPlant` FMU's interface (docs/model.md §5) and an open-loop gait run through it;
 //! * [`plot`]: PNG plots;
 //! * [`controller`]: the `InchwormController` FMU's parameters from the controller crate's;
 //! * [`trace`]: what every run records, the master's and the direct coupling's alike;

@@ -25,9 +25,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Drive the plant FMU open loop with the SPEC 2.9 gait sequence (steps of amplitude
+    /// Drive the plant FMU open loop with the docs/model.md §2.9 gait sequence (steps of amplitude
     /// +1, +1, −1, +0.3, −0.3, 100 samples of 2 ms each), write <out>/gait.csv and
-    /// <out>/gait.png, and print the SPEC 3.3 raw measurements beside the SPEC 2.9 check
+    /// <out>/gait.png, and print the docs/model.md §3.3 raw measurements beside the docs/model.md §2.9 check
     /// values.
     ///
     /// gait.csv has one row per 2 ms communication point from t = 0: the DAC volts held

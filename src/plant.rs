@@ -1,4 +1,4 @@
-//! The `InchwormPlant` FMU as a master sees it (SPEC 5): its inputs and outputs by name,
+//! The `InchwormPlant` FMU as a master sees it (docs/model.md §5): its inputs and outputs by name,
 //! and an open-loop run of a gait sequence through it.
 
 use std::io::Write;
@@ -27,7 +27,7 @@ pub fn mode(code: i32) -> Option<Mode> {
     [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free].into_iter().find(|m| *m as i32 == code)
 }
 
-/// The plant's parameters as the FMU names them (SPEC 2.8), every one of them, as
+/// The plant's parameters as the FMU names them (docs/model.md §2.8), every one of them, as
 /// `plant.<name>` values for the master: the FMU runs exactly `p`, whatever its start
 /// values are.
 pub fn parameters(p: &PlantParams) -> Vec<(String, String)> {
@@ -81,7 +81,7 @@ pub struct Plant {
 }
 
 impl Plant {
-    /// Resolves the SPEC 5 variables (a missing or mistyped one is an error naming it) and
+    /// Resolves the docs/model.md §5 variables (a missing or mistyped one is an error naming it) and
     /// initializes the FMU with its default parameters from t = 0.
     pub fn new(mut fmu: CsFmu) -> Result<Self, FmuError> {
         let inputs = fmu.vrs_of(&INPUTS, VarType::Real)?;
@@ -168,7 +168,7 @@ impl GaitRun {
         Ok(Self { steps: steps.to_vec(), samples, q_enc: plant.q_enc })
     }
 
-    /// SPEC 3.3 for step `i` (0-based), in metres: `w_enc(k)` is the encoder at the end of
+    /// docs/model.md §3.3 for step `i` (0-based), in metres: `w_enc(k)` is the encoder at the end of
     /// sample k of that step.
     pub fn measurements(&self, i: usize) -> RawMeasurements {
         let first = i * SAMPLES_PER_STEP + 1;

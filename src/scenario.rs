@@ -1,4 +1,4 @@
-//! Named scenarios of the paper (SPEC 4.1): closed loops run by the master on
+//! Named scenarios of the paper (docs/model.md §4.1): closed loops run by the master on
 //! `InchwormSystem.ssp` or with the crates coupled directly, and the open-loop slews of
 //! Fig. 11; each variant one [`Trace`], written as CSV and PNG by `inchworm scenario`.
 

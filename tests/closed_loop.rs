@@ -1,9 +1,9 @@
-//! The paper's results (SPEC 4.1) with plant and controller coupled directly in Rust:
+//! The paper's results (docs/model.md §4.1) with plant and controller coupled directly in Rust:
 //! Fig. 5 (full control vs feedback only), Figs. 6–7 (a staircase in regulation), the
 //! estimator's convergence from the nominal start, and what each flag does.
 //!
 //! "Settled" is judged on the parked samples (all three DACs zero for the previous 8
-//! samples), as SPEC 4.1 defines it.
+//! samples), as docs/model.md §4.1 defines it.
 
 use inchworm::closed_loop::{self, LoopView};
 use inchworm_controller::basis::Basis;

@@ -1,4 +1,4 @@
-//! `InchwormSystem.ssp`: the two FMUs connected as SPEC 5 says, in SSP 1.0, with
+//! `InchwormSystem.ssp`: the two FMUs connected as docs/model.md §5 says, in SSP 1.0, with
 //! parameter sets for the devices and the paper's control variants.
 
 use std::fmt::Write;
@@ -170,7 +170,7 @@ pub fn parameter_set(name: &str, values: &[(String, Value)]) -> String {
     s
 }
 
-/// The parameter sets shipped in the SSP: the two devices of SPEC 2.8 (all plant
+/// The parameter sets shipped in the SSP: the two devices of docs/model.md §2.8 (all plant
 /// parameters at their values) and the control variants of the paper's Fig. 5 and
 /// Figs. 6–7.
 pub fn parameter_sets() -> Vec<(&'static str, String)> {

@@ -1,4 +1,4 @@
-//! `inchworm gait`: the plant FMU open loop through the SPEC 2.9 gait sequence.
+//! `inchworm gait`: the plant FMU open loop through the docs/model.md §2.9 gait sequence.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::Args;
 
 use inchworm::fmu::{CsFmu, FmuError};
-use inchworm::gait::{self, CHECK_TOLERANCE_UM, CHECK_VALUES};
+use inchworm::gait::{self, CHECK_TOLERANCE_UM};
 use inchworm::plant::{GaitRun, Plant};
 use inchworm::plot;
 
@@ -67,10 +67,10 @@ pub fn run(args: &GaitArgs) -> Result<(), String> {
     super::write_png(&args.out.join("gait.png"), |p| plot::gait_png(&run, p))
 }
 
-/// The SPEC 3.3 raw measurements of every step, in µm, beside the SPEC 2.9 check values
+/// The docs/model.md §3.3 raw measurements of every step, in µm, beside the docs/model.md §2.9 check values
 /// for the first five (the check run starts from rest with the default `fia20` parameters).
 fn print_measurements(run: &GaitRun) {
-    println!("SPEC 3.3 raw measurements from the encoder (µm); [SPEC 2.9 check value] and deviation, tolerance ±{CHECK_TOLERANCE_UM} µm");
+    println!("raw measurements (docs/model.md §3.3) from the encoder (µm); [§2.9 check value] and deviation, tolerance ±{CHECK_TOLERANCE_UM} µm");
     let head = |name: &str| format!("{name:>9} {:>9} {:>7} ", "[check]", "Δ");
     println!(
         "{:>4} {:>5} {:>8}  {}  {}  {}",
@@ -84,12 +84,13 @@ fn print_measurements(run: &GaitRun) {
     let mut worst: Option<(f64, String)> = None;
     let mut outside = 0;
     let mut checked = 0;
+    let check = gait::check_values("fia20");
     for (i, step) in run.steps.iter().enumerate() {
         let m = run.measurements(i);
         let got = [m.ext_moved * 1e6, m.bd * 1e6, m.position_after() * 1e6];
         let mut cols = Vec::with_capacity(3);
         for (j, &g) in got.iter().enumerate() {
-            match CHECK_VALUES.get(i) {
+            match check.get(i) {
                 Some(c) => {
                     let want = [c.ext_moved_um, c.bd_um, c.position_after_um][j];
                     let d = g - want;

@@ -27,7 +27,7 @@ use std::time::Duration;
 
 pub use inchworm_hil_protocol as protocol;
 
-/// The communication period of SPEC 5: 500 Hz.
+/// The communication period of docs/model.md §5: 500 Hz.
 pub const PERIOD: Duration = Duration::from_millis(2);
 
 /// The plant side as the board sees it: DAC codes held for one period in, encoder count out.

@@ -193,7 +193,7 @@ mod tests {
         let g = Gains::default();
         let m = margins(&g, 5.0);
         eprintln!("K = {}, a = {}: {m:?}", g.k, g.a);
-        // SPEC 4 targets; the prototype (same K, a) gave 0.30 Hz, 49°, 15.8 dB, 0.49 Hz.
+        // docs/model.md §4 targets; the prototype (same K, a) gave 0.30 Hz, 49°, 15.8 dB, 0.49 Hz.
         assert!(
             (m.crossover_hz - 0.30).abs() < 0.01,
             "crossover {} Hz, expected 0.30 ± 0.01",

@@ -22,7 +22,7 @@ pub struct Noise {
 }
 
 impl Default for Noise {
-    /// SPEC 4's prototype levels.
+    /// docs/model.md §4's prototype levels.
     fn default() -> Self {
         Noise {
             weight_prior: 0.05,
@@ -161,7 +161,7 @@ mod tests {
         assert!((gain - expect).abs() < 1e-9, "steady gain {gain} vs closed form {expect}");
         assert!(
             (gain - 0.58).abs() < 0.005,
-            "steady disturbance gain {gain:.4}, SPEC 4 prototype ≈ 0.58"
+            "steady disturbance gain {gain:.4}, docs/model.md §4 prototype ≈ 0.58"
         );
     }
 }

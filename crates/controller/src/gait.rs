@@ -1,4 +1,4 @@
-//! The stepping gait (SPEC 3.2): seven segments of DAC volts per step, forward and
+//! The stepping gait (docs/model.md §3.2): seven segments of DAC volts per step, forward and
 //! backward, scaled to any number of samples per step.
 
 /// Direction of one step.
@@ -8,7 +8,7 @@ pub enum Direction {
     Backward,
 }
 
-/// Segment starts of the 100-sample gait (SPEC 3.2), 1-based.
+/// Segment starts of the 100-sample gait (docs/model.md §3.2), 1-based.
 const STARTS_100: [usize; 7] = [1, 15, 30, 44, 59, 72, 87];
 
 /// Where the segments and the averaging windows of a step lie for `n` samples per step.
@@ -17,13 +17,13 @@ pub struct Timing {
     pub samples: usize,
     /// 1-based first sample of each segment.
     pub starts: [usize; 7],
-    /// 1-based inclusive averaging window of each segment (SPEC 3.3).
+    /// 1-based inclusive averaging window of each segment (docs/model.md §3.3).
     pub windows: [(usize, usize); 7],
 }
 
 impl Timing {
     /// `n` ≥ 7 samples per step; segments and windows scale with `n` and are exactly the
-    /// SPEC's at `n` = 100.
+    /// model's (docs/model.md §3.2) at `n` = 100.
     pub fn new(n: usize) -> Timing {
         assert!(n >= 7, "a step needs at least one sample per segment");
         let starts = STARTS_100.map(|s| 1 + ((s - 1) * n + 50) / 100);

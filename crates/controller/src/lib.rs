@@ -1,4 +1,4 @@
-//! The inchworm controller of SPEC sections 3 and 4 (the paper's section 3): stepping
+//! The inchworm controller of docs/model.md §3 and §4 (the paper's section 3): stepping
 //! gait, raw measurements, asynchronous compensator with prefilter and feedforward,
 //! Kalman estimator of the inverse scale factor and the brake disturbance, waveform
 //! generation. Plain Rust: no FFI, no globals, no I/O; the per-sample path does not

@@ -1,4 +1,4 @@
-//! Raw measurements of one step (SPEC 3.3) from its encoder and extension samples.
+//! Raw measurements of one step (docs/model.md §3.3) from its encoder and extension samples.
 
 use crate::gait::{Direction, Timing};
 

@@ -1,5 +1,5 @@
-//! The `InchwormController` FMU: the controller of SPEC sections 3 and 4 behind the FMI
-//! 2.0 Co-Simulation interface of SPEC section 5.
+//! The `InchwormController` FMU: the controller of docs/model.md §3 and §4 behind the FMI
+//! 2.0 Co-Simulation interface of docs/model.md §5.
 //!
 //! Timing contract: the sample period is 2 ms. `fmi2DoStep(t, h)` accepts `h = k × 2 ms`
 //! (k ≥ 1, inputs held over the k samples) and refuses other step sizes; afterwards the

@@ -1,5 +1,5 @@
-//! The `InchwormPlant` FMU: the plant of SPEC section 2 behind the FMI 2.0 Co-Simulation
-//! interface of SPEC section 5. This file is the variable table and the mapping of value
+//! The `InchwormPlant` FMU: the plant of docs/model.md §2 behind the FMI 2.0 Co-Simulation
+//! interface of docs/model.md §5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
 use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
@@ -137,7 +137,7 @@ pub struct PlantFmu {
     plant: Option<Plant>,
 }
 
-/// Outputs before the plant exists (instantiated / initialization mode): at rest, SPEC 2.7.
+/// Outputs before the plant exists (instantiated / initialization mode): at rest, docs/model.md §2.7.
 const REST: Outputs = Outputs {
     encoder_counts: 0,
     encoder_position: 0.0,

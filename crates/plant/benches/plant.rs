@@ -1,5 +1,5 @@
 //! `cargo bench -p inchworm-plant --bench plant`: the plant alone over a 60 s gait
-//! sequence (the SPEC 2.9 five-gait sequence of the reference trace, repeated 60 times),
+//! sequence (the docs/model.md §2.9 five-gait sequence of the reference trace, repeated 60 times),
 //! all figures measured side by side in this one run:
 //!
 //! * the exact solver at the default tolerance: cost of one 2 ms step (median, p99, max)
@@ -195,7 +195,7 @@ fn main() {
         max_dev(&exact.counts, &tight.counts)
     );
     println!(
-        "  vs the SPEC 2.9 reference trace (first 1 s): max |diff| {} counts",
+        "  vs the docs/model.md §2.9 reference trace (first 1 s): max |diff| {} counts",
         max_dev(&exact.counts, &reference)
     );
     println!();

@@ -8,7 +8,7 @@ fn main() {
     let quiet: usize =
         std::env::var("QUIET_STEPS").ok().and_then(|s| s.parse().ok()).unwrap_or(10_000);
     let mut plant = Plant::new(PlantParams::fia20()).unwrap();
-    // The SPEC 2.9 gaits of the reference trace (1 s).
+    // The docs/model.md §2.9 gaits of the reference trace (1 s).
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../tests/data/plant-check-trace-fia20-passive.csv"

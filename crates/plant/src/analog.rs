@@ -1,4 +1,4 @@
-//! Driver-board analog chain of one channel (SPEC 2.1): a unity-gain 2nd-order Bessel
+//! Driver-board analog chain of one channel (docs/model.md §2.1): a unity-gain 2nd-order Bessel
 //! low-pass followed by the PZT amplifier's first-order roll-off.
 
 use crate::params::PlantParams;

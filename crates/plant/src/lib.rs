@@ -23,7 +23,7 @@ pub use params::{ParamError, PlantParams, N_PLAYS};
 use solver::Armed;
 pub use solver::{StepError, MAX_STEP};
 
-/// Mechanical mode, decided by the two brakes (SPEC 2.2). The discriminant is the FMU's `mode` output.
+/// Mechanical mode, decided by the two brakes (docs/model.md §2.2). The discriminant is the FMU's `mode` output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
     Hold = 1,
@@ -75,7 +75,7 @@ pub struct StepReport {
 }
 
 impl Mode {
-    /// The mode the two brakes make (SPEC 2.2 table).
+    /// The mode the two brakes make (docs/model.md §2.2 table).
     pub fn from_brakes(earth_closed: bool, nonearth_closed: bool) -> Mode {
         match (earth_closed, nonearth_closed) {
             (true, false) => Mode::Hold,
@@ -90,7 +90,7 @@ impl Mode {
     }
 }
 
-/// The inchworm plant of SPEC section 2, advanced by exact piecewise-linear propagation
+/// The inchworm plant of docs/model.md §2, advanced by exact piecewise-linear propagation
 /// between located events (see `linear`).
 #[derive(Clone, Debug)]
 pub struct Plant {
@@ -135,7 +135,7 @@ pub struct ScanStats {
 }
 
 impl Plant {
-    /// A plant at rest (SPEC 2.7) at time 0; the parameters are validated.
+    /// A plant at rest (docs/model.md §2.7) at time 0; the parameters are validated.
     pub fn new(params: PlantParams) -> Result<Self, ParamError> {
         params.validate()?;
         let mut z = Vector::zeros();
@@ -239,7 +239,7 @@ impl Plant {
         }
     }
 
-    /// Absolute node positions `x1..x4` (m), as SPEC 2.3 writes them.
+    /// Absolute node positions `x1..x4` (m), as docs/model.md §2.3 writes them.
     pub fn positions(&self) -> [f64; 4] {
         let l = self.params.l_p / 3.0;
         [
@@ -250,7 +250,7 @@ impl Plant {
         ]
     }
 
-    /// `ξ`, the PZT charge in volts (SPEC 2.4).
+    /// `ξ`, the PZT charge in volts (docs/model.md §2.4).
     pub fn charge_voltage(&self) -> f64 {
         linear::xi_row(&self.params, self.hysteresis.sticking_weight()).dot(&self.z)
     }

@@ -315,7 +315,7 @@ pub fn chain_matrix(p: &PlantParams) -> ChainMatrix {
     m
 }
 
-/// Masses of the lumped model (SPEC 2.3).
+/// Masses of the lumped model (docs/model.md §2.3).
 pub struct Masses {
     pub m1: f64,
     pub m3: f64,
@@ -331,7 +331,7 @@ pub fn kappa(p: &PlantParams) -> f64 {
 }
 
 /// Rate matrix of the mechanics plus the extension channel in `mode`, with sticking
-/// hysteresis elements of total weight `w_s` (SPEC 2.3, 2.4, 2.5).
+/// hysteresis elements of total weight `w_s` (docs/model.md §2.3, §2.4, §2.5).
 pub fn system_matrix(p: &PlantParams, mode: Mode, w_s: f64) -> Matrix {
     use ix::*;
     let mut a = Matrix::zeros();

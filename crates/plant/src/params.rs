@@ -1,4 +1,4 @@
-//! Plant parameters (SPEC 2.8), SI units throughout.
+//! Plant parameters (docs/model.md §2.8), SI units throughout.
 
 use std::fmt;
 
@@ -85,7 +85,7 @@ impl Default for PlantParams {
 }
 
 impl PlantParams {
-    /// The 20-µm device (SPEC 2.8 default).
+    /// The 20-µm device (docs/model.md §2.8 default).
     pub fn fia20() -> Self {
         PlantParams {
             m_p: 0.025,

@@ -1,5 +1,5 @@
 //! A plain fixed-step classical Runge–Kutta integration of the same plant, written from
-//! SPEC section 2 independently of the exact solver: absolute positions, the charge
+//! docs/model.md §2 independently of the exact solver: absolute positions, the charge
 //! solved from the monotone equation with the play memories held over each step and
 //! updated at its end, brake switches located by re-integrating the step to 1 ns.
 //!

@@ -87,10 +87,12 @@ impl Snapshot {
     }
 }
 
-/// Events a step may locate per 2 ms of its length (a nominal gait step has a few dozen).
-/// More is pathological (chattering at a threshold, or hysteresis radii far below the
-/// ring amplitude): event detection is suspended for the rest of that step and the step
-/// reports it. This bounds the work of a step by its length.
+/// Stops a step may make inside its pieces per 2 ms of its length: located events and turns
+/// of `ξ` (a nominal gait step makes a few dozen). More is pathological (chattering at a
+/// threshold, a ring far faster than the scan interval, hysteresis radii far below the ring
+/// amplitude): event detection is suspended for the rest of that step and the step reports
+/// it. Each stop costs at most one bisection, so this bounds the work of a step by its
+/// length.
 const EVENTS_PER_2_MS: u64 = 2_000;
 
 /// The event budget of a step of `h` seconds.
@@ -206,6 +208,9 @@ impl Plant {
         let mut left = exact.floor() as u64;
         let rest = (exact - exact.floor()) * TICK;
         let mut events = 0u32;
+        // Stops inside a piece, events or turns of ξ: what the budget bounds. (`events`
+        // alone decides the cached tail, as it always has, so results keep their bits.)
+        let mut stops = 0u32;
         let budget = event_budget(h);
         let scan_level = self.chain.scan_level;
         let fine = 1u64 << scan_level;
@@ -213,7 +218,7 @@ impl Plant {
         let t0 = self.time;
         while left > 0 {
             let brakes_before = report.brake_events;
-            let watching = events < budget;
+            let watching = stops < budget;
             if left >= fine {
                 let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
                 let clear = if watching { self.scan(points) } else { points };
@@ -229,6 +234,7 @@ impl Plant {
                 if clear < points {
                     let (consumed, event) = self.piece(scan_level, &mut report);
                     events += u32::from(event);
+                    stops += u32::from(event || consumed < fine);
                     left -= consumed;
                 }
             } else if events == 0 && self.remainder(left) {
@@ -241,13 +247,14 @@ impl Plant {
                 let (consumed, event) =
                     if watching { self.piece(level, &mut report) } else { self.blind(level) };
                 events += u32::from(event);
+                stops += u32::from(event || consumed < 1 << level);
                 left -= consumed;
             }
             if report.brake_events > brakes_before && report.first_brake_event.is_none() {
                 report.first_brake_event = Some(t0 + (total - left) as f64 * TICK);
             }
         }
-        report.event_budget_exhausted = events >= budget;
+        report.event_budget_exhausted = stops >= budget;
         if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);
@@ -463,7 +470,7 @@ impl Plant {
     }
 
     /// Finest bisection level: event times are located to `rel_tol` seconds of simulated
-    /// time (1 ns by default, SPEC 2.2 asks for 10 ns or better).
+    /// time (1 ns by default, docs/model.md §2.2 asks for 10 ns or better).
     fn resolution_level(&self) -> usize {
         let ticks = (self.params.rel_tol / TICK).max(1.0);
         (ticks.log2().floor() as usize).min(self.chain.scan_level)
@@ -514,7 +521,7 @@ impl Plant {
         self.sync_hysteresis();
     }
 
-    /// The jump conditions of SPEC 2.2.
+    /// The jump conditions of docs/model.md §2.2.
     fn switch_mode(&mut self, mode: Mode) {
         let z = &mut self.z;
         match mode {
@@ -565,7 +572,7 @@ impl Plant {
         if self.params.encoder_noise > 0.0 {
             x += self.params.encoder_noise * gaussian(&mut self.rng);
         }
-        // f64::round rounds half away from zero, as SPEC 2.6 asks.
+        // f64::round rounds half away from zero, as docs/model.md §2.6 asks.
         self.encoder_counts = (x / self.params.q_enc).round() as i64;
     }
 }

@@ -5,7 +5,7 @@
 use inchworm_controller::{basis::Basis, Controller, Params, Sample};
 
 /// Runner motion (m) of an extension DAC voltage in DRIVE: slightly nonlinear, so that 0.3
-/// of a step moves more than 0.3 × a full step (SPEC 2.9): `u = (20 y − 2 y²)` µm at
+/// of a step moves more than 0.3 × a full step (docs/model.md §2.9): `u = (20 y − 2 y²)` µm at
 /// `y = V/10`, 18 µm for a full step.
 pub fn extension(volts: f64) -> f64 {
     let y = volts / 10.0;
