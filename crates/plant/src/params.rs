@@ -216,7 +216,7 @@ pub fn range(name: &str) -> Option<(f64, f64, &'static str)> {
         "L_r" => (-1.0, 1.0, "m"),
         "T_em" => (1e-3, 1e3, "N/V"),
         "C" => (1e-10, 1e-2, "F"),
-        "play_radius" => (1e-3, 1e3, "V"),
+        "play_radius" => (0.1, 1e3, "V"),
         "play_weight" => (0.0, 10.0, "(dimensionless)"),
         "F_d0" => (-1e4, 1e4, "N"),
         "gamma" => (0.0, 100.0, "(dimensionless)"),

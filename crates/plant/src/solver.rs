@@ -87,13 +87,17 @@ impl Snapshot {
     }
 }
 
+/// A sign change of `ξ̇` whose larger end is below this fraction of the magnitude of its
+/// terms is rounding, not a turn (a 3-term dot product rounds to ~1e-16 of it).
+const TURN_NOISE: f64 = 1e-12;
+
 /// Stops a step may make inside its pieces per 2 ms of its length: located events and turns
 /// of `ξ` (a nominal gait step makes a few dozen). More is pathological (chattering at a
 /// threshold, a ring far faster than the scan interval, hysteresis radii far below the ring
 /// amplitude): event detection is suspended for the rest of that step and the step reports
 /// it. Each stop costs at most one bisection, so this bounds the work of a step by its
 /// length.
-const EVENTS_PER_2_MS: u64 = 2_000;
+const EVENTS_PER_2_MS: u64 = 20_000;
 
 /// The event budget of a step of `h` seconds.
 fn event_budget(h: f64) -> u32 {
@@ -158,6 +162,16 @@ impl Watch<'_> {
     fn extremum_may_cross(&self, xi0: f64, xi1: f64, rate0: f64, rate1: f64, dt: f64) -> bool {
         let reach = dt * (rate0.abs() + rate1.abs()) * self.xi_row[ix::VX];
         xi0.max(xi1) + reach >= self.up || xi0.min(xi1) - reach <= self.down
+    }
+
+    /// Whether a sign change of `ξ̇` between two states is a turn of `ξ` and not rounding:
+    /// at rest `ξ̇` is a sum of terms that cancel, and its sign is noise. A turn at the
+    /// rounding level has no excursion worth a stop.
+    fn turns(&self, z0: &Vector, z1: &Vector, rate0: f64, rate1: f64) -> bool {
+        let scale = |z: &Vector| {
+            self.rate_row.iter().zip(z.iter()).map(|(r, x)| (r * x).abs()).sum::<f64>()
+        };
+        rate0.abs().max(rate1.abs()) > TURN_NOISE * scale(z0).max(scale(z1))
     }
 
     fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
@@ -289,7 +303,11 @@ impl Plant {
         let rate0 = watch.rate_row.dot(&z0);
         let rate1 = watch.rate_row.dot(&z1);
         let mut extremum = false;
-        if !hit && watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+        if !hit
+            && watch.direction == 0.0
+            && rate0 * rate1 < 0.0
+            && watch.turns(&z0, &z1, rate0, rate1)
+        {
             let xi0 = watch.xi_row.dot(&z0);
             let xi1 = watch.xi_row.dot(&z1);
             let dt = TICK * (1u64 << level) as f64;
@@ -350,7 +368,8 @@ impl Plant {
             return false;
         }
         let (rate0, rate1) = (watch.rate_row.dot(&self.z), watch.rate_row.dot(&z1));
-        if watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+        if watch.direction == 0.0 && rate0 * rate1 < 0.0 && watch.turns(&self.z, &z1, rate0, rate1)
+        {
             let (xi0, xi1) = (watch.xi_row.dot(&self.z), watch.xi_row.dot(&z1));
             if watch.extremum_may_cross(xi0, xi1, rate0, rate1, TICK * ticks as f64) {
                 return false;
