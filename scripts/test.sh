@@ -1,9 +1,23 @@
 #!/usr/bin/env bash
-# Every test of the project, from a fresh clone: installs what it needs, builds the FMUs,
-# runs the Rust tests (physics, FMI behaviour, FMU import) and the FMPy cross-tool tests.
+# Every test of the project, from a fresh clone: installs what it needs, checks formatting
+# and lints, builds the FMUs, runs the Rust tests (physics, FMI behaviour, FMU import, HIL
+# bridge, C API) and the FMPy cross-tool tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+
+# The repository stands on its own: nothing tracked may read the design inputs beside it.
+if git grep -n '\.\./shared' -- . ':!scripts/test.sh' >/dev/null 2>&1; then
+    echo "test.sh: tracked files name ../shared, which users of this repository do not have:" >&2
+    git grep -n '\.\./shared' -- . ':!scripts/test.sh' >&2
+    exit 1
+fi
+
+cargo fmt --all --check
+# The C API and the fuzz target are workspaces of their own.
+cargo fmt --check --manifest-path crates/hil-protocol/ffi/Cargo.toml
+cargo fmt --check --manifest-path crates/hil-protocol/fuzz/Cargo.toml
+cargo clippy --release --workspace --all-targets -- -D warnings
 cargo run --release -q -p fmu-build
 cargo test --release --workspace
 .venv/bin/python -m pytest tests/python -q -p no:cacheprovider
