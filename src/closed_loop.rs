@@ -263,3 +263,75 @@ impl LoopView {
         (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
     }
 }
+
+/// An open-loop slew read gait by gait (the paper's Fig. 11): the runner position at the end
+/// of every gait (the parked sample 100) and the advance each gait made.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SlewView {
+    /// End time of each gait (s).
+    pub time: Vec<f64>,
+    /// True runner position at the end of each gait (m).
+    pub position: Vec<f64>,
+    /// Advance of each gait (m); the first is from rest.
+    pub advance: Vec<f64>,
+}
+
+impl SlewView {
+    /// Reads a slew of back-to-back gaits of `samples_per_gait` samples.
+    pub fn new(r: &LoopView, samples_per_gait: usize) -> SlewView {
+        let ends: Vec<usize> =
+            (1..=r.time.len() / samples_per_gait).map(|g| g * samples_per_gait - 1).collect();
+        let position: Vec<f64> = ends.iter().map(|&i| r.runner_position[i]).collect();
+        let advance = position
+            .iter()
+            .scan(0.0, |prev, &x| {
+                let a = x - *prev;
+                *prev = x;
+                Some(a)
+            })
+            .collect();
+        SlewView { time: ends.iter().map(|&i| r.time[i]).collect(), position, advance }
+    }
+
+    /// The largest change of the advance from one gait to the next after the first (m).
+    pub fn largest_change(&self) -> f64 {
+        self.advance.windows(2).skip(1).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max)
+    }
+
+    /// Gaits that moved the runner backward.
+    pub fn backward(&self) -> usize {
+        self.advance.iter().filter(|&&a| a < 0.0).count()
+    }
+
+    /// CSV `gait,time,position,advance` (s, m).
+    pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        writeln!(w, "gait,time,runner_position,advance")?;
+        for g in 0..self.time.len() {
+            writeln!(w, "{},{},{:e},{:e}", g + 1, self.time[g], self.position[g], self.advance[g])?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod slew_tests {
+    use super::*;
+
+    #[test]
+    fn slew_view_reads_each_gait_end_and_its_advance() {
+        let mut r = LoopView::default();
+        for k in 0..300 {
+            r.time.push((k + 1) as f64 * 0.002);
+            // 20 µm in the first gait, 18 in the second, 19 in the third.
+            let g = k / 100;
+            r.runner_position.push([20e-6, 38e-6, 57e-6][g] * ((k % 100 + 1) as f64 / 100.0));
+        }
+        let s = SlewView::new(&r, 100);
+        assert_eq!(s.time, vec![0.2, 0.4, 0.6]);
+        assert_eq!(s.position, vec![20e-6, 38e-6, 57e-6]);
+        let um: Vec<f64> = s.advance.iter().map(|a| (a * 1e6 * 1e6).round() / 1e6).collect();
+        assert_eq!(um, vec![20.0, 18.0, 19.0]);
+        assert!((s.largest_change() - 1e-6).abs() < 1e-15);
+        assert_eq!(s.backward(), 0);
+    }
+}

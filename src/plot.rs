@@ -10,7 +10,7 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
-use crate::closed_loop::LoopView;
+use crate::closed_loop::{LoopView, SlewView};
 use crate::gait::{SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 use crate::plant::{self, GaitRun};
 use crate::trace::Trace;
@@ -260,6 +260,85 @@ pub fn closed_loop_png(
         let c = colors[i % colors.len()];
         chart.draw_series(LineSeries::new(
             r.time.iter().zip(&r.disturbance_estimate).map(|(&t, &x)| (t, x * um)),
+            c.stroke_width(2),
+        ))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// An open-loop slew as the paper's Fig. 11 shows it: the runner position against time on
+/// top, the advance of every gait below.
+pub fn slew_png(
+    title: &str,
+    names: &[&str],
+    runs: &[SlewView],
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
+    let (w, h) = (1400u32, 900u32);
+    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, (FONT, 24))?;
+    let (top, bottom) = root.split_vertically(h * 50 / 100);
+    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
+    let range = |vals: &mut dyn Iterator<Item = f64>| {
+        vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)))
+    };
+    let (lo, hi) = range(&mut runs.iter().flat_map(|r| r.position.iter().map(|x| x * 1e3)));
+    let mut chart = ChartBuilder::on(&top)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, padded(lo.min(0.0), hi))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("time (s)")
+        .y_desc("runner position (mm)")
+        .label_style((FONT, 16))
+        .draw()?;
+    for (i, (r, name)) in runs.iter().zip(names).enumerate() {
+        let c = colors[i % colors.len()];
+        chart
+            .draw_series(LineSeries::new(
+                std::iter::once((0.0, 0.0))
+                    .chain(r.time.iter().zip(&r.position).map(|(&t, &x)| (t, x * 1e3))),
+                c.stroke_width(2),
+            ))?
+            .label(format!(
+                "{name}: {:.2} mm after {} gaits",
+                r.position.last().unwrap_or(&0.0) * 1e3,
+                r.time.len()
+            ))
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 15))
+        .draw()?;
+
+    let gaits = runs.iter().map(|r| r.advance.len()).max().unwrap_or(1) as f64;
+    let (lo, hi) = range(&mut runs.iter().flat_map(|r| r.advance.iter().map(|x| x * 1e6)));
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..gaits + 1.0, padded(lo.min(0.0), hi))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("gait")
+        .y_desc("advance per gait (µm)")
+        .label_style((FONT, 16))
+        .draw()?;
+    for (i, r) in runs.iter().enumerate() {
+        let c = colors[i % colors.len()];
+        chart.draw_series(LineSeries::new(
+            r.advance.iter().enumerate().map(|(g, &a)| ((g + 1) as f64, a * 1e6)),
             c.stroke_width(2),
         ))?;
     }

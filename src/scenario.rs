@@ -68,7 +68,19 @@ fn staircase_regulation() -> Vec<(f64, f64)> {
     (0..STAIRCASE_UM.len()).map(|k| (k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0)).collect()
 }
 
-pub const NAMES: [&str; 5] = ["fig5", "staircase", "calibration", "fia6", "stall"];
+pub const NAMES: [&str; 6] = ["fig5", "staircase", "calibration", "fia6", "slew", "stall"];
+
+/// Samples of one gait of the open-loop slews.
+pub const SAMPLES_PER_GAIT: usize = 100;
+
+/// Full forward gaits open loop on fia20 with the brake disturbance's load growth `gamma`.
+fn slew(name: &str, gamma: f64) -> Variant {
+    Variant {
+        name: name.into(),
+        plant: PlantParams { gamma, ..PlantParams::fia20() },
+        drive: Drive::OpenLoopSlew,
+    }
+}
 
 fn closed(name: &str, plant: PlantParams, params: Params) -> Variant {
     Variant { name: name.into(), plant, drive: Drive::Controller(Box::new(params)) }
@@ -131,20 +143,21 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             variants: vec![closed("full control", PlantParams::fia6(), crate::controller::fia6())],
             regulation: vec![(10.0, 20.0)],
         },
+        "slew" => Scenario {
+            name: "slew",
+            title: "Open-loop slew of full forward gaits over 40 mm (gamma = 0)",
+            // 5040 gaits of 0.2 s: past 40 mm.
+            duration: 1008.0,
+            reference: constant(0.0),
+            variants: vec![slew("gamma = 0", 0.0)],
+            regulation: vec![],
+        },
         "stall" => Scenario {
             name: "stall",
-            title: "Fig. 11: open-loop slews stall when the brake disturbance falls with the environment load",
-            // 200 full steps of 0.2 s.
-            duration: 40.0,
+            title: "Fig. 11: open-loop slews stall when the brake disturbance grows with the load (600 gaits)",
+            duration: 120.0,
             reference: constant(0.0),
-            variants: [0.0, 10.0]
-                .into_iter()
-                .map(|gamma| Variant {
-                    name: format!("gamma = {gamma}"),
-                    plant: PlantParams { gamma, ..fia20() },
-                    drive: Drive::OpenLoopSlew,
-                })
-                .collect(),
+            variants: vec![slew("gamma = 0", 0.0), slew("gamma = 10", 10.0)],
             regulation: vec![],
         },
         _ => return None,
@@ -169,13 +182,18 @@ impl Scenario {
         }
     }
 
+    /// Whether every variant is an open-loop slew (read gait by gait, not as a loop).
+    pub fn open_loop(&self) -> bool {
+        self.variants.iter().all(|v| matches!(v.drive, Drive::OpenLoopSlew))
+    }
+
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
     /// whatever `via` says.
     pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, String> {
         match (&v.drive, via) {
             (Drive::OpenLoopSlew, _) => closed_loop::open_loop_slew(
                 v.plant.clone(),
-                (self.duration / (100.0 * SAMPLE_PERIOD)).round() as usize,
+                (self.duration / (SAMPLES_PER_GAIT as f64 * SAMPLE_PERIOD)).round() as usize,
             ),
             (Drive::Controller(p), Via::Direct) => closed_loop::run(
                 v.plant.clone(),
@@ -196,7 +214,7 @@ impl Scenario {
 
     /// How the runs went through `via`, for the report's first line.
     pub fn via_text(&self, via: Via) -> String {
-        if self.variants.iter().all(|v| matches!(v.drive, Drive::OpenLoopSlew)) {
+        if self.open_loop() {
             return "plant crate, open loop".into();
         }
         match via {
@@ -210,19 +228,18 @@ impl Scenario {
     pub fn summary(&self, v: &Variant, r: &LoopView) -> String {
         match v.drive {
             Drive::OpenLoopSlew => {
-                let um = |i: usize| r.encoder_position[i] * 1e6;
-                let per_step =
-                    |s: usize| um((s + 1) * 100 - 1) - if s == 0 { 0.0 } else { um(s * 100 - 1) };
-                let steps = r.time.len() / 100;
+                let g = closed_loop::SlewView::new(r, SAMPLES_PER_GAIT);
+                let (first, last) = (g.advance[0], *g.advance.last().unwrap_or(&0.0));
                 format!(
-                    "{:<14} first step {:.2} µm, step {} {:.2} µm, step {} {:.2} µm, final position {:.1} µm",
+                    "{:<12} {} gaits, {:.3} mm; advance per gait: first {:.3} µm (from rest), second {:.3} µm, last {:.3} µm; largest gait-to-gait change {:.4} µm; {} backward",
                     v.name,
-                    per_step(0),
-                    steps / 2,
-                    per_step(steps / 2 - 1),
-                    steps,
-                    per_step(steps - 1),
-                    um(r.time.len() - 1)
+                    g.advance.len(),
+                    g.position.last().unwrap_or(&0.0) * 1e3,
+                    first * 1e6,
+                    g.advance.get(1).unwrap_or(&0.0) * 1e6,
+                    last * 1e6,
+                    g.largest_change() * 1e6,
+                    g.backward()
                 )
             }
             Drive::Controller(_) => {

@@ -6,13 +6,13 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::closed_loop::LoopView;
+use inchworm::closed_loop::{LoopView, SlewView};
 use inchworm::plot;
 use inchworm::scenario::{self, Via};
 
 #[derive(Args)]
 pub struct ScenarioArgs {
-    /// fig5 | staircase | calibration | fia6 | stall
+    /// fig5 | staircase | calibration | fia6 | slew | stall
     pub name: String,
     /// Folder holding InchwormSystem.ssp (built by `cargo run --release -p fmu-build`).
     #[arg(long, default_value = "dist")]
@@ -44,16 +44,30 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
     }
     let sim: f64 = s.duration * views.len() as f64;
     println!("{sim:.0} s simulated in {wall:.2} s ({:.0}x real time)", sim / wall);
-    for (v, r) in s.variants.iter().zip(&views) {
-        let slug: String = v
-            .name
-            .split(|c: char| !c.is_alphanumeric())
+    let slug = |name: &str| -> String {
+        name.split(|c: char| !c.is_alphanumeric())
             .filter(|w| !w.is_empty())
             .collect::<Vec<_>>()
-            .join("_");
-        super::write_file(&args.out.join(format!("{}_{slug}.csv", s.name)), |w| r.write_csv(w))?;
-    }
+            .join("_")
+    };
     let names: Vec<&str> = s.variants.iter().map(|v| v.name.as_str()).collect();
+    if s.open_loop() {
+        // A slew is read gait by gait: one row per gait, and Fig. 11's two panels.
+        let slews: Vec<SlewView> =
+            views.iter().map(|r| SlewView::new(r, scenario::SAMPLES_PER_GAIT)).collect();
+        for (v, g) in s.variants.iter().zip(&slews) {
+            let path = args.out.join(format!("{}_{}_gaits.csv", s.name, slug(&v.name)));
+            super::write_file(&path, |w| g.write_csv(w))?;
+        }
+        return super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
+            plot::slew_png(s.title, &names, &slews, p)
+        });
+    }
+    for (v, r) in s.variants.iter().zip(&views) {
+        super::write_file(&args.out.join(format!("{}_{}.csv", s.name, slug(&v.name))), |w| {
+            r.write_csv(w)
+        })?;
+    }
     super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
         plot::closed_loop_png(s.title, &names, &views, p)
     })
