@@ -35,6 +35,55 @@ pub fn load_font(path: &Path) -> Result<(), String> {
         .map_err(|_| format!("{}: not a TrueType/OpenType font", path.display()))
 }
 
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+const COLORS: [RGBColor; 3] = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+
+/// A white 1400×900 picture with its title, and its area below the title split at
+/// `split` percent into a top and a bottom panel.
+fn canvas<'a>(path: &'a Path, title: &str, split: u32) -> Result<[Area<'a>; 3], Box<dyn Error>> {
+    let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let body = root.titled(title, (FONT, 24))?;
+    let (top, bottom) = body.split_vertically(900 * split / 100);
+    Ok([root, top, bottom])
+}
+
+/// A panel with the axes every plot here has: margins, label areas, a light mesh, labels.
+fn panel<'a, 'b>(
+    area: &'a Area<'b>,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    x_desc: &str,
+    y_desc: &str,
+) -> Result<Chart<'a, 'b>, Box<dyn Error>> {
+    let mut chart = ChartBuilder::on(area)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .label_style((FONT, 16))
+        .draw()?;
+    Ok(chart)
+}
+
+/// The smallest and largest of some values.
+fn extent(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
+    values
+        .into_iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)))
+}
+
 fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
     let pad = ((hi - lo) * 0.05).max(0.5);
     (lo - pad)..(hi + pad)
@@ -180,32 +229,17 @@ pub fn closed_loop_png(
     runs: &[LoopView],
     path: &Path,
 ) -> Result<(), Box<dyn Error>> {
-    let (w, h) = (1400u32, 900u32);
-    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let root = root.titled(title, (FONT, 24))?;
-    let (top, bottom) = root.split_vertically(h * 62 / 100);
-    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+    let [root, top, bottom] = canvas(path, title, 62)?;
     let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
     let um = 1e6;
     let pos = |r: &LoopView| -> Vec<(f64, f64)> {
         r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * um)).collect()
     };
-    let (lo, hi) = runs
-        .iter()
-        .flat_map(|r| pos(r).into_iter().map(|p| p.1).chain(r.reference.iter().map(|x| x * um)))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    let mut chart = ChartBuilder::on(&top)
-        .margin(12)
-        .x_label_area_size(30)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .y_desc("encoder position (µm)")
-        .label_style((FONT, 16))
-        .draw()?;
+    let (lo, hi) =
+        extent(runs.iter().flat_map(|r| {
+            pos(r).into_iter().map(|p| p.1).chain(r.reference.iter().map(|x| x * um))
+        }));
+    let mut chart = panel(&top, 0.0..t_end, padded(lo, hi), "", "encoder position (µm)")?;
     if let Some(r) = runs.first() {
         chart
             .draw_series(LineSeries::new(
@@ -216,7 +250,7 @@ pub fn closed_loop_png(
             .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
     }
     for (i, (r, name)) in runs.iter().zip(names).enumerate() {
-        let c = colors[i % colors.len()];
+        let c = COLORS[i % COLORS.len()];
         let settle = r
             .settle_time(1e-6)
             .map_or("not settled".to_string(), |t| format!("settled within 1 µm at {t:.2} s"));
@@ -240,24 +274,11 @@ pub fn closed_loop_png(
         .label_font((FONT, 15))
         .draw()?;
 
-    let (lo, hi) = runs
-        .iter()
-        .flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
-    let mut chart = ChartBuilder::on(&bottom)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..t_end, padded(lo, hi))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc("time (s)")
-        .y_desc("disturbance estimate (µm)")
-        .label_style((FONT, 16))
-        .draw()?;
+    let (lo, hi) = extent(runs.iter().flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um)));
+    let mut chart =
+        panel(&bottom, 0.0..t_end, padded(lo, hi), "time (s)", "disturbance estimate (µm)")?;
     for (i, r) in runs.iter().enumerate() {
-        let c = colors[i % colors.len()];
+        let c = COLORS[i % COLORS.len()];
         chart.draw_series(LineSeries::new(
             r.time.iter().zip(&r.disturbance_estimate).map(|(&t, &x)| (t, x * um)),
             c.stroke_width(2),
@@ -275,31 +296,13 @@ pub fn slew_png(
     runs: &[SlewView],
     path: &Path,
 ) -> Result<(), Box<dyn Error>> {
-    let (w, h) = (1400u32, 900u32);
-    let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let root = root.titled(title, (FONT, 24))?;
-    let (top, bottom) = root.split_vertically(h * 50 / 100);
-    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+    let [root, top, bottom] = canvas(path, title, 50)?;
     let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
-    let range = |vals: &mut dyn Iterator<Item = f64>| {
-        vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)))
-    };
-    let (lo, hi) = range(&mut runs.iter().flat_map(|r| r.position.iter().map(|x| x * 1e3)));
-    let mut chart = ChartBuilder::on(&top)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..t_end, padded(lo.min(0.0), hi))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc("time (s)")
-        .y_desc("runner position (mm)")
-        .label_style((FONT, 16))
-        .draw()?;
+    let (lo, hi) = extent(runs.iter().flat_map(|r| r.position.iter().map(|x| x * 1e3)));
+    let mut chart =
+        panel(&top, 0.0..t_end, padded(lo.min(0.0), hi), "time (s)", "runner position (mm)")?;
     for (i, (r, name)) in runs.iter().zip(names).enumerate() {
-        let c = colors[i % colors.len()];
+        let c = COLORS[i % COLORS.len()];
         chart
             .draw_series(LineSeries::new(
                 std::iter::once((0.0, 0.0))
@@ -322,21 +325,11 @@ pub fn slew_png(
         .draw()?;
 
     let gaits = runs.iter().map(|r| r.advance.len()).max().unwrap_or(1) as f64;
-    let (lo, hi) = range(&mut runs.iter().flat_map(|r| r.advance.iter().map(|x| x * 1e6)));
-    let mut chart = ChartBuilder::on(&bottom)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..gaits + 1.0, padded(lo.min(0.0), hi))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc("gait")
-        .y_desc("advance per gait (µm)")
-        .label_style((FONT, 16))
-        .draw()?;
+    let (lo, hi) = extent(runs.iter().flat_map(|r| r.advance.iter().map(|x| x * 1e6)));
+    let y = padded(lo.min(0.0), hi);
+    let mut chart = panel(&bottom, 0.0..gaits + 1.0, y, "gait", "advance per gait (µm)")?;
     for (i, r) in runs.iter().enumerate() {
-        let c = colors[i % colors.len()];
+        let c = COLORS[i % COLORS.len()];
         chart.draw_series(LineSeries::new(
             r.advance.iter().enumerate().map(|(g, &a)| ((g + 1) as f64, a * 1e6)),
             c.stroke_width(2),

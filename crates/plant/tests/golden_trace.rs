@@ -15,6 +15,9 @@
 
 use inchworm_plant::{Dac, Plant, PlantParams, ScanStats, StepReport};
 
+mod common;
+use common::{splitmix, uniform};
+
 const GOLDEN: u64 = 0x1f29_39a4_26c7_0e2a;
 
 /// FNV-1a over 64-bit words.
@@ -27,18 +30,6 @@ impl Hash {
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
         }
     }
-}
-
-fn splitmix(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut x = *state;
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
-
-fn uniform(state: &mut u64) -> f64 {
-    (splitmix(state) >> 11) as f64 / (1u64 << 53) as f64
 }
 
 fn gait() -> Vec<Dac> {

@@ -4,21 +4,12 @@
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+mod common;
+use common::{splitmix, uniform};
+
 use inchworm_controller::gait::{Direction, Timing};
 use inchworm_plant::params::range;
 use inchworm_plant::{Dac, Plant, PlantParams, StepError, MAX_STEP};
-
-fn splitmix(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut x = *state;
-    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    x ^ (x >> 31)
-}
-
-fn uniform(state: &mut u64) -> f64 {
-    (splitmix(state) >> 11) as f64 / (1u64 << 53) as f64
-}
 
 /// A value in `[lo, hi]`: log-uniform where the range is positive, with its ends drawn
 /// one time in eight each, so the corners are exercised.
