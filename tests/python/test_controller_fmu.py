@@ -10,11 +10,11 @@ def test_validates_without_problems(controller_fmu):
 
 
 def test_simulates_with_defaults_and_starts_stepping_towards_the_reference(controller_fmu):
-    # Encoder held at 0, reference 100 µm: the controller plans 4 full forward steps and a
+    # Encoder held at 0, reference 100 µm: the controller plans 3 full forward steps of ~26 µm and a
     # fraction, and drives the forward gait (non-earth brake powered from sample 15).
     result = simulate_fmu(controller_fmu, stop_time=0.2, start_values={"reference": 100e-6},
                           output=["dac_nonearth", "dac_nonearth_code", "n_steps", "moving"])
-    assert result["n_steps"][-1] == 4
+    assert result["n_steps"][-1] == 3
     assert result["dac_nonearth_code"].max() == 65535
     assert result["dac_nonearth"].max() == 10.0
     assert result["moving"][-1]

@@ -549,12 +549,14 @@ fn corrupt_truncated_and_foreign_state_blobs_are_refused() {
 /// The payload of an uninitialized plant with m_p = 0.03, dac_nonearth = 3.5 and
 /// noise_seed = -7, as the encoder before the table-driven parameter save wrote it
 /// (state format 1): the parameters in table order as f64, the seed as its unsigned
-/// pattern, the three DAC volts, then 0 for "no plant yet".
+/// pattern, the three DAC volts, then 0 for "no plant yet". The parameters include the
+/// default hysteresis radii, so they changed with the passive form (15–75 V) and nothing
+/// else did.
 const PLANT_FORMAT_1: &str = concat!(
     "b81e85eb51b89e3f00000000389c7c410000000000002e407b14ae47e17aa43f00000000d0125341",
     "0000000000003440333333333333c33f000000000088d34000000000000024403bdf4f8d976ea23f",
-    "00000000000000009a999999999921408dedb5a0f7c6d03e00000000000024400000000000003440",
-    "0000000000003e40000000000000444000000000000049407b14ae47e17ab43fec51b81e85ebb13f",
+    "00000000000000009a999999999921408dedb5a0f7c6d03e0000000000002e400000000000003e40",
+    "00000000008046400000000000004e400000000000c052407b14ae47e17ab43fec51b81e85ebb13f",
     "b81e85eb51b8ae3f9a9999999999a93f7b14ae47e17aa43f0000000000e065400000000000000000",
     "00000000000049400000000000c0724000000000000024400000000000b07d404cce61e3a79d143e",
     "95d626e80b2e113e0000000000000000000020ffffffef4100000000000000000000000000000c40",
