@@ -14,6 +14,7 @@
 pub mod api;
 mod export;
 pub mod ffi;
+pub mod fmi3;
 mod instance;
 pub mod model_description;
 mod state_blob;
