@@ -164,3 +164,17 @@ pub type fmi3DoStepTYPE = unsafe extern "C" fn(
     *mut fmi3Boolean,
     *mut fmi3Float64,
 ) -> fmi3Status;
+pub type fmi3GetStringTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *mut fmi3String,
+    usize,
+) -> fmi3Status;
+pub type fmi3SetStringTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *const fmi3String,
+    usize,
+) -> fmi3Status;
