@@ -731,3 +731,55 @@ pub(crate) fn load(
         unpacked,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const XML: &str = r#"<?xml version="1.0"?>
+<fmiModelDescription fmiVersion="3.0" modelName="M" instantiationToken="{t}">
+  <CoSimulation modelIdentifier="m" canGetAndSetFMUState="true"/>
+  <DefaultExperiment stepSize="0.01"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+    <Float64 name="x" valueReference="1" causality="output" initial="calculated"/>
+    <Int32 name="n" valueReference="2" causality="parameter" variability="fixed" start="3"/>
+    <Boolean name="b" valueReference="3" causality="input" start="false"/>
+    <Float64 name="a" valueReference="4" causality="parameter" variability="tunable" start="1 2">
+      <Dimension start="2"/>
+    </Float64>
+    <UInt8 name="u" valueReference="5" causality="input" start="0"/>
+    <Float64 name="y" valueReference="6" causality="input" start="0"><Annotations/></Float64>
+  </ModelVariables>
+  <ModelStructure><Output valueReference="1"/></ModelStructure>
+</fmiModelDescription>"#;
+
+    #[test]
+    fn fmi3_description_reads_scalars_and_leaves_out_what_csfmu_cannot_address() {
+        assert!(declares_fmi3(XML));
+        assert!(!declares_fmi3(&XML.replace("3.0", "2.0")));
+        assert!(!declares_fmi3("not xml <"));
+        let md = parse_description(XML).unwrap();
+        assert_eq!((md.fmi_version.as_str(), md.guid.as_str()), ("3.0", "{t}"));
+        let cs = md.co_simulation.as_ref().unwrap();
+        assert!(cs.can_get_and_set_fmu_state);
+        assert_eq!(md.default_experiment.unwrap().step_size, Some(0.01));
+        let vars: Vec<_> =
+            md.variables.iter().map(|v| (v.name.as_str(), v.ty, v.variability)).collect();
+        assert_eq!(
+            vars,
+            [
+                ("x", VarType::Real, Variability::Continuous),
+                ("n", VarType::Integer, Variability::Fixed),
+                ("b", VarType::Boolean, Variability::Discrete),
+                ("y", VarType::Real, Variability::Continuous),
+            ]
+        );
+        assert_eq!(md.variable("n").unwrap().start.as_deref(), Some("3"));
+        let dup = XML.replace(r#"name="y""#, r#"name="x""#);
+        let e = parse_description(&dup).unwrap_err().to_string();
+        assert!(e.contains("a second variable named `x`"), "{e}");
+        let bad = XML.replace(r#"valueReference="2""#, r#"valueReference="-2""#);
+        assert!(parse_description(&bad).unwrap_err().to_string().contains("valueReference"));
+    }
+}
