@@ -307,6 +307,8 @@ struct Adapter {
     instance: fmi3Instance,
     api: Api3,
     experiment: (Option<f64>, f64, Option<f64>),
+    /// The target of the adapter's own log records, as of the FMU's.
+    name: String,
 }
 
 unsafe fn adapter<'a>(c: fmi2Component) -> &'a mut Adapter {
@@ -513,7 +515,7 @@ unsafe extern "C" fn do_step(
         };
         crate::logger::emit(
             log::Level::Error,
-            "fmi3",
+            &a.name,
             format_args!("fmi3DoStep from t = {t} s: {why} (last successful time {last} s)"),
         );
         return fmi2Error;
@@ -669,9 +671,12 @@ pub(crate) fn load(
         drop(library);
         return Err(import(ImportError::Instantiate { instance: instance_name.to_owned() }));
     }
-    let component =
-        Box::into_raw(Box::new(Adapter { instance, api: api3, experiment: (None, 0.0, None) }))
-            as fmi2Component;
+    let component = Box::into_raw(Box::new(Adapter {
+        instance,
+        api: api3,
+        experiment: (None, 0.0, None),
+        name: instance_name.to_owned(),
+    })) as fmi2Component;
     let api = Api {
         get_types_platform: types_platform,
         get_version,

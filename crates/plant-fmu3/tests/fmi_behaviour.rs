@@ -543,3 +543,58 @@ fn committed_model_description_matches_the_variable_table() {
         "{path} differs from the variable table: run `cargo run --release -p fmu-build` and commit modelDescription/fmi3/"
     );
 }
+
+impl Instance {
+    fn take_logged(&self) -> Vec<String> {
+        std::mem::take(&mut *self.log.0.lock().unwrap())
+    }
+
+    fn set_debug_logging(&self, on: bool, categories: &[*const std::ffi::c_char]) -> fmi3Status {
+        unsafe { fmu::fmi3SetDebugLogging(self.c, on, categories.len(), categories.as_ptr()) }
+    }
+}
+
+fn debug_categories(lines: &[String]) -> Vec<String> {
+    assert!(lines.iter().all(|l| l.starts_with("0|")), "{lines:?}");
+    inchworm_fmi_export::testing::categories_of(lines)
+}
+
+#[test]
+fn debug_logging_enables_exactly_the_named_categories() {
+    let i = Instance::init("logging");
+    i.gait(0, 1.0);
+    assert_eq!(i.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
+    assert_eq!(i.set_debug_logging(true, &[c"logEvents".as_ptr()]), fmi3OK);
+    i.gait(100, 1.0);
+    let events = i.take_logged();
+    assert_eq!(debug_categories(&events), ["logEvents"]);
+    assert!(events.iter().all(|l| l.contains("brake switch")), "{events:?}");
+    assert_eq!(i.set_debug_logging(true, &[]), fmi3OK);
+    i.gait(200, 1.0);
+    let all = i.take_logged();
+    assert_eq!(debug_categories(&all), ["logAll", "logEvents"]);
+    assert_eq!(all.iter().filter(|l| l.ends_with("|logAll|logging: fmi3DoStep")).count(), 100);
+    assert_eq!(i.set_debug_logging(false, &[]), fmi3OK);
+    i.take_logged();
+    i.gait(300, 1.0);
+    assert_eq!(i.take_logged(), Vec::<String>::new());
+    assert_eq!(i.set_real(DAC_EARTH, 12.0), fmi3Warning, "warnings still go out");
+    let warned = i.take_logged();
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(warned[0].starts_with("1|logStatusWarning|logging: fmi3SetFloat64: dac_earth = 12 V"));
+}
+
+#[test]
+fn unknown_or_null_log_categories_are_refused_and_change_nothing() {
+    let i = Instance::init("bad categories");
+    assert_eq!(i.set_debug_logging(true, &[c"logEvents".as_ptr()]), fmi3OK);
+    let bad = [c"logAll".as_ptr(), c"logNonsense".as_ptr()];
+    assert_eq!(i.set_debug_logging(true, &bad), fmi3Error);
+    assert!(i.saw(fmi3Error, &["fmi3SetDebugLogging", "unknown log category \"logNonsense\""]));
+    assert_eq!(i.set_debug_logging(false, &[std::ptr::null()]), fmi3Error);
+    assert!(i.saw(fmi3Error, &["a category name is NULL"]));
+    assert_eq!(unsafe { fmu::fmi3SetDebugLogging(i.c, true, 1, std::ptr::null()) }, fmi3Error);
+    i.take_logged();
+    i.gait(0, 1.0);
+    assert_eq!(debug_categories(&i.take_logged()), ["logEvents"]);
+}
