@@ -107,6 +107,16 @@ def test_plant_gives_the_fmi2_trace_bit_for_bit(reference_rows, tmp_path):
     assert np.max(np.abs(np.array(counts) - ref)) <= 1
 
 
+def test_fia6_parameters_through_fmpy_fmi3(reference_rows, tmp_path):
+    _, signals = gait(reference_rows, tmp_path)
+    kw = dict(stop_time=1.0, output_interval=H, input=signals, output=["encoder_counts"],
+              start_values={"T_em": 2.5, "F_d0": 105.0})
+    r3 = simulate_fmu(fmu3("InchwormPlant"), **kw)
+    r2 = simulate_fmu(str(DIST / "InchwormPlant.fmu"), **kw)
+    assert r3["encoder_counts"].tobytes() == r2["encoder_counts"].tobytes()
+    assert_check_values(list(r3["encoder_counts"][1:]), "fia6")
+
+
 def test_command_line_simulate_with_input_file(reference_rows, tmp_path):
     inp, _ = gait(reference_rows, tmp_path)
     out3, out2 = tmp_path / "fmi3.csv", tmp_path / "fmi2.csv"
