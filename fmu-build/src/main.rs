@@ -8,6 +8,7 @@ use std::process::{Command, ExitCode};
 
 use inchworm_fmi_export::{model_description, Model};
 
+mod fmi3;
 mod ssp;
 
 /// One FMU to package: its model, the cargo package of its cdylib and the library stem.
@@ -149,6 +150,9 @@ fn main() -> ExitCode {
         }
         let ssp = package_system(&root)?;
         println!("fmu-build: wrote {}", ssp.display());
+        for out in fmi3::package_all(&root)? {
+            println!("fmu-build: wrote {}", out.display());
+        }
         Ok(())
     };
     match run() {

@@ -1,4 +1,5 @@
-//! Generic FMI 2.0 Co-Simulation export.
+//! Generic FMI 2.0 Co-Simulation export, and FMI 3.0 Co-Simulation export from the same
+//! model ([`fmi3`], [`export_fmi3!`]).
 //!
 //! A model implements [`Model`]: its variable table, start values, get/set by value
 //! reference, initialization, one communication step, and its dynamic state as bytes.
@@ -14,6 +15,7 @@
 pub mod api;
 mod export;
 pub mod ffi;
+pub mod fmi3;
 mod instance;
 pub mod model_description;
 mod state_blob;

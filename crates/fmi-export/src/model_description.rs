@@ -11,7 +11,7 @@ use crate::Model;
 
 const GUID_PLACEHOLDER: &str = "@GUID@";
 
-fn escape(s: &str) -> String {
+pub(crate) fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
@@ -24,7 +24,7 @@ pub fn real(v: f64) -> String {
     }
 }
 
-fn causality(c: Causality) -> &'static str {
+pub(crate) fn causality(c: Causality) -> &'static str {
     match c {
         Causality::Parameter => "parameter",
         Causality::CalculatedParameter => "calculatedParameter",
@@ -34,7 +34,7 @@ fn causality(c: Causality) -> &'static str {
     }
 }
 
-fn variability(v: Variability) -> &'static str {
+pub(crate) fn variability(v: Variability) -> &'static str {
     match v {
         Variability::Constant => "constant",
         Variability::Fixed => "fixed",
@@ -44,7 +44,7 @@ fn variability(v: Variability) -> &'static str {
     }
 }
 
-fn initial(i: Initial) -> &'static str {
+pub(crate) fn initial(i: Initial) -> &'static str {
     match i {
         Initial::Exact => "exact",
         Initial::Approx => "approx",

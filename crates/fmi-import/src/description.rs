@@ -45,7 +45,7 @@ macro_rules! fmi_enum {
             pub fn as_str(self) -> &'static str {
                 match self { $($name::$variant => $text),+ }
             }
-            fn parse(s: &str) -> Option<Self> {
+            pub(crate) fn parse(s: &str) -> Option<Self> {
                 match s { $($text => Some($name::$variant),)+ _ => None }
             }
             const ALL: &'static str = concat!($("`", $text, "` "),+);
@@ -152,6 +152,17 @@ impl ModelDescription {
     /// The variable called `name`.
     pub fn variable(&self, name: &str) -> Option<&Variable> {
         self.by_name.get(name).map(|&i| &self.variables[i])
+    }
+
+    /// Appends a variable read by another parser (FMI 3.0, `crate::fmi3`); false, and
+    /// nothing added, if its name is taken.
+    pub(crate) fn add_variable(&mut self, v: Variable) -> bool {
+        if self.by_name.contains_key(&v.name) {
+            return false;
+        }
+        self.by_name.insert(v.name.clone(), self.variables.len());
+        self.variables.push(v);
+        true
     }
 }
 

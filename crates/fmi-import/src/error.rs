@@ -19,7 +19,7 @@ pub enum ImportError {
     NoModelDescription,
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
     Description { line: usize, column: usize, message: String },
-    /// `fmiVersion` is not 2.x.
+    /// `fmiVersion` is neither 2.x nor 3.x.
     UnsupportedVersion(String),
     /// No `binaries/<platform>/<modelIdentifier>.<ext>` for this platform.
     NoBinary { platform: &'static str, expected: String, available: Vec<String> },
@@ -55,7 +55,7 @@ impl fmt::Display for ImportError {
             ImportError::UnsupportedVersion(v) => {
                 write!(
                     f,
-                    "modelDescription.xml has fmiVersion=\"{v}\": only FMI 2.0 FMUs are supported"
+                    "modelDescription.xml has fmiVersion=\"{v}\": only FMI 2.0 and FMI 3.0 FMUs are supported"
                 )
             }
             ImportError::NoBinary {

@@ -25,6 +25,7 @@ mod binary;
 pub mod description;
 mod error;
 mod ffi;
+mod fmi3;
 mod logger;
 
 use std::ffi::{CStr, CString};
@@ -129,6 +130,9 @@ impl CsFmu {
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
+        if fmi3::declares_fmi3(&unpacked.model_description) {
+            return fmi3::load(path, unpacked, instance_name, logging_on);
+        }
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
         let Some(cs) = &description.co_simulation else {

@@ -274,6 +274,8 @@ fn bad_files_are_refused_clearly() {
         "{e}"
     );
 
+    // fmiVersion 3.0 is read as FMI 3.0 (src/fmi3.rs): a relabelled FMI 2.0 file is
+    // refused for what FMI 3.0 requires of it.
     let fmi3 = plant_variant(
         &dir,
         "fmi3.fmu",
@@ -281,7 +283,15 @@ fn bad_files_are_refused_clearly() {
         |n, b| Some((n.to_owned(), b)),
     );
     let e = load_err(&fmi3);
-    assert!(e.contains(r#"fmiVersion="3.0""#) && e.contains("only FMI 2.0"), "{e}");
+    assert!(e.contains("<fmiModelDescription> lacks instantiationToken"), "{e}");
+    let fmi1 = plant_variant(
+        &dir,
+        "fmi1.fmu",
+        |m| replace_once(m, r#"fmiVersion="2.0""#, r#"fmiVersion="1.0""#),
+        |n, b| Some((n.to_owned(), b)),
+    );
+    let e = load_err(&fmi1);
+    assert!(e.contains(r#"fmiVersion="1.0""#) && e.contains("only FMI 2.0 and FMI 3.0"), "{e}");
 
     let bad_vr = plant_variant(
         &dir,

@@ -1,0 +1,93 @@
+//! FMI 3.0 FMUs behind the same `CsFmu`: loading, variables, stepping bit for bit like the
+//! FMI 2.0 FMU, and errors that name the call.
+
+mod common;
+
+use common::dist;
+use inchworm_fmi_import::{CsFmu, FmuError, VarType};
+
+fn load_pair() -> (CsFmu, CsFmu) {
+    let f2 = CsFmu::load(&dist("InchwormPlant.fmu"), "plant2", false).unwrap();
+    let f3 = CsFmu::load(&dist("fmi3/InchwormPlant.fmu"), "plant3", false).unwrap();
+    (f2, f3)
+}
+
+#[test]
+fn an_fmi3_fmu_loads_with_the_fmi2_variables() {
+    let (f2, f3) = load_pair();
+    assert_eq!(f3.fmi_version(), "3.0");
+    assert_eq!(f3.binary_version(), "3.0");
+    assert_eq!(f3.guid(), f2.guid(), "instantiationToken is the FMI 2.0 GUID");
+    assert!(
+        f3.library_path().starts_with("binaries/x86_64-linux") || !cfg!(target_arch = "x86_64")
+    );
+    let names = |f: &CsFmu| {
+        f.variables().map(|v| (v.name.clone(), v.vr, v.ty, v.causality)).collect::<Vec<_>>()
+    };
+    assert_eq!(names(&f3), names(&f2), "the independent time is left out, the rest matches");
+    assert_eq!(f3.default_step_size(), Some(0.002));
+    assert!(matches!(f3.var("time"), Err(FmuError::UnknownVariable { .. })));
+    assert_eq!(f3.var_of("encoder_counts", VarType::Integer).unwrap().vr, 10);
+}
+
+#[test]
+fn the_fmi3_plant_steps_bit_for_bit_like_the_fmi2_plant() {
+    let (mut f2, mut f3) = load_pair();
+    for f in [&mut f2, &mut f3] {
+        f.enter_initialization(None, 0.0, Some(1.0)).unwrap();
+        let tem = f.var_of("T_em", VarType::Real).unwrap().vr;
+        f.set_real(&[tem], &[2.5]).unwrap();
+        f.exit_initialization().unwrap();
+    }
+    let dac = f3.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap();
+    let enc = f3.var_of("encoder_counts", VarType::Integer).unwrap().vr;
+    let closed = f3.var_of("earth_closed", VarType::Boolean).unwrap().vr;
+    for k in 0..400 {
+        let phase = (k / 15) % 6;
+        let volts = [
+            [0.0, 0.0, 0.0],
+            [0.0, 10.0, 0.0],
+            [10.0, 10.0, 0.0],
+            [10.0, 10.0, 10.0],
+            [0.0, 10.0, 10.0],
+            [0.0, 0.0, 10.0],
+        ][phase];
+        let mut seen = Vec::new();
+        for f in [&mut f2, &mut f3] {
+            f.set_real(&dac, &volts).unwrap();
+            f.do_step(0.002).unwrap();
+            let (mut c, mut b, mut x) = ([0], [false], [0.0]);
+            f.get_integer(&[enc], &mut c).unwrap();
+            f.get_boolean(&[closed], &mut b).unwrap();
+            f.get_real(&[12], &mut x).unwrap();
+            seen.push((c[0], b[0], x[0].to_bits()));
+        }
+        assert_eq!(seen[0], seen[1], "sample {k}");
+    }
+    assert!(f3.real("runner_position").unwrap() != 0.0, "the gait moved the runner");
+    f3.terminate().unwrap();
+}
+
+#[test]
+fn a_refused_fmi3_call_is_an_error_naming_the_call() {
+    let (_, mut f3) = load_pair();
+    f3.enter_initialization(None, 0.0, None).unwrap();
+    f3.exit_initialization().unwrap();
+    let dac = f3.var_of("dac_earth", VarType::Real).unwrap().vr;
+    let e = f3.set_real(&[dac], &[f64::NAN]).unwrap_err();
+    assert!(matches!(e, FmuError::Call { function: "fmi2SetReal", .. }), "{e}");
+    f3.set_real(&[dac], &[12.0]).expect("a clamped value is a warning, the call succeeds");
+    f3.do_step(0.002).unwrap();
+    assert_eq!(f3.time(), 0.002);
+    f3.reset().unwrap();
+    f3.enter_initialization(None, 0.0, None).unwrap();
+    f3.exit_initialization().unwrap();
+    f3.do_step(0.002).unwrap();
+}
+
+#[test]
+fn both_fmi3_fmus_of_the_system_load() {
+    let c = CsFmu::load(&dist("fmi3/InchwormController.fmu"), "controller3", false).unwrap();
+    assert_eq!(c.fmi_version(), "3.0");
+    assert_eq!(c.causality("encoder_counts").as_deref(), Some("input"));
+}

@@ -1,0 +1,131 @@
+//! The FMI 3.0 FMUs: `dist/fmi3/<Model>.fmu` from the `*-fmu3` cdylibs, their
+//! `modelDescription.xml` committed in `modelDescription/fmi3/`, and two SSPs over them:
+//! `dist/fmi3/InchwormSystem.ssp` (both FMUs FMI 3.0) and
+//! `dist/fmi3/InchwormSystemMixed.ssp` (the FMI 3.0 plant with the FMI 2.0 controller).
+//! The system description is the FMI 2.0 one: SSP names components and variables, not the
+//! FMI version.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use inchworm_fmi_export::fmi3::model_description::model_description;
+use inchworm_fmi_export::{model_description as md2, Model};
+
+struct Fmu3 {
+    identifier: &'static str,
+    package: &'static str,
+    lib_stem: &'static str,
+    model_description: fn() -> String,
+    documentation: fn() -> String,
+}
+
+fn fmu3<M: Model>(package: &'static str, lib_stem: &'static str) -> Fmu3 {
+    Fmu3 {
+        identifier: M::info().model_identifier,
+        package,
+        lib_stem,
+        model_description: model_description::<M>,
+        documentation: md2::documentation::<M>,
+    }
+}
+
+fn fmus() -> [Fmu3; 2] {
+    [
+        fmu3::<inchworm_fmu_models::PlantFmu>("inchworm-plant-fmu3", "inchworm_plant_fmu3"),
+        fmu3::<inchworm_fmu_models::ControllerFmu>(
+            "inchworm-controller-fmu3",
+            "inchworm_controller_fmu3",
+        ),
+    ]
+}
+
+/// FMI 3.0 platform tuple (section 2.5.1.1) and shared-library naming of the host.
+fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
+    match (std::env::consts::OS, std::env::consts::ARCH) {
+        ("linux", "x86_64") => Ok(("x86_64-linux", "lib", "so")),
+        ("linux", "aarch64") => Ok(("aarch64-linux", "lib", "so")),
+        ("linux", "x86") => Ok(("x86-linux", "lib", "so")),
+        ("macos", "x86_64") => Ok(("x86_64-darwin", "lib", "dylib")),
+        ("macos", "aarch64") => Ok(("aarch64-darwin", "lib", "dylib")),
+        ("windows", "x86_64") => Ok(("x86_64-windows", "", "dll")),
+        ("windows", "x86") => Ok(("x86-windows", "", "dll")),
+        (os, arch) => Err(format!("no FMI 3.0 platform tuple for {os}/{arch}")),
+    }
+}
+
+fn build(root: &Path, fmus: &[Fmu3]) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(root).args(["build", "--release", "--lib"]);
+    for f in fmus {
+        cmd.args(["-p", f.package]);
+    }
+    let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err(format!("cargo build of the FMI 3.0 FMU libraries failed ({status})"));
+    }
+    Ok(())
+}
+
+fn package(root: &Path, f: &Fmu3) -> Result<PathBuf, String> {
+    let (platform, prefix, ext) = platform()?;
+    let lib = super::target_dir(root).join("release").join(format!("{prefix}{}.{ext}", f.lib_stem));
+    let binary = std::fs::read(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
+    let xml = (f.model_description)();
+    let md_dir = root.join("modelDescription").join("fmi3");
+    std::fs::create_dir_all(&md_dir).map_err(|e| format!("{}: {e}", md_dir.display()))?;
+    let md_path = md_dir.join(format!("{}.xml", f.identifier));
+    std::fs::write(&md_path, &xml).map_err(|e| format!("{}: {e}", md_path.display()))?;
+
+    let dist = root.join("dist").join("fmi3");
+    std::fs::create_dir_all(&dist).map_err(|e| format!("{}: {e}", dist.display()))?;
+    let out = dist.join(format!("{}.fmu", f.identifier));
+    let docs = (f.documentation)();
+    let entries: [(String, &[u8]); 3] = [
+        ("modelDescription.xml".into(), xml.as_bytes()),
+        (format!("binaries/{platform}/{}.{ext}", f.identifier), &binary),
+        ("documentation/index.html".into(), docs.as_bytes()),
+    ];
+    super::write_zip(&out, &entries)?;
+    Ok(out)
+}
+
+fn package_system(
+    root: &Path,
+    name: &str,
+    plant: &Path,
+    controller: &Path,
+) -> Result<PathBuf, String> {
+    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+    let (plant, controller) = (read(plant)?, read(controller)?);
+    let ssd = super::ssp::system_description();
+    let sets = super::ssp::parameter_sets();
+    let mut entries: Vec<(String, &[u8])> = vec![
+        ("SystemStructure.ssd".into(), ssd.as_bytes()),
+        ("resources/InchwormPlant.fmu".into(), &plant),
+        ("resources/InchwormController.fmu".into(), &controller),
+    ];
+    for (set, text) in &sets {
+        entries.push((format!("resources/{set}.ssv"), text.as_bytes()));
+    }
+    let out = root.join("dist").join("fmi3").join(format!("{name}.ssp"));
+    super::write_zip(&out, &entries)?;
+    Ok(out)
+}
+
+/// Builds and packages everything FMI 3.0; call after the FMI 2.0 FMUs are in `dist/`.
+pub fn package_all(root: &Path) -> Result<Vec<PathBuf>, String> {
+    let fmus = fmus();
+    build(root, &fmus)?;
+    let mut written = Vec::new();
+    for f in &fmus {
+        written.push(package(root, f)?);
+    }
+    let (d2, d3) = (root.join("dist"), root.join("dist").join("fmi3"));
+    let plant3 = d3.join("InchwormPlant.fmu");
+    let controller3 = d3.join("InchwormController.fmu");
+    written.push(package_system(root, "InchwormSystem", &plant3, &controller3)?);
+    let controller2 = d2.join("InchwormController.fmu");
+    written.push(package_system(root, "InchwormSystemMixed", &plant3, &controller2)?);
+    Ok(written)
+}

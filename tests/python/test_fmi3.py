@@ -1,0 +1,299 @@
+"""The FMI 3.0 FMUs (dist/fmi3/) in FMPy: only fmi3* symbols, clean validation, default
+and gait-input simulation, the FMI 2.0 FMUs' traces bit for bit (plant on the passive
+check trace, closed loop through FMPy's FMI 3.0 API), state round trips and refusals."""
+import pathlib
+import shutil
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
+from fmpy.validation import validate_fmu
+
+from conftest import DIST, assert_check_values, write_gait_input
+
+FMI3 = DIST / "fmi3"
+FMPY = [str(pathlib.Path(sys.executable).parent / "fmpy")]
+NAMES = ["InchwormPlant", "InchwormController"]
+ALLOWED_NEEDED = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "ld-linux-x86-64.so.2"}
+# Every function of fmi3Functions.h (FMI 3.0): common, Model Exchange, Co-Simulation,
+# Scheduled Execution.
+N_FMI3_FUNCTIONS = 75
+H = 0.002
+PLANT_OUTPUTS = ["encoder_counts", "encoder_position", "runner_position", "extension", "voltage_earth",
+                 "voltage_nonearth", "voltage_extension", "mode", "earth_closed", "nonearth_closed", "slip_events"]
+
+
+def fmu3(name):
+    path = FMI3 / f"{name}.fmu"
+    if not path.exists():
+        pytest.fail(f"{path} is missing: run `cargo run --release -p fmu-build` first")
+    return str(path)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_only_fmi3_symbols_and_only_the_c_runtime(name, tmp_path):
+    if not (shutil.which("nm") and shutil.which("readelf")):
+        pytest.fail("nm and readelf (Debian binutils) are needed for this check")
+    with zipfile.ZipFile(fmu3(name)) as z:
+        so = z.extract(f"binaries/x86_64-linux/{name}.so", tmp_path)
+    out = subprocess.run(["nm", "-D", "--defined-only", so], capture_output=True, text=True, check=True).stdout
+    names = [line.split()[-1] for line in out.split("\n") if line.strip()]
+    assert len([n for n in names if n.startswith("fmi3")]) == N_FMI3_FUNCTIONS
+    assert [n for n in names if not n.startswith("fmi3")] == []
+    dynamic = subprocess.run(["readelf", "-d", so], capture_output=True, text=True, check=True).stdout
+    needed = {line.split("[")[1].rstrip("]") for line in dynamic.splitlines() if "(NEEDED)" in line}
+    assert needed <= ALLOWED_NEEDED, needed - ALLOWED_NEEDED
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_validates_without_problems(name):
+    assert validate_fmu(fmu3(name)) == []
+    out = subprocess.run(FMPY + ["validate", fmu3(name)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "no problems" in out.stdout.lower(), out.stdout
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_same_variables_as_fmi2(name):
+    md2 = read_model_description(str(DIST / f"{name}.fmu"))
+    md3 = read_model_description(fmu3(name))
+    assert md3.fmiVersion == "3.0"
+    assert md3.guid == md2.guid, "instantiationToken is the FMI 2.0 GUID"
+    types = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+    v2 = [(v.name, v.valueReference, types[v.type], v.causality, v.start) for v in md2.modelVariables]
+    v3 = [(v.name, v.valueReference, v.type, v.causality, v.start) for v in md3.modelVariables
+          if v.causality != "independent"]
+    assert v3 == v2
+    time = [v for v in md3.modelVariables if v.causality == "independent"]
+    assert [(v.name, v.valueReference) for v in time] == [("time", 0)]
+
+
+def test_plant_simulates_with_defaults_and_stays_at_rest():
+    result = simulate_fmu(fmu3("InchwormPlant"))
+    assert len(result) > 10
+    assert np.all(result["encoder_counts"] == 0)
+    assert np.all(result["mode"] == 1)
+
+
+def test_controller_simulates_with_defaults():
+    r3 = simulate_fmu(fmu3("InchwormController"))
+    r2 = simulate_fmu(str(DIST / "InchwormController.fmu"))
+    assert r3.tobytes() == r2.tobytes()
+
+
+def gait(reference_rows, tmp_path):
+    path = tmp_path / "gait.csv"
+    write_gait_input(reference_rows, path)
+    return path, np.genfromtxt(path, delimiter=",", names=True)
+
+
+def test_plant_gives_the_fmi2_trace_bit_for_bit(reference_rows, tmp_path):
+    _, signals = gait(reference_rows, tmp_path)
+    kw = dict(stop_time=1.0, output_interval=H, input=signals, output=PLANT_OUTPUTS)
+    r3 = simulate_fmu(fmu3("InchwormPlant"), **kw)
+    r2 = simulate_fmu(str(DIST / "InchwormPlant.fmu"), **kw)
+    assert len(r3) == len(r2) == 501
+    for name in PLANT_OUTPUTS:
+        assert r3[name].tobytes() == r2[name].tobytes(), name
+    counts = list(r3["encoder_counts"][1:])
+    assert_check_values(counts)
+    ref = np.array([r["encoder_counts_after"] for r in reference_rows])
+    assert np.max(np.abs(np.array(counts) - ref)) <= 1
+
+
+def test_fia6_parameters_through_fmpy_fmi3(reference_rows, tmp_path):
+    _, signals = gait(reference_rows, tmp_path)
+    kw = dict(stop_time=1.0, output_interval=H, input=signals, output=["encoder_counts"],
+              start_values={"T_em": 2.5, "F_d0": 105.0})
+    r3 = simulate_fmu(fmu3("InchwormPlant"), **kw)
+    r2 = simulate_fmu(str(DIST / "InchwormPlant.fmu"), **kw)
+    assert r3["encoder_counts"].tobytes() == r2["encoder_counts"].tobytes()
+    assert_check_values(list(r3["encoder_counts"][1:]), "fia6")
+
+
+def test_command_line_simulate_with_input_file(reference_rows, tmp_path):
+    inp, _ = gait(reference_rows, tmp_path)
+    out3, out2 = tmp_path / "fmi3.csv", tmp_path / "fmi2.csv"
+    for fmu, out in [(fmu3("InchwormPlant"), out3), (str(DIST / "InchwormPlant.fmu"), out2)]:
+        run = subprocess.run(FMPY + ["simulate", fmu, "--stop-time", "1.0", "--output-interval", "0.002",
+                                     "--input-file", str(inp), "--output-file", str(out)],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stdout + run.stderr
+    assert out3.read_text() == out2.read_text()
+
+
+def load3(name, instance):
+    path = fmu3(name)
+    md = read_model_description(path)
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
+    fmu.instantiate()
+    fmu.enterInitializationMode(startTime=0.0)
+    fmu.exitInitializationMode()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def load2(name, instance):
+    path = str(DIST / f"{name}.fmu")
+    md = read_model_description(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
+DAC = ["dac_earth", "dac_nonearth", "dac_extension"]
+
+
+def jacobi3(steps):
+    plant, pv = load3("InchwormPlant", "plant")
+    ctrl, cv = load3("InchwormController", "controller")
+    counts = []
+    for k in range(steps):
+        t = k * H
+        enc = plant.getInt32([pv["encoder_counts"]])
+        volts = ctrl.getFloat64([cv[n] for n in DAC])
+        plant.setFloat64([pv[n] for n in DAC], volts)
+        ctrl.setInt32([cv["encoder_counts"]], enc)
+        ctrl.setFloat64([cv["reference"]], [100e-6])
+        for f in (plant, ctrl):
+            event, terminate, early, last = f.doStep(t, H)
+            assert (event, terminate, early) == (False, False, False)
+            assert last == t + H
+        counts.append(plant.getInt32([pv["encoder_counts"]])[0])
+    for f in (plant, ctrl):
+        f.terminate()
+        f.freeInstance()
+    return counts
+
+
+def jacobi2(steps):
+    plant, pv = load2("InchwormPlant", "plant")
+    ctrl, cv = load2("InchwormController", "controller")
+    counts = []
+    for k in range(steps):
+        t = k * H
+        enc = plant.getInteger([pv["encoder_counts"]])
+        volts = ctrl.getReal([cv[n] for n in DAC])
+        plant.setReal([pv[n] for n in DAC], volts)
+        ctrl.setInteger([cv["encoder_counts"]], enc)
+        ctrl.setReal([cv["reference"]], [100e-6])
+        plant.doStep(t, H)
+        ctrl.doStep(t, H)
+        counts.append(plant.getInteger([pv["encoder_counts"]])[0])
+    for f in (plant, ctrl):
+        f.terminate()
+        f.freeInstance()
+    return counts
+
+
+def test_closed_loop_through_fmpy_fmi3_api_equals_fmi2():
+    c3 = jacobi3(5000)
+    c2 = jacobi2(5000)
+    first = next((i for i, (a, b) in enumerate(zip(c2, c3)) if a != b), None)
+    assert first is None, f"FMI 3.0 and FMI 2.0 loops differ first at sample {first}"
+    assert abs(c3[-1] * 1.2e-3 - 100.0) < 1.0
+
+
+def test_state_round_trip_and_corrupt_blob():
+    plant, pv = load3("InchwormPlant", "plant")
+    plant.setFloat64([pv["dac_extension"]], [10.0])
+    t = 0.0
+    for _ in range(50):
+        plant.doStep(t, H)
+        t += H
+    saved = plant.getFMUState()
+    blob = plant.serializeFMUState(saved)
+    ahead = []
+    for _ in range(50):
+        plant.doStep(t, H)
+        t += H
+        ahead.append(plant.getFloat64([pv["extension"]])[0])
+    restored = plant.deserializeFMUState(blob)
+    plant.setFMUState(restored)
+    t = 50 * H
+    again = []
+    for _ in range(50):
+        plant.doStep(t, H)
+        t += H
+        again.append(plant.getFloat64([pv["extension"]])[0])
+    assert again == ahead
+    bad = bytearray(blob)
+    bad[len(bad) // 2] ^= 0x10
+    with pytest.raises(FMICallException):
+        plant.deserializeFMUState(bytes(bad))
+    plant.freeFMUState(saved)
+    plant.freeFMUState(restored)
+    plant.terminate()
+    plant.freeInstance()
+
+
+def test_refusals_reach_the_logger():
+    messages = []
+
+    def log(env, status, category, message):
+        messages.append((status, category.decode(), message.decode()))
+
+    path = fmu3("InchwormPlant")
+    md = read_model_description(path)
+    plant = FMU3Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier="InchwormPlant", instanceName="p")
+    plant.instantiate(logMessage=log)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    with pytest.raises(FMICallException):
+        plant.doStep(0.0, H)  # before initialization
+    plant.enterInitializationMode(startTime=0.0)
+    plant.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        plant.getFloat64([9999])
+    with pytest.raises(FMICallException):
+        plant.setFloat64([vr["dac_earth"]], [float("nan")])
+    with pytest.raises(FMICallException):
+        plant.setFloat64([vr["m_p"]], [1.0])  # a fixed parameter after initialization
+    with pytest.raises(FMICallException):
+        plant.getInt32([vr["dac_earth"]])  # a Float64 asked as Int32
+    plant.setFloat64([vr["dac_earth"]], [12.0])  # clamped, with a warning
+    assert plant.getFloat64([0]) == [0.0]  # time
+    with pytest.raises(FMICallException):
+        plant.enterEventMode()
+    plant.doStep(0.0, H)
+    assert plant.getFloat64([0]) == [H]
+    with pytest.raises(FMICallException):
+        plant.doStep(1.0, H)  # not where the last step ended
+    plant.terminate()
+    plant.freeInstance()
+    text = "\n".join(m[2] for m in messages)
+    for expected in ["illegal call sequence", "unknown value reference 9999", "must be finite",
+                     "cannot be set in state StepMode", "is Float64, not Int32", "clamped to 10",
+                     "hasEventMode is false", "does not match the FMU time"]:
+        assert expected in text, (expected, text)
+    assert all(m[1] in ("logStatusError", "logStatusWarning") for m in messages)
+
+
+@pytest.mark.parametrize("fmi3_file, fmi2_file", [
+    ("fmi3/InchwormPlant.fmu", "InchwormPlant.fmu"),
+    ("fmi3/InchwormSystem.ssp", "InchwormSystem.ssp"),
+    ("fmi3/InchwormSystemMixed.ssp", "InchwormSystem.ssp"),
+])
+def test_inchworm_run_takes_fmi3_fmus_and_ssps(fmi3_file, fmi2_file, tmp_path):
+    """`inchworm run` on an FMI 3.0 FMU, an SSP of FMI 3.0 FMUs and one mixing FMI 3.0 and
+    FMI 2.0 writes what it writes for the FMI 2.0 files, byte for byte."""
+    exe = DIST.parent / "target" / "release" / "inchworm"
+    assert exe.exists(), "build the CLI first: cargo build --release"
+    outs = []
+    for f in (fmi3_file, fmi2_file):
+        out = tmp_path / (f.replace("/", "_") + ".csv")
+        run = subprocess.run([str(exe), "run", str(DIST / f), "--stop-time", "3", "--out", str(out)],
+                             capture_output=True, text=True)
+        assert run.returncode == 0, run.stdout + run.stderr
+        outs.append(out.read_text())
+    assert outs[0] == outs[1]
+    assert len(outs[0].splitlines()) == 1502
