@@ -8,6 +8,7 @@ use std::sync::mpsc;
 use crate::master::{Coupling, InputTable, Options, Simulation, System};
 use crate::sweep::metrics::{self, Metric};
 use crate::sweep::plan::{Plan, Row};
+use crate::sweep::ranges::Ranges;
 use crate::trace::Trace;
 
 /// What every run of a sweep shares.
@@ -55,6 +56,9 @@ impl Setup {
 pub struct Worker<'a> {
     setup: &'a Setup,
     sim: Option<Simulation>,
+    /// The declared ranges; empty if the model descriptions could not be read (then only
+    /// the FMUs themselves refuse a value).
+    ranges: Ranges,
     /// Loads (unpack + instantiate) done so far: 1 unless a run failed.
     pub loads: usize,
 }
@@ -73,7 +77,8 @@ fn simulate(sim: &mut Simulation) -> Result<Trace, String> {
 
 impl<'a> Worker<'a> {
     pub fn new(setup: &'a Setup) -> Worker<'a> {
-        Worker { setup, sim: None, loads: 0 }
+        let ranges = Ranges::read(&setup.system).unwrap_or_default();
+        Worker { setup, sim: None, ranges, loads: 0 }
     }
 
     fn fresh(&mut self, opts: &Options) -> Result<(), String> {
@@ -100,6 +105,19 @@ impl<'a> Worker<'a> {
 
     /// Runs one row; never fails: an error is the outcome's.
     pub fn run(&mut self, names: &[String], row: &Row) -> Outcome {
+        let outcome = |metrics, error| Outcome {
+            run: row.run,
+            sample: row.sample,
+            values: row.values.clone(),
+            metrics,
+            error,
+        };
+        // Out of its declared range: refused before the FMUs see it, which stay as they are.
+        if let Some(e) =
+            names.iter().zip(&row.values).find_map(|(n, v)| self.ranges.check(n, *v).err())
+        {
+            return outcome(vec![], Some(e));
+        }
         let opts = self.setup.options(names, row);
         let result = self
             .ready(&opts)
@@ -113,7 +131,7 @@ impl<'a> Worker<'a> {
                 (vec![], Some(e))
             }
         };
-        Outcome { run: row.run, sample: row.sample, values: row.values.clone(), metrics, error }
+        outcome(metrics, error)
     }
 }
 

@@ -1,6 +1,6 @@
 //! Parameter sweeps over a system: the plan ([`plan`]), what each run reports
 //! ([`metrics`]), running a plan on worker threads ([`exec`]), and the results as CSV, JSON
-//! lines and plots ([`plots`]).
+//! lines and plots ([`plots`]); [`ranges`] refuses a swept value outside its declared range.
 //!
 //! The results table has one row per run: `run,sample,<parameter>,…,<metric>,…,status,error`;
 //! a metric with no value (a run that never settles) and the metrics of a failed run are
@@ -10,6 +10,7 @@ pub mod exec;
 pub mod metrics;
 pub mod plan;
 pub mod plots;
+pub mod ranges;
 
 use std::fmt::Write as _;
 
