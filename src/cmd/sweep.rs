@@ -37,8 +37,8 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// A metric per run: settle[:TOL], rms:FROM:TO, disturbance, slips, final:NAME,
-    /// min:NAME, max:NAME; repeatable; default: settle:1e-6, disturbance, slips,
-    /// final:plant.encoder_position.
+    /// min:NAME, max:NAME; repeatable; default (for InchwormSystem.ssp): settle:1e-6,
+    /// disturbance, slips, final:plant.encoder_position.
     #[arg(long = "metric", value_name = "METRIC")]
     pub metrics: Vec<String>,
     /// Worker threads, each with its own loaded system; default: every core.

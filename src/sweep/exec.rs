@@ -91,13 +91,10 @@ impl<'a> Worker<'a> {
     /// The system at t = 0 with `opts`' parameters: the loaded one reset, or, the first
     /// time or after a failure, loaded anew.
     fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, String> {
-        let reset = match self.sim.as_mut() {
-            Some(sim) => sim.reset(opts),
-            None => Err(String::new()),
-        };
-        if reset.is_err() {
-            // A reset refused after a failed run is the old run's trouble: start clean, and
-            // let a load or initialisation error be this row's.
+        let reset = self.sim.as_mut().map(|sim| sim.reset(opts));
+        if !matches!(reset, Some(Ok(()))) {
+            // First run, or a reset refused (which may be the previous run's trouble):
+            // start clean, and let a load or initialisation error be this row's.
             self.fresh(opts)?;
         }
         self.sim.as_mut().ok_or_else(|| "the system is not loaded".to_string())
@@ -135,6 +132,16 @@ impl<'a> Worker<'a> {
     }
 }
 
+fn failed(row: &Row, error: &str) -> Outcome {
+    Outcome {
+        run: row.run,
+        sample: row.sample,
+        values: row.values.clone(),
+        metrics: vec![],
+        error: Some(error.to_string()),
+    }
+}
+
 /// Runs every row of `plan` on `jobs` threads (at least 1), calling `progress(done)` on
 /// the calling thread after each run; outcomes in plan order.
 pub fn run_plan(
@@ -156,7 +163,15 @@ pub fn run_plan(
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(row) = plan.rows.get(i) else { break };
-                    if tx.send((i, w.run(&plan.names, row))).is_err() {
+                    // A panic (a bug) fails its row, not the sweep; the system is loaded anew.
+                    let o = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        w.run(&plan.names, row)
+                    }))
+                    .unwrap_or_else(|_| {
+                        w.sim = None;
+                        failed(row, "the run panicked (a bug: please report it)")
+                    });
+                    if tx.send((i, o)).is_err() {
                         break;
                     }
                 }
@@ -173,13 +188,7 @@ pub fn run_plan(
     out.into_iter()
         .zip(&plan.rows)
         .map(|(o, row)| {
-            o.unwrap_or_else(|| Outcome {
-                run: row.run,
-                sample: row.sample,
-                values: row.values.clone(),
-                metrics: vec![],
-                error: Some("the worker thread stopped before this run".into()),
-            })
+            o.unwrap_or_else(|| failed(row, "the worker thread stopped before this run"))
         })
         .collect()
 }
