@@ -22,6 +22,16 @@ fi
 PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0"
 if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest, pythonfmu" 2>/dev/null; then
     echo "setup: creating .venv with $PY_REQS"
-    python3 -m venv .venv
+    [ -x .venv/bin/python ] || python3 -m venv .venv
     .venv/bin/pip install -q --disable-pip-version-check $PY_REQS
 fi
+
+# Sweeps on a dask.distributed cluster (python/inchworm_dask): dask, distributed and
+# pandas pinned, then the local package itself (reinstalled every time, so the venv has
+# this tree's version).
+DASK_REQS="dask==2024.12.1 distributed==2024.12.1 pandas==2.2.3"
+if ! .venv/bin/python -c "import dask, distributed, pandas" 2>/dev/null; then
+    echo "setup: installing $DASK_REQS"
+    .venv/bin/pip install -q --disable-pip-version-check $DASK_REQS
+fi
+.venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_dask

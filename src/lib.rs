@@ -11,7 +11,8 @@
 //! * [`scenario`]: the paper's scenarios, through the master on the SSP or direct;
 //! * [`master`], [`ssp`]: the co-simulation master for SSP systems and single FMUs, in
 //!   load / initialise / step phases;
-//! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`).
+//! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`);
+//! * [`sweep`]: grid and Monte Carlo sweeps of a system, their plan, metrics and results.
 
 pub mod bridge;
 pub mod closed_loop;
@@ -23,4 +24,5 @@ pub mod plant;
 pub mod plot;
 pub mod scenario;
 pub mod ssp;
+pub mod sweep;
 pub mod trace;

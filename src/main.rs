@@ -11,6 +11,7 @@ use cmd::gait::GaitArgs;
 use cmd::replay::ReplayArgs;
 use cmd::run::RunArgs;
 use cmd::scenario::ScenarioArgs;
+use cmd::sweep::SweepArgs;
 
 #[derive(Parser)]
 #[command(
@@ -51,6 +52,12 @@ enum Command {
     /// Re-run the controller FMU on a controller-side bridge log and report any sample
     /// whose DAC codes differ from the logged ones.
     Replay(ReplayArgs),
+    /// Sweep parameters of a system over a grid and/or Monte Carlo draws, each run reduced
+    /// to metrics (settle time, parked RMS, estimates, any output's final/min/max), on
+    /// --jobs worker threads; write <out>/plan.csv, <out>/results.csv (one row per run)
+    /// and summary plots. --plan-only writes the plan; --plan PLAN --row K runs one row
+    /// and prints its metrics as one JSON line.
+    Sweep(SweepArgs),
 }
 
 /// Prints the FMU's logger messages (which the import layer, `inchworm-fmi-import`,
@@ -95,6 +102,7 @@ fn main() -> ExitCode {
         Command::Scenario(args) => cmd::scenario::run(&args),
         Command::Bridge(args) => cmd::bridge::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
+        Command::Sweep(args) => cmd::sweep::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -657,3 +657,56 @@ pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result
     sim.terminate()?;
     Ok(trace)
 }
+
+// Sweeps (src/sweep): one loaded system run many times, re-initialised in place between
+// runs instead of unpacked and instantiated again.
+impl Simulation {
+    /// Back to t = 0 with the parameters of `opts` (its parameter set, then its `params`):
+    /// `fmi2Reset` on every component, then initialization mode as in
+    /// [`System::initialise`]. Only the parameters change: the wiring, the recorded
+    /// variables, the input table, the coupling, the step and the stop time stay those of
+    /// the first [`System::initialise`]. After an error the simulation may be half reset:
+    /// drop it and load the system again.
+    pub fn reset(&mut self, opts: &Options) -> Result<(), String> {
+        let stop = self.n_steps as f64 * self.h;
+        for c in self.components.iter_mut() {
+            c.fmu.reset().map_err(err)?;
+        }
+        self.k = 0;
+        for c in self.components.iter_mut() {
+            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
+        }
+        let mut values: Vec<(String, String)> = Vec::new();
+        if let Some(set_name) = &opts.parameter_set {
+            let a = self._archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
+            values.extend(a.parameter_set(set_name)?);
+        }
+        values.extend(opts.params.iter().cloned());
+        for (name, text) in &values {
+            let p = self.port_named(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
+            set_text(&mut self.components, p, name, text)?;
+        }
+        for c in self.components.iter_mut() {
+            c.fmu.exit_initialization().map_err(err)?;
+        }
+        self.source_batches.read(&mut self.components, &mut self.latest, None)
+    }
+
+    /// [`System::resolve`] on the components the simulation holds.
+    fn port_named(&self, name: &str) -> Result<Port, String> {
+        let (el, var) = match (&self._archive, name.split_once('.')) {
+            (None, _) => ("fmu", name),
+            (Some(_), Some(pair)) => pair,
+            (Some(_), None) => {
+                return Err(format!("`{name}`: name a component variable as component.variable"))
+            }
+        };
+        let i = self
+            .components
+            .iter()
+            .position(|c| c.name == el)
+            .ok_or_else(|| format!("no component named `{el}`"))?;
+        let v = self.components[i].fmu.var(var).map_err(err)?;
+        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+    }
+}

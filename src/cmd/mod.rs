@@ -10,6 +10,7 @@ pub mod gait;
 pub mod replay;
 pub mod run;
 pub mod scenario;
+pub mod sweep;
 
 /// Creates the folder `path` goes in, if it has one and it is missing.
 pub fn create_parent(path: &Path) -> Result<(), String> {

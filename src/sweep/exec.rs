@@ -1,0 +1,194 @@
+//! Running a plan: `jobs` worker threads, each loading the system once and resetting it
+//! between runs ([`Simulation::reset`]); a run that fails is a row with its error.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
+
+use crate::master::{Coupling, InputTable, Options, Simulation, System};
+use crate::sweep::metrics::{self, Metric};
+use crate::sweep::plan::{Plan, Row};
+use crate::sweep::ranges::Ranges;
+use crate::trace::Trace;
+
+/// What every run of a sweep shares.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    pub system: PathBuf,
+    pub stop_time: Option<f64>,
+    pub step_size: Option<f64>,
+    pub coupling: Coupling,
+    /// Fixed `--param` values, set before the swept ones.
+    pub params: Vec<(String, String)>,
+    pub parameter_set: Option<String>,
+    pub input: Option<InputTable>,
+    pub metrics: Vec<Metric>,
+}
+
+/// One run's outcome.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    pub run: usize,
+    pub sample: usize,
+    pub values: Vec<f64>,
+    /// One per metric; empty if the run failed.
+    pub metrics: Vec<Option<f64>>,
+    pub error: Option<String>,
+}
+
+impl Setup {
+    fn options(&self, names: &[String], row: &Row) -> Options {
+        let mut params = self.params.clone();
+        params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));
+        Options {
+            stop_time: self.stop_time,
+            step_size: self.step_size,
+            coupling: self.coupling,
+            params,
+            parameter_set: self.parameter_set.clone(),
+            input: self.input.clone(),
+            outputs: metrics::recorded(&self.metrics),
+        }
+    }
+}
+
+/// A loaded system kept across runs.
+pub struct Worker<'a> {
+    setup: &'a Setup,
+    sim: Option<Simulation>,
+    /// The declared ranges; empty if the model descriptions could not be read (then only
+    /// the FMUs themselves refuse a value).
+    ranges: Ranges,
+    /// Loads (unpack + instantiate) done so far: 1 unless a run failed.
+    pub loads: usize,
+}
+
+fn simulate(sim: &mut Simulation) -> Result<Trace, String> {
+    let n = sim.n_steps();
+    let mut trace = Trace::new(sim.record_names().to_vec());
+    trace.rows.reserve(n as usize + 1);
+    trace.push(0.0, sim.sample()?);
+    for _ in 0..n {
+        sim.step()?;
+        trace.push(sim.time(), sim.sample()?);
+    }
+    Ok(trace)
+}
+
+impl<'a> Worker<'a> {
+    pub fn new(setup: &'a Setup) -> Worker<'a> {
+        let ranges = Ranges::read(&setup.system).unwrap_or_default();
+        Worker { setup, sim: None, ranges, loads: 0 }
+    }
+
+    fn fresh(&mut self, opts: &Options) -> Result<(), String> {
+        self.sim = None;
+        self.loads += 1;
+        self.sim = Some(System::load(&self.setup.system)?.initialise(opts)?);
+        Ok(())
+    }
+
+    /// The system at t = 0 with `opts`' parameters: the loaded one reset, or, the first
+    /// time or after a failure, loaded anew.
+    fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, String> {
+        let reset = self.sim.as_mut().map(|sim| sim.reset(opts));
+        if !matches!(reset, Some(Ok(()))) {
+            // First run, or a reset refused (which may be the previous run's trouble):
+            // start clean, and let a load or initialisation error be this row's.
+            self.fresh(opts)?;
+        }
+        self.sim.as_mut().ok_or_else(|| "the system is not loaded".to_string())
+    }
+
+    /// Runs one row; never fails: an error is the outcome's.
+    pub fn run(&mut self, names: &[String], row: &Row) -> Outcome {
+        let outcome = |metrics, error| Outcome {
+            run: row.run,
+            sample: row.sample,
+            values: row.values.clone(),
+            metrics,
+            error,
+        };
+        // Out of its declared range: refused before the FMUs see it, which stay as they are.
+        if let Some(e) =
+            names.iter().zip(&row.values).find_map(|(n, v)| self.ranges.check(n, *v).err())
+        {
+            return outcome(vec![], Some(e));
+        }
+        let opts = self.setup.options(names, row);
+        let result = self
+            .ready(&opts)
+            .and_then(simulate)
+            .and_then(|trace| metrics::compute_all(&self.setup.metrics, &trace));
+        let (metrics, error) = match result {
+            Ok(m) => (m, None),
+            Err(e) => {
+                // The FMUs may be in an error state: the next run loads them anew.
+                self.sim = None;
+                (vec![], Some(e))
+            }
+        };
+        outcome(metrics, error)
+    }
+}
+
+fn failed(row: &Row, error: &str) -> Outcome {
+    Outcome {
+        run: row.run,
+        sample: row.sample,
+        values: row.values.clone(),
+        metrics: vec![],
+        error: Some(error.to_string()),
+    }
+}
+
+/// Runs every row of `plan` on `jobs` threads (at least 1), calling `progress(done)` on
+/// the calling thread after each run; outcomes in plan order.
+pub fn run_plan(
+    setup: &Setup,
+    plan: &Plan,
+    jobs: usize,
+    mut progress: impl FnMut(usize),
+) -> Vec<Outcome> {
+    let jobs = jobs.clamp(1, plan.rows.len().max(1));
+    let next = AtomicUsize::new(0);
+    let mut out: Vec<Option<Outcome>> = vec![None; plan.rows.len()];
+    std::thread::scope(|scope| {
+        let (tx, rx) = mpsc::channel::<(usize, Outcome)>();
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let next = &next;
+            scope.spawn(move || {
+                let mut w = Worker::new(setup);
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(row) = plan.rows.get(i) else { break };
+                    // A panic (a bug) fails its row, not the sweep; the system is loaded anew.
+                    let o = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        w.run(&plan.names, row)
+                    }))
+                    .unwrap_or_else(|_| {
+                        w.sim = None;
+                        failed(row, "the run panicked (a bug: please report it)")
+                    });
+                    if tx.send((i, o)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        let mut done = 0;
+        for (i, o) in rx {
+            out[i] = Some(o);
+            done += 1;
+            progress(done);
+        }
+    });
+    out.into_iter()
+        .zip(&plan.rows)
+        .map(|(o, row)| {
+            o.unwrap_or_else(|| failed(row, "the worker thread stopped before this run"))
+        })
+        .collect()
+}

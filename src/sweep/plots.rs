@@ -1,0 +1,104 @@
+//! Summary plots of a sweep: a histogram of each metric, and each metric against each swept
+//! parameter (one point per run that has a value).
+
+use std::error::Error;
+use std::path::Path;
+
+use plotters::prelude::*;
+
+const FONT: &str = "sans-serif";
+
+fn range(v: &[f64]) -> (f64, f64) {
+    let (lo, hi) =
+        v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(hi.abs().max(lo.abs()) * 1e-6).max(1e-15);
+    (lo - pad, hi + pad)
+}
+
+fn fmt(v: &f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-2..1e5).contains(&a) {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
+/// Histogram of `values` in `bins` equal bins; `note` goes in the title (e.g. how many runs
+/// have no value).
+pub fn histogram_png(
+    title: &str,
+    xlabel: &str,
+    values: &[f64],
+    bins: usize,
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
+    let (lo, hi) = range(values);
+    let bins = bins.max(1);
+    let width = (hi - lo) / bins as f64;
+    let mut counts = vec![0u32; bins];
+    for &v in values {
+        let b = (((v - lo) / width) as usize).min(bins - 1);
+        counts[b] += 1;
+    }
+    let top = counts.iter().copied().max().unwrap_or(1).max(1);
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, (FONT, 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(lo..hi, 0u32..top + top / 10 + 1)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc(xlabel)
+        .y_desc("runs")
+        .label_style((FONT, 15))
+        .x_label_formatter(&fmt)
+        .draw()?;
+    chart.draw_series(counts.iter().enumerate().map(|(i, &c)| {
+        let x0 = lo + i as f64 * width;
+        Rectangle::new([(x0, 0), (x0 + width, c)], BLUE.mix(0.6).filled())
+    }))?;
+    root.present()?;
+    Ok(())
+}
+
+/// `points` (parameter, metric) as a scatter plot.
+pub fn scatter_png(
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    points: &[(f64, f64)],
+    path: &Path,
+) -> Result<(), Box<dyn Error>> {
+    let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
+    let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
+    let (x0, x1) = range(&xs);
+    let (y0, y1) = range(&ys);
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, (FONT, 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(90)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc(xlabel)
+        .y_desc(ylabel)
+        .label_style((FONT, 15))
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .draw()?;
+    chart.draw_series(points.iter().map(|&p| Circle::new(p, 3, BLUE.mix(0.6).filled())))?;
+    root.present()?;
+    Ok(())
+}

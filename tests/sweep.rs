@@ -1,0 +1,262 @@
+//! `inchworm sweep`: the plan is reproducible to the bit (splitmix64 and the library's own
+//! ln/cos/exp), a run on a reset system equals a run on a freshly loaded one, a failing run
+//! is a row with its error, and the nominal Fig. 5 metrics are the scenario's.
+
+use std::path::{Path, PathBuf};
+
+use inchworm::master::{self, Coupling, InputTable, Options};
+use inchworm::sweep::exec::{self, Setup, Worker};
+use inchworm::sweep::metrics::{self, Metric};
+use inchworm::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
+use inchworm::sweep::{json_line, results_csv};
+
+const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
+
+fn ssp() -> PathBuf {
+    let p = Path::new(DIST).join("InchwormSystem.ssp");
+    assert!(p.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
+    p
+}
+
+fn ulps(a: f64, b: f64) -> u64 {
+    (a.to_bits() as i64 - b.to_bits() as i64).unsigned_abs()
+}
+
+#[test]
+fn splitmix64_matches_the_reference_outputs() {
+    // Vigna's splitmix64.c from state 0.
+    let mut r = SplitMix64::new(0);
+    assert_eq!(r.next_u64(), 0xe220_a839_7b1d_cdaf);
+    assert_eq!(r.next_u64(), 0x6e78_9e6a_a1b9_65f4);
+    assert_eq!(r.next_u64(), 0x06c4_5d18_8009_454f);
+}
+
+#[test]
+fn own_ln_cos_exp_are_within_four_ulp_of_libm() {
+    let mut r = SplitMix64::new(7);
+    let mut worst = [0u64; 3];
+    for _ in 0..200_000 {
+        let u = r.uniform();
+        if u > 0.0 {
+            // Logarithms of (0, 1) over many octaves, as Box–Muller takes them.
+            let x = u * u * u;
+            worst[0] = worst[0].max(ulps(plan::ln(x), x.ln()));
+            // libm on the same exactly reduced argument (libm's own 2πu for u near 1 is
+            // rounded by up to 4e-16 rad, more than the series' error).
+            let q = (u * 4.0 + 0.5).floor();
+            let theta = (u - q * 0.25) * (2.0 * std::f64::consts::PI);
+            let c = [theta.cos(), -theta.sin(), -theta.cos(), theta.sin()][q as usize % 4];
+            assert!((plan::cos_2pi(u) - (2.0 * std::f64::consts::PI * u).cos()).abs() < 1e-15);
+            if c.abs() > 1e-3 {
+                worst[1] = worst[1].max(ulps(plan::cos_2pi(u), c));
+            }
+        }
+        let y = (u - 0.5) * 60.0;
+        worst[2] = worst[2].max(ulps(plan::exp(y), y.exp()));
+    }
+    assert!(worst.iter().all(|&w| w <= 4), "worst ulps ln, cos, exp: {worst:?}");
+    assert_eq!(plan::ln(1.0), 0.0);
+    assert_eq!(plan::exp(0.0), 1.0);
+    assert!(plan::ln(0.0).is_nan() && plan::ln(-1.0).is_nan());
+    assert_eq!(plan::exp(1000.0), f64::INFINITY);
+}
+
+#[test]
+fn the_same_seed_gives_the_same_plan_bits() {
+    let sweeps = [
+        plan::parse_sample("plant.T_em=normal(8.8,0.22)").unwrap(),
+        plan::parse_sample("plant.k_p=lognormal(17.2,0.05)").unwrap(),
+        plan::parse_sample("plant.F_d0=uniform(157.5,192.5)").unwrap(),
+    ];
+    let p = Plan::build(&sweeps, 3, 42).unwrap();
+    // Pinned: a change of the stream, the order of the draws or a transform shows here.
+    let bits: Vec<Vec<u64>> =
+        p.rows.iter().map(|r| r.values.iter().map(|v| v.to_bits()).collect()).collect();
+    let again = Plan::build(&sweeps, 3, 42).unwrap();
+    assert_eq!(p, again);
+    let text = p.to_csv();
+    assert_eq!(Plan::parse(&text).unwrap(), p, "the CSV reads back to the same bits");
+    // The stream by hand: sample 0 is normal (2 outputs), lognormal (2), uniform (1).
+    let mut r = SplitMix64::new(42);
+    let z = r.normal();
+    let z2 = r.normal();
+    let u = r.uniform();
+    assert_eq!(p.rows[0].values[0].to_bits(), (8.8 + 0.22 * z).to_bits());
+    assert_eq!(p.rows[0].values[1].to_bits(), plan::exp(17.2 + 0.05 * z2).to_bits());
+    assert_eq!(p.rows[0].values[2].to_bits(), (157.5 + 35.0 * u).to_bits());
+    assert_eq!(bits.len(), 3);
+    assert_eq!(text.lines().next(), Some("run,sample,plant.T_em,plant.k_p,plant.F_d0"));
+}
+
+#[test]
+fn normal_draws_have_the_moments_asked_for() {
+    let sweeps = [plan::parse_sample("x=normal(3e7,1.5e6)").unwrap()];
+    let p = Plan::build(&sweeps, 20_000, 9).unwrap();
+    let v: Vec<f64> = p.rows.iter().map(|r| r.values[0]).collect();
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
+    // 4 standard errors: 1.5e6/√20000 ≈ 1.06e4 for the mean, ≈ 0.5 % for the sd.
+    assert!((mean - 3e7).abs() < 4.3e4, "mean {mean}");
+    assert!((sd / 1.5e6 - 1.0).abs() < 0.02, "sd {sd}");
+    let inside = v.iter().filter(|x| (**x - 3e7).abs() < 1.5e6).count() as f64 / v.len() as f64;
+    assert!((inside - 0.6827).abs() < 0.015, "within 1 sd: {inside}");
+}
+
+#[test]
+fn grids_are_a_cartesian_product_times_the_samples() {
+    let g = plan::parse_grid("plant.T_em=8.0:9.6:5").unwrap();
+    assert_eq!(g.axis, Axis::Grid(vec![8.0, 8.4, 8.8, 9.2, 9.6]));
+    let h = plan::parse_grid("plant.F_d0=150;175").unwrap();
+    let s = plan::parse_sample("plant.k_p=uniform(2.9e7,3.1e7)").unwrap();
+    let p = Plan::build(&[g, h, s], 3, 1).unwrap();
+    assert_eq!(p.rows.len(), 5 * 2 * 3);
+    assert_eq!(p.names, ["plant.T_em", "plant.F_d0", "plant.k_p"]);
+    // Run 7 = grid point 2 (T_em 8.4, F_d0 150), sample 1.
+    assert_eq!((p.rows[7].run, p.rows[7].sample), (7, 1));
+    assert_eq!(&p.rows[7].values[..2], &[8.4, 150.0]);
+    // Common random numbers: the same draw at every grid point.
+    assert_eq!(p.rows[1].values[2], p.rows[7].values[2]);
+    for bad in ["plant.T_em=1:2", "plant.T_em=1:2:0", "x"] {
+        assert!(plan::parse_grid(bad).is_err(), "{bad}");
+    }
+    for bad in ["x=normal(1)", "x=gamma(1,2)", "x=uniform(2,1)", "x=normal(0,-1)"] {
+        assert!(plan::parse_sample(bad).is_err(), "{bad}");
+    }
+}
+
+fn fig5_setup(metrics: &[&str]) -> Setup {
+    Setup {
+        system: ssp(),
+        stop_time: Some(10.0),
+        step_size: None,
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: Some("full-control".into()),
+        input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
+        metrics: metrics.iter().map(|m| Metric::parse(m).unwrap()).collect(),
+    }
+}
+
+const METRICS: [&str; 6] = [
+    "settle:1e-6",
+    "rms:6:10",
+    "disturbance",
+    "slips",
+    "min:plant.encoder_position",
+    "max:plant.runner_position",
+];
+
+/// The metrics of one row on a freshly loaded system, through `master::run`.
+fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
+    let mut params = setup.params.clone();
+    params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));
+    let opts = Options {
+        stop_time: setup.stop_time,
+        step_size: setup.step_size,
+        coupling: setup.coupling,
+        params,
+        parameter_set: setup.parameter_set.clone(),
+        input: setup.input.clone(),
+        outputs: metrics::recorded(&setup.metrics),
+    };
+    let trace = master::run(&setup.system, &opts, |_| {}).unwrap();
+    metrics::compute_all(&setup.metrics, &trace).unwrap()
+}
+
+#[test]
+fn nominal_fig5_metrics_are_the_scenarios() {
+    let setup = fig5_setup(&METRICS);
+    let p = Plan::build(&[plan::parse_grid("plant.T_em=8.8;8.8").unwrap()], 1, 0).unwrap();
+    let out = exec::run_plan(&setup, &p, 1, |_| {});
+    // `inchworm scenario fig5`, full control: settles within 1 µm at 0.788 s, parked RMS
+    // 3.027 nm in [6, 10) s, final disturbance estimate 4.658 µm.
+    for o in &out {
+        assert_eq!(o.error, None);
+        let m: Vec<f64> = o.metrics.iter().map(|v| v.unwrap()).collect();
+        assert!((m[0] - 0.788).abs() < 1e-9, "settle {}", m[0]);
+        assert!((m[1] * 1e9 - 3.027).abs() < 5e-4, "rms {}", m[1]);
+        assert!((m[2] * 1e6 - 4.658).abs() < 5e-4, "disturbance {}", m[2]);
+        assert_eq!(m[3], 0.0, "no slips");
+        assert_eq!(m[4], 0.0, "the encoder starts at 0");
+        assert!(m[5] > 100e-6 && m[5] < 110e-6, "overshoot {}", m[5]);
+    }
+    assert_eq!(out[0].metrics, out[1].metrics, "a reset run repeats the first");
+}
+
+#[test]
+fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
+    let setup = fig5_setup(&METRICS);
+    let names: Vec<String> = ["plant.T_em", "plant.F_d0"].map(String::from).to_vec();
+    let rows: Vec<Row> = [(8.5, 190.0), (9.2, 160.0), (-1.0, 175.0), (8.8, 175.0), (9.0, 180.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(a, b))| Row { run: i, sample: i, values: vec![a, b] })
+        .collect();
+    let mut w = Worker::new(&setup);
+    let out: Vec<_> = rows.iter().map(|r| w.run(&names, r)).collect();
+    // Loaded for run 0, reset for 1; T_em < 0 refused before the FMUs see it; reset for 3 and 4.
+    assert_eq!(w.loads, 1);
+    let err = out[2].error.as_deref().unwrap();
+    assert_eq!(err, "parameter plant.T_em = -1 is outside its range [0.001, 1000]");
+    assert!(out[2].metrics.is_empty());
+    for i in [0, 1, 3, 4] {
+        assert_eq!(out[i].error, None, "run {i}");
+        assert_eq!(out[i].metrics, fresh(&setup, &names, &rows[i]), "run {i}");
+    }
+    assert_ne!(out[0].metrics, out[1].metrics, "the parameters do reach the plant");
+    let metrics = &setup.metrics;
+    let table = results_csv(&names, metrics, &out);
+    let lines: Vec<&str> = table.lines().collect();
+    assert_eq!(lines.len(), 6);
+    assert!(lines[3].starts_with("2,2,-1,175,,,,,,,failed,\""), "{}", lines[3]);
+    assert!(lines[1].ends_with(",ok,"));
+    let j = json_line(&names, metrics, &out[2]);
+    assert!(j.starts_with("{\"run\":2,\"sample\":2,\"params\":{\"plant.T_em\":-1,\"plant.F_d0\":175},\"metrics\":{\"settle:1e-6\":null"), "{j}");
+    assert!(j.contains("\"status\":\"failed\""));
+}
+
+#[test]
+fn a_value_the_fmu_refuses_fails_its_row_and_the_next_loads_anew() {
+    // Each radius is in its declared range, but the plant wants them strictly increasing.
+    let setup = fig5_setup(&["settle:1e-6"]);
+    let names = vec!["plant.play_radius[1]".to_string()];
+    let rows: Vec<Row> = [0.1, 100.0, 0.1]
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| Row { run: i, sample: i, values: vec![v] })
+        .collect();
+    let mut w = Worker::new(&setup);
+    let out: Vec<_> = rows.iter().map(|r| w.run(&names, r)).collect();
+    assert_eq!(out[0].error, None);
+    let err = out[1].error.as_deref().unwrap();
+    assert!(err.contains("fmi2ExitInitializationMode returned fmi2Error"), "{err}");
+    assert_eq!(out[2], exec::Outcome { run: 2, sample: 2, ..out[0].clone() });
+    // Run 0 loads; run 1's refused reset is retried on a fresh load (a reset may fail for
+    // the previous run's sake), which refuses it too; run 2 starts on a fresh load.
+    assert_eq!(w.loads, 3);
+}
+
+#[test]
+fn parallel_results_equal_serial_ones() {
+    let setup = fig5_setup(&["settle:1e-6", "disturbance"]);
+    let sweeps = [
+        plan::parse_sample("plant.T_em=normal(8.8,0.15)").unwrap(),
+        plan::parse_sample("plant.k_p=normal(3e7,5e5)").unwrap(),
+    ];
+    let p = Plan::build(&sweeps, 8, 3).unwrap();
+    let one = exec::run_plan(&setup, &p, 1, |_| {});
+    let mut seen = 0;
+    let two = exec::run_plan(&setup, &p, 2, |d| seen = d);
+    assert_eq!(seen, 8);
+    assert_eq!(one, two);
+    assert!(one.iter().all(|o| o.error.is_none()));
+}
+
+#[test]
+fn metric_flags_parse_or_say_why_not() {
+    assert!(Metric::parse("settle").is_ok());
+    assert!(Metric::parse("final:plant.mode").is_ok());
+    for bad in ["settle:-1", "rms:10:6", "rms:6", "final:", "median:x", "a,b"] {
+        assert!(Metric::parse(bad).is_err(), "{bad}");
+    }
+}
