@@ -755,7 +755,9 @@ pub fn run_board<M: Mechanism>(
     stop: &AtomicBool,
     lateness_us: &mut Vec<f64>,
 ) -> io::Result<()> {
-    let mut buf = [0u8; 256];
+    // Room for the largest UDP datagram, so an oversized one is refused for its real size
+    // and not for whatever part of it fitted.
+    let mut buf = vec![0u8; 65536];
     let period_ns = board.cfg.period.as_nanos() as u64;
     // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
     let drain = |board: &mut Board<M>, tx: &mut dyn Transport, buf: &mut [u8]| -> io::Result<()> {
