@@ -211,10 +211,9 @@ fn handshake(
                     busy = Some(f);
                 }
                 Incoming::Fault(f)
-                    if matches!(
-                        f.reason,
-                        FaultReason::ProtocolMismatch | FaultReason::SessionRefused
-                    ) && f.detail != session_refused::NO_SESSION =>
+                    if f.reason == FaultReason::ProtocolMismatch
+                        || (f.reason == FaultReason::SessionRefused
+                            && f.detail != session_refused::NO_SESSION) =>
                 {
                     return Err(format!("the board refused the session: {}", describe_fault(&f)));
                 }
@@ -250,12 +249,13 @@ fn arm(
         link.send(Frame::Arm).map_err(link_error)?;
         let retry = now_ns() + 100_000_000;
         while now_ns() < retry {
-            if let Incoming::Encoder(e) =
-                link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)?
-            {
-                if e.status & status::ARMED != 0 {
-                    return Ok(e);
+            match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
+                Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(e),
+                // Another controller's HELLO replaced this session before its ARM.
+                Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
+                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
                 }
+                _ => {}
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {

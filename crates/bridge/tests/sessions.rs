@@ -94,7 +94,8 @@ fn refused(detail: u32) -> Frame {
 #[test]
 fn a_stray_datagram_first_does_not_lock_the_controller_out() {
     let _slot = real_time_slot();
-    let rig = Rig::start(BoardConfig { watchdog_periods: 3, ..BoardConfig::default() }, vec![]);
+    // Real time, with room in the watchdog for a machine busy with other builds.
+    let rig = Rig::start(BoardConfig { watchdog_periods: 25, ..BoardConfig::default() }, vec![]);
     // Before any controller: junk, then a valid ARM that no HELLO opened.
     let stray = UdpSocket::bind("127.0.0.1:0").unwrap();
     stray.connect(rig.addr).unwrap();
@@ -107,7 +108,7 @@ fn a_stray_datagram_first_does_not_lock_the_controller_out() {
         &mut DirectController::new(),
         &mut udp,
         &reference,
-        &ControllerConfig { ticks: 300, ..ControllerConfig::default() },
+        &ControllerConfig { ticks: 300, dead_after: 25, ..ControllerConfig::default() },
         None,
         &AtomicBool::new(false),
     )
@@ -351,4 +352,36 @@ fn allow_keeps_other_addresses_out_with_the_reason() {
         Allow::Addr(SocketAddr::from(([127, 0, 0, 1], 40000)))
     );
     assert!("localhost:1".parse::<Allow>().unwrap_err().contains("--allow localhost:1"));
+}
+
+#[test]
+fn a_hello_while_disarmed_replaces_the_session_and_the_old_peer_is_told() {
+    let _slot = real_time_slot();
+    let rig = Rig::start(lockstep_cfg(), vec![]);
+    let (a, b) = (UdpSocket::bind("127.0.0.1:0").unwrap(), UdpSocket::bind("127.0.0.1:0").unwrap());
+    for s in [&a, &b] {
+        s.connect(rig.addr).unwrap();
+        s.send(&frame(1, controller_hello(true))).unwrap();
+        assert!(matches!(answer(s).frame, Frame::Hello(h) if h.role == Role::Board));
+    }
+    // A repeated HELLO before the ARM is the same handshake, not a new session.
+    b.send(&frame(2, controller_hello(true))).unwrap();
+    assert!(matches!(answer(&b).frame, Frame::Hello(_)));
+    a.send(&frame(2, Frame::Arm)).unwrap();
+    assert_eq!(answer(&a).frame, refused(session_refused::NO_SESSION));
+    b.send(&frame(3, Frame::Arm)).unwrap();
+    assert!(
+        matches!(answer(&b).frame, Frame::Encoder(e) if e.status & protocol::status::ARMED != 0)
+    );
+    let board = rig.finish();
+    let sessions: Vec<_> = board.sessions.iter().map(|s| (s.peer, s.arms, s.end.clone())).collect();
+    assert_eq!(
+        sessions,
+        vec![(seen_as_raw(&a), 0, Some("disarmed".to_string())), (seen_as_raw(&b), 1, None)]
+    );
+    assert_eq!(
+        board.sources.get(&seen_as_raw(&a)),
+        Some(&SourceCounts { malformed: 0, foreign: 1, refused: 0, not_allowed: 0 })
+    );
+    assert_eq!(board.state(), BoardState::Armed);
 }
