@@ -12,13 +12,17 @@ use crate::master::set_param;
 
 fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, String> {
     let mut fmu = CsFmu::load(path, instance, false).map_err(|e| e.to_string())?;
+    initialise(&mut fmu, path, params)?;
+    Ok(fmu)
+}
+
+fn initialise(fmu: &mut CsFmu, path: &Path, params: &[(String, String)]) -> Result<(), String> {
     fmu.enter_initialization(None, 0.0, None).map_err(|e| e.to_string())?;
     for (name, value) in params {
-        set_param(&mut fmu, name, value)
+        set_param(fmu, name, value)
             .map_err(|e| format!("{}: parameter `{name}`: {e}", path.display()))?;
     }
-    fmu.exit_initialization().map_err(|e| e.to_string())?;
-    Ok(fmu)
+    fmu.exit_initialization().map_err(|e| e.to_string())
 }
 
 /// `InchwormPlant.fmu` (or any FMU with its interface) as the board's mechanism.
@@ -26,6 +30,9 @@ pub struct FmuMechanism {
     fmu: CsFmu,
     dac: Vec<u32>,
     encoder: Vec<u32>,
+    /// Kept to re-initialise with the same start values (`--fresh-plant-per-session`).
+    path: std::path::PathBuf,
+    params: Vec<(String, String)>,
 }
 
 impl FmuMechanism {
@@ -36,7 +43,7 @@ impl FmuMechanism {
             .map_err(|e| e.to_string())?;
         let encoder =
             fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
-        Ok(FmuMechanism { fmu, dac, encoder })
+        Ok(FmuMechanism { fmu, dac, encoder, path: path.to_path_buf(), params: params.to_vec() })
     }
 }
 
@@ -51,6 +58,11 @@ impl Mechanism for FmuMechanism {
         self.fmu.set_real(&self.dac, &codes.map(volts_of_code)).map_err(|e| e.to_string())?;
         self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())?;
         self.counts()
+    }
+
+    fn reinitialise(&mut self) -> Result<(), String> {
+        self.fmu.reset().map_err(|e| e.to_string())?;
+        initialise(&mut self.fmu, &self.path, &self.params)
     }
 }
 

@@ -128,6 +128,16 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
         text.contains(&format!("replayed {} samples", cfg.ticks)) && text.contains("no divergence"),
         "{text}"
     );
+    // Meta, the samples, the DISARM event and the end record.
+    assert!(
+        text.contains(&format!(
+            "{} complete records ({} controller samples, 1 events); end record: completed: {} ticks, disarmed",
+            cfg.ticks + 3,
+            cfg.ticks,
+            cfg.ticks
+        )),
+        "{text}"
+    );
 
     // A log whose encoder counts were changed (CRCs recomputed, so it reads as intact)
     // replays with divergences, and the command says where.
@@ -157,22 +167,37 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     assert!(!out.status.success());
     assert!(text.contains("samples diverge; first at tick"), "{text}");
 
-    // A log cut short by a crash replays what is whole, with a warning.
+    // A log cut short by a crash replays what is whole and says it is not the whole run:
+    // cut inside the end record, and cut exactly at the boundary before it.
     let bytes = std::fs::read(&log_path).unwrap();
-    std::fs::write(dir.join("cut.log"), &bytes[..bytes.len() - 7]).unwrap();
-    let out = Command::new(BIN)
-        .args([
-            "replay",
-            dir.join("cut.log").to_str().unwrap(),
-            "--fmu",
-            fmu("InchwormController.fmu").to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success() && text.contains("ends inside a record"), "{text}");
     assert!(bytes.starts_with(MAGIC));
+    let end_len = 3 + 4 + "completed: 2000 ticks, disarmed".len() + 4;
+    let boundary = bytes.len() - end_len;
+    for (name, cut, says) in [
+        ("cut.log", bytes.len() - 7, format!("then a record cut short at byte {boundary}")),
+        ("boundary.log", boundary, "; no end record".to_string()),
+    ] {
+        std::fs::write(dir.join(name), &bytes[..cut]).unwrap();
+        let out = Command::new(BIN)
+            .args([
+                "replay",
+                dir.join(name).to_str().unwrap(),
+                "--fmu",
+                fmu("InchwormController.fmu").to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(3), "{name}: {text}");
+        assert!(
+            text.contains("2002 complete records (2000 controller samples, 1 events)"),
+            "{name}: {text}"
+        );
+        assert!(text.contains(&says), "{name}: {text}");
+        assert!(text.contains("no end record: the run did not finish cleanly"), "{name}: {text}");
+        assert!(text.contains("exit status 3: the log is incomplete"), "{name}: {text}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -295,6 +320,22 @@ fn bad_bridge_arguments_are_refused_clearly() {
     assert!(e.contains("no_such"), "{e}");
     let e = run(&["bridge", "--role", "controller", "--overrun", "maybe"]);
     assert!(e.contains("overrun policy `maybe`"), "{e}");
+    // Refused before anything starts, naming the flag and the range: these used to panic
+    // a thread (inf) or stop at once with success (negative, zero).
+    for role in ["board", "controller"] {
+        for d in ["inf", "NaN", "-5", "0", "-inf", "1e10", "soon"] {
+            let e = run(&["bridge", "--role", role, "--addr", "127.0.0.1:9", "--duration", d]);
+            assert!(
+                e.contains(&format!("invalid value '{d}' for '--duration <DURATION>'"))
+                    && e.contains("--duration takes a finite number of seconds, 0 < D ≤ 1e9"),
+                "{role} {d}: {e}"
+            );
+        }
+    }
+    let e = run(&["bridge", "--role", "controller", "--allow", "127.0.0.1"]);
+    assert!(e.contains("--allow and --fresh-plant-per-session are board options"), "{e}");
+    let e = run(&["bridge", "--role", "board", "--allow", "localhost"]);
+    assert!(e.contains("--allow localhost: expected an IP address"), "{e}");
     let dir = scratch("args");
     std::fs::write(dir.join("x.log"), b"not a log").unwrap();
     let e = run(&["replay", dir.join("x.log").to_str().unwrap()]);
@@ -303,10 +344,11 @@ fn bad_bridge_arguments_are_refused_clearly() {
 }
 
 #[test]
-fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
+fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_in() {
     // Real time, two processes. The controller is killed (SIGKILL: no clean-up at all)
     // after about a second: its log must read back whole up to the kill and replay without
-    // divergence, and the board must latch its safe state within 3 periods of silence.
+    // divergence, the board must latch its safe state within 3 periods of silence, and a
+    // controller started again at once must get a new session from the same board.
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("killed");
@@ -318,7 +360,7 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
             "--addr",
             &addr,
             "--duration",
-            "2.5",
+            "4",
             "--fmu",
             fmu("InchwormPlant.fmu").to_str().unwrap(),
         ])
@@ -327,26 +369,15 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
         .spawn()
         .unwrap();
     let log = dir.join("controller.log");
-    let mut controller = Command::new(BIN)
-        .args([
-            "bridge",
-            "--role",
-            "controller",
-            "--addr",
-            &addr,
-            "--duration",
-            "30",
-            "--log",
-            log.to_str().unwrap(),
-        ])
-        .args(["--fmu", fmu("InchwormController.fmu").to_str().unwrap()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut controller = controller_process(&addr, "30", &[], Some(&log)).spawn().unwrap();
     std::thread::sleep(std::time::Duration::from_millis(1200));
     controller.kill().unwrap();
     controller.wait().unwrap();
+    let restart = controller_process(&addr, "0.5", &[], None).output().unwrap();
+    let restart_text = String::from_utf8_lossy(&restart.stdout).to_string()
+        + &String::from_utf8_lossy(&restart.stderr);
+    assert!(restart.status.success(), "{restart_text}");
+    assert!(restart_text.contains("250 ticks in"), "{restart_text}");
     let board_out = board.wait_with_output().unwrap();
     let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
         + &String::from_utf8_lossy(&board_out.stderr);
@@ -356,10 +387,18 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
         .find(|l| l.starts_with("safe state at tick"))
         .unwrap_or_else(|| panic!("no latch reported:\n{board_text}"));
     assert!(latch.contains("(3 periods after the last valid frame): Silence"), "{latch}");
+    assert!(board_text.contains("\nsessions: 2\n"), "{board_text}");
+    assert!(
+        board_text.contains(
+            "1 ARM; ended: safe state latched: Silence: no valid DAC frame for 3 periods (watchdog)\n"
+        ),
+        "{board_text}"
+    );
 
     let contents = read_log(&log).unwrap();
     let samples = contents.records.iter().filter(|r| matches!(r, Record::Controller(_))).count();
     assert!(samples > 200, "{samples} samples logged before the kill");
+    assert!(!contents.complete());
     let out = Command::new(BIN)
         .args([
             "replay",
@@ -371,7 +410,177 @@ fn a_killed_controller_leaves_a_readable_log_and_the_board_in_its_safe_state() {
         .unwrap();
     let text =
         String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success() && text.contains("no divergence"), "{text}");
+    assert_eq!(out.status.code(), Some(3), "{text}");
+    assert!(text.contains("no end record: the run did not finish cleanly"), "{text}");
+    assert!(text.contains("no divergence in the samples there are"), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `inchworm bridge --role controller` in real time against `addr`, with room in the
+/// dead-link limit for a machine busy with other builds.
+fn controller_process(addr: &str, duration: &str, extra: &[&str], log: Option<&Path>) -> Command {
+    let mut c = Command::new(BIN);
+    c.args(["bridge", "--role", "controller", "--addr", addr, "--duration", duration])
+        .args(["--dead-after", "25", "--fmu", fmu("InchwormController.fmu").to_str().unwrap()])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    if let Some(l) = log {
+        c.args(["--log", l.to_str().unwrap()]);
+    }
+    c
+}
+
+/// Waits up to `limit` for `child` to exit; kills it (and fails) if it does not.
+fn wait_bounded(
+    mut child: std::process::Child,
+    limit: std::time::Duration,
+) -> std::process::Output {
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "the process did not exit within {limit:?}:\n{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
+    // The acceptance case of issue 13 item 1: a board started once, in real time, serves
+    // a stray datagram, three controller runs in a row, a controller killed with SIGKILL
+    // and its immediate restart. Each of these used to lock every later controller out.
+    use std::io::BufRead;
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let addr = format!("127.0.0.1:{port}");
+    let dir = scratch("acceptance");
+    let board_log = dir.join("board.log");
+    let mut board = Command::new(BIN)
+        .args(["bridge", "--role", "board", "--addr", &addr, "--duration", "60"])
+        .args(["--watchdog", "25", "--fmu", fmu("InchwormPlant.fmu").to_str().unwrap()])
+        .args(["--log", board_log.to_str().unwrap()])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The board's socket is bound before it prints its first line; the stray must arrive
+    // after that to be counted.
+    let mut stdout = std::io::BufReader::new(board.stdout.take().unwrap());
+    let mut first = String::new();
+    stdout.read_line(&mut first).unwrap();
+    assert!(first.starts_with("virtual board:"), "{first}");
+    let rest = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut stdout, &mut s).unwrap();
+        s
+    });
+    let stray = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    stray.send_to(b"a stray datagram", &addr).unwrap();
+
+    let limit = std::time::Duration::from_secs(30);
+    for run in 1..=3 {
+        let out = wait_bounded(controller_process(&addr, "0.5", &[], None).spawn().unwrap(), limit);
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "run {run}: {text}");
+        assert!(text.contains("250 ticks in"), "run {run}: {text}");
+    }
+    let killed_log = dir.join("killed.log");
+    let mut killed = controller_process(&addr, "30", &[], Some(&killed_log)).spawn().unwrap();
+    // Killed once it is well into its run: 100 samples logged (bounded wait).
+    let t0 = std::time::Instant::now();
+    loop {
+        let n = read_log(&killed_log)
+            .map_or(0, |c| c.records.iter().filter(|r| matches!(r, Record::Controller(_))).count());
+        if n >= 100 {
+            break;
+        }
+        assert!(t0.elapsed() < limit, "the fourth controller never got going");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    killed.kill().unwrap();
+    killed.wait().unwrap();
+    let out = wait_bounded(controller_process(&addr, "0.5", &[], None).spawn().unwrap(), limit);
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "restart: {text}");
+    assert!(text.contains("250 ticks in"), "restart: {text}");
+
+    unsafe { libc::kill(board.id() as i32, libc::SIGTERM) };
+    let board_out = wait_bounded(board, limit);
+    let text = rest.join().unwrap() + &String::from_utf8_lossy(&board_out.stderr);
+    assert!(board_out.status.success(), "{text}");
+    let summary: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            l.starts_with("session") || l.starts_with("source") || l.starts_with("safe state")
+        })
+        .collect();
+    assert_eq!(summary[0], "sessions: 5", "{text}");
+    let disarmed = "1 ARM; ended: disarmed";
+    let silence = "Silence: no valid DAC frame for 25 periods (watchdog)";
+    for (i, end) in [
+        disarmed.to_string(),
+        disarmed.to_string(),
+        disarmed.to_string(),
+        format!("1 ARM; ended: safe state latched: {silence}"),
+        "1 ARM; open at the board's stop (disarmed)".to_string(),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let line = summary[i + 1];
+        assert!(
+            line.starts_with(&format!("session {}: controller 127.0.0.1:", i + 1))
+                && line.ends_with(end),
+            "session {}: {line}\n{text}",
+            i + 1
+        );
+    }
+    let peer5 = summary[5].split(' ').nth(3).unwrap();
+    let stray_line = format!(
+        "source {}: 1 malformed, 0 foreign, 0 HELLO refused, 0 not allowed",
+        stray.local_addr().unwrap()
+    );
+    let sources: Vec<&str> = summary.iter().copied().filter(|l| l.starts_with("source")).collect();
+    assert!(sources.contains(&stray_line.as_str()), "{text}");
+    // The restart may have raced the old session's watchdog (50 ms): then its early HELLOs
+    // were refused, and only those.
+    for l in sources.iter().filter(|l| **l != stray_line) {
+        assert!(
+            l.starts_with(&format!("source {peer5}: 0 malformed, 0 foreign, "))
+                && l.ends_with(" HELLO refused, 0 not allowed")
+                && sources.len() == 2,
+            "{l}\n{text}"
+        );
+    }
+    let latches: Vec<&str> =
+        summary.iter().copied().filter(|l| l.starts_with("safe state")).collect();
+    assert_eq!(latches.len(), 1, "one latch, the killed controller's:\n{text}");
+    assert!(
+        latches[0].ends_with(&format!("(25 periods after the last valid frame): {silence}")),
+        "{text}"
+    );
+    assert!(text.contains("final state Disarmed"), "{text}");
+
+    // The board's log holds the same summary and ends in order.
+    let log = read_log(&board_log).unwrap();
+    assert!(log.complete(), "{:?}", log.end());
+    let events: Vec<String> = log
+        .records
+        .iter()
+        .filter_map(|r| if let Record::Event { text, .. } = r { Some(text.clone()) } else { None })
+        .collect();
+    for line in summary.iter().filter(|l| !l.starts_with("safe state")) {
+        assert!(events.iter().any(|e| e == line), "{line} not in the board log");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

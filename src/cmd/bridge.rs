@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm_bridge::board::{run_board, Board, BoardConfig};
+use inchworm_bridge::board::{run_board, Allow, Board, BoardConfig};
 use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::realtime::{enter_real_time, percentiles};
 use inchworm_bridge::runlog::{LogWriter, Record};
@@ -43,8 +43,16 @@ pub struct BridgeArgs {
     #[arg(long)]
     pub lockstep: bool,
     /// Controller: run this long (s). Board: stop after this long (default: until Ctrl-C).
-    #[arg(long)]
+    /// A finite number of seconds, 0 < D ≤ 1e9.
+    #[arg(long, value_parser = parse_duration, allow_hyphen_values = true)]
     pub duration: Option<f64>,
+    /// Board: hear only this peer (IP, any port; or IP:PORT); repeatable. Default: anyone.
+    #[arg(long = "allow", value_name = "ADDR")]
+    pub allow: Vec<Allow>,
+    /// Board: re-initialise the plant FMU at every new session (test rigs; a real
+    /// mechanism keeps its state from one controller to the next).
+    #[arg(long)]
+    pub fresh_plant_per_session: bool,
     /// Controller: CSV `time,reference` (m), held piecewise constant; default 100 µm from t = 0.
     #[arg(long)]
     pub reference: Option<PathBuf>,
@@ -71,6 +79,26 @@ pub struct BridgeArgs {
     pub out: Option<PathBuf>,
 }
 
+/// The longest `--duration`: far beyond any run, and small enough that every derived
+/// count (ticks, a sleep) is exact.
+const MAX_DURATION_S: f64 = 1e9;
+
+/// `--duration`: refused before anything starts unless it is a usable length of time.
+fn parse_duration(s: &str) -> Result<f64, String> {
+    let d: f64 = s.trim().parse().map_err(|_| {
+        format!(
+            "not a number; --duration takes a finite number of seconds, 0 < D ≤ {MAX_DURATION_S:e}"
+        )
+    })?;
+    if d.is_finite() && d > 0.0 && d <= MAX_DURATION_S {
+        Ok(d)
+    } else {
+        Err(format!(
+            "{d} is out of range; --duration takes a finite number of seconds, 0 < D ≤ {MAX_DURATION_S:e}"
+        ))
+    }
+}
+
 /// Set by SIGINT/SIGTERM: the bridge stops at the next period, the board side in its safe
 /// state, the logs flushed.
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -87,6 +115,9 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
     }
     let params = super::parse_params(&args.params)?;
     let board_role = args.role == RoleArg::Board;
+    if !board_role && (!args.allow.is_empty() || args.fresh_plant_per_session) {
+        return Err("--allow and --fresh-plant-per-session are board options (--role board)".into());
+    }
     let fmu = args.fmu.clone().unwrap_or_else(|| {
         PathBuf::from(if board_role {
             "dist/InchwormPlant.fmu"
@@ -131,9 +162,13 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             lockstep: args.lockstep,
             watchdog_periods: args.watchdog.max(1),
             overrun: args.overrun,
+            fresh_plant_per_session: args.fresh_plant_per_session,
             ..BoardConfig::default()
         };
         let mut board = Board::new(mechanism, cfg, log.take())?;
+        if !args.allow.is_empty() {
+            board.set_allow(args.allow.clone());
+        }
         let where_ = args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string());
         println!(
             "virtual board: {} on {where_} ({mode}, watchdog {} periods); Ctrl-C stops",
@@ -141,8 +176,11 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             cfg.watchdog_periods
         );
         if let Some(d) = args.duration {
+            // parse_duration bounds it, so the conversion cannot fail.
+            let d = std::time::Duration::try_from_secs_f64(d)
+                .map_err(|e| format!("--duration {d}: {e}"))?;
             std::thread::spawn(move || {
-                std::thread::sleep(std::time::Duration::from_secs_f64(d.max(0.0)));
+                std::thread::sleep(d);
                 STOP.store(true, Ordering::Relaxed);
             });
         }
@@ -153,6 +191,9 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             "board: {} steps; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} while unarmed, {} overruns; final state {:?}",
             c.steps, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.unarmed, c.overruns, board.state()
         );
+        for line in board.summary_lines() {
+            println!("{line}");
+        }
         for l in &board.latches {
             println!(
                 "safe state at tick {} ({} periods after the last valid frame): {}",
@@ -172,9 +213,6 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
     }
 
     let duration = args.duration.unwrap_or(10.0);
-    if !(duration > 0.0 && duration.is_finite()) {
-        return Err(format!("--duration {duration}: must be a positive number of seconds"));
-    }
     let table = match &args.reference {
         Some(p) => {
             let t = super::read_input(p)?;

@@ -14,19 +14,27 @@
 //! silence only counts towards the dead-link bound (`dead_link_periods`), which catches a
 //! controller that is gone but not one that is slow (docs/hil-protocol.md, "Lock-step:
 //! what a missed period is").
+//!
+//! Sessions: the board takes a controller only on a valid HELLO, and only when no other
+//! controller holds an armed, live session; everything else from other senders is counted
+//! per source and dropped, so no stray datagram can lock the real controller out
+//! (docs/hil-protocol.md, "Sessions").
 
+use std::collections::BTreeMap;
 use std::io;
+use std::net::{IpAddr, SocketAddr};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use inchworm_hil_protocol::{
-    decode, encode, status, BoardState, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello,
-    Packet, Role, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
+    decode, encode, session_refused, status, BoardState, DacSample, EncoderSample, Fault,
+    FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME,
+    SAFE_CODES, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
 use crate::runlog::{BoardSample, LogWriter, Record};
-use crate::transport::Transport;
+use crate::transport::{Source, Transport};
 use crate::{describe_fault, LinkCounters, Mechanism, OverrunPolicy};
 
 #[derive(Clone, Copy, Debug)]
@@ -35,9 +43,13 @@ pub struct BoardConfig {
     pub watchdog_periods: u32,
     pub lockstep: bool,
     /// Lock-step: wall-clock periods without any valid frame before the link counts as
-    /// dead; unused in real time, where silence itself is the watchdog's measure.
+    /// dead. Both modes: how long an armed session's controller must have been silent
+    /// before a HELLO from another address may replace it.
     pub dead_link_periods: u32,
     pub overrun: OverrunPolicy,
+    /// Re-initialise the mechanism when a new session opens (test rigs only: hardware
+    /// keeps its state from one controller to the next).
+    pub fresh_plant_per_session: bool,
 }
 
 impl Default for BoardConfig {
@@ -48,6 +60,75 @@ impl Default for BoardConfig {
             lockstep: false,
             dead_link_periods: inchworm_hil_protocol::LOCKSTEP_DEAD_LINK_PERIODS,
             overrun: OverrunPolicy::Soft,
+            fresh_plant_per_session: false,
+        }
+    }
+}
+
+/// Distinct senders counted one by one; beyond this many they share one count, so a flood
+/// from many addresses cannot grow the board's memory without bound.
+pub const MAX_SOURCES: usize = 64;
+
+/// What one sender sent that the board did not take as session traffic.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SourceCounts {
+    /// Datagrams that failed to decode (from any sender, the session's own included).
+    pub malformed: u64,
+    /// Valid frames other than HELLO from a sender that holds no session.
+    pub foreign: u64,
+    /// HELLOs refused: another controller's session was armed, or the parameters differ.
+    pub refused: u64,
+    /// Datagrams from an address outside the allow list, whatever they held.
+    pub not_allowed: u64,
+}
+
+impl std::fmt::Display for SourceCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} malformed, {} foreign, {} HELLO refused, {} not allowed",
+            self.malformed, self.foreign, self.refused, self.not_allowed
+        )
+    }
+}
+
+/// One session: from the HELLO that opened it to the HELLO that replaced it, or the stop.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SessionInfo {
+    /// 1, 2, … in order.
+    pub id: u32,
+    pub peer: Source,
+    pub start_tick: u32,
+    /// ARMs received in it.
+    pub arms: u32,
+    /// How it ended; `None` while it is the current one.
+    pub end: Option<String>,
+}
+
+/// One `--allow` entry: an exact address, or a host with any port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Allow {
+    Addr(SocketAddr),
+    Host(IpAddr),
+}
+
+impl std::str::FromStr for Allow {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Allow, String> {
+        if let Ok(a) = s.parse::<SocketAddr>() {
+            return Ok(Allow::Addr(a));
+        }
+        s.parse::<IpAddr>().map(Allow::Host).map_err(|_| {
+            format!("--allow {s}: expected an IP address (any port) or IP:PORT, e.g. 127.0.0.1 or 192.168.1.5:40000")
+        })
+    }
+}
+
+impl Allow {
+    pub fn admits(&self, a: &SocketAddr) -> bool {
+        match self {
+            Allow::Addr(x) => x == a,
+            Allow::Host(ip) => *ip == a.ip(),
         }
     }
 }
@@ -90,8 +171,20 @@ pub struct Board<M> {
     reply: ([u8; MAX_FRAME], usize),
     last_valid_tick: u32,
     overrun_flag: bool,
-    /// A controller has spoken: until then there is nobody to send encoder frames to.
-    session: bool,
+    /// The controller whose HELLO opened the current session: the only sender whose frames
+    /// are applied, and the one encoder frames go to. `None` until the first valid HELLO.
+    peer: Option<Source>,
+    /// When the peer's last valid frame arrived (`now_ns`), for the takeover rule.
+    peer_heard_ns: u64,
+    /// The current session has had an ARM: a HELLO from its own peer after that starts a
+    /// new run, while one before it is the handshake being repeated.
+    session_armed: bool,
+    allow: Vec<Allow>,
+    pub sessions: Vec<SessionInfo>,
+    /// Traffic not taken as session traffic, per sender (the first [`MAX_SOURCES`]).
+    pub sources: BTreeMap<Source, SourceCounts>,
+    /// The same for every sender beyond the first [`MAX_SOURCES`], together.
+    pub other_sources: SourceCounts,
     pub counters: BoardCounters,
     pub latches: Vec<SafeLatch>,
     /// (tick, text) of everything notable, in order.
@@ -121,25 +214,112 @@ impl<M: Mechanism> Board<M> {
             reply: ([0; MAX_FRAME], 0),
             last_valid_tick: 0,
             overrun_flag: false,
-            session: false,
+            peer: None,
+            peer_heard_ns: 0,
+            session_armed: false,
+            allow: Vec::new(),
+            sessions: Vec::new(),
+            sources: BTreeMap::new(),
+            other_sources: SourceCounts::default(),
             counters: BoardCounters::default(),
             latches: Vec::new(),
             events: Vec::new(),
             log,
         };
         board.write_log(Record::Meta(format!(
-            "role=board\nprotocol={VERSION}\nperiod_us={}\nwatchdog_periods={}\nlockstep={}\ndead_link_periods={}\noverrun={:?}",
+            "role=board\nprotocol={VERSION}\nperiod_us={}\nwatchdog_periods={}\nlockstep={}\ndead_link_periods={}\noverrun={:?}\nfresh_plant_per_session={}",
             cfg.period.as_micros(),
             cfg.watchdog_periods,
             cfg.lockstep,
             cfg.dead_link_periods,
-            cfg.overrun
+            cfg.overrun,
+            cfg.fresh_plant_per_session
         )));
         Ok(board)
     }
 
     pub fn state(&self) -> BoardState {
         self.wd.state()
+    }
+
+    /// Only these senders are heard (`--allow`); empty: anyone.
+    pub fn set_allow(&mut self, allow: Vec<Allow>) {
+        self.write_log(Record::Meta(format!(
+            "allow={}",
+            allow.iter().map(|a| format!("{a:?}")).collect::<Vec<_>>().join(",")
+        )));
+        self.allow = allow;
+    }
+
+    /// The current session's controller.
+    pub fn peer(&self) -> Option<Source> {
+        self.peer
+    }
+
+    fn allowed(&self, from: Source) -> bool {
+        match from {
+            Source::Line => true,
+            Source::Udp(a) => self.allow.is_empty() || self.allow.iter().any(|r| r.admits(&a)),
+        }
+    }
+
+    fn counts_of(&mut self, from: Source) -> &mut SourceCounts {
+        if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&from) {
+            return &mut self.other_sources;
+        }
+        self.sources.entry(from).or_default()
+    }
+
+    fn dead_link_ns(&self) -> u64 {
+        u64::from(self.cfg.dead_link_periods.max(1)) * self.cfg.period.as_nanos() as u64
+    }
+
+    /// Bytes that are not a frame, from `from`: counted, and reported at 1, 2, 4, … per
+    /// sender so a flood cannot flood the log.
+    pub fn refuse_malformed(&mut self, from: Source, why: &str) {
+        self.counters.link.malformed += 1;
+        let c = self.counts_of(from);
+        c.malformed += 1;
+        let n = c.malformed;
+        if n.is_power_of_two() {
+            self.event(format!(
+                "malformed datagram from {from} refused ({why}); {n} from it so far"
+            ));
+        }
+    }
+
+    /// The sessions and the foreign traffic, as the summary and the log give them.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let mut out = vec![format!("sessions: {}", self.sessions.len())];
+        for s in &self.sessions {
+            out.push(format!(
+                "session {}: controller {} from tick {}, {} ARM; {}",
+                s.id,
+                s.peer,
+                s.start_tick,
+                s.arms,
+                s.end.as_deref().map_or_else(
+                    || format!("open at the board's stop ({})", state_name(self.wd.state())),
+                    |e| format!("ended: {e}")
+                )
+            ));
+        }
+        for (src, c) in &self.sources {
+            out.push(format!("source {src}: {c}"));
+        }
+        if self.other_sources != SourceCounts::default() {
+            out.push(format!("sources beyond the first {MAX_SOURCES}: {}", self.other_sources));
+        }
+        out
+    }
+
+    /// The end of the board's run: the summary into the log, closed by an end record.
+    fn close_log(&mut self, outcome: &str) {
+        for line in self.summary_lines() {
+            self.write_log(Record::Event { tick: self.tick, text: line });
+        }
+        let text = format!("board stopped: {outcome}");
+        self.write_log(Record::End { tick: self.tick, text });
     }
 
     pub fn tick(&self) -> u32 {
@@ -171,7 +351,33 @@ impl<M: Mechanism> Board<M> {
         self.events.push((self.tick, text));
     }
 
+    /// `frame` to the session's peer, or to `to`.
+    fn send_frame(
+        &mut self,
+        frame: Frame,
+        to: Option<Source>,
+        tx: &mut dyn Transport,
+    ) -> io::Result<()> {
+        self.ctl_seq = self.ctl_seq.wrapping_add(1);
+        let mut buf = [0u8; MAX_FRAME];
+        let n = encode(&Packet { seq: self.ctl_seq, frame }, &mut buf)
+            .map_err(|e| io::Error::other(e.to_string()))?;
+        match to {
+            Some(to) => tx.send_to(&buf[..n], to),
+            None => tx.send(&buf[..n]),
+        }
+    }
+
+    fn refuse(&mut self, to: Source, detail: u32, tx: &mut dyn Transport) -> io::Result<()> {
+        let f = Fault { reason: FaultReason::SessionRefused, detail };
+        self.send_frame(Frame::Fault(f), Some(to), tx)
+    }
+
     fn send(&mut self, frame: Frame, tx: &mut dyn Transport) -> io::Result<()> {
+        if self.peer.is_none() {
+            // Nobody has opened a session: there is no one to tell.
+            return Ok(());
+        }
         let seq = match frame {
             Frame::Encoder(_) => {
                 self.enc_seq = self.enc_seq.wrapping_add(1);
@@ -245,23 +451,50 @@ impl<M: Mechanism> Board<M> {
 
     /// Handles one received frame; replies go out through `tx`.
     pub fn handle(&mut self, bytes: &[u8], tx: &mut dyn Transport) -> io::Result<()> {
+        let from = tx.source();
+        if !self.allowed(from) {
+            let c = self.counts_of(from);
+            c.not_allowed += 1;
+            let n = c.not_allowed;
+            if n.is_power_of_two() {
+                self.event(format!(
+                    "datagram from {from} ignored: not an allowed peer (--allow); {n} from it so far"
+                ));
+                // A controller that is kept out learns why instead of timing out.
+                if matches!(decode(bytes), Ok(Packet { frame: Frame::Hello(_), .. })) {
+                    self.refuse(from, session_refused::NOT_ALLOWED, tx)?;
+                }
+            }
+            return Ok(());
+        }
         let packet = match decode(bytes) {
             Ok(p) => p,
             Err(e) => {
-                self.counters.link.malformed += 1;
-                if self.counters.link.malformed.is_power_of_two() {
-                    self.event(format!(
-                        "malformed frame refused ({e}); {} so far",
-                        self.counters.link.malformed
-                    ));
-                }
+                self.refuse_malformed(from, &e.to_string());
                 return Ok(());
             }
         };
-        self.counters.link.frames += 1;
-        self.session = true;
+        let from_peer = self.peer == Some(from);
+        if !from_peer && !matches!(packet.frame, Frame::Hello(_)) {
+            let c = self.counts_of(from);
+            c.foreign += 1;
+            let n = c.foreign;
+            if n.is_power_of_two() {
+                let holder = self.peer.map_or_else(|| "nobody".to_string(), |p| p.to_string());
+                self.event(format!(
+                    "{} frame from {from} dropped: it holds no session (the session is {holder}'s); {n} from it so far",
+                    frame_name(&packet.frame)
+                ));
+                self.refuse(from, session_refused::NO_SESSION, tx)?;
+            }
+            return Ok(());
+        }
+        if from_peer {
+            self.counters.link.frames += 1;
+            self.peer_heard_ns = now_ns();
+        }
         match packet.frame {
-            Frame::Hello(h) => self.hello(h, tx),
+            Frame::Hello(h) => self.hello(from, h, tx),
             Frame::Arm => {
                 let was = self.wd.state();
                 self.wd.arm();
@@ -270,6 +503,10 @@ impl<M: Mechanism> Board<M> {
                 self.requested = SAFE_CODES;
                 self.dac_seq.reset();
                 self.last_valid_tick = self.tick;
+                self.session_armed = true;
+                if let Some(s) = self.sessions.last_mut() {
+                    s.arms += 1;
+                }
                 self.event(format!("armed (was {was:?})"));
                 // The controller learns the tick and count it starts from.
                 self.send_encoder(tx)
@@ -305,7 +542,7 @@ impl<M: Mechanism> Board<M> {
         }
     }
 
-    fn hello(&mut self, h: Hello, tx: &mut dyn Transport) -> io::Result<()> {
+    fn hello(&mut self, from: Source, h: Hello, tx: &mut dyn Transport) -> io::Result<()> {
         let period_us = self.cfg.period.as_micros() as u32;
         let mismatch = if h.version != VERSION {
             Some((
@@ -325,14 +562,13 @@ impl<M: Mechanism> Board<M> {
             None
         };
         if let Some((why, detail)) = mismatch {
-            self.event(format!("HELLO refused: {why}"));
-            return self
-                .send(Frame::Fault(Fault { reason: FaultReason::ProtocolMismatch, detail }), tx);
+            if self.peer != Some(from) {
+                self.counts_of(from).refused += 1;
+            }
+            self.event(format!("HELLO from {from} refused: {why}"));
+            let f = Fault { reason: FaultReason::ProtocolMismatch, detail };
+            return self.send_frame(Frame::Fault(f), Some(from), tx);
         }
-        self.event(format!(
-            "HELLO from a controller (protocol {VERSION}, {period_us} µs, lock-step {})",
-            h.lockstep
-        ));
         let reply = Hello {
             version: VERSION,
             role: Role::Board,
@@ -340,7 +576,83 @@ impl<M: Mechanism> Board<M> {
             watchdog_periods: self.cfg.watchdog_periods.min(255) as u8,
             lockstep: self.cfg.lockstep,
         };
-        self.send(Frame::Hello(reply), tx)
+        let armed = self.wd.state() == BoardState::Armed;
+        if self.peer == Some(from) && (armed || !self.session_armed) {
+            // The controller repeats HELLO until it hears the board's: the same session.
+            return self.send_frame(Frame::Hello(reply), Some(from), tx);
+        }
+        if let Some(peer) = self.peer.filter(|&p| p != from) {
+            let silent_ns = now_ns().saturating_sub(self.peer_heard_ns);
+            if armed && silent_ns < self.dead_link_ns() {
+                let c = self.counts_of(from);
+                c.refused += 1;
+                let n = c.refused;
+                if n.is_power_of_two() {
+                    let id = self.sessions.len();
+                    self.event(format!(
+                        "HELLO from {from} refused: session {id} with {peer} is armed (heard {:.1} ms ago); {n} refused from it so far",
+                        silent_ns as f64 / 1e6
+                    ));
+                }
+                return self.refuse(from, session_refused::BUSY, tx);
+            }
+        }
+        self.open_session(from, tx)?;
+        self.event(format!(
+            "session {}: HELLO from a controller at {from} (protocol {VERSION}, {period_us} µs, lock-step {})",
+            self.sessions.len(),
+            h.lockstep
+        ));
+        self.send_frame(Frame::Hello(reply), Some(from), tx)
+    }
+
+    /// Closes the current session, if any, and opens one with `from`. The mechanism keeps
+    /// its state (as hardware does) unless the rig asks for a fresh one.
+    fn open_session(&mut self, from: Source, tx: &mut dyn Transport) -> io::Result<()> {
+        let now = now_ns();
+        if let Some(prev) = self.peer {
+            let why = match self.wd.state() {
+                BoardState::Armed => {
+                    // Only reached after the dead-link time: the old controller is gone,
+                    // and the new one must ARM for itself.
+                    self.wd.disarm();
+                    format!(
+                        "armed but silent for {:.0} ms, disarmed (safe codes)",
+                        now.saturating_sub(self.peer_heard_ns) as f64 / 1e6
+                    )
+                }
+                other => state_name(other),
+            };
+            let id = self.sessions.len();
+            if let Some(s) = self.sessions.last_mut() {
+                s.end = Some(why.clone());
+            }
+            self.event(format!("session {id} with {prev} ends ({why}): {from} opens a new one"));
+        }
+        if self.cfg.fresh_plant_per_session && !self.sessions.is_empty() {
+            self.mech.reinitialise().map_err(|e| {
+                io::Error::other(format!(
+                    "--fresh-plant-per-session: the mechanism could not be re-initialised: {e}"
+                ))
+            })?;
+            self.counts = self.mech.counts().map_err(io::Error::other)?;
+            self.event("mechanism re-initialised for the new session".into());
+        }
+        if self.peer != Some(from) {
+            self.counters.link.frames += 1;
+        }
+        self.peer = Some(from);
+        tx.set_peer(from);
+        self.peer_heard_ns = now;
+        self.session_armed = false;
+        self.sessions.push(SessionInfo {
+            id: self.sessions.len() as u32 + 1,
+            peer: from,
+            start_tick: self.tick,
+            arms: 0,
+            end: None,
+        });
+        Ok(())
     }
 
     fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {
@@ -411,7 +723,7 @@ impl<M: Mechanism> Board<M> {
         }
         self.step()?;
         // The mechanism runs from power-on; the encoder stream starts with a session.
-        if self.session {
+        if self.peer.is_some() {
             self.send_encoder(tx)?;
         }
         Ok(())
@@ -443,7 +755,9 @@ pub fn run_board<M: Mechanism>(
     stop: &AtomicBool,
     lateness_us: &mut Vec<f64>,
 ) -> io::Result<()> {
-    let mut buf = [0u8; 256];
+    // Room for the largest UDP datagram, so an oversized one is refused for its real size
+    // and not for whatever part of it fitted.
+    let mut buf = vec![0u8; 65536];
     let period_ns = board.cfg.period.as_nanos() as u64;
     // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
     let drain = |board: &mut Board<M>, tx: &mut dyn Transport, buf: &mut [u8]| -> io::Result<()> {
@@ -452,7 +766,7 @@ pub fn run_board<M: Mechanism>(
                 Ok(Some(n)) => board.handle(&buf[..n], tx)?,
                 Ok(None) => return Ok(()),
                 Err(e) if e.kind() == io::ErrorKind::InvalidData => {
-                    board.counters.link.malformed += 1
+                    board.refuse_malformed(tx.source(), &e.to_string())
                 }
                 Err(e) => return Err(e),
             }
@@ -480,7 +794,7 @@ pub fn run_board<M: Mechanism>(
                 }
                 Ok(None) => {}
                 Err(e) if e.kind() == io::ErrorKind::InvalidData => {
-                    board.counters.link.malformed += 1
+                    board.refuse_malformed(tx.source(), &e.to_string())
                 }
                 Err(e) => break Err(e),
             }
@@ -499,6 +813,29 @@ pub fn run_board<M: Mechanism>(
             board.period(overrun, tx)?;
         }
     };
+    match &result {
+        Ok(()) => board.close_log("stopped on request"),
+        Err(e) => board.close_log(&format!("error: {e}")),
+    }
     board.sync_log();
     result
+}
+
+fn state_name(s: BoardState) -> String {
+    match s {
+        BoardState::Disarmed => "disarmed".into(),
+        BoardState::Armed => "armed".into(),
+        BoardState::Safe(f) => format!("safe state latched: {}", describe_fault(&f)),
+    }
+}
+
+fn frame_name(f: &Frame) -> &'static str {
+    match f {
+        Frame::Hello(_) => "HELLO",
+        Frame::Arm => "ARM",
+        Frame::Disarm => "DISARM",
+        Frame::Fault(_) => "FAULT",
+        Frame::Dac(_) => "DAC",
+        Frame::Encoder(_) => "ENCODER",
+    }
 }

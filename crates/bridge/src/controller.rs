@@ -18,8 +18,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use inchworm_hil_protocol::{
-    decode, encode, status, DacSample, EncoderSample, Fault, FaultReason, Frame, Hello, Packet,
-    Role, SeqTracker, SeqVerdict, MAX_FRAME, VERSION,
+    decode, encode, session_refused, status, DacSample, EncoderSample, Fault, FaultReason, Frame,
+    Hello, Packet, Role, SeqTracker, SeqVerdict, MAX_FRAME, VERSION,
 };
 
 use crate::realtime::{now_ns, Pacer};
@@ -192,6 +192,10 @@ fn handshake(
         watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS as u8,
         lockstep: cfg.lockstep,
     };
+    // A board busy with another controller frees itself when that one disarms, latches
+    // safe or goes silent (a restarted controller racing its own old session), so BUSY is
+    // retried until the deadline and reported only then.
+    let mut busy = None;
     loop {
         link.send(Frame::Hello(hello)).map_err(link_error)?;
         let retry = now_ns() + 100_000_000;
@@ -200,13 +204,30 @@ fn handshake(
                 Incoming::Hello(h) if h.role == Role::Board && h.version == VERSION => {
                     return Ok(());
                 }
-                Incoming::Fault(f) if f.reason == FaultReason::ProtocolMismatch => {
+                Incoming::Fault(f)
+                    if f.reason == FaultReason::SessionRefused
+                        && f.detail == session_refused::BUSY =>
+                {
+                    busy = Some(f);
+                }
+                Incoming::Fault(f)
+                    if f.reason == FaultReason::ProtocolMismatch
+                        || (f.reason == FaultReason::SessionRefused
+                            && f.detail != session_refused::NO_SESSION) =>
+                {
                     return Err(format!("the board refused the session: {}", describe_fault(&f)));
                 }
                 _ => {}
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {
+            if let Some(f) = busy {
+                return Err(format!(
+                    "the board refused the session for {:.1} s: {}",
+                    cfg.handshake_timeout.as_secs_f64(),
+                    describe_fault(&f)
+                ));
+            }
             return Err(format!(
                 "no HELLO answer from the board within {:.1} s",
                 cfg.handshake_timeout.as_secs_f64()
@@ -228,12 +249,13 @@ fn arm(
         link.send(Frame::Arm).map_err(link_error)?;
         let retry = now_ns() + 100_000_000;
         while now_ns() < retry {
-            if let Incoming::Encoder(e) =
-                link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)?
-            {
-                if e.status & status::ARMED != 0 {
-                    return Ok(e);
+            match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
+                Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(e),
+                // Another controller's HELLO replaced this session before its ARM.
+                Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
+                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
                 }
+                _ => {}
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {
@@ -435,9 +457,14 @@ impl Session<'_, '_> {
         match fault {
             Some(f) => {
                 let text = describe_fault(&f);
-                // Tell the board, so it latches the safe state now rather than by its watchdog.
-                let _ = self.link.send(Frame::Fault(f));
+                // Tell the board, so it latches the safe state now rather than by its
+                // watchdog; unless the board itself said this controller has no session.
+                if f.reason != FaultReason::SessionRefused {
+                    let _ = self.link.send(Frame::Fault(f));
+                }
                 log_record(log, Record::Event { tick, text: format!("fault: {text}") })?;
+                let end = format!("fault after {} ticks: {text}", self.report.ticks);
+                log_record(log, Record::End { tick, text: end })?;
                 self.report.fault = Some((f, text));
             }
             None => {
@@ -445,6 +472,8 @@ impl Session<'_, '_> {
                 let _ = self.link.send(Frame::Disarm);
                 let _ = self.link.send(Frame::Disarm);
                 log_record(log, Record::Event { tick, text: "disarmed: end of run".into() })?;
+                let end = format!("completed: {} ticks, disarmed", self.report.ticks);
+                log_record(log, Record::End { tick, text: end })?;
             }
         }
         if let Some(l) = log.as_mut() {

@@ -7,7 +7,7 @@ use std::io;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use crate::transport::Transport;
+use crate::transport::{Source, Transport};
 
 /// Per-frame probabilities and windows, counted in frames sent through the wrapper.
 #[derive(Clone, Debug, Default)]
@@ -154,5 +154,18 @@ impl<T: Transport> Transport for FaultyTransport<T> {
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         self.inner.recv(buf, timeout)
+    }
+
+    fn source(&self) -> Source {
+        self.inner.source()
+    }
+
+    fn set_peer(&mut self, peer: Source) {
+        self.inner.set_peer(peer)
+    }
+
+    // Refusals to strangers bypass the plan: the faults model the session's link.
+    fn send_to(&mut self, frame: &[u8], to: Source) -> io::Result<()> {
+        self.inner.send_to(frame, to)
     }
 }

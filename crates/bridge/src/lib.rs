@@ -36,6 +36,11 @@ pub trait Mechanism {
     fn counts(&mut self) -> Result<i32, String>;
     /// Holds `codes` for one period; returns the encoder count at its end.
     fn step(&mut self, codes: [u16; 3]) -> Result<i32, String>;
+    /// Back to the state it started in. Hardware cannot do this (the runner stays where
+    /// it is), so only test rigs ask for it (`--fresh-plant-per-session`).
+    fn reinitialise(&mut self) -> Result<(), String> {
+        Err("this mechanism cannot be re-initialised".into())
+    }
 }
 
 /// The controller as the bridge drives it.
@@ -113,6 +118,18 @@ pub fn describe_fault(f: &protocol::Fault) -> String {
         Overrun => format!("deadline missed by {} µs under the hard real-time policy", f.detail),
         Operator => "stopped by the operator".to_string(),
         ProtocolMismatch => format!("protocol mismatch (detail {})", f.detail),
+        SessionRefused => match f.detail {
+            protocol::session_refused::BUSY => {
+                "the board is armed in a session with another controller".to_string()
+            }
+            protocol::session_refused::NOT_ALLOWED => {
+                "this address is not among the board's allowed peers (--allow)".to_string()
+            }
+            protocol::session_refused::NO_SESSION => {
+                "this controller holds no session with the board (HELLO first; another controller may have taken it over)".to_string()
+            }
+            other => format!("refused (detail {other})"),
+        },
     };
     format!("{:?}: {what}", f.reason)
 }

@@ -10,6 +10,9 @@
 //! file   = "IWLOG" 0x00 version=1 0x00, record*
 //! record = len:u16  kind:u8  payload[len]  crc32(len, kind, payload):u32
 //! ```
+//!
+//! A run that finishes in order writes an [`Record::End`] last, so a reader can tell a
+//! log that stops at a record boundary because the writer was killed from a finished one.
 
 use std::fs::File;
 use std::io::{self, Write};
@@ -55,12 +58,19 @@ pub enum Record {
         tick: u32,
         text: String,
     },
+    /// The last record of a run that finished in order (completed, or ended in a fault it
+    /// reported): a log without one is from a run that was killed or crashed.
+    End {
+        tick: u32,
+        text: String,
+    },
 }
 
 const KIND_META: u8 = 1;
 const KIND_CONTROLLER: u8 = 2;
 const KIND_BOARD: u8 = 3;
 const KIND_EVENT: u8 = 4;
+const KIND_END: u8 = 5;
 
 impl Record {
     fn encode(&self, out: &mut Vec<u8>) {
@@ -97,6 +107,11 @@ impl Record {
                 out.extend_from_slice(&tick.to_le_bytes());
                 out.extend_from_slice(text.as_bytes());
                 KIND_EVENT
+            }
+            Record::End { tick, text } => {
+                out.extend_from_slice(&tick.to_le_bytes());
+                out.extend_from_slice(text.as_bytes());
+                KIND_END
             }
         };
         // Texts are short; a longer one is cut rather than making the record unreadable.
@@ -143,16 +158,19 @@ impl Record {
                     dac_seq: u16_at(16),
                 }))
             }
-            KIND_EVENT => {
+            KIND_EVENT | KIND_END => {
                 if p.len() < 4 {
                     return Err(format!(
-                        "event record of {} bytes is shorter than its tick",
+                        "{} record of {} bytes is shorter than its tick",
+                        if kind == KIND_END { "end" } else { "event" },
                         p.len()
                     ));
                 }
-                Ok(Record::Event {
-                    tick: u32_at(0),
-                    text: String::from_utf8_lossy(&p[4..]).into_owned(),
+                let (tick, text) = (u32_at(0), String::from_utf8_lossy(&p[4..]).into_owned());
+                Ok(if kind == KIND_END {
+                    Record::End { tick, text }
+                } else {
+                    Record::Event { tick, text }
                 })
             }
             other => Err(format!("unknown record kind {other}")),
@@ -200,6 +218,21 @@ pub struct LogContents {
     /// Set when the file ends inside a record (the writer died mid-write): the byte offset
     /// where the incomplete record starts. Everything before it is intact.
     pub truncated_at: Option<u64>,
+}
+
+impl LogContents {
+    /// The run's end record, if the run got to write one.
+    pub fn end(&self) -> Option<(u32, &str)> {
+        self.records.iter().rev().find_map(|r| match r {
+            Record::End { tick, text } => Some((*tick, text.as_str())),
+            _ => None,
+        })
+    }
+
+    /// Whole, and closed by an end record: the run finished in order.
+    pub fn complete(&self) -> bool {
+        self.truncated_at.is_none() && self.end().is_some()
+    }
 }
 
 /// Reads and checks a whole log. A damaged record in the middle is an error naming its
@@ -273,6 +306,7 @@ mod tests {
                 dac_seq: 4,
             }),
             Record::Event { tick: 9, text: "safe state: silence for 3 periods".into() },
+            Record::End { tick: 10, text: "completed: 3 ticks".into() },
         ]
     }
 
@@ -292,6 +326,7 @@ mod tests {
         let log = read_log(&path).unwrap();
         assert_eq!(log.records, sample_records());
         assert_eq!(log.truncated_at, None);
+        assert_eq!((log.complete(), log.end()), (true, Some((10, "completed: 3 ticks"))));
 
         // A crash mid-record: every cut point keeps all whole records before it.
         let bytes = std::fs::read(&path).unwrap();
@@ -311,6 +346,8 @@ mod tests {
                 (cut != boundaries[whole]).then_some(boundaries[whole] as u64),
                 "cut at {cut}"
             );
+            // Cut anywhere, at a record boundary too, the log is not the whole run.
+            assert!(!log.complete(), "cut at {cut}");
         }
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -9,12 +9,41 @@ use std::time::Duration;
 
 use inchworm_hil_protocol::{cobs, MAX_FRAME};
 
+/// Where a received frame came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Source {
+    /// A point-to-point link (a serial line, a socket pair): there is only one peer.
+    Line,
+    Udp(SocketAddr),
+}
+
+impl std::fmt::Display for Source {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Source::Line => f.write_str("the line"),
+            Source::Udp(a) => write!(f, "{a}"),
+        }
+    }
+}
+
 /// One frame out, one frame in. `recv` returns `Ok(None)` when nothing arrived in time and
 /// `Err(InvalidData)` for bytes that cannot be a frame (the caller counts them as malformed).
 pub trait Transport: Send {
     fn send(&mut self, frame: &[u8]) -> io::Result<()>;
     /// Waits up to `timeout` (zero: only what has already arrived).
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>>;
+    /// The sender of the frame `recv` returned last.
+    fn source(&self) -> Source {
+        Source::Line
+    }
+    /// Where `send` goes from now on: the board points it at the controller whose HELLO
+    /// opened the session. A point-to-point link has nowhere else to send.
+    fn set_peer(&mut self, _peer: Source) {}
+    /// One frame to `to` without changing the peer: a refusal to a sender that holds no
+    /// session.
+    fn send_to(&mut self, frame: &[u8], _to: Source) -> io::Result<()> {
+        self.send(frame)
+    }
 }
 
 impl<T: Transport + ?Sized> Transport for Box<T> {
@@ -23,6 +52,15 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
     }
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         (**self).recv(buf, timeout)
+    }
+    fn source(&self) -> Source {
+        (**self).source()
+    }
+    fn set_peer(&mut self, peer: Source) {
+        (**self).set_peer(peer)
+    }
+    fn send_to(&mut self, frame: &[u8], to: Source) -> io::Result<()> {
+        (**self).send_to(frame, to)
     }
 }
 
@@ -47,11 +85,16 @@ fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
     }
 }
 
-/// UDP: the controller side connects to the board; the board side binds and answers the
-/// first peer that sends it a frame (datagrams from any other address are dropped).
+/// UDP. The controller side connects to the board and drops datagrams from any other
+/// address. The board side binds and hands every datagram up with its [`Source`]: which
+/// sender holds the session is the board's decision (docs/hil-protocol.md, "Sessions"), so
+/// a stray datagram can never claim the socket.
 pub struct UdpTransport {
     socket: UdpSocket,
     peer: Option<SocketAddr>,
+    /// Connected (controller side): only the peer's datagrams are taken.
+    connected: bool,
+    from: Option<SocketAddr>,
     foreign: u64,
 }
 
@@ -59,42 +102,39 @@ impl UdpTransport {
     pub fn bind(local: impl ToSocketAddrs) -> io::Result<UdpTransport> {
         let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
-        Ok(UdpTransport { socket, peer: None, foreign: 0 })
+        Ok(UdpTransport { socket, peer: None, connected: false, from: None, foreign: 0 })
     }
 
     pub fn connect(remote: impl ToSocketAddrs) -> io::Result<UdpTransport> {
         let remote = remote.to_socket_addrs()?.next().ok_or_else(|| {
             io::Error::new(io::ErrorKind::InvalidInput, "the board address resolves to nothing")
         })?;
-        let local: SocketAddr =
-            if remote.is_ipv4() { "0.0.0.0:0".parse().unwrap() } else { "[::]:0".parse().unwrap() };
+        let local: SocketAddr = if remote.is_ipv4() {
+            SocketAddr::from(([0, 0, 0, 0], 0))
+        } else {
+            SocketAddr::from(([0u16; 8], 0))
+        };
         let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
-        Ok(UdpTransport { socket, peer: Some(remote), foreign: 0 })
+        Ok(UdpTransport { socket, peer: Some(remote), connected: true, from: None, foreign: 0 })
     }
 
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
         self.socket.local_addr()
     }
 
-    /// Datagrams dropped because they came from another address than the peer.
+    /// Connected side: datagrams dropped because they came from another address than the
+    /// board.
     pub fn foreign_datagrams(&self) -> u64 {
         self.foreign
     }
-}
 
-impl Transport for UdpTransport {
-    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
-        let Some(peer) = self.peer else {
-            return Err(io::Error::new(
-                io::ErrorKind::NotConnected,
-                "no peer yet: nothing has been received",
-            ));
-        };
-        match self.socket.send_to(frame, peer) {
+    fn send_datagram(&self, frame: &[u8], to: SocketAddr) -> io::Result<()> {
+        match self.socket.send_to(frame, to) {
             Ok(_) => Ok(()),
             // A full socket buffer or an ICMP port-unreachable from a peer that is not up
-            // yet is a lost frame, which the protocol tolerates; it is not a reason to stop.
+            // yet (or has gone) is a lost frame, which the protocol tolerates; it is not a
+            // reason to stop.
             Err(e)
                 if matches!(
                     e.kind(),
@@ -106,21 +146,30 @@ impl Transport for UdpTransport {
             Err(e) => Err(e),
         }
     }
+}
+
+impl Transport for UdpTransport {
+    fn send(&mut self, frame: &[u8]) -> io::Result<()> {
+        let Some(peer) = self.peer else {
+            return Err(io::Error::new(
+                io::ErrorKind::NotConnected,
+                "no peer yet: no controller has opened a session",
+            ));
+        };
+        self.send_datagram(frame, peer)
+    }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         let mut waited = false;
         loop {
             match self.socket.recv_from(buf) {
-                Ok((n, from)) => match self.peer {
-                    Some(p) if p != from => {
-                        self.foreign += 1;
-                        continue;
-                    }
-                    _ => {
-                        self.peer = Some(from);
-                        return Ok(Some(n));
-                    }
-                },
+                Ok((_, from)) if self.connected && Some(from) != self.peer => {
+                    self.foreign += 1;
+                }
+                Ok((n, from)) => {
+                    self.from = Some(from);
+                    return Ok(Some(n));
+                }
                 Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
                     if waited
@@ -133,6 +182,23 @@ impl Transport for UdpTransport {
                 }
                 Err(e) => return Err(e),
             }
+        }
+    }
+
+    fn source(&self) -> Source {
+        self.from.map_or(Source::Line, Source::Udp)
+    }
+
+    fn set_peer(&mut self, peer: Source) {
+        if let (false, Source::Udp(a)) = (self.connected, peer) {
+            self.peer = Some(a);
+        }
+    }
+
+    fn send_to(&mut self, frame: &[u8], to: Source) -> io::Result<()> {
+        match to {
+            Source::Udp(a) => self.send_datagram(frame, a),
+            Source::Line => self.send(frame),
         }
     }
 }

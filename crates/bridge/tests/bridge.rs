@@ -647,10 +647,7 @@ fn hello_with_another_mode_is_refused_with_the_reason() {
     let (board, _) = board.finish();
     assert!(e.contains("ProtocolMismatch"), "{e}");
     assert!(
-        board
-            .events
-            .iter()
-            .any(|(_, t)| t.contains("HELLO refused: lock-step false (board: true)")),
+        board.events.iter().any(|(_, t)| t.contains(" refused: lock-step false (board: true)")),
         "{:?}",
         board.events
     );

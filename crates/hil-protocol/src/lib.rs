@@ -152,6 +152,20 @@ pub enum FaultReason {
     Operator = 6,
     /// HELLO versions or parameters disagree.
     ProtocolMismatch = 7,
+    /// The board refused a controller's frame because the sender holds no session with
+    /// it (detail: [`session_refused`] codes). Added within version 1: the frame layout
+    /// is unchanged, and a receiver that predates it refuses the frame as BadPayload.
+    SessionRefused = 8,
+}
+
+/// The detail of a FAULT SessionRefused: why the board will not talk to the sender.
+pub mod session_refused {
+    /// Another controller holds an armed, live session.
+    pub const BUSY: u32 = 1;
+    /// The sender's address is not among the board's allowed peers.
+    pub const NOT_ALLOWED: u32 = 2;
+    /// A frame other than HELLO from an address without a session: HELLO first.
+    pub const NO_SESSION: u32 = 3;
 }
 
 impl FaultReason {
@@ -165,6 +179,7 @@ impl FaultReason {
             5 => Some(FaultReason::Overrun),
             6 => Some(FaultReason::Operator),
             7 => Some(FaultReason::ProtocolMismatch),
+            8 => Some(FaultReason::SessionRefused),
             _ => None,
         }
     }
@@ -507,7 +522,7 @@ pub fn decode(bytes: &[u8]) -> Result<Packet, DecodeError> {
         frame_type::DISARM => Frame::Disarm,
         frame_type::FAULT => {
             let reason = FaultReason::from_u8(p[0])
-                .ok_or(DecodeError::BadPayload("FAULT reason is not 1..=7"))?;
+                .ok_or(DecodeError::BadPayload("FAULT reason is not 1..=8"))?;
             Frame::Fault(Fault { reason, detail: u32_at(p, 4) })
         }
         frame_type::DAC => Frame::Dac(DacSample {

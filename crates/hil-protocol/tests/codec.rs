@@ -255,7 +255,7 @@ fn bad_payload_values() {
         seq: 0,
         frame: Frame::Fault(Fault { reason: FaultReason::Operator, detail: 0 }),
     });
-    for reason in [0u8, 8, 255] {
+    for reason in [0u8, 9, 255] {
         let mut f = fault.clone();
         f[10] = reason;
         reseal(&mut f);

@@ -49,6 +49,10 @@ impl Mechanism for DirectPlant {
             .map_err(|e| e.to_string())?;
         self.counts()
     }
+    fn reinitialise(&mut self) -> Result<(), String> {
+        self.0 = Plant::new(PlantParams::default()).map_err(|e| e.to_string())?;
+        Ok(())
+    }
 }
 
 pub struct DirectController {

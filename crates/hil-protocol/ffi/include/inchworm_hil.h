@@ -85,6 +85,10 @@
 // FAULT reason: HELLO versions or parameters disagree.
 #define IW_FAULT_PROTOCOL_MISMATCH 7
 
+// FAULT reason: the board refused the sender, which holds no session with it (detail:
+// 1 another controller holds an armed session, 2 address not allowed, 3 HELLO first).
+#define IW_FAULT_SESSION_REFUSED 8
+
 // ENCODER status bit: the board is armed.
 #define IW_STATUS_ARMED 1
 

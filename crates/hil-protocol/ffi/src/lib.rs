@@ -86,6 +86,9 @@ pub const IW_FAULT_OVERRUN: u8 = 5;
 pub const IW_FAULT_OPERATOR: u8 = 6;
 /// FAULT reason: HELLO versions or parameters disagree.
 pub const IW_FAULT_PROTOCOL_MISMATCH: u8 = 7;
+/// FAULT reason: the board refused the sender, which holds no session with it (detail:
+/// 1 another controller holds an armed session, 2 address not allowed, 3 HELLO first).
+pub const IW_FAULT_SESSION_REFUSED: u8 = 8;
 
 /// ENCODER status bit: the board is armed.
 pub const IW_STATUS_ARMED: u16 = 1;
@@ -156,6 +159,7 @@ const _: () = {
     assert!(IW_STATUS_LOCKSTEP == iw::status::LOCKSTEP);
     assert!(IW_FAULT_PROTOCOL_MISMATCH == FaultReason::ProtocolMismatch as u8);
     assert!(IW_FAULT_SILENCE == FaultReason::Silence as u8);
+    assert!(IW_FAULT_SESSION_REFUSED == FaultReason::SessionRefused as u8);
 };
 
 /// One frame in flat form. `frame_type` selects which payload fields are meaningful;
