@@ -348,7 +348,7 @@ impl System {
         };
         Ok(System {
             inputs: kind("input"),
-            outputs: kind("output"),
+            outputs: a.default_outputs(kind("output"))?,
             connections: a.system.connections.clone(),
             stop_time: a.system.stop_time,
             step_size: a.system.step_size,

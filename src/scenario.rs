@@ -32,9 +32,13 @@ pub struct Scenario {
     pub name: &'static str,
     pub title: &'static str,
     pub duration: f64,
-    /// The system input `reference` (m), held piecewise constant; the direct coupling
-    /// reads the same table, so both paths see the same value at every point.
+    /// The reference (m), held piecewise constant: the system input `reference` of an
+    /// open system, the reference component's table in the closed `InchwormSystem.ssp`;
+    /// the direct coupling reads the same table, so every path sees the same value at
+    /// every point.
     pub reference: InputTable,
+    /// The same reference as `(time, position)` points, for the reference component.
+    pub reference_points: Vec<(f64, f64)>,
     pub variants: Vec<Variant>,
     /// Windows (s) in which the loop regulates, for the RMS of the parked samples.
     pub regulation: Vec<(f64, f64)>,
@@ -52,16 +56,22 @@ pub enum Via<'a> {
 /// Reference levels of the Figs. 6–7 staircase (µm), 100 s each.
 pub const STAIRCASE_UM: [f64; 7] = [100.0, 60.0, 250.0, 245.0, 130.0, 131.5, 20.0];
 
-/// The staircase as the reference table: level k from `100 k` s.
+/// The staircase as `(time, position)` points: level k from `100 k` s.
+pub fn staircase_points() -> Vec<(f64, f64)> {
+    STAIRCASE_UM.iter().enumerate().map(|(k, um)| (k as f64 * 100.0, um * 1e-6)).collect()
+}
+
+/// The staircase as the reference table.
 pub fn staircase() -> InputTable {
-    let rows: Vec<(f64, f64)> =
-        STAIRCASE_UM.iter().enumerate().map(|(k, um)| (k as f64 * 100.0, um * 1e-6)).collect();
-    InputTable::steps("reference", &rows).expect("the staircase times increase")
+    InputTable::steps("reference", &staircase_points()).expect("the staircase times increase")
 }
 
 fn constant(value: f64) -> InputTable {
     InputTable::steps("reference", &[(0.0, value)]).expect("one finite row")
 }
+
+/// The name under which the closed system records its reference.
+const REFERENCE_OUTPUT: &str = "reference.reference";
 
 /// Each level from 20 s after its change to its end.
 fn staircase_regulation() -> Vec<(f64, f64)> {
@@ -88,6 +98,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Fig. 5: runner at rest at 0, reference 100 µm from t = 0",
             duration: 10.0,
             reference: constant(100e-6),
+            reference_points: vec![(0.0, 100e-6)],
             variants: vec![
                 closed("full control", fia20(), Params::default()),
                 closed("feedback only", fia20(), feedback_only),
@@ -99,6 +110,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Figs. 6-7: reference staircase with the prefilter on",
             duration: 700.0,
             reference: staircase(),
+            reference_points: staircase_points(),
             variants: vec![closed(
                 "full control + prefilter",
                 fia20(),
@@ -111,6 +123,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Calibration: the staircase from the nominal inverse scale factor and zero disturbance",
             duration: 700.0,
             reference: staircase(),
+            reference_points: staircase_points(),
             variants: vec![closed(
                 "from nominal",
                 fia20(),
@@ -128,6 +141,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "The 6 µm device (fia6): reference 30 µm, estimator started from the nominal 6 µm map",
             duration: 20.0,
             reference: constant(30e-6),
+            reference_points: vec![(0.0, 30e-6)],
             variants: vec![closed("full control", PlantParams::fia6(), crate::controller::fia6())],
             regulation: vec![(10.0, 20.0)],
         },
@@ -137,6 +151,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             // 200 full steps of 0.2 s.
             duration: 40.0,
             reference: constant(0.0),
+            reference_points: vec![(0.0, 0.0)],
             variants: [0.0, 10.0]
                 .into_iter()
                 .map(|gamma| Variant {
@@ -152,9 +167,9 @@ pub fn by_name(name: &str) -> Option<Scenario> {
 }
 
 impl Scenario {
-    /// The master's options for a closed-loop variant: the plant's and the controller's
-    /// parameters in full, the reference table on the system input, every variable of
-    /// [`closed_loop::recorded`].
+    /// The master's options for a closed-loop variant on the open system: the plant's
+    /// and the controller's parameters in full, the reference table on the system input,
+    /// every variable of [`closed_loop::recorded`].
     pub fn options(&self, plant: &PlantParams, controller: &Params) -> Options {
         let mut params = crate::plant::parameters(plant);
         params.extend(crate::controller::parameters(controller));
@@ -167,6 +182,24 @@ impl Scenario {
             input: Some(self.reference.clone()),
             outputs: closed_loop::recorded(),
         }
+    }
+
+    /// The same on the closed system: the reference as the reference component's table,
+    /// recorded as its output (renamed `reference` in the trace by [`Scenario::run_variant`]).
+    pub fn closed_options(&self, plant: &PlantParams, controller: &Params) -> Options {
+        let mut o = self.options(plant, controller);
+        o.input = None;
+        let n = self.reference_points.len();
+        o.params.push(("reference.profile".into(), "0".into()));
+        o.params.push(("reference.n_points".into(), n.to_string()));
+        for (i, (t, p)) in self.reference_points.iter().enumerate() {
+            o.params.push((format!("reference.times[{}]", i + 1), format!("{t:e}")));
+            o.params.push((format!("reference.positions[{}]", i + 1), format!("{p:e}")));
+        }
+        for name in o.outputs.iter_mut().filter(|n| n.as_str() == "reference") {
+            *name = REFERENCE_OUTPUT.into();
+        }
+        o
     }
 
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
@@ -184,7 +217,20 @@ impl Scenario {
                 self.duration,
             ),
             (Drive::Controller(p), Via::System(ssp)) => {
-                master::run(ssp, &self.options(&v.plant, p), |_| {})
+                // The closed system carries its reference as a component of that name.
+                let closed = crate::ssp::Archive::open(ssp)?
+                    .system
+                    .components
+                    .iter()
+                    .any(|c| c.name == "reference");
+                if !closed {
+                    return master::run(ssp, &self.options(&v.plant, p), |_| {});
+                }
+                let mut trace = master::run(ssp, &self.closed_options(&v.plant, p), |_| {})?;
+                for name in trace.names.iter_mut().filter(|n| n.as_str() == REFERENCE_OUTPUT) {
+                    *name = "reference".into();
+                }
+                Ok(trace)
             }
         }
     }
