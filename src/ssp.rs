@@ -199,7 +199,7 @@ impl Archive {
     /// ParameterBindings whose set has that name ([`Archive::bound_parameter_set`]), else
     /// (an SSP without bindings) the file `resources/<name>.ssv` with qualified names.
     pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
-        if let Some(values) = self.bound_parameter_set(name)? {
+        if let Some(values) = self.bound_parameter_set(Some(name))? {
             return Ok(values);
         }
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
@@ -334,13 +334,14 @@ impl Archive {
         Ok(names)
     }
 
-    /// The set `name` from the SSD's ParameterBindings: every binding whose `.ssv` carries
-    /// that set name, its parameter names qualified by the binding's component and prefix,
-    /// in binding order. `None` if the SSD binds no parameter sets at all; an error naming
-    /// the known sets if it binds others.
+    /// The parameter values the SSD's ParameterBindings give, as `component.variable` →
+    /// value text (names qualified by the binding's component and prefix): each
+    /// component's first binding (its default), then, if `selected` names a set, that
+    /// set's bindings over it. `None` if the SSD binds no parameter sets; an error naming
+    /// the known sets if `selected` is none of them.
     pub fn bound_parameter_set(
         &self,
-        name: &str,
+        selected: Option<&str>,
     ) -> Result<Option<BTreeMap<String, String>>, String> {
         let bindings = parse_parameter_bindings(&self.read_ssd()?)?;
         if bindings.is_empty() {
@@ -348,12 +349,19 @@ impl Archive {
         }
         let mut out = BTreeMap::new();
         let mut found = false;
+        let mut seen: Vec<&Option<String>> = Vec::new();
         for b in &bindings {
+            let first = !seen.contains(&&b.component);
+            if first {
+                seen.push(&b.component);
+            }
             let text = self.read_bound_ssv(&b.source)?;
-            if parameter_set_name(&text).map_err(|e| format!("{}: {e}", b.source))? != name {
+            let name = parameter_set_name(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            let chosen = selected == Some(name.as_str());
+            found |= chosen;
+            if !first && !chosen {
                 continue;
             }
-            found = true;
             let qualify = |p: &str| match &b.component {
                 Some(c) => format!("{c}.{}{p}", b.prefix),
                 None => format!("{}{p}", b.prefix),
@@ -361,11 +369,13 @@ impl Archive {
             let values = parse_ssv(&text).map_err(|e| format!("{}: {e}", b.source))?;
             out.extend(values.into_iter().map(|(p, v)| (qualify(&p), v)));
         }
-        if !found {
-            return Err(format!(
-                "parameter set {name} is not bound in the SSD (its sets: {})",
-                self.bound_parameter_set_names()?.join(", ")
-            ));
+        if let Some(name) = selected {
+            if !found {
+                return Err(format!(
+                    "parameter set {name} is not bound in the SSD (its sets: {})",
+                    self.bound_parameter_set_names()?.join(", ")
+                ));
+            }
         }
         Ok(Some(out))
     }
@@ -377,6 +387,16 @@ impl Archive {
             return Ok(system_outputs);
         }
         parse_component_outputs(&self.read_ssd()?)
+    }
+}
+
+/// What a run sets before any `--parameter-set` or `--param`: the first binding of each
+/// component of an SSP (nothing for a single FMU or an SSP without bindings), as libcosim
+/// and Ecos apply them.
+pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, String> {
+    match a {
+        Some(a) => Ok(a.bound_parameter_set(None)?.unwrap_or_default().into_iter().collect()),
+        None => Ok(Vec::new()),
     }
 }
 

@@ -81,14 +81,15 @@ fn parameter_sets_and_params_reach_the_fmus() {
 
 #[test]
 fn gauss_seidel_closes_the_loop_too() {
-    let r =
-        run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::GaussSeidel), |_| {}).unwrap();
+    let r = run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::GaussSeidel), |_| {})
+        .unwrap();
     let pos = r.column("encoder_position").unwrap();
     assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6, "final position {}", pos.last().unwrap());
     assert_ne!(
         counts(&r),
         counts(
-            &run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::Jacobi), |_| {}).unwrap()
+            &run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::Jacobi), |_| {})
+                .unwrap()
         )
     );
 }

@@ -143,6 +143,7 @@ fn main() -> ExitCode {
             "inchworm-reference-fmu",
             "inchworm_reference_fmu",
         ),
+        fmu::<inchworm_fmu_models::MountFmu>("inchworm-mount-fmu", "inchworm_mount_fmu"),
     ];
     let run = || -> Result<(), String> {
         build(&root, &fmus)?;
@@ -150,7 +151,7 @@ fn main() -> ExitCode {
             let out = package(&root, f)?;
             println!("fmu-build: wrote {}", out.display());
         }
-        for spec in [ssp::closed_system(), ssp::open_system()] {
+        for spec in [ssp::closed_system(), ssp::open_system(), ssp::mirror_mount()] {
             let out = package_system(&root, &spec)?;
             println!("fmu-build: wrote {}", out.display());
         }

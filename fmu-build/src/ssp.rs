@@ -407,3 +407,50 @@ pub fn open_system() -> SystemSpec {
         stop_time: 10.0,
     }
 }
+
+/// The mirror mount's command: piston from t = 0, then a tip on top of it.
+pub const MIRROR_PISTON: f64 = 30e-6;
+pub const MIRROR_TIP: f64 = 4e-6;
+pub const MIRROR_TIP_TIME: f64 = 4.0;
+pub const MIRROR_CHAINS: [&str; 3] = ["a", "b", "c"];
+
+/// `MirrorMount.ssp`: three reference → controller → plant chains, 120° apart on a 50 mm
+/// radius, and the mount kinematics on their runner positions. Each reference's first
+/// (and only) binding, `default`, is its actuator's share of the command: the piston
+/// from t = 0, the piston and the tip from `MIRROR_TIP_TIME`.
+pub fn mirror_mount() -> SystemSpec {
+    use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
+    use inchworm_fmu_models::MountFmu;
+    let z = actuator_positions(MIRROR_PISTON, MIRROR_TIP, 0.0, RADIUS, ANGLE_A_DEG);
+    let mut components = Vec::new();
+    let mut connections = Vec::new();
+    for (i, x) in MIRROR_CHAINS.iter().enumerate() {
+        let (r, c, p) = (format!("reference_{x}"), format!("controller_{x}"), format!("plant_{x}"));
+        let command = reference_table(&[(0.0, MIRROR_PISTON), (MIRROR_TIP_TIME, z[i])], 0.0);
+        components.push(component(
+            &r,
+            fmu::<ReferenceFmu>(),
+            &REFERENCE_CONNECTORS,
+            vec![binding("default", command)],
+        ));
+        components.push(component(&c, fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, vec![]));
+        components.push(component(&p, fmu::<PlantFmu>(), &PLANT_CONNECTORS, vec![]));
+        connections.push(link(&r, "reference", &c, "reference"));
+        connections.extend(loop_connections(&c, &p));
+        connections.push(link(&p, "runner_position", "mount", &format!("position_{x}")));
+    }
+    components.push(component(
+        "mount",
+        fmu::<MountFmu>(),
+        &["position_a", "position_b", "position_c", "piston", "tip", "tilt"],
+        vec![],
+    ));
+    SystemSpec {
+        name: "MirrorMount",
+        description: "Three-actuator mirror mount: three InchwormReference, InchwormController, InchwormPlant chains 120 deg apart on a 50 mm radius, InchwormMount turns the runner positions into piston, tip and tilt".into(),
+        components,
+        connectors: vec![],
+        connections,
+        stop_time: 10.0,
+    }
+}
