@@ -7,9 +7,13 @@
 //! * `tip = 2 / (3 R) Σ z_i sin φ_i` (rad, rotation about x),
 //! * `tilt = 2 / (3 R) Σ z_i cos φ_i` (rad, rotation about y),
 //!
-//! exact for three points 120° apart. The outputs follow the inputs at once (direct
-//! feedthrough, no state): a Jacobi master reads them one communication step after the
-//! positions they come from. [`actuator_positions`] is the inverse, for commands.
+//! exact for three points 120° apart. The outputs are a sample and hold: after
+//! `fmi2DoStep(t, h)` they are the pose of the positions that held during the step (set
+//! before it), and before the first step that of the positions at initialization. So
+//! every master shows the same pose at a communication point whether it transfers the
+//! connections before or right after its steps (the inchworm master and FMPy before;
+//! Ecos and libcosim after): the pose of the runners one step (2 ms) earlier.
+//! [`actuator_positions`] is the inverse, for commands.
 
 use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
 
@@ -93,6 +97,8 @@ pub fn actuator_positions(
 #[derive(Clone, Debug)]
 pub struct MountFmu {
     z: [f64; 3],
+    /// Piston, tip and tilt latched at the last step (or initialization).
+    held: [f64; 3],
     radius: f64,
     angle_a: f64,
 }
@@ -107,16 +113,15 @@ impl Model for MountFmu {
     }
 
     fn new() -> Self {
-        MountFmu { z: [0.0; 3], radius: RADIUS, angle_a: ANGLE_A_DEG }
+        MountFmu { z: [0.0; 3], held: [0.0; 3], radius: RADIUS, angle_a: ANGLE_A_DEG }
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
-        let p = || pose(self.z, self.radius, self.angle_a);
         Ok(match r {
             vr::POSITION_A..=vr::POSITION_C => self.z[(r - vr::POSITION_A) as usize],
-            vr::PISTON => p()[0],
-            vr::TIP => p()[1],
-            vr::TILT => p()[2],
+            vr::PISTON => self.held[0],
+            vr::TIP => self.held[1],
+            vr::TILT => self.held[2],
             vr::RADIUS => self.radius,
             vr::ANGLE_A => self.angle_a,
             _ => return Err(format!("no Real variable with value reference {r}")),
@@ -153,20 +158,22 @@ impl Model for MountFmu {
         if !(1e-4..=10.0).contains(&self.radius) {
             return Err(format!("invalid parameter radius: {} m (1e-4 to 10 m)", self.radius));
         }
+        self.held = pose(self.z, self.radius, self.angle_a);
         Ok(())
     }
 
     fn do_step(&mut self, _t: f64, _h: f64) -> Result<Vec<Message>, String> {
+        self.held = pose(self.z, self.radius, self.angle_a);
         Ok(Vec::new())
     }
 
     fn save_state(&self, w: &mut Writer) {
-        self.z.iter().for_each(|z| w.f64(*z));
+        self.z.iter().chain(&self.held).for_each(|z| w.f64(*z));
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         let mut r = Reader::new(bytes, "mount FMU state");
-        for z in self.z.iter_mut() {
+        for z in self.z.iter_mut().chain(self.held.iter_mut()) {
             *z = r.f64()?;
         }
         r.finish()

@@ -16,29 +16,35 @@ const TIP: u32 = 11;
 const TILT: u32 = 12;
 const RADIUS_VR: u32 = 100;
 
-fn set_positions(h: &H, z: [f64; 3]) {
+/// Sets the positions before step `k` and takes it: the outputs then hold the pose of the
+/// positions that held during the step.
+fn set_positions(h: &H, k: usize, z: [f64; 3]) {
     for (i, z) in z.iter().enumerate() {
         assert_eq!(h.set_real(POSITION_A + i as u32, *z), fmi2OK);
     }
+    assert_eq!(h.real(PISTON).1, h.real(PISTON).1, "unchanged until the step");
+    assert_eq!(h.step(k as f64 * 0.002, 0.002), fmi2OK);
 }
 
 #[test]
 fn piston_tip_and_tilt_of_three_positions() {
     let h = H::init("mount");
     // All three equal: pure piston.
-    set_positions(&h, [30e-6; 3]);
+    set_positions(&h, 0, [30e-6; 3]);
     assert!((h.real(PISTON).1 - 30e-6).abs() < 1e-18);
     assert!(h.real(TIP).1.abs() < 1e-15 && h.real(TILT).1.abs() < 1e-15);
     // Actuator a (on +y, 50 mm) up by 0.3 um, b and c (at y = -R/2) down 0.15: tip 6 urad.
-    set_positions(&h, [0.3e-6, -0.15e-6, -0.15e-6]);
+    set_positions(&h, 1, [0.3e-6, -0.15e-6, -0.15e-6]);
     assert!(h.real(PISTON).1.abs() < 1e-20);
     assert!((h.real(TIP).1 - 0.3e-6 / RADIUS).abs() < 1e-15, "{}", h.real(TIP).1);
     assert!(h.real(TILT).1.abs() < 1e-15);
     // b (210 deg) and c (330 deg) opposite: tilt about y, x_c - x_b = R sqrt 3.
-    set_positions(&h, [0.0, -1e-6, 1e-6]);
+    set_positions(&h, 2, [0.0, -1e-6, 1e-6]);
     assert!((h.real(TILT).1 - 2e-6 / (RADIUS * 3f64.sqrt())).abs() < 1e-15);
     assert!(h.real(TIP).1.abs() < 1e-15);
-    assert_eq!(h.step(0.0, 0.002), fmi2OK, "any step size, no state to advance");
+    // Sample and hold: new positions show after the next step only.
+    assert_eq!(h.set_real(POSITION_A, 1.0), fmi2OK);
+    assert!(h.real(TILT).1 > 0.0 && h.real(PISTON).1.abs() < 1e-18, "still the held pose");
 }
 
 #[test]
@@ -67,7 +73,7 @@ fn bad_values_are_refused() {
 #[test]
 fn state_round_trips() {
     let a = H::init("a");
-    set_positions(&a, [1e-6, 2e-6, 4e-6]);
+    set_positions(&a, 0, [1e-6, 2e-6, 4e-6]);
     let bytes = a.serialize();
     let b = H::new("b");
     assert_eq!(b.deserialize(&bytes), fmi2OK, "{:?}", b.logged());
