@@ -484,6 +484,55 @@ mod tests {
     }
 
     #[test]
+    fn first_bindings_by_default_and_a_selected_set_over_them() {
+        let dir =
+            std::env::temp_dir().join(format!("inchworm-ssp-bindings-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("resources")).unwrap();
+        let ssv = |set: &str, body: &str| {
+            format!(
+                r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="{set}"><ssv:Parameters>{body}</ssv:Parameters></ssv:ParameterSet>"#
+            )
+        };
+        let real = |n: &str, v: &str| {
+            format!(r#"<ssv:Parameter name="{n}"><ssv:Real value="{v}"/></ssv:Parameter>"#)
+        };
+        for (file, set, body) in [
+            ("a.default", "default", real("k", "1") + &real("m", "2")),
+            ("a.fast", "fast", real("k", "10")),
+            ("b.default", "default", real("k", "3")),
+        ] {
+            std::fs::write(dir.join(format!("resources/{file}.ssv")), ssv(set, &body)).unwrap();
+        }
+        std::fs::write(
+            dir.join("SystemStructure.ssd"),
+            r#"<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="S"><ssd:System name="S"><ssd:Elements>
+  <ssd:Component name="a" source="resources/A.fmu"><ssd:ParameterBindings><ssd:ParameterBinding source="resources/a.default.ssv"/><ssd:ParameterBinding source="resources/a.fast.ssv"/></ssd:ParameterBindings></ssd:Component>
+  <ssd:Component name="b" source="resources/B.fmu"><ssd:ParameterBindings><ssd:ParameterBinding source="resources/b.default.ssv"/></ssd:ParameterBindings></ssd:Component>
+</ssd:Elements></ssd:System></ssd:SystemStructureDescription>"#,
+        )
+        .unwrap();
+        let a = Archive { dir, system: System::default() };
+        let pairs =
+            |m: BTreeMap<String, String>| -> Vec<(String, String)> { m.into_iter().collect() };
+        let kv = |v: &[(&str, &str)]| -> Vec<(String, String)> {
+            v.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+        };
+        assert_eq!(
+            first_bindings(Some(&a)).unwrap(),
+            kv(&[("a.k", "1"), ("a.m", "2"), ("b.k", "3")])
+        );
+        assert_eq!(
+            pairs(a.parameter_set("fast").unwrap()),
+            kv(&[("a.k", "10"), ("a.m", "2"), ("b.k", "3")])
+        );
+        assert_eq!(a.bound_parameter_set_names().unwrap(), ["default", "fast"]);
+        let e = a.parameter_set("slow").unwrap_err();
+        assert!(e.contains("parameter set slow") && e.contains("default, fast"), "{e}");
+        assert!(a.read_bound_ssv("../etc/passwd").unwrap_err().contains("inside the SSP"));
+        assert!(first_bindings(None).unwrap().is_empty());
+    }
+
+    #[test]
     fn parameter_set_values() {
         let xml = r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="p">
   <ssv:Parameters><ssv:Parameter name="plant.T_em"><ssv:Real value="2.5"/></ssv:Parameter>
