@@ -1,6 +1,6 @@
 //! `cargo bench -p inchworm --bench closed_loop`: the closed loop through both FMUs over
 //! 600 s of the Figs. 6–7 staircase (prefilter on), stepped by the Rust master
-//! (`inchworm run` on dist/InchwormSystem.ssp), by the direct coupling of the crates, and
+//! (`inchworm run` on dist/InchwormSystemOpen.ssp), by the direct coupling of the crates, and
 //! by a plain Jacobi loop in FMPy, all in this one run; prints wall times, real-time
 //! factors and the ratio, and checks that all three end on the same encoder count.
 
@@ -20,7 +20,7 @@ fn main() {
     // The package is the workspace root: dist/ and .venv/ live there.
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dist = root.join("dist");
-    let ssp = dist.join("InchwormSystem.ssp");
+    let ssp = dist.join("InchwormSystemOpen.ssp");
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
     let s = scenario::by_name("staircase").expect("a scenario");
     let controller = Params { prefilter: true, ..Params::default() };

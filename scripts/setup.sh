@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need on a fresh Debian machine with the Rust
 # toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
-# fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), and a
-# Python venv in .venv with FMPy and pytest.
+# fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), libtbb12
+# (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the two other SSP
+# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy).
 # Idempotent: it only reaches the package registries for what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in libclang-dev fonts-dejavu-core binutils; do
+for pkg in libclang-dev fonts-dejavu-core binutils libtbb12; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -19,11 +20,18 @@ if [ ${#need[@]} -gt 0 ]; then
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
 fi
 
-PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0"
-if [ ! -x .venv/bin/python ] || ! .venv/bin/python -c "import fmpy, pytest, pythonfmu" 2>/dev/null; then
-    echo "setup: creating .venv with $PY_REQS"
-    [ -x .venv/bin/python ] || python3 -m venv .venv
-    .venv/bin/pip install -q --disable-pip-version-check $PY_REQS
+PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6"
+[ -x .venv/bin/python ] || python3 -m venv .venv
+# Each pin checked on its installed version, so a venv made before a pin was added (or
+# with another version) gets exactly the pinned one, and a complete venv is left alone.
+missing=()
+for req in $PY_REQS; do
+    have=$(.venv/bin/python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "${req%%==*}" 2>/dev/null || true)
+    [ "$have" = "${req##*==}" ] || missing+=("$req")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    echo "setup: installing into .venv: ${missing[*]}"
+    .venv/bin/pip install -q --disable-pip-version-check "${missing[@]}"
 fi
 
 # Sweeps on a dask.distributed cluster (python/inchworm_dask): dask, distributed and

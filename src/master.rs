@@ -348,7 +348,7 @@ impl System {
         };
         Ok(System {
             inputs: kind("input"),
-            outputs: kind("output"),
+            outputs: a.default_outputs(kind("output"))?,
             connections: a.system.connections.clone(),
             stop_time: a.system.stop_time,
             step_size: a.system.step_size,
@@ -439,7 +439,7 @@ impl System {
         for c in self.components.iter_mut() {
             c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
         }
-        let mut values: Vec<(String, String)> = Vec::new();
+        let mut values: Vec<(String, String)> = crate::ssp::first_bindings(self.archive.as_ref())?;
         if let Some(set_name) = &opts.parameter_set {
             let a = self.archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
             values.extend(a.parameter_set(set_name)?);

@@ -32,9 +32,13 @@ pub struct Scenario {
     pub name: &'static str,
     pub title: &'static str,
     pub duration: f64,
-    /// The system input `reference` (m), held piecewise constant; the direct coupling
-    /// reads the same table, so both paths see the same value at every point.
+    /// The reference (m), held piecewise constant: the system input `reference` of an
+    /// open system, the reference component's table in the closed `InchwormSystem.ssp`;
+    /// the direct coupling reads the same table, so every path sees the same value at
+    /// every point.
     pub reference: InputTable,
+    /// The same reference as `(time, position)` points, for the reference component.
+    pub reference_points: Vec<(f64, f64)>,
     pub variants: Vec<Variant>,
     /// Windows (s) in which the loop regulates, for the RMS of the parked samples.
     pub regulation: Vec<(f64, f64)>,
@@ -52,16 +56,22 @@ pub enum Via<'a> {
 /// Reference levels of the Figs. 6–7 staircase (µm), 100 s each.
 pub const STAIRCASE_UM: [f64; 7] = [100.0, 60.0, 250.0, 245.0, 130.0, 131.5, 20.0];
 
-/// The staircase as the reference table: level k from `100 k` s.
+/// The staircase as `(time, position)` points: level k from `100 k` s.
+pub fn staircase_points() -> Vec<(f64, f64)> {
+    STAIRCASE_UM.iter().enumerate().map(|(k, um)| (k as f64 * 100.0, um * 1e-6)).collect()
+}
+
+/// The staircase as the reference table.
 pub fn staircase() -> InputTable {
-    let rows: Vec<(f64, f64)> =
-        STAIRCASE_UM.iter().enumerate().map(|(k, um)| (k as f64 * 100.0, um * 1e-6)).collect();
-    InputTable::steps("reference", &rows).expect("the staircase times increase")
+    InputTable::steps("reference", &staircase_points()).expect("the staircase times increase")
 }
 
 fn constant(value: f64) -> InputTable {
     InputTable::steps("reference", &[(0.0, value)]).expect("one finite row")
 }
+
+/// The name under which the closed system records its reference.
+const REFERENCE_OUTPUT: &str = "reference.reference";
 
 /// Each level from 20 s after its change to its end.
 fn staircase_regulation() -> Vec<(f64, f64)> {
@@ -100,6 +110,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Fig. 5: runner at rest at 0, reference 100 µm from t = 0",
             duration: 10.0,
             reference: constant(100e-6),
+            reference_points: vec![(0.0, 100e-6)],
             variants: vec![
                 closed("full control", fia20(), Params::default()),
                 closed("feedback only", fia20(), feedback_only),
@@ -111,6 +122,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Figs. 6-7: reference staircase with the prefilter on",
             duration: 700.0,
             reference: staircase(),
+            reference_points: staircase_points(),
             variants: vec![closed(
                 "full control + prefilter",
                 fia20(),
@@ -123,6 +135,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Calibration: the staircase from the nominal inverse scale factor and zero disturbance",
             duration: 700.0,
             reference: staircase(),
+            reference_points: staircase_points(),
             variants: vec![closed(
                 "from nominal",
                 fia20(),
@@ -140,6 +153,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "The 6 µm device (fia6): reference 30 µm, estimator started from the nominal 6 µm map",
             duration: 20.0,
             reference: constant(30e-6),
+            reference_points: vec![(0.0, 30e-6)],
             variants: vec![closed("full control", PlantParams::fia6(), crate::controller::fia6())],
             regulation: vec![(10.0, 20.0)],
         },
@@ -149,6 +163,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             // 5040 gaits of 0.2 s: past 40 mm.
             duration: 1008.0,
             reference: constant(0.0),
+            reference_points: vec![(0.0, 0.0)],
             variants: vec![slew("gamma = 0", 0.0)],
             regulation: vec![],
         },
@@ -157,6 +172,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             title: "Fig. 11: open-loop slews stall when the brake disturbance grows with the load (600 gaits)",
             duration: 120.0,
             reference: constant(0.0),
+            reference_points: vec![(0.0, 0.0)],
             variants: vec![slew("gamma = 0", 0.0), slew("gamma = 10", 10.0)],
             regulation: vec![],
         },
@@ -165,9 +181,9 @@ pub fn by_name(name: &str) -> Option<Scenario> {
 }
 
 impl Scenario {
-    /// The master's options for a closed-loop variant: the plant's and the controller's
-    /// parameters in full, the reference table on the system input, every variable of
-    /// [`closed_loop::recorded`].
+    /// The master's options for a closed-loop variant on the open system: the plant's
+    /// and the controller's parameters in full, the reference table on the system input,
+    /// every variable of [`closed_loop::recorded`].
     pub fn options(&self, plant: &PlantParams, controller: &Params) -> Options {
         let mut params = crate::plant::parameters(plant);
         params.extend(crate::controller::parameters(controller));
@@ -187,6 +203,24 @@ impl Scenario {
         self.variants.iter().all(|v| matches!(v.drive, Drive::OpenLoopSlew))
     }
 
+    /// The same on the closed system: the reference as the reference component's table,
+    /// recorded as its output (renamed `reference` in the trace by [`Scenario::run_variant`]).
+    pub fn closed_options(&self, plant: &PlantParams, controller: &Params) -> Options {
+        let mut o = self.options(plant, controller);
+        o.input = None;
+        let n = self.reference_points.len();
+        o.params.push(("reference.profile".into(), "0".into()));
+        o.params.push(("reference.n_points".into(), n.to_string()));
+        for (i, (t, p)) in self.reference_points.iter().enumerate() {
+            o.params.push((format!("reference.times[{}]", i + 1), format!("{t:e}")));
+            o.params.push((format!("reference.positions[{}]", i + 1), format!("{p:e}")));
+        }
+        for name in o.outputs.iter_mut().filter(|n| n.as_str() == "reference") {
+            *name = REFERENCE_OUTPUT.into();
+        }
+        o
+    }
+
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
     /// whatever `via` says.
     pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, String> {
@@ -202,7 +236,20 @@ impl Scenario {
                 self.duration,
             ),
             (Drive::Controller(p), Via::System(ssp)) => {
-                master::run(ssp, &self.options(&v.plant, p), |_| {})
+                // The closed system carries its reference as a component of that name.
+                let closed = crate::ssp::Archive::open(ssp)?
+                    .system
+                    .components
+                    .iter()
+                    .any(|c| c.name == "reference");
+                if !closed {
+                    return master::run(ssp, &self.options(&v.plant, p), |_| {});
+                }
+                let mut trace = master::run(ssp, &self.closed_options(&v.plant, p), |_| {})?;
+                for name in trace.names.iter_mut().filter(|n| n.as_str() == REFERENCE_OUTPUT) {
+                    *name = "reference".into();
+                }
+                Ok(trace)
             }
         }
     }
@@ -261,6 +308,200 @@ impl Scenario {
             }
         }
     }
+}
+
+/// The mirror mount's command, as `fmu-build` writes it into `MirrorMount.ssp` (each
+/// reference's default binding): piston from t = 0, the tip on top of it from
+/// [`MIRROR_TIP_TIME`].
+pub const MIRROR_PISTON: f64 = 30e-6;
+pub const MIRROR_TIP: f64 = 4e-6;
+pub const MIRROR_TIP_TIME: f64 = 4.0;
+/// The mirror run: 10 s, regulation from 8 s.
+pub const MIRROR_DURATION: f64 = 10.0;
+pub const MIRROR_REGULATION: f64 = 8.0;
+/// Settled: piston within 0.1 µm, pointing within 0.1 µrad of the command.
+pub const MIRROR_PISTON_TOL: f64 = 0.1e-6;
+pub const MIRROR_POINTING_TOL: f64 = 0.1e-6;
+
+/// What `inchworm scenario mirror` records of `MirrorMount.ssp`.
+pub fn mirror_recorded() -> Vec<String> {
+    let mut v: Vec<String> = ["mount.piston", "mount.tip", "mount.tilt"].map(String::from).to_vec();
+    for x in ["a", "b", "c"] {
+        v.push(format!("plant_{x}.runner_position"));
+        v.push(format!("plant_{x}.encoder_counts"));
+    }
+    v
+}
+
+/// The mirror mount's run and its figures.
+pub struct MirrorRun {
+    pub trace: Trace,
+    /// From the piston command (t = 0) until the piston stays within tolerance.
+    pub piston_settle: Option<f64>,
+    /// From the tip command until the pointing error stays within tolerance.
+    pub tip_settle: Option<f64>,
+    /// RMS of the pointing error |(tip, tilt) - command| over the parked samples from
+    /// [`MIRROR_REGULATION`] on (rad).
+    pub pointing_rms: f64,
+    /// RMS of the piston error in the same window (m).
+    pub piston_rms: f64,
+}
+
+/// Rows at which all three runners are parked: every encoder still for the last 8
+/// samples (between moves; during a step a runner travels micrometres and back).
+fn parked_rows(trace: &Trace) -> Vec<usize> {
+    let enc: Vec<usize> = ["a", "b", "c"]
+        .iter()
+        .filter_map(|x| trace.index(&format!("plant_{x}.encoder_counts")))
+        .collect();
+    (7..trace.rows.len())
+        .filter(|&i| {
+            enc.iter().all(|&c| (i - 7..i).all(|j| trace.rows[j].1[c] == trace.rows[i].1[c]))
+        })
+        .collect()
+}
+
+/// When a signal settles, measured from `from`: the first parked row after the last
+/// parked row at or after `from` where `bad` holds.
+fn settle(
+    trace: &Trace,
+    parked: &[usize],
+    from: f64,
+    bad: impl Fn(f64, &[f64]) -> bool,
+) -> Option<f64> {
+    let rows: Vec<&(f64, Vec<f64>)> =
+        parked.iter().map(|&i| &trace.rows[i]).filter(|(t, _)| *t >= from).collect();
+    match rows.iter().rposition(|(t, v)| bad(*t, v)) {
+        None => rows.first().map(|(t, _)| t - from),
+        Some(j) if j + 1 < rows.len() => Some(rows[j + 1].0 - from),
+        Some(_) => None,
+    }
+}
+
+/// Runs `MirrorMount.ssp` by the master (Jacobi, 2 ms, no input: the commands are the
+/// references' bindings) and measures it on the parked samples, as the paper's figures
+/// are measured.
+pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, String> {
+    let opts = Options {
+        stop_time: Some(MIRROR_DURATION),
+        step_size: Some(SAMPLE_PERIOD),
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: None,
+        input: None,
+        outputs: mirror_recorded(),
+    };
+    let trace = master::run(ssp, &opts, |_| {})?;
+    Ok(MirrorRun::measure(trace))
+}
+
+impl MirrorRun {
+    /// The figures of a trace recorded as [`mirror_recorded`].
+    pub fn measure(trace: Trace) -> MirrorRun {
+        let (piston, tip, tilt) = (0, 1, 2);
+        let pointing = |t: f64, v: &[f64]| {
+            let cmd = if t >= MIRROR_TIP_TIME { MIRROR_TIP } else { 0.0 };
+            (v[tip] - cmd).hypot(v[tilt])
+        };
+        let parked = parked_rows(&trace);
+        let piston_settle = settle(&trace, &parked, 0.0, |_, v| {
+            (v[piston] - MIRROR_PISTON).abs() > MIRROR_PISTON_TOL
+        });
+        let tip_settle =
+            settle(&trace, &parked, MIRROR_TIP_TIME, |t, v| pointing(t, v) > MIRROR_POINTING_TOL);
+        let window: Vec<&(f64, Vec<f64>)> = parked
+            .iter()
+            .map(|&i| &trace.rows[i])
+            .filter(|(t, _)| *t >= MIRROR_REGULATION)
+            .collect();
+        let rms =
+            |e: Vec<f64>| (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
+        let pointing_rms = rms(window.iter().map(|(t, v)| pointing(*t, v)).collect());
+        let piston_rms = rms(window.iter().map(|(_, v)| v[piston] - MIRROR_PISTON).collect());
+        MirrorRun { trace, piston_settle, tip_settle, pointing_rms, piston_rms }
+    }
+}
+
+impl MirrorRun {
+    /// The report's lines.
+    pub fn summary(&self) -> String {
+        let s = |x: Option<f64>| x.map_or("does not settle".into(), |t| format!("{t:.3} s"));
+        format!(
+            "piston {:.0} µm from t = 0: settles within {:.1} µm after {}\n\
+             tip {:.1} µrad from t = {MIRROR_TIP_TIME} s: pointing settles within {:.0} nrad after {}\n\
+             parked samples in regulation (t >= {MIRROR_REGULATION} s): pointing RMS {:.1} nrad, piston RMS {:.2} nm",
+            MIRROR_PISTON * 1e6,
+            MIRROR_PISTON_TOL * 1e6,
+            s(self.piston_settle),
+            MIRROR_TIP * 1e6,
+            MIRROR_POINTING_TOL * 1e9,
+            s(self.tip_settle),
+            self.pointing_rms * 1e9,
+            self.piston_rms * 1e9
+        )
+    }
+
+    /// The plotted view: piston (µm), tip and tilt (µrad), pointing error (nrad), runners a
+    /// and b (µm).
+    pub fn plot_trace(&self) -> Trace {
+        let mut t = Trace::new(
+            [
+                "piston (um)",
+                "tip (urad)",
+                "tilt (urad)",
+                "pointing error (nrad)",
+                "runner a (um)",
+                "runner b (um)",
+            ]
+            .map(String::from)
+            .to_vec(),
+        );
+        for (time, v) in &self.trace.rows {
+            let cmd = if *time >= MIRROR_TIP_TIME { MIRROR_TIP } else { 0.0 };
+            let err = (v[1] - cmd).hypot(v[2]);
+            t.push(
+                *time,
+                vec![v[0] * 1e6, v[1] * 1e6, v[2] * 1e6, err * 1e9, v[3] * 1e6, v[5] * 1e6],
+            );
+        }
+        t
+    }
+}
+
+/// `inchworm scenario mirror`: runs `<dist>/MirrorMount.ssp`, prints its figures, writes
+/// `<out>/mirror.csv` (the recorded variables) and `<out>/mirror.png`.
+pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), String> {
+    crate::plot::load_font(font)?;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let ssp = dist.join("MirrorMount.ssp");
+    let wall = std::time::Instant::now();
+    let run = mirror_run(&ssp)?;
+    let wall = wall.elapsed().as_secs_f64();
+    println!(
+        "Mirror mount: three inchworm chains 120° apart on a 50 mm radius ({}, Jacobi 2 ms)",
+        ssp.display()
+    );
+    for l in run.summary().lines() {
+        println!("  {l}");
+    }
+    println!(
+        "{MIRROR_DURATION:.0} s simulated in {wall:.2} s ({:.0}x real time)",
+        MIRROR_DURATION / wall
+    );
+    let csv = out.join("mirror.csv");
+    let mut text = Vec::new();
+    run.trace.write_csv(&mut text).map_err(|e| e.to_string())?;
+    std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+    println!("wrote {}", csv.display());
+    let png = out.join("mirror.png");
+    crate::plot::trace_png(
+        "Mirror mount: piston 30 um, then tip 4 urad at 4 s",
+        &run.plot_trace(),
+        &png,
+    )
+    .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    println!("wrote {}", png.display());
+    Ok(())
 }
 
 #[cfg(test)]

@@ -195,11 +195,208 @@ impl Archive {
         Ok(Archive { dir, system })
     }
 
+    /// The parameter set `name` as `component.variable` → value text: the SSD's
+    /// ParameterBindings whose set has that name ([`Archive::bound_parameter_set`]), else
+    /// (an SSP without bindings) the file `resources/<name>.ssv` with qualified names.
     pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
+        if let Some(values) = self.bound_parameter_set(Some(name))? {
+            return Ok(values);
+        }
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
         let text = std::fs::read_to_string(&p)
             .map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
         parse_ssv(&text).map_err(|e| format!("parameter set {name}: {e}"))
+    }
+}
+
+/// One `ssd:ParameterBinding` of the SSD: on a component (`component` Some; its
+/// parameter names relative to the component) or on the system (names qualified).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterBinding {
+    pub component: Option<String>,
+    /// The `.ssv` file, relative to the SSP root.
+    pub source: String,
+    /// Prepended to every parameter name of the set (SSP 1.0 `prefix`).
+    pub prefix: String,
+}
+
+/// The `ssd:ParameterBinding`s of `SystemStructure.ssd` that reference a file, in document
+/// order. Inline `ssd:ParameterValues` are not read.
+pub fn parse_parameter_bindings(xml: &str) -> Result<Vec<ParameterBinding>, String> {
+    let mut reader = Reader::from_str(xml);
+    let mut out = Vec::new();
+    // The innermost open Component or System: the element a binding belongs to.
+    let mut owners: Vec<Option<String>> = Vec::new();
+    loop {
+        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error: {e}"))?;
+        match &ev {
+            Event::Start(e) | Event::Empty(e) => {
+                let empty = matches!(ev, Event::Empty(_));
+                match e.local_name().into_inner() {
+                    "Component" if !empty => owners.push(Some(required(e, "name")?)),
+                    "System" if !empty => owners.push(None),
+                    "ParameterBinding" => {
+                        if let Some(source) = attr(e, "source")? {
+                            out.push(ParameterBinding {
+                                component: owners.last().cloned().flatten(),
+                                source,
+                                prefix: attr(e, "prefix")?.unwrap_or_default(),
+                            });
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Event::End(e) if matches!(e.local_name().into_inner(), "Component" | "System") => {
+                owners.pop();
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+/// The `name` attribute of an `.ssv` file's `ssv:ParameterSet`.
+pub fn parameter_set_name(xml: &str) -> Result<String, String> {
+    let mut reader = Reader::from_str(xml);
+    loop {
+        match reader.read_event().map_err(|e| format!("parameter set: XML error: {e}"))? {
+            Event::Start(e) | Event::Empty(e) if e.local_name().into_inner() == "ParameterSet" => {
+                return required(&e, "name");
+            }
+            Event::Eof => return Err("no <ssv:ParameterSet>".into()),
+            _ => {}
+        }
+    }
+}
+
+/// The output connectors of the SSD's components, as `component.connector` in document
+/// order: what a closed system (no system connectors) records by default.
+pub fn parse_component_outputs(xml: &str) -> Result<Vec<String>, String> {
+    let mut reader = Reader::from_str(xml);
+    let mut out = Vec::new();
+    let mut component: Option<String> = None;
+    loop {
+        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error: {e}"))?;
+        match &ev {
+            Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
+                "Component" if matches!(ev, Event::Start(_)) => {
+                    component = Some(required(e, "name")?)
+                }
+                "Connector" => {
+                    if let (Some(c), Some("output")) = (&component, attr(e, "kind")?.as_deref()) {
+                        out.push(format!("{c}.{}", required(e, "name")?));
+                    }
+                }
+                _ => {}
+            },
+            Event::End(e) if e.local_name().into_inner() == "Component" => component = None,
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+impl Archive {
+    fn read_ssd(&self) -> Result<String, String> {
+        let p = self.dir.join("SystemStructure.ssd");
+        std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
+    }
+
+    /// An `.ssv` of a binding, by its `source` relative to the SSP root; a source that
+    /// would leave the archive is refused.
+    fn read_bound_ssv(&self, source: &str) -> Result<String, String> {
+        let rel = Path::new(source);
+        if rel.is_absolute()
+            || rel.components().any(|c| !matches!(c, std::path::Component::Normal(_)))
+        {
+            return Err(format!(
+                "parameter binding source `{source}` must be a relative path inside the SSP"
+            ));
+        }
+        let p = self.dir.join(rel);
+        std::fs::read_to_string(&p)
+            .map_err(|e| format!("parameter binding source `{source}`: {}: {e}", p.display()))
+    }
+
+    /// The SSD's parameter sets by name, in the order of their first binding.
+    pub fn bound_parameter_set_names(&self) -> Result<Vec<String>, String> {
+        let mut names = Vec::new();
+        for b in parse_parameter_bindings(&self.read_ssd()?)? {
+            let n = parameter_set_name(&self.read_bound_ssv(&b.source)?)
+                .map_err(|e| format!("{}: {e}", b.source))?;
+            if !names.contains(&n) {
+                names.push(n);
+            }
+        }
+        Ok(names)
+    }
+
+    /// The parameter values the SSD's ParameterBindings give, as `component.variable` →
+    /// value text (names qualified by the binding's component and prefix): each
+    /// component's first binding (its default), then, if `selected` names a set, that
+    /// set's bindings over it. `None` if the SSD binds no parameter sets; an error naming
+    /// the known sets if `selected` is none of them.
+    pub fn bound_parameter_set(
+        &self,
+        selected: Option<&str>,
+    ) -> Result<Option<BTreeMap<String, String>>, String> {
+        let bindings = parse_parameter_bindings(&self.read_ssd()?)?;
+        if bindings.is_empty() {
+            return Ok(None);
+        }
+        let mut out = BTreeMap::new();
+        let mut found = false;
+        let mut seen: Vec<&Option<String>> = Vec::new();
+        for b in &bindings {
+            let first = !seen.contains(&&b.component);
+            if first {
+                seen.push(&b.component);
+            }
+            let text = self.read_bound_ssv(&b.source)?;
+            let name = parameter_set_name(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            let chosen = selected == Some(name.as_str());
+            found |= chosen;
+            if !first && !chosen {
+                continue;
+            }
+            let qualify = |p: &str| match &b.component {
+                Some(c) => format!("{c}.{}{p}", b.prefix),
+                None => format!("{}{p}", b.prefix),
+            };
+            let values = parse_ssv(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            out.extend(values.into_iter().map(|(p, v)| (qualify(&p), v)));
+        }
+        if let Some(name) = selected {
+            if !found {
+                return Err(format!(
+                    "parameter set {name} is not bound in the SSD (its sets: {})",
+                    self.bound_parameter_set_names()?.join(", ")
+                ));
+            }
+        }
+        Ok(Some(out))
+    }
+
+    /// What a run records by default: the system's output connectors, or for a closed
+    /// system (none) every component's output connector (`component.connector`).
+    pub fn default_outputs(&self, system_outputs: Vec<String>) -> Result<Vec<String>, String> {
+        if !system_outputs.is_empty() {
+            return Ok(system_outputs);
+        }
+        parse_component_outputs(&self.read_ssd()?)
+    }
+}
+
+/// What a run sets before any `--parameter-set` or `--param`: the first binding of each
+/// component of an SSP (nothing for a single FMU or an SSP without bindings), as libcosim
+/// and Ecos apply them.
+pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, String> {
+    match a {
+        Some(a) => Ok(a.bound_parameter_set(None)?.unwrap_or_default().into_iter().collect()),
+        None => Ok(Vec::new()),
     }
 }
 
@@ -245,6 +442,94 @@ mod tests {
         .unwrap_err()
         .contains("nested"));
         assert!(parse_ssd("<a><b></a>").is_err());
+    }
+
+    #[test]
+    fn component_and_system_parameter_bindings_in_order() {
+        let xml = r#"<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="S">
+  <ssd:System name="S">
+    <ssd:Elements>
+      <ssd:Component name="a" source="resources/A.fmu">
+        <ssd:Connectors><ssd:Connector name="y" kind="output"/><ssd:Connector name="u" kind="input"/></ssd:Connectors>
+        <ssd:ParameterBindings>
+          <ssd:ParameterBinding source="resources/a.default.ssv"/>
+          <ssd:ParameterBinding source="resources/a.fast.ssv" prefix="inner."/>
+        </ssd:ParameterBindings>
+      </ssd:Component>
+      <ssd:Component name="b" source="resources/B.fmu"><ssd:Connectors><ssd:Connector name="z" kind="output"/></ssd:Connectors></ssd:Component>
+    </ssd:Elements>
+    <ssd:ParameterBindings><ssd:ParameterBinding source="resources/sys.ssv"/></ssd:ParameterBindings>
+  </ssd:System>
+</ssd:SystemStructureDescription>"#;
+        let b = parse_parameter_bindings(xml).unwrap();
+        let on = |c: Option<&str>, s: &str, p: &str| ParameterBinding {
+            component: c.map(str::to_string),
+            source: s.into(),
+            prefix: p.into(),
+        };
+        assert_eq!(
+            b,
+            [
+                on(Some("a"), "resources/a.default.ssv", ""),
+                on(Some("a"), "resources/a.fast.ssv", "inner."),
+                on(None, "resources/sys.ssv", ""),
+            ]
+        );
+        assert_eq!(parse_component_outputs(xml).unwrap(), ["a.y", "b.z"]);
+        assert_eq!(
+            parameter_set_name(r#"<ssv:ParameterSet xmlns:ssv="x" version="1.0" name="fast"/>"#)
+                .unwrap(),
+            "fast"
+        );
+    }
+
+    #[test]
+    fn first_bindings_by_default_and_a_selected_set_over_them() {
+        let dir =
+            std::env::temp_dir().join(format!("inchworm-ssp-bindings-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("resources")).unwrap();
+        let ssv = |set: &str, body: &str| {
+            format!(
+                r#"<ssv:ParameterSet xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="{set}"><ssv:Parameters>{body}</ssv:Parameters></ssv:ParameterSet>"#
+            )
+        };
+        let real = |n: &str, v: &str| {
+            format!(r#"<ssv:Parameter name="{n}"><ssv:Real value="{v}"/></ssv:Parameter>"#)
+        };
+        for (file, set, body) in [
+            ("a.default", "default", real("k", "1") + &real("m", "2")),
+            ("a.fast", "fast", real("k", "10")),
+            ("b.default", "default", real("k", "3")),
+        ] {
+            std::fs::write(dir.join(format!("resources/{file}.ssv")), ssv(set, &body)).unwrap();
+        }
+        std::fs::write(
+            dir.join("SystemStructure.ssd"),
+            r#"<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="S"><ssd:System name="S"><ssd:Elements>
+  <ssd:Component name="a" source="resources/A.fmu"><ssd:ParameterBindings><ssd:ParameterBinding source="resources/a.default.ssv"/><ssd:ParameterBinding source="resources/a.fast.ssv"/></ssd:ParameterBindings></ssd:Component>
+  <ssd:Component name="b" source="resources/B.fmu"><ssd:ParameterBindings><ssd:ParameterBinding source="resources/b.default.ssv"/></ssd:ParameterBindings></ssd:Component>
+</ssd:Elements></ssd:System></ssd:SystemStructureDescription>"#,
+        )
+        .unwrap();
+        let a = Archive { dir, system: System::default() };
+        let pairs =
+            |m: BTreeMap<String, String>| -> Vec<(String, String)> { m.into_iter().collect() };
+        let kv = |v: &[(&str, &str)]| -> Vec<(String, String)> {
+            v.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+        };
+        assert_eq!(
+            first_bindings(Some(&a)).unwrap(),
+            kv(&[("a.k", "1"), ("a.m", "2"), ("b.k", "3")])
+        );
+        assert_eq!(
+            pairs(a.parameter_set("fast").unwrap()),
+            kv(&[("a.k", "10"), ("a.m", "2"), ("b.k", "3")])
+        );
+        assert_eq!(a.bound_parameter_set_names().unwrap(), ["default", "fast"]);
+        let e = a.parameter_set("slow").unwrap_err();
+        assert!(e.contains("parameter set slow") && e.contains("default, fast"), "{e}");
+        assert!(a.read_bound_ssv("../etc/passwd").unwrap_err().contains("inside the SSP"));
+        assert!(first_bindings(None).unwrap().is_empty());
     }
 
     #[test]

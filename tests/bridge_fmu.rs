@@ -38,7 +38,7 @@ fn cosimulation(rows: &[(f64, f64)], seconds: f64) -> LoopView {
         input: Some(InputTable::steps("reference", rows).unwrap()),
         outputs: recorded(),
     };
-    LoopView::new(&master::run(&fmu("InchwormSystem.ssp"), &opts, |_| {}).unwrap()).unwrap()
+    LoopView::new(&master::run(&fmu("InchwormSystemOpen.ssp"), &opts, |_| {}).unwrap()).unwrap()
 }
 
 fn reference(t: f64) -> f64 {

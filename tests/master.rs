@@ -38,7 +38,7 @@ fn counts(r: &Trace) -> Vec<i64> {
 
 #[test]
 fn ssp_through_the_master_equals_the_direct_coupling() {
-    let ssp = dist("InchwormSystem.ssp");
+    let ssp = dist("InchwormSystemOpen.ssp");
     let full = run(&ssp, &options(None, Coupling::Jacobi), |_| {}).unwrap();
     let d = direct(PlantParams::fia20(), Params::default(), |_| 100e-6, 10.0).unwrap();
     assert_eq!(counts(&full), counts(&d), "full control");
@@ -63,7 +63,7 @@ fn ssp_through_the_master_equals_the_direct_coupling() {
 
 #[test]
 fn parameter_sets_and_params_reach_the_fmus() {
-    let ssp = dist("InchwormSystem.ssp");
+    let ssp = dist("InchwormSystemOpen.ssp");
     let mut o = options(Some("fia6"), Coupling::Jacobi);
     o.stop_time = Some(1.0);
     let fia6 = run(&ssp, &o, |_| {}).unwrap();
@@ -81,14 +81,15 @@ fn parameter_sets_and_params_reach_the_fmus() {
 
 #[test]
 fn gauss_seidel_closes_the_loop_too() {
-    let r =
-        run(&dist("InchwormSystem.ssp"), &options(None, Coupling::GaussSeidel), |_| {}).unwrap();
+    let r = run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::GaussSeidel), |_| {})
+        .unwrap();
     let pos = r.column("encoder_position").unwrap();
     assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6, "final position {}", pos.last().unwrap());
     assert_ne!(
         counts(&r),
         counts(
-            &run(&dist("InchwormSystem.ssp"), &options(None, Coupling::Jacobi), |_| {}).unwrap()
+            &run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::Jacobi), |_| {})
+                .unwrap()
         )
     );
 }
@@ -102,7 +103,7 @@ fn error_of(path: &Path, o: &Options) -> String {
 
 #[test]
 fn bad_files_names_and_values_are_refused_clearly() {
-    let ssp = dist("InchwormSystem.ssp");
+    let ssp = dist("InchwormSystemOpen.ssp");
     let mut o = options(None, Coupling::Jacobi);
     o.outputs = vec!["plant.no_such_thing".into()];
     let e = error_of(&ssp, &o);

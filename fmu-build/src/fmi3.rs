@@ -90,26 +90,21 @@ fn package(root: &Path, f: &Fmu3) -> Result<PathBuf, String> {
     Ok(out)
 }
 
+/// `spec` as `dist/fmi3/<name>.ssp`, with the FMUs named in `fmi3` taken from `dist/fmi3/`
+/// and the others (FMI 2.0) from `dist/`.
 fn package_system(
     root: &Path,
     name: &str,
-    plant: &Path,
-    controller: &Path,
+    spec: &super::ssp::SystemSpec,
+    fmi3: &[&str],
 ) -> Result<PathBuf, String> {
-    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
-    let (plant, controller) = (read(plant)?, read(controller)?);
-    let ssd = super::ssp::system_description();
-    let sets = super::ssp::parameter_sets();
-    let mut entries: Vec<(String, &[u8])> = vec![
-        ("SystemStructure.ssd".into(), ssd.as_bytes()),
-        ("resources/InchwormPlant.fmu".into(), &plant),
-        ("resources/InchwormController.fmu".into(), &controller),
-    ];
-    for (set, text) in &sets {
-        entries.push((format!("resources/{set}.ssv"), text.as_bytes()));
-    }
-    let out = root.join("dist").join("fmi3").join(format!("{name}.ssp"));
-    super::write_zip(&out, &entries)?;
+    let (d2, d3) = (root.join("dist"), root.join("dist").join("fmi3"));
+    let path = |id: &str| {
+        let dir = if fmi3.contains(&id) { &d3 } else { &d2 };
+        dir.join(format!("{id}.fmu"))
+    };
+    let out = d3.join(format!("{name}.ssp"));
+    super::write_system(spec, &path, &out)?;
     Ok(out)
 }
 
@@ -121,11 +116,13 @@ pub fn package_all(root: &Path) -> Result<Vec<PathBuf>, String> {
     for f in &fmus {
         written.push(package(root, f)?);
     }
-    let (d2, d3) = (root.join("dist"), root.join("dist").join("fmi3"));
-    let plant3 = d3.join("InchwormPlant.fmu");
-    let controller3 = d3.join("InchwormController.fmu");
-    written.push(package_system(root, "InchwormSystem", &plant3, &controller3)?);
-    let controller2 = d2.join("InchwormController.fmu");
-    written.push(package_system(root, "InchwormSystemMixed", &plant3, &controller2)?);
+    // Both FMUs FMI 3.0: the open loop (plant and controller, the reference from the
+    // system input), the same as `dist/InchwormSystemOpen.ssp`.
+    let both = ["InchwormPlant", "InchwormController"];
+    written.push(package_system(root, "InchwormSystem", &super::ssp::open_system(), &both)?);
+    // The closed loop with the FMI 3.0 plant and the FMI 2.0 controller and reference, the
+    // same as `dist/InchwormSystem.ssp`.
+    let closed = super::ssp::closed_system();
+    written.push(package_system(root, "InchwormSystemMixed", &closed, &["InchwormPlant"])?);
     Ok(written)
 }

@@ -110,27 +110,35 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
     std::fs::rename(&tmp, out).map_err(|e| err(&e))
 }
 
-/// `dist/InchwormSystem.ssp` from the packaged FMUs.
-fn package_system(root: &Path) -> Result<PathBuf, String> {
+/// `dist/<system>.ssp` from the packaged FMUs: the SSD, each FMU once, every parameter set.
+fn package_system(root: &Path, spec: &ssp::SystemSpec) -> Result<PathBuf, String> {
     let dist = root.join("dist");
-    let read = |name: &str| {
-        std::fs::read(dist.join(name)).map_err(|e| format!("{}: {e}", dist.join(name).display()))
-    };
-    let plant = read("InchwormPlant.fmu")?;
-    let controller = read("InchwormController.fmu")?;
-    let ssd = ssp::system_description();
-    let sets = ssp::parameter_sets();
-    let mut entries: Vec<(String, &[u8])> = vec![
-        ("SystemStructure.ssd".into(), ssd.as_bytes()),
-        ("resources/InchwormPlant.fmu".into(), &plant),
-        ("resources/InchwormController.fmu".into(), &controller),
-    ];
-    for (name, text) in &sets {
-        entries.push((format!("resources/{name}.ssv"), text.as_bytes()));
-    }
-    let out = dist.join("InchwormSystem.ssp");
-    write_zip(&out, &entries)?;
+    let out = dist.join(format!("{}.ssp", spec.name));
+    write_system(spec, &|id| dist.join(format!("{id}.fmu")), &out)?;
     Ok(out)
+}
+
+/// Writes the `.ssp` of `spec` to `out`, each FMU read from `fmu_path(identifier)`.
+fn write_system(
+    spec: &ssp::SystemSpec,
+    fmu_path: &dyn Fn(&str) -> PathBuf,
+    out: &Path,
+) -> Result<(), String> {
+    let mut fmus = Vec::new();
+    for id in spec.fmus() {
+        let p = fmu_path(id);
+        fmus.push((id, std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?));
+    }
+    let ssd = spec.system_description();
+    let sets = spec.parameter_files();
+    let mut entries: Vec<(String, &[u8])> = vec![("SystemStructure.ssd".into(), ssd.as_bytes())];
+    for (id, bytes) in &fmus {
+        entries.push((format!("resources/{id}.fmu"), bytes));
+    }
+    for (path, text) in &sets {
+        entries.push((path.clone(), text.as_bytes()));
+    }
+    write_zip(out, &entries)
 }
 
 fn main() -> ExitCode {
@@ -141,6 +149,11 @@ fn main() -> ExitCode {
             "inchworm-controller-fmu",
             "inchworm_controller_fmu",
         ),
+        fmu::<inchworm_fmu_models::ReferenceFmu>(
+            "inchworm-reference-fmu",
+            "inchworm_reference_fmu",
+        ),
+        fmu::<inchworm_fmu_models::MountFmu>("inchworm-mount-fmu", "inchworm_mount_fmu"),
     ];
     let run = || -> Result<(), String> {
         build(&root, &fmus)?;
@@ -148,8 +161,10 @@ fn main() -> ExitCode {
             let out = package(&root, f)?;
             println!("fmu-build: wrote {}", out.display());
         }
-        let ssp = package_system(&root)?;
-        println!("fmu-build: wrote {}", ssp.display());
+        for spec in [ssp::closed_system(), ssp::open_system(), ssp::mirror_mount()] {
+            let out = package_system(&root, &spec)?;
+            println!("fmu-build: wrote {}", out.display());
+        }
         for out in fmi3::package_all(&root)? {
             println!("fmu-build: wrote {}", out.display());
         }

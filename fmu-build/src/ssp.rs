@@ -1,15 +1,31 @@
-//! `InchwormSystem.ssp`: the two FMUs connected as docs/model.md §5 says, in SSP 1.0, with
-//! parameter sets for the devices and the paper's control variants.
+//! The SSP 1.0 systems of `dist/`, generated from the FMUs' variable tables so that they
+//! cannot drift from them:
+//!
+//! * `InchwormSystem.ssp`, closed: reference, controller and plant connected as
+//!   docs/model.md §5 says, connections only between components (every SSP master runs
+//!   it with no external input), parameter sets bound per component;
+//! * `InchwormSystemOpen.ssp`, open: controller and plant only, the reference from a
+//!   system input connector and the plotted positions as system output connectors (for
+//!   masters that feed a system input, such as `inchworm run --input`).
+//!
+//! Parameter sets are component-level `ssd:ParameterBinding`s as SSP 1.0 defines them:
+//! each binding's `source` is an `.ssv` file relative to the SSP root, its set's name the
+//! `ssv:ParameterSet` `name`, its parameter names the FMU's bare variable names (relative
+//! to the component). Each component's first binding is the set `default`, equal to the
+//! FMU's defaults, because some masters (libcosim) apply a component's first binding
+//! whatever is asked.
 
 use std::fmt::Write;
 
 use inchworm_fmi_export::model_description::real;
-use inchworm_fmi_export::{Causality, Kind, Model, Variable};
-use inchworm_fmu_models::{ControllerFmu, PlantFmu};
+use inchworm_fmi_export::{Causality, Kind, Model, Start, Variable};
+use inchworm_fmu_models::{ControllerFmu, PlantFmu, ReferenceFmu};
 
-/// Plant and controller, each connector as (variable name): every input and the outputs
-/// that the connections or the users' plots need.
-const PLANT_CONNECTORS: [&str; 8] = [
+pub const STEP_SIZE: f64 = 0.002;
+
+/// Plant and controller connectors: every input and the outputs that the connections or
+/// the users' plots need.
+pub const PLANT_CONNECTORS: [&str; 8] = [
     "dac_earth",
     "dac_nonearth",
     "dac_extension",
@@ -19,7 +35,7 @@ const PLANT_CONNECTORS: [&str; 8] = [
     "extension",
     "mode",
 ];
-const CONTROLLER_CONNECTORS: [&str; 9] = [
+pub const CONTROLLER_CONNECTORS: [&str; 9] = [
     "reference",
     "encoder_counts",
     "dac_earth",
@@ -30,36 +46,62 @@ const CONTROLLER_CONNECTORS: [&str; 9] = [
     "n_steps",
     "fraction",
 ];
+pub const REFERENCE_CONNECTORS: [&str; 1] = ["reference"];
+
+/// The FMU behind a component: its identifier and variable table.
+#[derive(Clone, Copy)]
+pub struct Fmu {
+    pub identifier: &'static str,
+    pub variables: fn() -> &'static [Variable],
+}
+
+pub fn fmu<M: Model>() -> Fmu {
+    Fmu { identifier: M::info().model_identifier, variables: M::variables }
+}
+
+impl Fmu {
+    pub fn variable(&self, name: &str) -> &'static Variable {
+        (self.variables)()
+            .iter()
+            .find(|v| v.name == name)
+            .unwrap_or_else(|| panic!("{name} is not a variable of {}", self.identifier))
+    }
+}
+
+/// A parameter value in a set.
+#[derive(Clone, Debug)]
+pub enum Value {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+}
+
+/// One component's part of a named parameter set: bare variable names.
+#[derive(Clone)]
+pub struct Binding {
+    pub set: String,
+    pub values: Vec<(String, Value)>,
+}
+
+pub struct Component {
+    pub name: String,
+    pub fmu: Fmu,
+    pub connectors: Vec<&'static str>,
+    /// In order; the first is `default`.
+    pub bindings: Vec<Binding>,
+}
 
 /// (start element, start connector, end element, end connector); `None` is the system.
-const CONNECTIONS: [(Option<&str>, &str, Option<&str>, &str); 9] = [
-    (Some("controller"), "dac_earth", Some("plant"), "dac_earth"),
-    (Some("controller"), "dac_nonearth", Some("plant"), "dac_nonearth"),
-    (Some("controller"), "dac_extension", Some("plant"), "dac_extension"),
-    (Some("plant"), "encoder_counts", Some("controller"), "encoder_counts"),
-    (None, "reference", Some("controller"), "reference"),
-    (Some("plant"), "encoder_position", None, "encoder_position"),
-    (Some("plant"), "runner_position", None, "runner_position"),
-    (Some("controller"), "disturbance_estimate", None, "disturbance_estimate"),
-    (Some("controller"), "servo_error", None, "servo_error"),
-];
+pub type Connection = (Option<String>, String, Option<String>, String);
 
-/// System connectors: (name, kind, type, unit).
-const SYSTEM_CONNECTORS: [(&str, &str, &str); 5] = [
-    ("reference", "input", "m"),
-    ("encoder_position", "output", "m"),
-    ("runner_position", "output", "m"),
-    ("disturbance_estimate", "output", "m"),
-    ("servo_error", "output", "m"),
-];
-
-pub const STEP_SIZE: f64 = 0.002;
-
-fn lookup<M: Model>(name: &str) -> &'static Variable {
-    M::variables()
-        .iter()
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("{name} is not a variable of {}", M::info().model_name))
+pub struct SystemSpec {
+    pub name: &'static str,
+    pub description: String,
+    pub components: Vec<Component>,
+    /// System connectors: (name, kind, unit), all Real.
+    pub connectors: Vec<(&'static str, &'static str, &'static str)>,
+    pub connections: Vec<Connection>,
+    pub stop_time: f64,
 }
 
 fn connector(out: &mut String, indent: &str, name: &str, kind: &str, ty: Kind, unit: Option<&str>) {
@@ -77,79 +119,120 @@ fn connector(out: &mut String, indent: &str, name: &str, kind: &str, ty: Kind, u
     );
 }
 
-fn component<M: Model>(out: &mut String, name: &str, names: &[&str]) {
-    let id = M::info().model_identifier;
-    let _ = writeln!(out, "      <ssd:Component name=\"{name}\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/{id}.fmu\">");
-    let _ = writeln!(out, "        <ssd:Connectors>");
-    for n in names {
-        let v = lookup::<M>(n);
-        let kind = match v.causality {
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Parameter => "parameter",
-            _ => "local",
-        };
-        connector(out, "          ", n, kind, v.kind, v.unit);
-    }
-    let _ = writeln!(out, "        </ssd:Connectors>");
-    let _ = writeln!(out, "      </ssd:Component>");
+/// Where a component's part of a set lives in the archive.
+pub fn ssv_path(component: &str, set: &str) -> String {
+    format!("resources/{component}.{set}.ssv")
 }
 
-/// `SystemStructure.ssd`.
-pub fn system_description() -> String {
-    let mut s = String::new();
-    let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
-    let _ =
-        writeln!(s, "<!-- Generated by fmu-build from the FMUs' variable tables: do not edit. -->");
-    let _ = writeln!(
-        s,
-        r#"<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="InchwormSystem" generationTool="inchworm fmu-build {}">"#,
-        env!("CARGO_PKG_VERSION")
-    );
-    let _ = writeln!(
-        s,
-        r#"  <ssd:System name="InchwormSystem" description="JPL inchworm actuator: InchwormController drives InchwormPlant through its DACs and reads its encoder, sampled every 2 ms">"#
-    );
-    let _ = writeln!(s, "    <ssd:Connectors>");
-    for (name, kind, unit) in SYSTEM_CONNECTORS {
-        connector(&mut s, "      ", name, kind, Kind::Real, Some(unit));
-    }
-    let _ = writeln!(s, "    </ssd:Connectors>");
-    let _ = writeln!(s, "    <ssd:Elements>");
-    component::<PlantFmu>(&mut s, "plant", &PLANT_CONNECTORS);
-    component::<ControllerFmu>(&mut s, "controller", &CONTROLLER_CONNECTORS);
-    let _ = writeln!(s, "    </ssd:Elements>");
-    let _ = writeln!(s, "    <ssd:Connections>");
-    for (se, sc, ee, ec) in CONNECTIONS {
-        let start = se.map(|e| format!(" startElement=\"{e}\"")).unwrap_or_default();
-        let end = ee.map(|e| format!(" endElement=\"{e}\"")).unwrap_or_default();
+impl SystemSpec {
+    /// `SystemStructure.ssd`.
+    pub fn system_description(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
         let _ = writeln!(
             s,
-            "      <ssd:Connection{start} startConnector=\"{sc}\"{end} endConnector=\"{ec}\"/>"
+            "<!-- Generated by fmu-build from the FMUs' variable tables: do not edit. -->"
         );
+        let _ = writeln!(
+            s,
+            r#"<ssd:SystemStructureDescription xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="{}" generationTool="inchworm fmu-build {}">"#,
+            self.name,
+            env!("CARGO_PKG_VERSION")
+        );
+        let _ = writeln!(
+            s,
+            r#"  <ssd:System name="{}" description="{}">"#,
+            self.name, self.description
+        );
+        if !self.connectors.is_empty() {
+            let _ = writeln!(s, "    <ssd:Connectors>");
+            for (name, kind, unit) in &self.connectors {
+                connector(&mut s, "      ", name, kind, Kind::Real, Some(unit));
+            }
+            let _ = writeln!(s, "    </ssd:Connectors>");
+        }
+        let _ = writeln!(s, "    <ssd:Elements>");
+        for c in &self.components {
+            let _ = writeln!(s, "      <ssd:Component name=\"{}\" type=\"application/x-fmu-sharedlibrary\" source=\"resources/{}.fmu\">", c.name, c.fmu.identifier);
+            let _ = writeln!(s, "        <ssd:Connectors>");
+            for n in &c.connectors {
+                let v = c.fmu.variable(n);
+                let kind = match v.causality {
+                    Causality::Input => "input",
+                    Causality::Output => "output",
+                    Causality::Parameter => "parameter",
+                    _ => "local",
+                };
+                connector(&mut s, "          ", n, kind, v.kind, v.unit);
+            }
+            let _ = writeln!(s, "        </ssd:Connectors>");
+            if !c.bindings.is_empty() {
+                let _ = writeln!(s, "        <ssd:ParameterBindings>");
+                for b in &c.bindings {
+                    let _ = writeln!(
+                        s,
+                        "          <ssd:ParameterBinding source=\"{}\"/>",
+                        ssv_path(&c.name, &b.set)
+                    );
+                }
+                let _ = writeln!(s, "        </ssd:ParameterBindings>");
+            }
+            let _ = writeln!(s, "      </ssd:Component>");
+        }
+        let _ = writeln!(s, "    </ssd:Elements>");
+        let _ = writeln!(s, "    <ssd:Connections>");
+        for (se, sc, ee, ec) in &self.connections {
+            let start = se.as_ref().map(|e| format!(" startElement=\"{e}\"")).unwrap_or_default();
+            let end = ee.as_ref().map(|e| format!(" endElement=\"{e}\"")).unwrap_or_default();
+            let _ = writeln!(
+                s,
+                "      <ssd:Connection{start} startConnector=\"{sc}\"{end} endConnector=\"{ec}\"/>"
+            );
+        }
+        let _ = writeln!(s, "    </ssd:Connections>");
+        let _ = writeln!(s, "  </ssd:System>");
+        let _ = writeln!(
+            s,
+            r#"  <ssd:DefaultExperiment startTime="0" stopTime="{}">"#,
+            real(self.stop_time)
+        );
+        let _ = writeln!(s, "    <ssd:Annotations>");
+        let _ = writeln!(
+            s,
+            r#"      <ssc:Annotation type="org.inchworm.communication"><inchworm:CommunicationStep xmlns:inchworm="urn:inchworm:ssp" stepSize="{}" coupling="jacobi"/></ssc:Annotation>"#,
+            real(STEP_SIZE)
+        );
+        let _ = writeln!(s, "    </ssd:Annotations>");
+        let _ = writeln!(s, "  </ssd:DefaultExperiment>");
+        let _ = writeln!(s, "</ssd:SystemStructureDescription>");
+        s
     }
-    let _ = writeln!(s, "    </ssd:Connections>");
-    let _ = writeln!(s, "  </ssd:System>");
-    let _ = writeln!(s, r#"  <ssd:DefaultExperiment startTime="0" stopTime="10">"#);
-    let _ = writeln!(s, "    <ssd:Annotations>");
-    let _ = writeln!(
-        s,
-        r#"      <ssc:Annotation type="org.inchworm.communication"><inchworm:CommunicationStep xmlns:inchworm="urn:inchworm:ssp" stepSize="{}" coupling="jacobi"/></ssc:Annotation>"#,
-        real(STEP_SIZE)
-    );
-    let _ = writeln!(s, "    </ssd:Annotations>");
-    let _ = writeln!(s, "  </ssd:DefaultExperiment>");
-    let _ = writeln!(s, "</ssd:SystemStructureDescription>");
-    s
+
+    /// Every `.ssv` file: (path in the archive, text).
+    pub fn parameter_files(&self) -> Vec<(String, String)> {
+        self.components
+            .iter()
+            .flat_map(|c| {
+                c.bindings
+                    .iter()
+                    .map(|b| (ssv_path(&c.name, &b.set), parameter_set(&b.set, &b.values)))
+            })
+            .collect()
+    }
+
+    /// The FMUs the system needs, each once.
+    pub fn fmus(&self) -> Vec<&'static str> {
+        let mut ids: Vec<&'static str> = Vec::new();
+        for c in &self.components {
+            if !ids.contains(&c.fmu.identifier) {
+                ids.push(c.fmu.identifier);
+            }
+        }
+        ids
+    }
 }
 
-/// A parameter value in a set.
-pub enum Value {
-    Real(f64),
-    Boolean(bool),
-}
-
-/// `resources/<name>.ssv`: values for `component.variable`.
+/// An `.ssv` parameter set.
 pub fn parameter_set(name: &str, values: &[(String, Value)]) -> String {
     let mut s = String::new();
     let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
@@ -161,6 +244,7 @@ pub fn parameter_set(name: &str, values: &[(String, Value)]) -> String {
     for (p, v) in values {
         let v = match v {
             Value::Real(x) => format!("<ssv:Real value=\"{}\"/>", real(*x)),
+            Value::Integer(i) => format!("<ssv:Integer value=\"{i}\"/>"),
             Value::Boolean(b) => format!("<ssv:Boolean value=\"{b}\"/>"),
         };
         let _ = writeln!(s, "    <ssv:Parameter name=\"{p}\">{v}</ssv:Parameter>");
@@ -170,41 +254,203 @@ pub fn parameter_set(name: &str, values: &[(String, Value)]) -> String {
     s
 }
 
-/// The parameter sets shipped in the SSP: the two devices of docs/model.md §2.8 (all plant
-/// parameters at their values) and the control variants of the paper's Fig. 5 and
-/// Figs. 6–7.
-pub fn parameter_sets() -> Vec<(&'static str, String)> {
+/// `name`'s start value in the table of `M`.
+pub fn start<M: Model>(name: &str) -> Value {
+    let v = fmu::<M>().variable(name);
+    match v.start {
+        Start::Real(x) => Value::Real(x),
+        Start::Integer(i) => Value::Integer(i),
+        Start::Boolean(b) => Value::Boolean(b),
+        Start::None => panic!("{name} has no start value"),
+    }
+}
+
+fn binding(set: &str, values: Vec<(String, Value)>) -> Binding {
+    Binding { set: set.into(), values }
+}
+
+/// The plant's sets: `default` (every Real parameter at its start, which is fia20), the
+/// two devices of docs/model.md §2.8.
+pub fn plant_bindings() -> Vec<Binding> {
     let plant_params = |overrides: &[(&str, f64)]| -> Vec<(String, Value)> {
         PlantFmu::variables()
             .iter()
             .filter(|v| v.causality == Causality::Parameter && v.kind == Kind::Real)
             .map(|v| {
-                let start = match v.start {
-                    inchworm_fmi_export::Start::Real(x) => x,
-                    _ => unreachable!("real parameters have real starts"),
+                let Start::Real(start) = v.start else {
+                    unreachable!("real parameters have real starts")
                 };
                 let x = overrides.iter().find(|(n, _)| *n == v.name).map_or(start, |(_, x)| *x);
-                (format!("plant.{}", v.name), Value::Real(x))
+                (v.name.to_string(), Value::Real(x))
             })
             .collect()
     };
-    let flags = |ff: bool, pf: bool, sf: bool, bd: bool| -> Vec<(String, Value)> {
-        [
-            ("feedforward", ff),
-            ("prefilter", pf),
-            ("use_scale_factor_estimate", sf),
-            ("use_disturbance_estimate", bd),
-        ]
-        .into_iter()
-        .map(|(n, b)| (format!("controller.{n}"), Value::Boolean(b)))
-        .collect()
+    vec![
+        binding("default", plant_params(&[])),
+        binding("fia20", plant_params(&[])),
+        binding("fia6", plant_params(&[("T_em", 2.5), ("F_d0", 105.0)])),
+    ]
+}
+
+/// The controller's sets: `default` (the four flags at their starts), the control
+/// variants of the paper's Fig. 5 and Figs. 6–7.
+pub fn controller_bindings() -> Vec<Binding> {
+    const FLAGS: [&str; 4] =
+        ["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"];
+    let flags = |values: [bool; 4]| -> Vec<(String, Value)> {
+        FLAGS.iter().zip(values).map(|(n, b)| (n.to_string(), Value::Boolean(b))).collect()
     };
-    let sets: Vec<(&'static str, Vec<(String, Value)>)> = vec![
-        ("fia20", plant_params(&[])),
-        ("fia6", plant_params(&[("T_em", 2.5), ("F_d0", 105.0)])),
-        ("full-control", flags(true, false, true, true)),
-        ("feedback-only", flags(false, false, false, false)),
-        ("prefilter", flags(true, true, true, true)),
+    let default = FLAGS.iter().map(|n| (n.to_string(), start::<ControllerFmu>(n))).collect();
+    vec![
+        binding("default", default),
+        binding("full-control", flags([true, false, true, true])),
+        binding("feedback-only", flags([false, false, false, false])),
+        binding("prefilter", flags([true, true, true, true])),
+    ]
+}
+
+/// A reference table as a set's values.
+pub fn reference_table(points: &[(f64, f64)], ramp_time: f64) -> Vec<(String, Value)> {
+    let mut v = vec![
+        ("profile".to_string(), Value::Integer(0)),
+        ("n_points".to_string(), Value::Integer(points.len() as i32)),
+        ("ramp_time".to_string(), Value::Real(ramp_time)),
     ];
-    sets.into_iter().map(|(name, values)| (name, parameter_set(name, &values))).collect()
+    for (i, (t, p)) in points.iter().enumerate() {
+        v.push((format!("times[{}]", i + 1), Value::Real(*t)));
+        v.push((format!("positions[{}]", i + 1), Value::Real(*p)));
+    }
+    v
+}
+
+/// The reference's sets: `default` (the table's start values: the Fig. 5 step) and the
+/// `staircase` profile of Figs. 6–7.
+pub fn reference_bindings() -> Vec<Binding> {
+    let default = ["profile", "n_points", "ramp_time", "times[1]", "positions[1]"]
+        .iter()
+        .map(|n| (n.to_string(), start::<ReferenceFmu>(n)))
+        .collect();
+    vec![
+        binding("default", default),
+        binding("staircase", vec![("profile".into(), Value::Integer(2))]),
+    ]
+}
+
+fn link(a: &str, ca: &str, b: &str, cb: &str) -> Connection {
+    (Some(a.into()), ca.into(), Some(b.into()), cb.into())
+}
+
+/// The loop of docs/model.md §5 between `controller` and `plant`.
+pub fn loop_connections(controller: &str, plant: &str) -> Vec<Connection> {
+    let mut c: Vec<Connection> = ["dac_earth", "dac_nonearth", "dac_extension"]
+        .iter()
+        .map(|ch| link(controller, ch, plant, ch))
+        .collect();
+    c.push(link(plant, "encoder_counts", controller, "encoder_counts"));
+    c
+}
+
+fn component(
+    name: &str,
+    fmu: Fmu,
+    connectors: &[&'static str],
+    bindings: Vec<Binding>,
+) -> Component {
+    Component { name: name.into(), fmu, connectors: connectors.to_vec(), bindings }
+}
+
+/// `InchwormSystem.ssp`: closed, no system connectors.
+pub fn closed_system() -> SystemSpec {
+    let mut connections = vec![link("reference", "reference", "controller", "reference")];
+    connections.extend(loop_connections("controller", "plant"));
+    SystemSpec {
+        name: "InchwormSystem",
+        description: "JPL inchworm actuator, closed loop: InchwormReference gives the reference, InchwormController drives InchwormPlant through its DACs and reads its encoder, sampled every 2 ms".into(),
+        components: vec![
+            component("reference", fmu::<ReferenceFmu>(), &REFERENCE_CONNECTORS, reference_bindings()),
+            component("controller", fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, controller_bindings()),
+            component("plant", fmu::<PlantFmu>(), &PLANT_CONNECTORS, plant_bindings()),
+        ],
+        connectors: vec![],
+        connections,
+        stop_time: 10.0,
+    }
+}
+
+/// `InchwormSystemOpen.ssp`: the reference from a system input, the plotted positions as
+/// system outputs.
+pub fn open_system() -> SystemSpec {
+    let mut connections = loop_connections("controller", "plant");
+    let sys = |a: Option<&str>, ca: &str, b: Option<&str>, cb: &str| -> Connection {
+        (a.map(Into::into), ca.into(), b.map(Into::into), cb.into())
+    };
+    connections.push(sys(None, "reference", Some("controller"), "reference"));
+    connections.push(sys(Some("plant"), "encoder_position", None, "encoder_position"));
+    connections.push(sys(Some("plant"), "runner_position", None, "runner_position"));
+    connections.push(sys(Some("controller"), "disturbance_estimate", None, "disturbance_estimate"));
+    connections.push(sys(Some("controller"), "servo_error", None, "servo_error"));
+    SystemSpec {
+        name: "InchwormSystemOpen",
+        description: "JPL inchworm actuator: InchwormController drives InchwormPlant through its DACs and reads its encoder, sampled every 2 ms; the reference from the system input".into(),
+        components: vec![
+            component("plant", fmu::<PlantFmu>(), &PLANT_CONNECTORS, plant_bindings()),
+            component("controller", fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, controller_bindings()),
+        ],
+        connectors: vec![
+            ("reference", "input", "m"),
+            ("encoder_position", "output", "m"),
+            ("runner_position", "output", "m"),
+            ("disturbance_estimate", "output", "m"),
+            ("servo_error", "output", "m"),
+        ],
+        connections,
+        stop_time: 10.0,
+    }
+}
+
+/// The mirror mount's command: piston from t = 0, then a tip on top of it.
+pub const MIRROR_PISTON: f64 = 30e-6;
+pub const MIRROR_TIP: f64 = 4e-6;
+pub const MIRROR_TIP_TIME: f64 = 4.0;
+pub const MIRROR_CHAINS: [&str; 3] = ["a", "b", "c"];
+
+/// `MirrorMount.ssp`: three reference → controller → plant chains, 120° apart on a 50 mm
+/// radius, and the mount kinematics on their runner positions. Each reference's first
+/// (and only) binding, `default`, is its actuator's share of the command: the piston
+/// from t = 0, the piston and the tip from `MIRROR_TIP_TIME`.
+pub fn mirror_mount() -> SystemSpec {
+    use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
+    use inchworm_fmu_models::MountFmu;
+    let z = actuator_positions(MIRROR_PISTON, MIRROR_TIP, 0.0, RADIUS, ANGLE_A_DEG);
+    let mut components = Vec::new();
+    let mut connections = Vec::new();
+    for (i, x) in MIRROR_CHAINS.iter().enumerate() {
+        let (r, c, p) = (format!("reference_{x}"), format!("controller_{x}"), format!("plant_{x}"));
+        let command = reference_table(&[(0.0, MIRROR_PISTON), (MIRROR_TIP_TIME, z[i])], 0.0);
+        components.push(component(
+            &r,
+            fmu::<ReferenceFmu>(),
+            &REFERENCE_CONNECTORS,
+            vec![binding("default", command)],
+        ));
+        components.push(component(&c, fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, vec![]));
+        components.push(component(&p, fmu::<PlantFmu>(), &PLANT_CONNECTORS, vec![]));
+        connections.push(link(&r, "reference", &c, "reference"));
+        connections.extend(loop_connections(&c, &p));
+        connections.push(link(&p, "runner_position", "mount", &format!("position_{x}")));
+    }
+    components.push(component(
+        "mount",
+        fmu::<MountFmu>(),
+        &["position_a", "position_b", "position_c", "piston", "tip", "tilt"],
+        vec![],
+    ));
+    SystemSpec {
+        name: "MirrorMount",
+        description: "Three-actuator mirror mount: three InchwormReference, InchwormController, InchwormPlant chains 120 deg apart on a 50 mm radius, InchwormMount turns the runner positions into piston, tip and tilt".into(),
+        components,
+        connectors: vec![],
+        connections,
+        stop_time: 10.0,
+    }
 }

@@ -25,7 +25,8 @@ pub struct RunArgs {
     /// A start value or parameter: component.variable=value (variable=value for an FMU).
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
-    /// A parameter set of the SSP, by name (resources/<name>.ssv).
+    /// A parameter set of the SSP, by name: every ParameterBinding of the SSD whose
+    /// ssv:ParameterSet has this name (an SSP without bindings: resources/<name>.ssv).
     #[arg(long)]
     pub parameter_set: Option<String>,
     /// CSV `time,<input>,…` for the system's (or FMU's) unconnected inputs, held

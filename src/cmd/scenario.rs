@@ -12,7 +12,7 @@ use inchworm::scenario::{self, Via};
 
 #[derive(Args)]
 pub struct ScenarioArgs {
-    /// fig5 | staircase | calibration | fia6 | slew | stall
+    /// fig5 | staircase | calibration | fia6 | slew | stall | mirror
     pub name: String,
     /// Folder holding InchwormSystem.ssp (built by `cargo run --release -p fmu-build`).
     #[arg(long, default_value = "dist")]
@@ -27,6 +27,9 @@ pub struct ScenarioArgs {
 }
 
 pub fn run(args: &ScenarioArgs) -> Result<(), String> {
+    if args.name == "mirror" {
+        return scenario::mirror(&args.dist, &args.out, &args.font);
+    }
     let s = scenario::by_name(&args.name).ok_or_else(|| {
         format!("unknown scenario `{}`; known: {}", args.name, scenario::NAMES.join(", "))
     })?;

@@ -1,11 +1,16 @@
 //! The models behind the project's FMUs: each is a variable table and a
 //! [`inchworm_fmi_export::Model`] implementation mapping value references onto the plain
-//! Rust plant or controller. The C entry points are exported by the cdylib crates
-//! `inchworm-plant-fmu` and `inchworm-controller-fmu` (one `export_fmi2!` line each), so
-//! this crate links into tools such as `fmu-build` without clashing `fmi2*` symbols.
+//! Rust plant or controller (or, for the reference, a small table of its own). The C
+//! entry points are exported by the cdylib crates `inchworm-plant-fmu`,
+//! `inchworm-controller-fmu`, `inchworm-reference-fmu` and `inchworm-mount-fmu` (one `export_fmi2!` line each),
+//! so this crate links into tools such as `fmu-build` without clashing `fmi2*` symbols.
 
 mod controller;
+pub mod mount;
 mod plant;
+pub mod reference;
 
 pub use controller::ControllerFmu;
+pub use mount::MountFmu;
 pub use plant::PlantFmu;
+pub use reference::ReferenceFmu;

@@ -1,0 +1,181 @@
+//! The `InchwormMount` FMU: the kinematics of a three-actuator mirror mount. Three inchworm
+//! runners push the optic at points 120° apart on a circle of radius `radius`; for small
+//! angles the optic's plane is `z(x, y) = piston + tip y + tilt x`, so from the three
+//! runner positions `z_i` at angles `φ_i = angle_a + 120° i`:
+//!
+//! * `piston = (z_a + z_b + z_c) / 3`,
+//! * `tip = 2 / (3 R) Σ z_i sin φ_i` (rad, rotation about x),
+//! * `tilt = 2 / (3 R) Σ z_i cos φ_i` (rad, rotation about y),
+//!
+//! exact for three points 120° apart. The outputs are a sample and hold: after
+//! `fmi2DoStep(t, h)` they are the pose of the positions that held during the step (set
+//! before it), and before the first step that of the positions at initialization. So
+//! every master shows the same pose at a communication point whether it transfers the
+//! connections before or right after its steps (the inchworm master and FMPy before;
+//! Ecos and libcosim after): the pose of the runners one step (2 ms) earlier.
+//! [`actuator_positions`] is the inverse, for commands.
+
+use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+
+mod vr {
+    pub const POSITION_A: u32 = 1;
+    pub const POSITION_B: u32 = 2;
+    pub const POSITION_C: u32 = 3;
+    pub const PISTON: u32 = 10;
+    pub const TIP: u32 = 11;
+    pub const TILT: u32 = 12;
+    pub const RADIUS: u32 = 100;
+    pub const ANGLE_A: u32 = 101;
+}
+
+/// The mount's default geometry: 50 mm radius, actuator a on the +y axis.
+pub const RADIUS: f64 = 0.05;
+pub const ANGLE_A_DEG: f64 = 90.0;
+
+const M: Option<&str> = Some("m");
+const RAD: Option<&str> = Some("rad");
+
+#[rustfmt::skip]
+static VARIABLES: [Variable; 8] = [
+    Variable::input("position_a", vr::POSITION_A, 0.0, M, "Runner position of actuator a (at angle_a)"),
+    Variable::input("position_b", vr::POSITION_B, 0.0, M, "Runner position of actuator b (at angle_a + 120 deg)"),
+    Variable::input("position_c", vr::POSITION_C, 0.0, M, "Runner position of actuator c (at angle_a + 240 deg)"),
+    Variable::output("piston", vr::PISTON, Kind::Real, M, "Piston of the optic: the mean of the three positions"),
+    Variable::output("tip", vr::TIP, Kind::Real, RAD, "Tip of the optic: rotation about x, dz/dy"),
+    Variable::output("tilt", vr::TILT, Kind::Real, RAD, "Tilt of the optic: rotation about y, dz/dx"),
+    Variable::parameter("radius", vr::RADIUS, RADIUS, M, "Radius of the circle of the three actuators").with_range(1e-4, 10.0),
+    Variable::parameter("angle_a", vr::ANGLE_A, ANGLE_A_DEG, Some("deg"), "Angle of actuator a from the x axis"),
+];
+
+static UNITS: [Unit; 3] = [
+    Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
+    Unit { name: "rad", kg: 0, m: 0, s: 0, a: 0 },
+    Unit { name: "deg", kg: 0, m: 0, s: 0, a: 0 },
+];
+
+static INFO: ModelInfo = ModelInfo {
+    model_name: "InchwormMount",
+    model_identifier: "InchwormMount",
+    description: "Three-actuator mirror mount kinematics: three inchworm runner positions 120 deg apart to the piston, tip and tilt of the optic",
+    version: env!("CARGO_PKG_VERSION"),
+    default_start_time: 0.0,
+    default_stop_time: 10.0,
+    default_step_size: 0.002,
+    default_tolerance: 1e-9,
+    units: &UNITS,
+    log_events: "Model events: none",
+    documentation_html: include_str!("mount.html"),
+};
+
+/// The angles of the three actuators (rad).
+pub fn angles(angle_a_deg: f64) -> [f64; 3] {
+    std::array::from_fn(|i| (angle_a_deg + 120.0 * i as f64).to_radians())
+}
+
+/// Piston, tip and tilt of three positions.
+pub fn pose(z: [f64; 3], radius: f64, angle_a_deg: f64) -> [f64; 3] {
+    let phi = angles(angle_a_deg);
+    let k = 2.0 / (3.0 * radius);
+    let piston = (z[0] + z[1] + z[2]) / 3.0;
+    let tip = k * (0..3).map(|i| z[i] * phi[i].sin()).sum::<f64>();
+    let tilt = k * (0..3).map(|i| z[i] * phi[i].cos()).sum::<f64>();
+    [piston, tip, tilt]
+}
+
+/// The three positions that give `piston`, `tip` and `tilt`.
+pub fn actuator_positions(
+    piston: f64,
+    tip: f64,
+    tilt: f64,
+    radius: f64,
+    angle_a_deg: f64,
+) -> [f64; 3] {
+    let phi = angles(angle_a_deg);
+    std::array::from_fn(|i| piston + radius * (tip * phi[i].sin() + tilt * phi[i].cos()))
+}
+
+#[derive(Clone, Debug)]
+pub struct MountFmu {
+    z: [f64; 3],
+    /// Piston, tip and tilt latched at the last step (or initialization).
+    held: [f64; 3],
+    radius: f64,
+    angle_a: f64,
+}
+
+impl Model for MountFmu {
+    fn info() -> &'static ModelInfo {
+        &INFO
+    }
+
+    fn variables() -> &'static [Variable] {
+        &VARIABLES
+    }
+
+    fn new() -> Self {
+        MountFmu { z: [0.0; 3], held: [0.0; 3], radius: RADIUS, angle_a: ANGLE_A_DEG }
+    }
+
+    fn get_real(&self, r: u32) -> Result<f64, String> {
+        Ok(match r {
+            vr::POSITION_A..=vr::POSITION_C => self.z[(r - vr::POSITION_A) as usize],
+            vr::PISTON => self.held[0],
+            vr::TIP => self.held[1],
+            vr::TILT => self.held[2],
+            vr::RADIUS => self.radius,
+            vr::ANGLE_A => self.angle_a,
+            _ => return Err(format!("no Real variable with value reference {r}")),
+        })
+    }
+
+    fn get_integer(&self, r: u32) -> Result<i32, String> {
+        Err(format!("no Integer variable with value reference {r}"))
+    }
+
+    fn get_boolean(&self, r: u32) -> Result<bool, String> {
+        Err(format!("no Boolean variable with value reference {r}"))
+    }
+
+    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
+        match r {
+            vr::POSITION_A..=vr::POSITION_C => self.z[(r - vr::POSITION_A) as usize] = value,
+            vr::RADIUS => self.radius = value,
+            vr::ANGLE_A => self.angle_a = value,
+            _ => return Err(format!("no settable Real variable with value reference {r}")),
+        }
+        Ok(())
+    }
+
+    fn set_integer(&mut self, r: u32, _value: i32) -> Result<(), String> {
+        Err(format!("no settable Integer variable with value reference {r}"))
+    }
+
+    fn set_boolean(&mut self, r: u32, _value: bool) -> Result<(), String> {
+        Err(format!("no settable Boolean variable with value reference {r}"))
+    }
+
+    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+        if !(1e-4..=10.0).contains(&self.radius) {
+            return Err(format!("invalid parameter radius: {} m (1e-4 to 10 m)", self.radius));
+        }
+        self.held = pose(self.z, self.radius, self.angle_a);
+        Ok(())
+    }
+
+    fn do_step(&mut self, _t: f64, _h: f64) -> Result<Vec<Message>, String> {
+        self.held = pose(self.z, self.radius, self.angle_a);
+        Ok(Vec::new())
+    }
+
+    fn save_state(&self, w: &mut Writer) {
+        self.z.iter().chain(&self.held).for_each(|z| w.f64(*z));
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let mut r = Reader::new(bytes, "mount FMU state");
+        for z in self.z.iter_mut().chain(self.held.iter_mut()) {
+            *z = r.f64()?;
+        }
+        r.finish()
+    }
+}

@@ -1,0 +1,2 @@
+//! `InchwormMount.so`: the FMI 2.0 Co-Simulation entry points of the mirror-mount kinematics.
+inchworm_fmi_export::export_fmi2!(inchworm_fmu_models::MountFmu);

@@ -1,0 +1,2 @@
+//! `InchwormReference.so`: the FMI 2.0 Co-Simulation entry points of the reference model.
+inchworm_fmi_export::export_fmi2!(inchworm_fmu_models::ReferenceFmu);

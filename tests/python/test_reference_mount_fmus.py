@@ -1,0 +1,55 @@
+"""InchwormReference.fmu and InchwormMount.fmu in FMPy: validation, simulation with
+defaults and with a table, and the same binary policy as the plant and the controller
+(only fmi2* symbols, only the C runtime)."""
+import shutil
+import subprocess
+import zipfile
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from fmpy.validation import validate_fmu
+
+from conftest import built_fmu
+
+ALLOWED_NEEDED = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "ld-linux-x86-64.so.2"}
+
+
+@pytest.mark.parametrize("name", ["InchwormReference", "InchwormMount"])
+def test_validates_and_exports_only_fmi2_symbols(name, tmp_path):
+    fmu = built_fmu(name)
+    assert validate_fmu(fmu) == []
+    if not (shutil.which("nm") and shutil.which("readelf")):
+        pytest.fail("nm and readelf (Debian binutils) are needed for this check")
+    with zipfile.ZipFile(fmu) as z:
+        so = z.extract(f"binaries/linux64/{name}.so", tmp_path)
+    symbols = subprocess.run(["nm", "-D", "--defined-only", so], capture_output=True, text=True, check=True).stdout
+    names = [line.split()[-1] for line in symbols.splitlines() if line.strip()]
+    assert len([n for n in names if n.startswith("fmi2")]) == 34 and all(n.startswith("fmi2") for n in names)
+    dynamic = subprocess.run(["readelf", "-d", so], capture_output=True, text=True, check=True).stdout
+    needed = {line.split("[")[1].rstrip("]") for line in dynamic.splitlines() if "(NEEDED)" in line}
+    assert needed <= ALLOWED_NEEDED, needed - ALLOWED_NEEDED
+
+
+def test_reference_defaults_to_the_fig5_step_and_follows_a_ramped_table():
+    fmu = built_fmu("InchwormReference")
+    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=["reference"])
+    assert np.all(r["reference"] == 100e-6)
+    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=["reference"],
+                     start_values={"n_points": 2, "times[1]": 0.1, "positions[1]": 20e-6,
+                                   "times[2]": 0.5, "positions[2]": -10e-6, "ramp_time": 0.1})
+    t, x = r["time"], r["reference"]
+    assert np.all(x[t < 0.099] == 0.0)
+    np.testing.assert_allclose(x[np.isclose(t, 0.15)], 10e-6, rtol=1e-9)
+    assert np.all(x[(t > 0.201) & (t < 0.499)] == 20e-6)
+    np.testing.assert_allclose(x[np.isclose(t, 0.55)], 5e-6, rtol=1e-9)
+    assert np.all(x[t > 0.601] == -10e-6)
+
+
+def test_mount_turns_three_positions_into_piston_tip_and_tilt():
+    fmu = built_fmu("InchwormMount")
+    r = simulate_fmu(fmu, stop_time=0.01, output_interval=0.002, output=["piston", "tip", "tilt"],
+                     start_values={"position_a": 30.2e-6, "position_b": 29.9e-6, "position_c": 29.9e-6})
+    np.testing.assert_allclose(r["piston"][-1], 30e-6, rtol=1e-12)
+    np.testing.assert_allclose(r["tip"][-1], 4e-6, rtol=1e-9)
+    assert abs(r["tilt"][-1]) < 1e-15
