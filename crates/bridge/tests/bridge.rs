@@ -286,15 +286,13 @@ fn silence_latches_the_safe_state_within_n_periods_and_needs_a_rearm() {
         },
     );
     let mut ctrl = DirectController::new();
-    let report = run_controller(
-        &mut ctrl,
-        &mut link,
-        &reference,
-        &realtime(600),
-        None,
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    // What is under test is the board's latch after 3 silent periods and its FAULT reaching
+    // the controller; the controller's own dead-link limit (10 periods by default) must not
+    // pre-empt it when a busy test machine stalls the board's thread for 20 ms.
+    let cfg = ControllerConfig { dead_after: 100, ..realtime(600) };
+    let report =
+        run_controller(&mut ctrl, &mut link, &reference, &cfg, None, &AtomicBool::new(false))
+            .unwrap();
 
     let (fault, text) = report.fault.clone().expect("the controller must see the board's fault");
     assert_eq!(fault.reason, FaultReason::Silence, "{text}");
