@@ -35,6 +35,20 @@ pub fn parameters(p: &Params) -> Vec<(String, String)> {
         v.push((format!("basis_peak[{}]", i + 1), format!("{peak}")));
         v.push((format!("scale_weights_start[{}]", i + 1), format!("{weight}")));
     }
+    // The options of docs/model.md §4.2, only when on: runs with them off set exactly the
+    // parameters they always did.
+    if p.analog {
+        v.push(("analog".into(), "true".into()));
+        let a = &p.analog_params;
+        for (n, x) in [
+            ("analog_range", a.range),
+            ("analog_gain", a.gain),
+            ("analog_loop_gain", a.loop_gain),
+            ("analog_recentre_band", a.recentre_band),
+        ] {
+            v.push((n.to_string(), format!("{x}")));
+        }
+    }
     v.into_iter().map(|(n, x)| (format!("controller.{n}"), x)).collect()
 }
 

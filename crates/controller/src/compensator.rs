@@ -78,6 +78,17 @@ impl Loop {
         self.compensator.step(g, error) + ff
     }
 
+    /// No move: the target is held another way (analog mode). The integrators hold, and
+    /// the prefilter and the feedforward take `r` as reached, so stepping resumes from it.
+    pub fn hold(&mut self, r: f64, y: f64) {
+        if !self.started {
+            self.started = true;
+            self.feedforward.start(y);
+        }
+        self.prefilter.start(r);
+        self.feedforward.hold(r);
+    }
+
     pub(crate) fn save(&self, w: &mut inchworm_state_bytes::Writer) {
         w.u8(u8::from(self.started));
         for v in [

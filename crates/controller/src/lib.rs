@@ -29,6 +29,7 @@
 //! count at t = 0 (which also starts the prefilter and the feedforward's previous
 //! reference there).
 
+pub mod analog;
 pub mod basis;
 pub mod compensator;
 pub mod estimator;
@@ -38,6 +39,7 @@ pub mod measurements;
 pub mod prefilter;
 pub mod waveform;
 
+use analog::{Analog, AnalogParams};
 use basis::Basis;
 use compensator::{Gains, Loop};
 use estimator::{Estimator, Noise};
@@ -81,6 +83,9 @@ pub struct Params {
     pub disturbance_start: f64,
     /// Encoder resolution (m per count).
     pub q_enc: f64,
+    /// Analog mode near the target ([`analog`], docs/model.md §4.2); default off.
+    pub analog: bool,
+    pub analog_params: AnalogParams,
 }
 
 impl Default for Params {
@@ -98,6 +103,8 @@ impl Default for Params {
             scale_weights_start: CALIBRATED_WEIGHTS,
             disturbance_start: CALIBRATED_DISTURBANCE,
             q_enc: 1.2e-9,
+            analog: false,
+            analog_params: AnalogParams::default(),
         }
     }
 }
@@ -155,6 +162,15 @@ impl Params {
         }
         finite("disturbance_start", self.disturbance_start)?;
         positive("q_enc", self.q_enc)?;
+        if self.analog {
+            self.analog_params.validate()?;
+            if self.deadband > 0.0 {
+                return Err(format!(
+                    "deadband must be 0 with analog on (analog mode holds the target instead of parking), got {}",
+                    self.deadband
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -211,6 +227,7 @@ pub struct Controller {
     fraction_left: Option<f64>,
     plan: Option<Plan>,
     iterations: u64,
+    analog: Analog,
 }
 
 fn quantize(v: f64) -> (f64, u16) {
@@ -249,6 +266,7 @@ impl Controller {
             fraction_left: None,
             plan: None,
             iterations: 0,
+            analog: Analog::new(params.disturbance_start / params.analog_params.gain),
             params,
         })
     }
@@ -259,6 +277,11 @@ impl Controller {
 
     pub fn estimator(&self) -> &Estimator {
         &self.estimator
+    }
+
+    /// The analog mode's state (phase, extension command, entries and re-centrings).
+    pub fn analog(&self) -> &Analog {
+        &self.analog
     }
 
     /// Control iterations run so far.
@@ -284,6 +307,16 @@ impl Controller {
         let y_now = encoder_counts as f64 * self.params.q_enc;
         let mut iterated = false;
         let mut no_root = false;
+        if self.analog.active() {
+            let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
+            if !self.analog.active() {
+                // Parked again: the next tick starts a step with nothing to measure.
+                self.sample = 1;
+                self.first = true;
+                self.current = StepKind::Idle;
+            }
+            return self.output(volts, reference, y_now, false, false);
+        }
         if self.sample == 1 {
             // The encoder reads w_enc(n) of the step that just finished.
             let mut y_measured = y_now;
@@ -306,6 +339,25 @@ impl Controller {
                 y_measured = raw.s[6];
             }
             self.first = false;
+            if self.params.analog
+                && self.full_steps_left == 0
+                && self.fraction_left.is_none()
+                && (reference - y_measured).abs() < self.params.analog_params.range
+            {
+                // Near the target: hold in DRIVE instead of stepping. The feedforward takes
+                // the reference as its previous one, as in the deadband.
+                self.feedback.hold(reference, y_measured);
+                self.iterations += 1;
+                self.analog.offset =
+                    if self.params.use_disturbance_estimate && self.analog.entries == 0 {
+                        self.estimator.disturbance() / self.params.analog_params.gain
+                    } else {
+                        self.analog.offset
+                    };
+                self.analog.enter();
+                let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
+                return self.output(volts, reference, y_now, true, false);
+            }
             if self.full_steps_left == 0 && self.fraction_left.is_none() {
                 let d = self.feedback.iterate(
                     &self.params.gains,
@@ -354,7 +406,18 @@ impl Controller {
             self.ext[next - 1] = volts[2] / DAC_FULL_SCALE;
         }
         self.sample = next;
+        self.output(volts, reference, y_now, iterated, no_root)
+    }
 
+    /// The sample for commanded `volts`, with the plan outputs of the latest move.
+    fn output(
+        &self,
+        volts: [f64; 3],
+        reference: f64,
+        y_now: f64,
+        iterated: bool,
+        no_root: bool,
+    ) -> Sample {
         let q = volts.map(quantize);
         let plan = self.plan.unwrap_or(Plan {
             step_forward: None,
@@ -374,7 +437,7 @@ impl Controller {
             n_steps: plan.n_steps,
             fraction: plan.fraction,
             scale_weights: self.estimator.weights(),
-            moving: matches!(self.current, StepKind::Gait { .. }),
+            moving: matches!(self.current, StepKind::Gait { .. }) || self.analog.active(),
             iterated,
             no_root,
         }
@@ -427,6 +490,10 @@ impl Controller {
             }
         }
         w.u64(self.iterations);
+        // Only with the option on, so the default layout is unchanged.
+        if self.params.analog {
+            self.analog.save(&mut w);
+        }
     }
 
     /// Restores what `save_state` wrote, for a controller with the same parameters; on
@@ -485,6 +552,9 @@ impl Controller {
             None
         };
         next.iterations = r.u64()?;
+        if self.params.analog {
+            next.analog = Analog::load(&mut r)?;
+        }
         r.finish()?;
         if !(1..=self.timing.samples).contains(&next.sample) {
             return Err(format!("controller state: sample {} outside the step", next.sample));
@@ -535,6 +605,52 @@ mod tests {
             let e = p.validate().expect_err(field);
             assert!(e.starts_with(field), "error for {field}: {e:?}");
             assert!(Controller::new(p).is_err());
+        }
+    }
+
+    #[test]
+    fn analog_options_are_checked_together() {
+        let on = || Params { analog: true, ..Params::default() };
+        assert_eq!(on().validate(), Ok(()));
+        let a = AnalogParams::default;
+        let cases: [(&str, Params); 5] = [
+            ("deadband", Params { deadband: 1e-9, ..on() }),
+            ("analog_range", Params { analog_params: AnalogParams { range: 6e-6, ..a() }, ..on() }),
+            ("analog_gain", Params { analog_params: AnalogParams { gain: 0.0, ..a() }, ..on() }),
+            (
+                "analog_loop_gain",
+                Params { analog_params: AnalogParams { loop_gain: 1.0, ..a() }, ..on() },
+            ),
+            (
+                "analog_recentre_band",
+                Params { analog_params: AnalogParams { recentre_band: 4.0, ..a() }, ..on() },
+            ),
+        ];
+        for (field, p) in cases {
+            let e = p.validate().expect_err(field);
+            assert!(e.starts_with(field), "error for {field}: {e:?}");
+            // Off, the analog values are not looked at.
+            assert_eq!(Params { analog: false, deadband: 0.0, ..p }.validate(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn analog_state_is_saved_only_with_the_option_on() {
+        let mut off = Vec::new();
+        Controller::new(Params::default()).unwrap().save_state(&mut off);
+        let mut c = Controller::new(Params { analog: true, ..Params::default() }).unwrap();
+        // Into analog hold: the first iteration is within range of the reference.
+        for _ in 0..20 {
+            c.tick(0, 1e-6);
+        }
+        assert!(c.analog().active());
+        let mut on = Vec::new();
+        c.save_state(&mut on);
+        assert!(on.len() > off.len());
+        let mut d = Controller::new(Params { analog: true, ..Params::default() }).unwrap();
+        d.load_state(&on).unwrap();
+        for k in 0..200 {
+            assert_eq!(c.tick(k, 1e-6), d.tick(k, 1e-6), "tick {k}");
         }
     }
 
