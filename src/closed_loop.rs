@@ -313,6 +313,51 @@ impl SlewView {
     }
 }
 
+/// Reading a run of the options of docs/model.md §4.2 (issue 14), where the runner is
+/// also held in DRIVE (analog mode) and the gait may be short.
+impl LoopView {
+    /// Samples a position is judged at: parked (all DACs zero) for the previous 2 samples,
+    /// i.e. the step boundaries of any gait, or in analog hold (both brake DACs at 10 V
+    /// for the previous 40 samples, longer than any DRIVE segment of a gait of up to 100
+    /// samples).
+    pub fn held(&self) -> Vec<usize> {
+        (40..self.time.len())
+            .filter(|&i| {
+                self.dac[i - 1..=i].iter().all(|d| *d == [0.0; 3])
+                    || self.dac[i - 39..=i].iter().all(|d| d[0] == 10.0 && d[1] == 10.0)
+            })
+            .collect()
+    }
+
+    /// First time after `from` after which every [`LoopView::held`] sample is within `tol`.
+    pub fn held_settle_time(&self, tol: f64, from: f64) -> Option<f64> {
+        let held: Vec<usize> = self.held().into_iter().filter(|&i| self.time[i] > from).collect();
+        match held.iter().rposition(|&i| self.error(i).abs() > tol) {
+            None => held.first().map(|&i| self.time[i]),
+            Some(j) => held.get(j + 1).map(|&i| self.time[i]),
+        }
+    }
+
+    /// RMS error of the [`LoopView::held`] samples in `[from, to)` s.
+    pub fn held_rms(&self, from: f64, to: f64) -> f64 {
+        let e: Vec<f64> = self
+            .held()
+            .into_iter()
+            .filter(|&i| self.time[i] >= from && self.time[i] < to)
+            .map(|i| self.error(i))
+            .collect();
+        (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
+    }
+
+    /// Mean speed (m/s) between 10 % and 90 % of a move from 0 to `distance` > 0.
+    pub fn slew_rate(&self, distance: f64) -> Option<f64> {
+        let at = |f: f64| {
+            self.encoder_position.iter().position(|&y| y >= f * distance).map(|i| self.time[i])
+        };
+        Some(0.8 * distance / (at(0.9)? - at(0.1)?))
+    }
+}
+
 #[cfg(test)]
 mod slew_tests {
     use super::*;

@@ -68,7 +68,8 @@ fn staircase_regulation() -> Vec<(f64, f64)> {
     (0..STAIRCASE_UM.len()).map(|k| (k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0)).collect()
 }
 
-pub const NAMES: [&str; 6] = ["fig5", "staircase", "calibration", "fia6", "slew", "stall"];
+pub const NAMES: [&str; 9] =
+    ["fig5", "staircase", "calibration", "fia6", "slew", "stall", "analog", "fastgait", "future"];
 
 /// Samples of one gait of the open-loop slews.
 pub const SAMPLES_PER_GAIT: usize = 100;
@@ -160,7 +161,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             variants: vec![slew("gamma = 0", 0.0), slew("gamma = 10", 10.0)],
             regulation: vec![],
         },
-        _ => return None,
+        _ => return future_work(name),
     })
 }
 
@@ -226,6 +227,9 @@ impl Scenario {
     /// One line on a variant's run: settling and regulation for a closed loop, the
     /// distance per step for a slew.
     pub fn summary(&self, v: &Variant, r: &LoopView) -> String {
+        if is_future_work(self.name) {
+            return future_work_summary(self, v, r);
+        }
         match v.drive {
             Drive::OpenLoopSlew => {
                 let g = closed_loop::SlewView::new(r, SAMPLES_PER_GAIT);
@@ -260,6 +264,208 @@ impl Scenario {
                 )
             }
         }
+    }
+}
+
+// ---- The options of docs/model.md §4.2 (issue 14): analog mode, the 50 Hz gait, both. ----
+
+/// The scenarios of the future-work options, one per feature and one combining them.
+pub const FUTURE_WORK: [&str; 3] = ["analog", "fastgait", "future"];
+
+pub fn is_future_work(name: &str) -> bool {
+    FUTURE_WORK.contains(&name)
+}
+
+/// The 50 Hz gait: 10 samples of 2 ms per step.
+pub fn fast_gait() -> Params {
+    Params { samples_per_step: 10, ..Params::default() }
+}
+
+/// Analog mode near the target, with the 5 Hz gait for large moves.
+pub fn analog() -> Params {
+    Params { analog: true, ..Params::default() }
+}
+
+/// The analog scenario's reference (µm): 100 µm, +100 nm at 10 s, +1 µm at 11 s, a walk
+/// of +1 µm every 0.2 s from 12 s to 16 s (re-centrings), a 40 µm jump at 20 s.
+fn analog_reference() -> InputTable {
+    let mut rows = vec![(0.0, 100.0), (10.0, 100.1), (11.0, 101.1)];
+    rows.extend((1..=20).map(|k| (12.0 + 0.2 * (k - 1) as f64, 101.1 + k as f64)));
+    rows.push((20.0, 161.1));
+    let rows: Vec<(f64, f64)> = rows.into_iter().map(|(t, um)| (t, um * 1e-6)).collect();
+    InputTable::steps("reference", &rows).expect("times increase")
+}
+
+fn future_work(name: &str) -> Option<Scenario> {
+    let fia20 = PlantParams::fia20;
+    Some(match name {
+        "analog" => Scenario {
+            name: "analog",
+            title: "Analog mode near the target: hold in DRIVE, 100 nm and 1 µm changes, a 20 µm walk (re-centring), a 40 µm jump",
+            duration: 25.0,
+            reference: analog_reference(),
+            variants: vec![
+                closed("baseline", fia20(), Params::default()),
+                closed("analog", fia20(), analog()),
+            ],
+            regulation: vec![(6.0, 10.0), (23.0, 25.0)],
+        },
+        "fastgait" => Scenario {
+            name: "fastgait",
+            title: "A 2 mm move: the 5 Hz gait (100 samples per step) and the 50 Hz gait (10)",
+            duration: 40.0,
+            reference: constant(2e-3),
+            variants: vec![
+                closed("5 Hz gait", fia20(), Params::default()),
+                closed("50 Hz gait", fia20(), fast_gait()),
+            ],
+            regulation: vec![(30.0, 40.0)],
+        },
+        "future" => Scenario {
+            name: "future",
+            title: "A 2 mm move, then 100 nm and 1 µm changes: baseline and the 50 Hz gait with analog mode",
+            duration: 30.0,
+            reference: InputTable::steps(
+                "reference",
+                &[(0.0, 2e-3), (25.0, 2.0001e-3), (26.0, 2.0011e-3)],
+            )
+            .expect("times increase"),
+            variants: vec![
+                closed("baseline", fia20(), Params::default()),
+                closed("50 Hz gait + analog", fia20(), Params { analog: true, ..fast_gait() }),
+            ],
+            regulation: vec![(23.0, 25.0), (27.0, 30.0)],
+        },
+        _ => return None,
+    })
+}
+
+/// Settling (within 1 µm and 2 nm), holding RMS and slew rate, judged on the held samples
+/// (step boundaries and analog hold, [`LoopView::held`]).
+fn future_work_summary(s: &Scenario, v: &Variant, r: &LoopView) -> String {
+    let settle = |tol: f64| {
+        r.held_settle_time(tol, 0.0).map_or("not settled".to_string(), |t| format!("{t:.3} s"))
+    };
+    let rms: Vec<String> =
+        s.regulation.iter().map(|&(a, b)| format!("{:.3}", r.held_rms(a, b) * 1e9)).collect();
+    let target = r.reference.first().copied().unwrap_or(0.0);
+    let slew = r
+        .slew_rate(target)
+        .filter(|_| target > 1e-3)
+        .map_or(String::new(), |v| format!("; slew {:.0} µm/s (10-90 %)", v * 1e6));
+    format!(
+        "{:<22} within 1 µm from {}, within 2 nm from {}; held RMS in regulation {} nm{slew}",
+        v.name,
+        settle(1e-6),
+        settle(2e-9),
+        rms.join(" / ")
+    )
+}
+
+/// The figure of a future-work scenario: position on top, |error| of the held samples
+/// (log scale, nm) below.
+pub fn future_work_png(
+    title: &str,
+    names: &[&str],
+    runs: &[LoopView],
+    path: &Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
+    let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(title, ("sans-serif", 22))?;
+    let (top, bottom) = root.split_vertically(430);
+    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
+    let (lo, hi) = runs
+        .iter()
+        .flat_map(|r| r.encoder_position.iter().chain(&r.reference))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x * 1e6), b.max(x * 1e6)));
+    let pad = (hi - lo).max(1.0) * 0.05;
+    let mut chart = ChartBuilder::on(&top)
+        .margin(10)
+        .x_label_area_size(30)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .y_desc("encoder position (µm)")
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    if let Some(r) = runs.first() {
+        chart
+            .draw_series(LineSeries::new(
+                r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * 1e6)),
+                BLACK.stroke_width(1),
+            ))?
+            .label("reference")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    }
+    for (i, (r, name)) in runs.iter().zip(names).enumerate() {
+        let c = colors[i % colors.len()];
+        chart
+            .draw_series(LineSeries::new(
+                r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * 1e6)),
+                c.stroke_width(2),
+            ))?
+            .label(name.to_string())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
+        .draw()?;
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, (0.1f64..1e5f64).log_scale())?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("time (s)")
+        .y_desc("|error| at held samples (nm)")
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    for (i, r) in runs.iter().enumerate() {
+        let c = colors[i % colors.len()];
+        let pts: Vec<(f64, f64)> = r
+            .held()
+            .into_iter()
+            .map(|i| (r.time[i], (r.error(i).abs() * 1e9).clamp(0.1, 1e5)))
+            .collect();
+        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.filled())))?;
+    }
+    for (tol, label) in [(1e3, "1 µm"), (2.0, "2 nm")] {
+        chart.draw_series(LineSeries::new([(0.0, tol), (t_end, tol)], BLACK.mix(0.5)))?;
+        chart.draw_series(std::iter::once(Text::new(
+            label,
+            (t_end * 0.005, tol * 1.3),
+            ("sans-serif", 14),
+        )))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod future_work_tests {
+    use super::*;
+
+    #[test]
+    fn every_future_work_name_is_a_scenario_with_a_distinct_variant() {
+        for n in FUTURE_WORK {
+            let s = by_name(n).unwrap_or_else(|| panic!("{n}"));
+            assert!(NAMES.contains(&n) && is_future_work(s.name));
+            assert_eq!(s.variants.len(), 2);
+        }
+        let r = analog_reference();
+        assert!((r.value(0, 16.0) - 121.1e-6).abs() < 1e-15);
+        assert!((r.value(0, 20.0) - 161.1e-6).abs() < 1e-15);
     }
 }
 

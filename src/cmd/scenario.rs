@@ -68,6 +68,11 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
             r.write_csv(w)
         })?;
     }
+    if scenario::is_future_work(s.name) {
+        return super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
+            scenario::future_work_png(s.title, &names, &views, p)
+        });
+    }
     super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
         plot::closed_loop_png(s.title, &names, &views, p)
     })

@@ -152,6 +152,11 @@ impl Analog {
         }
     }
 
+    /// The reference the loop last tracked (m): where the runner was held.
+    pub fn tracked(&self) -> f64 {
+        self.r1
+    }
+
     pub fn active(&self) -> bool {
         self.phase != Phase::Off
     }
@@ -323,5 +328,94 @@ impl Analog {
             recentres: n[2],
             entries: n[3],
         })
+    }
+}
+
+/// Margins of the analog loop (docs/controller-design.md, "Analog mode").
+#[derive(Clone, Copy, Debug)]
+pub struct Margins {
+    pub crossover_hz: f64,
+    pub phase_margin_deg: f64,
+    /// At the first phase crossover (−180°).
+    pub gain_margin_db: f64,
+    pub phase_crossover_hz: f64,
+}
+
+/// −3 dB frequency of the driver board's Bessel filter and the amplifier's pole (Hz),
+/// docs/model.md §2.1: the chain the loop is designed on.
+pub const F_BESSEL: f64 = 300.0;
+pub const F_AMP: f64 = 475.0;
+
+/// `L(jω) = k e^{−jωT} H_b(jω) H_a(jω) / (jωT)` (chain at unity DC gain) as (magnitude,
+/// phase in degrees, unwrapped) at `f` Hz: the integrator `k/(1 − e^{−jωT})` times the
+/// DAC's zero-order hold `(1 − e^{−jωT})/(jωT)` and one sample of computation delay
+/// `e^{−jωT}`; the static DRIVE gain is folded into `k` (aliasing ignored, valid well
+/// below Nyquist, where the margins lie).
+pub fn loop_gain(k: f64, f: f64) -> (f64, f64) {
+    use std::f64::consts::PI;
+    let t = crate::SAMPLE_PERIOD;
+    let w = 2.0 * PI * f;
+    let wb = 2.0 * PI * F_BESSEL / 1.36165;
+    // Bessel 3 wb² / (s² + 3 wb s + 3 wb²) at s = jw.
+    let (re, im) = (3.0 * wb * wb - w * w, 3.0 * wb * w);
+    let mag_b = 3.0 * wb * wb / re.hypot(im);
+    let ph_b = -im.atan2(re);
+    let wa = 2.0 * PI * F_AMP;
+    let mag_a = 1.0 / (1.0 + (w / wa).powi(2)).sqrt();
+    let ph_a = -(w / wa).atan();
+    let mag = k / (w * t) * mag_b * mag_a;
+    let phase = -90.0 + (-w * t + ph_b + ph_a).to_degrees();
+    (mag, phase)
+}
+
+/// Crossover, phase margin and gain margin of [`loop_gain`] with loop gain `k`.
+pub fn margins(k: f64) -> Margins {
+    let bisect = |g: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64| {
+        for _ in 0..200 {
+            let m = 0.5 * (a + b);
+            if (g(a) > 0.0) == (g(m) > 0.0) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        0.5 * (a + b)
+    };
+    let mag = |f: f64| loop_gain(k, f).0 - 1.0;
+    let ph = |f: f64| loop_gain(k, f).1 + 180.0;
+    let fc = bisect(&mag, 1e-3, 250.0);
+    let fp = bisect(&ph, 1e-3, 250.0);
+    Margins {
+        crossover_hz: fc,
+        phase_margin_deg: 180.0 + loop_gain(k, fc).1,
+        gain_margin_db: -20.0 * loop_gain(k, fp).0.log10(),
+        phase_crossover_hz: fp,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn margins_of_the_default_analog_loop() {
+        let d = AnalogParams::default();
+        let m = margins(d.loop_gain);
+        eprintln!("analog loop k = {}: {m:?}", d.loop_gain);
+        // Crossover k/(2πT) lowered a little by the chain; the phase lags by the delay.
+        assert!((20.0..25.0).contains(&m.crossover_hz), "{m:?}");
+        assert!(m.phase_margin_deg > 60.0 && m.gain_margin_db > 8.0, "{m:?}");
+        // The hysteresis raises the DRIVE gain by up to 1.5x (all elements slipping):
+        // still stable with margin.
+        let slipping = margins(1.5 * d.loop_gain);
+        eprintln!("with the slipping gain: {slipping:?}");
+        assert!(slipping.phase_margin_deg > 50.0 && slipping.gain_margin_db > 4.0);
+    }
+
+    #[test]
+    fn validate_names_the_field() {
+        assert_eq!(AnalogParams::default().validate(), Ok(()));
+        let bad = AnalogParams { range: 0.0, ..AnalogParams::default() };
+        assert!(bad.validate().unwrap_err().starts_with("analog_range"));
     }
 }

@@ -310,7 +310,9 @@ impl Controller {
         if self.analog.active() {
             let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
             if !self.analog.active() {
-                // Parked again: the next tick starts a step with nothing to measure.
+                // Parked again: the next tick starts a step with nothing to measure, and
+                // the stepping loop's feedforward from where the runner was held.
+                self.feedback.hold(self.analog.tracked(), y_now);
                 self.sample = 1;
                 self.first = true;
                 self.current = StepKind::Idle;
