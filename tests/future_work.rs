@@ -216,6 +216,19 @@ fn fifty_hertz_gait_slews_2_mm_over_5_times_faster_and_settles() {
     let tail = fast.iter().filter(|r| r.t > t_fast && r.dac == [0.0; 3]);
     assert!(tail.clone().count() > 100 && tail.into_iter().all(|r| (r.r - r.y).abs() <= UM));
     assert_eq!(fast.last().unwrap().slips, 0, "never FREE: every brake change passes LOCKED");
+    // The limit of the 2 ms DAC period: one sample per segment, 7 per step (71 Hz).
+    let limit = run(
+        PlantParams::fia20(),
+        Params { samples_per_step: 7, ..Params::default() },
+        |_| distance,
+        5.0,
+    );
+    let (rate_limit, t_limit) = slew(&limit, distance);
+    eprintln!(
+        "2 mm, 7 samples per step: {:.0} µm/s, within 1 µm at {t_limit:.3} s",
+        rate_limit / UM
+    );
+    assert!(rate_limit > rate_fast && limit.last().unwrap().slips == 0);
     // With analog mode the fast gait hands over to the DRIVE hold.
     let both = run(
         PlantParams::fia20(),
