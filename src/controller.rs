@@ -49,6 +49,13 @@ pub fn parameters(p: &Params) -> Vec<(String, String)> {
             v.push((n.to_string(), format!("{x}")));
         }
     }
+    for (n, on) in
+        [("disturbance_map", p.disturbance_map), ("use_disturbance_map", p.use_disturbance_map)]
+    {
+        if on {
+            v.push((n.to_string(), "true".into()));
+        }
+    }
     v.into_iter().map(|(n, x)| (format!("controller.{n}"), x)).collect()
 }
 

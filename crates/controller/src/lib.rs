@@ -31,6 +31,7 @@
 
 pub mod analog;
 pub mod basis;
+pub mod bdmap;
 pub mod compensator;
 pub mod estimator;
 pub mod feedforward;
@@ -41,6 +42,7 @@ pub mod waveform;
 
 use analog::{Analog, AnalogParams};
 use basis::Basis;
+use bdmap::DisturbanceMap;
 use compensator::{Gains, Loop};
 use estimator::{Estimator, Noise};
 use gait::{Direction, Timing};
@@ -86,6 +88,11 @@ pub struct Params {
     /// Analog mode near the target ([`analog`], docs/model.md §4.2); default off.
     pub analog: bool,
     pub analog_params: AnalogParams,
+    /// Estimate the brake-disturbance map over the extension command ([`bdmap`]).
+    pub disturbance_map: bool,
+    /// Plan with the map's prediction for the coming step instead of the latest estimate
+    /// (needs `disturbance_map` and `use_disturbance_estimate`).
+    pub use_disturbance_map: bool,
 }
 
 impl Default for Params {
@@ -105,6 +112,8 @@ impl Default for Params {
             q_enc: 1.2e-9,
             analog: false,
             analog_params: AnalogParams::default(),
+            disturbance_map: false,
+            use_disturbance_map: false,
         }
     }
 }
@@ -162,6 +171,11 @@ impl Params {
         }
         finite("disturbance_start", self.disturbance_start)?;
         positive("q_enc", self.q_enc)?;
+        if self.use_disturbance_map && !(self.disturbance_map && self.use_disturbance_estimate) {
+            return Err(
+                "use_disturbance_map needs disturbance_map and use_disturbance_estimate on".into(),
+            );
+        }
         if self.analog {
             self.analog_params.validate()?;
             if self.deadband > 0.0 {
@@ -228,6 +242,28 @@ pub struct Controller {
     plan: Option<Plan>,
     iterations: u64,
     analog: Analog,
+    bdmap: Option<DisturbanceMap>,
+    /// At a tick that updated the estimator with the map on: the measured BD minus the
+    /// latest estimate, and minus the map's prediction, both from before the update.
+    bd_residuals: Option<(f64, f64)>,
+}
+
+/// The plan of a move `d` with the disturbance the map predicts for each of its steps
+/// from the latest estimate `level`:
+/// the full steps' at ±1, the fraction's at its own amplitude (a fixed point, three
+/// passes: the map is flat to a few percent over a step's change of amplitude).
+fn mapped_plan(basis: &Basis, theta: &[f64; 10], map: &DisturbanceMap, level: f64, d: f64) -> Plan {
+    let predict = |c: f64| map.predict_from(level, c);
+    let full = predict(if d >= 0.0 { 1.0 } else { -1.0 });
+    let mut plan = waveform::plan(basis, theta, full, d);
+    let sd = if d >= 0.0 { plan.step_forward } else { plan.step_backward };
+    let frac_d = d - f64::from(plan.n_steps) * sd.unwrap_or(0.0);
+    let mut y = basis.eval(frac_d - full, theta).clamp(-1.0, 1.0);
+    for _ in 0..3 {
+        y = basis.eval(frac_d - predict(y), theta).clamp(-1.0, 1.0);
+    }
+    plan.fraction = y;
+    plan
 }
 
 fn quantize(v: f64) -> (f64, u16) {
@@ -267,6 +303,15 @@ impl Controller {
             plan: None,
             iterations: 0,
             analog: Analog::new(params.disturbance_start / params.analog_params.gain),
+            bdmap: params.disturbance_map.then(|| {
+                DisturbanceMap::new(
+                    params.disturbance_start,
+                    params.noise.disturbance_prior,
+                    params.noise.disturbance_process,
+                    params.noise.bd_measurement,
+                )
+            }),
+            bd_residuals: None,
             params,
         })
     }
@@ -282,6 +327,17 @@ impl Controller {
     /// The analog mode's state (phase, extension command, entries and re-centrings).
     pub fn analog(&self) -> &Analog {
         &self.analog
+    }
+
+    /// The brake-disturbance map, when `disturbance_map` is on.
+    pub fn disturbance_map(&self) -> Option<&DisturbanceMap> {
+        self.bdmap.as_ref()
+    }
+
+    /// Set at a tick that updated the estimator, with the map on: (measured BD − latest
+    /// estimate, measured BD − map prediction), both before the update.
+    pub fn bd_residuals(&self) -> Option<(f64, f64)> {
+        self.bd_residuals
     }
 
     /// Control iterations run so far.
@@ -307,6 +363,9 @@ impl Controller {
         let y_now = encoder_counts as f64 * self.params.q_enc;
         let mut iterated = false;
         let mut no_root = false;
+        if self.bdmap.is_some() {
+            self.bd_residuals = None;
+        }
         if self.analog.active() {
             let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
             if !self.analog.active() {
@@ -336,6 +395,12 @@ impl Controller {
                 );
                 if direction.is_some() {
                     let t_step = n as f64 * SAMPLE_PERIOD;
+                    if let Some(m) = &mut self.bdmap {
+                        let level = self.estimator.disturbance();
+                        self.bd_residuals =
+                            Some((raw.bd - level, raw.bd - m.predict_from(level, raw.ext_cmd)));
+                        m.update(t_step, raw.ext_cmd, raw.bd);
+                    }
                     self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
                 }
                 y_measured = raw.s[6];
@@ -373,7 +438,10 @@ impl Controller {
                 iterated = true;
                 if d != 0.0 || self.params.deadband == 0.0 {
                     let (theta, bd) = self.estimates();
-                    let plan = waveform::plan(&self.basis, &theta, bd, d);
+                    let plan = match (&self.bdmap, self.params.use_disturbance_map) {
+                        (Some(m), true) => mapped_plan(&self.basis, &theta, m, bd, d),
+                        _ => waveform::plan(&self.basis, &theta, bd, d),
+                    };
                     no_root = plan.no_root;
                     self.full_steps_left = plan.n_steps;
                     self.move_direction =
@@ -496,6 +564,9 @@ impl Controller {
         if self.params.analog {
             self.analog.save(&mut w);
         }
+        if let Some(m) = &self.bdmap {
+            m.save(&mut w);
+        }
     }
 
     /// Restores what `save_state` wrote, for a controller with the same parameters; on
@@ -556,6 +627,9 @@ impl Controller {
         next.iterations = r.u64()?;
         if self.params.analog {
             next.analog = Analog::load(&mut r)?;
+        }
+        if let Some(m) = &mut next.bdmap {
+            m.load(&mut r)?;
         }
         r.finish()?;
         if !(1..=self.timing.samples).contains(&next.sample) {
@@ -633,6 +707,37 @@ mod tests {
             assert!(e.starts_with(field), "error for {field}: {e:?}");
             // Off, the analog values are not looked at.
             assert_eq!(Params { analog: false, deadband: 0.0, ..p }.validate(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn the_disturbance_map_flag_needs_the_map_and_the_estimate() {
+        let e = Params { use_disturbance_map: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("use_disturbance_map"), "{e}");
+        let p = Params {
+            use_disturbance_map: true,
+            disturbance_map: true,
+            use_disturbance_estimate: false,
+            ..Params::default()
+        };
+        assert!(p.validate().is_err());
+        assert_eq!(Params { use_disturbance_map: false, ..p }.validate(), Ok(()));
+    }
+
+    #[test]
+    fn disturbance_map_state_round_trips() {
+        let p = Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() };
+        let mut c = Controller::new(p.clone()).unwrap();
+        for k in 0..1000 {
+            c.tick(k / 10, 30e-6);
+        }
+        let mut bytes = Vec::new();
+        c.save_state(&mut bytes);
+        let mut d = Controller::new(p).unwrap();
+        d.load_state(&bytes).unwrap();
+        assert_eq!(c.disturbance_map(), d.disturbance_map());
+        for k in 1000..1500 {
+            assert_eq!(c.tick(k / 10, 30e-6), d.tick(k / 10, 30e-6), "tick {k}");
         }
     }
 

@@ -53,13 +53,15 @@ mod vr {
     pub const ANALOG_GAIN: u32 = 142;
     pub const ANALOG_LOOP_GAIN: u32 = 143;
     pub const ANALOG_RECENTRE_BAND: u32 = 144;
+    pub const DISTURBANCE_MAP: u32 = 145;
+    pub const USE_DISTURBANCE_MAP: u32 = 146;
 }
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
 #[rustfmt::skip]
-static VARIABLES: [Variable; 67] = [
+static VARIABLES: [Variable; 69] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
     Variable::integer_input("encoder_counts", vr::ENCODER_COUNTS, 0, None, "Encoder reading of the plant (counts of q_enc)"),
     Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
@@ -127,6 +129,8 @@ static VARIABLES: [Variable; 67] = [
     Variable::parameter("analog_gain", vr::ANALOG_GAIN, 1.7e-6, Some("m/V"), "Analog mode: DRIVE gain of the extension the loop is designed on, m per DAC volt (> 0)").with_range(1e-8, 1e-4),
     Variable::parameter("analog_loop_gain", vr::ANALOG_LOOP_GAIN, 0.3, None, "Analog mode: integrator gain k_I per sample, u += (k_I / analog_gain) e (0 < k_I < 1)").with_range(0.0, 1.0),
     Variable::parameter("analog_recentre_band", vr::ANALOG_RECENTRE_BAND, 1.5, V, "Analog mode: re-centre the extension when its command leaves [band, 10 V - band] (0.5 <= band < 4 V)").with_range(0.5, 4.0),
+    Variable::boolean_parameter("disturbance_map", vr::DISTURBANCE_MAP, false, "Estimate the brake-disturbance map over the extension command (a second Kalman filter, 9 weights)"),
+    Variable::boolean_parameter("use_disturbance_map", vr::USE_DISTURBANCE_MAP, false, "Plan with the map's prediction for the coming step (needs disturbance_map and use_disturbance_estimate)"),
 ];
 
 static UNITS: [Unit; 3] = [
@@ -193,6 +197,8 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
         vr::USE_SCALE_FACTOR_ESTIMATE => &mut p.use_scale_factor_estimate,
         vr::USE_DISTURBANCE_ESTIMATE => &mut p.use_disturbance_estimate,
         vr::ANALOG => &mut p.analog,
+        vr::DISTURBANCE_MAP => &mut p.disturbance_map,
+        vr::USE_DISTURBANCE_MAP => &mut p.use_disturbance_map,
         _ => return None,
     })
 }
