@@ -56,6 +56,10 @@ pub fn parameters(p: &Params) -> Vec<(String, String)> {
             v.push((n.to_string(), "true".into()));
         }
     }
+    if p.single_integrator {
+        v.push(("single_integrator".into(), "true".into()));
+        v.push(("single_integrator_gain".into(), format!("{}", p.single_integrator_gain)));
+    }
     v.into_iter().map(|(n, x)| (format!("controller.{n}"), x)).collect()
 }
 

@@ -377,3 +377,50 @@ fn disturbance_map_predicts_the_coming_step_better_than_the_last_estimate() {
     );
     assert!(worst <= 1.0 * NM && t5 < 3.0);
 }
+
+/// docs/model.md §4.2, the single integrator: with the map's prediction planning the
+/// steps, `C(z) = k` against the double integrator `K (z − a)/(z − 1)`.
+#[test]
+fn single_integrator_with_the_map_against_the_double_integrator() {
+    use inchworm::closed_loop::{self, LoopView};
+    use inchworm_controller::compensator::{margins, single_integrator_margins, Gains};
+    let map = Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() };
+    let configs = [
+        ("double integrator (baseline)", Params::default()),
+        ("double integrator + map", map.clone()),
+        ("single integrator + map", Params { single_integrator: true, ..map.clone() }),
+    ];
+    let double = margins(&Gains::default(), 5.0);
+    let single = single_integrator_margins(map.single_integrator_gain, 5.0);
+    eprintln!("margins at 5 Hz: double {double:?}\n                 single {single:?}");
+    let mut out = Vec::new();
+    for (name, p) in configs {
+        let fig5 = LoopView::new(
+            &closed_loop::run(PlantParams::fia20(), p.clone(), |_| 100.0 * UM, 10.0).unwrap(),
+        )
+        .unwrap();
+        let st = LoopView::new(
+            &closed_loop::run(
+                PlantParams::fia20(),
+                Params { prefilter: true, ..p },
+                staircase,
+                700.0,
+            )
+            .unwrap(),
+        )
+        .unwrap();
+        let t5 = fig5.settle_time(UM).unwrap();
+        let rms: Vec<f64> = (0..7)
+            .map(|k| st.parked_rms(k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0))
+            .collect();
+        let worst = rms.iter().fold(0.0f64, |a, &b| a.max(b));
+        eprintln!(
+            "{name}: Fig. 5 settles at {t5:.3} s; staircase parked RMS {:?} nm (worst {:.3})",
+            rms.iter().map(|r| (r / NM * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
+            worst / NM
+        );
+        out.push((t5, worst));
+    }
+    assert!(single.phase_margin_deg > double.phase_margin_deg);
+    assert!(out.iter().all(|&(t, w)| t < 3.0 && w <= 1.0 * NM));
+}

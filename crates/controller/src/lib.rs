@@ -93,6 +93,10 @@ pub struct Params {
     /// Plan with the map's prediction for the coming step instead of the latest estimate
     /// (needs `disturbance_map` and `use_disturbance_estimate`).
     pub use_disturbance_map: bool,
+    /// The single-integrator compensator `C(z) = single_integrator_gain` instead of
+    /// `K (z − a)/(z − 1)` (needs `use_disturbance_map`).
+    pub single_integrator: bool,
+    pub single_integrator_gain: f64,
 }
 
 impl Default for Params {
@@ -114,6 +118,8 @@ impl Default for Params {
             analog_params: AnalogParams::default(),
             disturbance_map: false,
             use_disturbance_map: false,
+            single_integrator: false,
+            single_integrator_gain: 0.6,
         }
     }
 }
@@ -175,6 +181,15 @@ impl Params {
             return Err(
                 "use_disturbance_map needs disturbance_map and use_disturbance_estimate on".into(),
             );
+        }
+        if self.single_integrator {
+            if !self.use_disturbance_map {
+                return Err("single_integrator needs use_disturbance_map on (the map's prediction replaces the second integrator)".into());
+            }
+            let k = self.single_integrator_gain;
+            if !(k > 0.0 && k < 2.0) {
+                return Err(format!("single_integrator_gain must be in (0, 2), got {k}"));
+            }
         }
         if self.analog {
             self.analog_params.validate()?;
@@ -426,14 +441,26 @@ impl Controller {
                 return self.output(volts, reference, y_now, true, false);
             }
             if self.full_steps_left == 0 && self.fraction_left.is_none() {
-                let d = self.feedback.iterate(
-                    &self.params.gains,
-                    reference,
-                    y_measured,
-                    self.params.prefilter,
-                    self.params.feedforward,
-                    self.params.deadband,
-                );
+                let d = if self.params.single_integrator {
+                    self.feedback.iterate_single(
+                        self.params.single_integrator_gain,
+                        &self.params.gains,
+                        reference,
+                        y_measured,
+                        self.params.prefilter,
+                        self.params.feedforward,
+                        self.params.deadband,
+                    )
+                } else {
+                    self.feedback.iterate(
+                        &self.params.gains,
+                        reference,
+                        y_measured,
+                        self.params.prefilter,
+                        self.params.feedforward,
+                        self.params.deadband,
+                    )
+                };
                 self.iterations += 1;
                 iterated = true;
                 if d != 0.0 || self.params.deadband == 0.0 {
@@ -722,6 +749,17 @@ mod tests {
         };
         assert!(p.validate().is_err());
         assert_eq!(Params { use_disturbance_map: false, ..p }.validate(), Ok(()));
+        let e = Params { single_integrator: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("single_integrator"), "{e}");
+        let p = Params {
+            single_integrator: true,
+            single_integrator_gain: 2.0,
+            disturbance_map: true,
+            use_disturbance_map: true,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().starts_with("single_integrator_gain"));
+        assert_eq!(Params { single_integrator_gain: 0.6, ..p }.validate(), Ok(()));
     }
 
     #[test]

@@ -55,13 +55,15 @@ mod vr {
     pub const ANALOG_RECENTRE_BAND: u32 = 144;
     pub const DISTURBANCE_MAP: u32 = 145;
     pub const USE_DISTURBANCE_MAP: u32 = 146;
+    pub const SINGLE_INTEGRATOR: u32 = 147;
+    pub const SINGLE_INTEGRATOR_GAIN: u32 = 148;
 }
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
 #[rustfmt::skip]
-static VARIABLES: [Variable; 69] = [
+static VARIABLES: [Variable; 71] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
     Variable::integer_input("encoder_counts", vr::ENCODER_COUNTS, 0, None, "Encoder reading of the plant (counts of q_enc)"),
     Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
@@ -131,6 +133,8 @@ static VARIABLES: [Variable; 69] = [
     Variable::parameter("analog_recentre_band", vr::ANALOG_RECENTRE_BAND, 1.5, V, "Analog mode: re-centre the extension when its command leaves [band, 10 V - band] (0.5 <= band < 4 V)").with_range(0.5, 4.0),
     Variable::boolean_parameter("disturbance_map", vr::DISTURBANCE_MAP, false, "Estimate the brake-disturbance map over the extension command (a second Kalman filter, 9 weights)"),
     Variable::boolean_parameter("use_disturbance_map", vr::USE_DISTURBANCE_MAP, false, "Plan with the map's prediction for the coming step (needs disturbance_map and use_disturbance_estimate)"),
+    Variable::boolean_parameter("single_integrator", vr::SINGLE_INTEGRATOR, false, "Single-integrator compensator C(z) = single_integrator_gain instead of K (z - a)/(z - 1) (needs use_disturbance_map)"),
+    Variable::parameter("single_integrator_gain", vr::SINGLE_INTEGRATOR_GAIN, 0.6, None, "k of the single-integrator compensator, loop k/(z - 1) (0 < k < 2)").with_range(0.0, 2.0),
 ];
 
 static UNITS: [Unit; 3] = [
@@ -180,6 +184,7 @@ fn real_param(p: &mut Params, r: u32) -> Option<&mut f64> {
         vr::ANALOG_GAIN => &mut p.analog_params.gain,
         vr::ANALOG_LOOP_GAIN => &mut p.analog_params.loop_gain,
         vr::ANALOG_RECENTRE_BAND => &mut p.analog_params.recentre_band,
+        vr::SINGLE_INTEGRATOR_GAIN => &mut p.single_integrator_gain,
         r if (vr::BASIS_PEAK..vr::BASIS_PEAK + 10).contains(&r) => {
             &mut p.basis_peaks[(r - vr::BASIS_PEAK) as usize]
         }
@@ -199,6 +204,7 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
         vr::ANALOG => &mut p.analog,
         vr::DISTURBANCE_MAP => &mut p.disturbance_map,
         vr::USE_DISTURBANCE_MAP => &mut p.use_disturbance_map,
+        vr::SINGLE_INTEGRATOR => &mut p.single_integrator,
         _ => return None,
     })
 }
