@@ -68,8 +68,18 @@ fn staircase_regulation() -> Vec<(f64, f64)> {
     (0..STAIRCASE_UM.len()).map(|k| (k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0)).collect()
 }
 
-pub const NAMES: [&str; 9] =
-    ["fig5", "staircase", "calibration", "fia6", "slew", "stall", "analog", "fastgait", "future"];
+pub const NAMES: [&str; 10] = [
+    "fig5",
+    "staircase",
+    "calibration",
+    "fia6",
+    "slew",
+    "stall",
+    "analog",
+    "fastgait",
+    "future",
+    "bdmap",
+];
 
 /// Samples of one gait of the open-loop slews.
 pub const SAMPLES_PER_GAIT: usize = 100;
@@ -270,7 +280,7 @@ impl Scenario {
 // ---- The options of docs/model.md §4.2 (issue 14): analog mode, the 50 Hz gait, both. ----
 
 /// The scenarios of the future-work options, one per feature and one combining them.
-pub const FUTURE_WORK: [&str; 3] = ["analog", "fastgait", "future"];
+pub const FUTURE_WORK: [&str; 4] = ["analog", "fastgait", "future", "bdmap"];
 
 pub fn is_future_work(name: &str) -> bool {
     FUTURE_WORK.contains(&name)
@@ -336,8 +346,109 @@ fn future_work(name: &str) -> Option<Scenario> {
             ],
             regulation: vec![(23.0, 25.0), (27.0, 30.0)],
         },
+        "bdmap" => Scenario {
+            name: "bdmap",
+            title: "Figs. 6-7 staircase: the disturbance from the latest estimate, and from the map (with the single integrator)",
+            duration: 700.0,
+            reference: staircase(),
+            variants: vec![
+                closed("latest estimate", fia20(), Params { prefilter: true, ..Params::default() }),
+                closed("map + single integrator", fia20(), Params {
+                    prefilter: true,
+                    disturbance_map: true,
+                    use_disturbance_map: true,
+                    single_integrator: true,
+                    ..Params::default()
+                }),
+            ],
+            regulation: staircase_regulation(),
+        },
         _ => return None,
     })
+}
+
+/// What a future-work scenario adds to its traces: for `bdmap`, the map learned over the
+/// staircase, as CSV and a figure, and the residuals of the coming step's disturbance
+/// over the staircase and over a 2 mm slew after it (printed). Nothing for the others.
+pub fn write_extras(name: &str, out: &Path) -> Result<(), String> {
+    if name != "bdmap" {
+        return Ok(());
+    }
+    let p = Params { prefilter: true, ..Params::default() };
+    let fia20 = PlantParams::fia20;
+    let table = staircase();
+    let st =
+        closed_loop::disturbance_map_run(fia20(), p.clone(), |t| table.value(0, t), 700.0, 100.0)?;
+    let slew = |t: f64| if t < 700.0 { table.value(0, t) } else { 2.02e-3 };
+    let sl = closed_loop::disturbance_map_run(fia20(), p, slew, 725.0, 700.0)?;
+    for (what, r) in [("staircase (from 100 s)", &st), ("2 mm slew after it", &sl)] {
+        println!(
+            "  BD of the coming step, {what}, {} steps: RMS residual {:.4} µm with the latest estimate, {:.4} µm with the map",
+            r.steps,
+            r.rms_last * 1e6,
+            r.rms_map * 1e6
+        );
+    }
+    let csv = out.join("bdmap_map.csv");
+    let mut text = String::from("ext_cmd,bd_map_staircase\n");
+    for (c, b) in &st.curve {
+        text.push_str(&format!("{c},{b:e}\n"));
+    }
+    std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+    println!("wrote {}", csv.display());
+    let png = out.join("bdmap_map.png");
+    map_png(&st, &png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    println!("wrote {}", png.display());
+    Ok(())
+}
+
+fn map_png(r: &closed_loop::MapRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    use plotters::prelude::*;
+    let orange = RGBColor(220, 80, 0);
+    let root = BitMapBackend::new(path, (1000, 650)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let root = root.titled(
+        "Brake disturbance against the extension command: every step of the staircase, and the map at its end",
+        ("sans-serif", 18),
+    )?;
+    let mut chart = ChartBuilder::on(&root)
+        .margin(15)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(-1.05f64..1.05f64, 3.5f64..6.0f64)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("EXT_cmd (fraction of a full step; negative backward)")
+        .y_desc("BD (µm)")
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    chart
+        .draw_series(
+            r.pairs.iter().map(|&(c, b)| Circle::new((c, b * 1e6), 2, BLUE.mix(0.3).filled())),
+        )?
+        .label(format!("measured BD, {} steps", r.pairs.len()))
+        .legend(|(x, y)| Circle::new((x + 10, y), 3, BLUE.filled()));
+    chart
+        .draw_series(LineSeries::new(
+            r.curve.iter().map(|&(c, b)| (c, b * 1e6)),
+            orange.stroke_width(3),
+        ))?
+        .label(format!(
+            "map at the end; coming-step residual {:.4} µm (latest estimate {:.4} µm)",
+            r.rms_map * 1e6,
+            r.rms_last * 1e6
+        ))
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], orange.stroke_width(3)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()?;
+    root.present()?;
+    Ok(())
 }
 
 /// Settling (within 1 µm and 2 nm), holding RMS and slew rate, judged on the held samples

@@ -300,7 +300,7 @@ fn bd_residuals(
     for k in 0..(duration / SAMPLE_PERIOD).round() as usize {
         let t = k as f64 * SAMPLE_PERIOD;
         let s = c.tick(plant.outputs().encoder_counts, reference(t));
-        if let (Some((e, m)), true) = (c.bd_residuals(), t >= from) {
+        if let (Some((_, e, m)), true) = (c.bd_residuals(), t >= from) {
             a += e * e;
             b += m * m;
             n += 1;

@@ -69,9 +69,10 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
         })?;
     }
     if scenario::is_future_work(s.name) {
-        return super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
+        super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
             scenario::future_work_png(s.title, &names, &views, p)
-        });
+        })?;
+        return scenario::write_extras(s.name, &args.out);
     }
     super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
         plot::closed_loop_png(s.title, &names, &views, p)

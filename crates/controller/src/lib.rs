@@ -258,9 +258,10 @@ pub struct Controller {
     iterations: u64,
     analog: Analog,
     bdmap: Option<DisturbanceMap>,
-    /// At a tick that updated the estimator with the map on: the measured BD minus the
-    /// latest estimate, and minus the map's prediction, both from before the update.
-    bd_residuals: Option<(f64, f64)>,
+    /// At a tick that updated the estimator with the map on: the measured BD, and it
+    /// minus the latest estimate and minus the map's prediction, both from before the
+    /// update.
+    bd_residuals: Option<(f64, f64, f64)>,
 }
 
 /// The plan of a move `d` with the disturbance the map predicts for each of its steps
@@ -349,9 +350,9 @@ impl Controller {
         self.bdmap.as_ref()
     }
 
-    /// Set at a tick that updated the estimator, with the map on: (measured BD − latest
-    /// estimate, measured BD − map prediction), both before the update.
-    pub fn bd_residuals(&self) -> Option<(f64, f64)> {
+    /// Set at a tick that updated the estimator, with the map on: (measured BD, measured
+    /// BD − latest estimate, measured BD − map prediction), both before the update.
+    pub fn bd_residuals(&self) -> Option<(f64, f64, f64)> {
         self.bd_residuals
     }
 
@@ -412,8 +413,11 @@ impl Controller {
                     let t_step = n as f64 * SAMPLE_PERIOD;
                     if let Some(m) = &mut self.bdmap {
                         let level = self.estimator.disturbance();
-                        self.bd_residuals =
-                            Some((raw.bd - level, raw.bd - m.predict_from(level, raw.ext_cmd)));
+                        self.bd_residuals = Some((
+                            raw.bd,
+                            raw.bd - level,
+                            raw.bd - m.predict_from(level, raw.ext_cmd),
+                        ));
                         m.update(t_step, raw.ext_cmd, raw.bd);
                     }
                     self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
