@@ -256,6 +256,19 @@ fn comparison_table_of_the_options() {
         ("50 Hz gait", Params { samples_per_step: 10, ..Params::default() }),
         ("analog (5 Hz gait)", analog()),
         ("50 Hz gait + analog", Params { samples_per_step: 10, ..analog() }),
+        (
+            "disturbance map in use",
+            Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() },
+        ),
+        (
+            "map + single integrator",
+            Params {
+                disturbance_map: true,
+                use_disturbance_map: true,
+                single_integrator: true,
+                ..Params::default()
+            },
+        ),
     ];
     let mut rows = Vec::new();
     for (name, p) in &configs {
