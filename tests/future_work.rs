@@ -296,6 +296,10 @@ fn comparison_table_of_the_options() {
     assert!(both.1 >= 5.0 * base.1 && both.2 * 5.0 <= base.2);
     assert!(ana.3 <= 1.0 * NM && both.3 <= 1.0 * NM && ana.3 < base.3);
     assert!(ana.0 < 3.0 && both.0 < base.0);
+    // The single integrator with the map holds to a nanometre at Fig. 5, where the double
+    // integrator still converges.
+    let single = rows[5];
+    assert!(single.3 <= 1.0 * NM && single.3 < base.3 && single.2 < base.2);
 }
 
 /// The residuals of the map against the measured brake disturbance, step by step:
