@@ -16,20 +16,23 @@
 //! with the reference increment fed forward at once and the feedback comparing the
 //! position with the reference of two ticks before (the loop's delay: tick j's volts are
 //! held during interval j + 1 and read back at tick j + 2). Seen from the sampler
-//! `L(jω) ≈ k_I e^{−jωT} H_b(jω) H_a(jω) / (G jωT)`: an integrator with crossover
-//! `k_I/(2πT)`, one sample of delay and the chain's phase (see [`margins`]).
+//! `L(jω) ≈ k_I e^{−jωT} H_b(jω) H_a(jω) / (jωT)` (chain at unity DC gain): an integrator
+//! with crossover near `k_I/(2πT)`, one sample of delay and the chain's phase (see
+//! [`margins`]: 23.8 Hz, 63.8°, 11.0 dB at the default `k_I` = 0.3).
 //!
 //! # Sequences
 //! Every brake change passes through LOCKED, one channel at a time, each held
 //! [`PHASE_SAMPLES`] samples (the 50 V crossing lags the DAC edge by 0.98 ms and the chain
-//! is within 1 % after about 4 ms):
+//! is within 0.01 % after 2.98 ms):
 //!
 //! * **entry** (from parked HOLD): extension to `mid + offset` in HOLD (the stack moves, the
-//!   runner is held), non-earth closes (LOCKED), earth opens (DRIVE) with the extension
-//!   dropped to `mid + e/g` at the same sample: the drop `offset` cancels the brake
-//!   disturbance that the entry into DRIVE causes, `e` the error left at the entry;
-//! * **re-centring** (the extension near either end of its range): earth closes (LOCKED),
-//!   non-earth opens (HOLD), extension to `mid + offset`, then entry as above;
+//!   runner is held), non-earth closes (LOCKED), the extension drops to `mid` still in
+//!   LOCKED, then the earth opens (DRIVE): the stack force of the drop `offset` is there
+//!   when the brake disturbance arrives and cancels it. The error left at the entry is fed
+//!   forward in DRIVE, through the chain, not released with the brake (a force step would
+//!   ring the 2.1 kHz mode);
+//! * **re-centring** (the next command would leave `[band, 10 V − band]`): the last volts
+//!   held, earth closes (LOCKED), non-earth opens (HOLD), then entry as above;
 //! * **exit** (an error beyond twice `analog_range`): earth closes, non-earth opens, the
 //!   extension returns to 0 in HOLD: parked, and stepping resumes.
 //!
@@ -62,7 +65,7 @@ pub struct AnalogParams {
 
 impl Default for AnalogParams {
     fn default() -> Self {
-        AnalogParams { range: 3e-6, gain: 1.7e-6, loop_gain: 0.3, recentre_band: 1.5 }
+        AnalogParams { range: 2.5e-6, gain: 1.7e-6, loop_gain: 0.3, recentre_band: 1.5 }
     }
 }
 
@@ -81,9 +84,9 @@ impl AnalogParams {
             ));
         }
         let reach = (MID - self.recentre_band) * self.gain;
-        if !(self.range > 0.0 && self.range < reach) {
+        if !(self.range > 0.0 && 2.0 * self.range < reach) {
             return Err(format!(
-                "analog_range must be > 0 and below what the extension reaches from mid-range, (5 V − analog_recentre_band) × analog_gain = {reach:e} m, got {}",
+                "analog_range must be > 0 and twice it (the exit threshold) below what the extension reaches from mid-range, (5 V − analog_recentre_band) × analog_gain = {reach:e} m, got {}",
                 self.range
             ));
         }
@@ -222,7 +225,6 @@ impl Analog {
                 // earth opens. The error left is not taken up here: a move released with
                 // the brake would be a force step, ringing the 2.1 kHz DRIVE mode; it is
                 // fed forward through the analog chain once in DRIVE.
-                let _ = (r, y);
                 self.entered_with = self.hold_x();
                 self.u = MID;
                 self.phase = Phase::Drop(PHASE_SAMPLES - 1);
@@ -236,7 +238,6 @@ impl Analog {
                 // The earth opens: DRIVE. The runner is where it was held, so the loop
                 // starts from that as its reference: the next tick feeds the error
                 // forward. The integrator waits until the entry has arrived.
-                let _ = r;
                 self.learn = LEARN_SAMPLES;
                 self.wait = 2;
                 self.entries += 1;

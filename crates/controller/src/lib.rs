@@ -722,7 +722,7 @@ mod tests {
         let a = AnalogParams::default;
         let cases: [(&str, Params); 5] = [
             ("deadband", Params { deadband: 1e-9, ..on() }),
-            ("analog_range", Params { analog_params: AnalogParams { range: 6e-6, ..a() }, ..on() }),
+            ("analog_range", Params { analog_params: AnalogParams { range: 3e-6, ..a() }, ..on() }),
             ("analog_gain", Params { analog_params: AnalogParams { gain: 0.0, ..a() }, ..on() }),
             (
                 "analog_loop_gain",

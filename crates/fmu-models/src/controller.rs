@@ -127,7 +127,7 @@ static VARIABLES: [Variable; 71] = [
     Variable::parameter("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
     Variable::parameter("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
     Variable::boolean_parameter("analog", vr::ANALOG, false, "Analog mode near the target: hold in DRIVE with the extension under a loop of its own instead of stepping (deadband must be 0)"),
-    Variable::parameter("analog_range", vr::ANALOG_RANGE, 3e-6, M, "Analog mode: enter at an iteration with |reference - position| below this, leave above twice it (0 < range < (5 V - analog_recentre_band) x analog_gain)").with_range(0.0, 2e-5),
+    Variable::parameter("analog_range", vr::ANALOG_RANGE, 2.5e-6, M, "Analog mode: enter at an iteration with |reference - position| below this, leave above twice it (0 < 2 x range < (5 V - analog_recentre_band) x analog_gain)").with_range(0.0, 2e-5),
     Variable::parameter("analog_gain", vr::ANALOG_GAIN, 1.7e-6, Some("m/V"), "Analog mode: DRIVE gain of the extension the loop is designed on, m per DAC volt (> 0)").with_range(1e-8, 1e-4),
     Variable::parameter("analog_loop_gain", vr::ANALOG_LOOP_GAIN, 0.3, None, "Analog mode: integrator gain k_I per sample, u += (k_I / analog_gain) e (0 < k_I < 1)").with_range(0.0, 1.0),
     Variable::parameter("analog_recentre_band", vr::ANALOG_RECENTRE_BAND, 1.5, V, "Analog mode: re-centre the extension when its command leaves [band, 10 V - band] (0.5 <= band < 4 V)").with_range(0.5, 4.0),
