@@ -313,6 +313,104 @@ impl SlewView {
     }
 }
 
+/// Reading a run of the options of docs/model.md §4.2 (issue 14), where the runner is
+/// also held in DRIVE (analog mode) and the gait may be short.
+impl LoopView {
+    /// Samples a position is judged at: parked (all DACs zero) for the previous 2 samples,
+    /// i.e. the step boundaries of any gait, or in analog hold (both brake DACs at 10 V
+    /// for the previous 40 samples, longer than any DRIVE segment of a gait of up to 100
+    /// samples).
+    pub fn held(&self) -> Vec<usize> {
+        (40..self.time.len())
+            .filter(|&i| {
+                self.dac[i - 1..=i].iter().all(|d| *d == [0.0; 3])
+                    || self.dac[i - 39..=i].iter().all(|d| d[0] == 10.0 && d[1] == 10.0)
+            })
+            .collect()
+    }
+
+    /// First time after `from` after which every [`LoopView::held`] sample is within `tol`.
+    pub fn held_settle_time(&self, tol: f64, from: f64) -> Option<f64> {
+        let held: Vec<usize> = self.held().into_iter().filter(|&i| self.time[i] > from).collect();
+        match held.iter().rposition(|&i| self.error(i).abs() > tol) {
+            None => held.first().map(|&i| self.time[i]),
+            Some(j) => held.get(j + 1).map(|&i| self.time[i]),
+        }
+    }
+
+    /// RMS error of the [`LoopView::held`] samples in `[from, to)` s.
+    pub fn held_rms(&self, from: f64, to: f64) -> f64 {
+        let e: Vec<f64> = self
+            .held()
+            .into_iter()
+            .filter(|&i| self.time[i] >= from && self.time[i] < to)
+            .map(|i| self.error(i))
+            .collect();
+        (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
+    }
+
+    /// Mean speed (m/s) between 10 % and 90 % of a move from 0 to `distance` > 0.
+    pub fn slew_rate(&self, distance: f64) -> Option<f64> {
+        let at = |f: f64| {
+            self.encoder_position.iter().position(|&y| y >= f * distance).map(|i| self.time[i])
+        };
+        Some(0.8 * distance / (at(0.9)? - at(0.1)?))
+    }
+}
+
+/// The brake-disturbance map of a run (docs/model.md §4.2): the measured `(EXT_cmd, BD)`
+/// of every step, the map at its end, and the residuals of the coming step's disturbance
+/// against the latest estimate and against the map's prediction, from `from` s on.
+#[derive(Clone, Debug, Default)]
+pub struct MapRun {
+    pub pairs: Vec<(f64, f64)>,
+    /// The final map at EXT_cmd = −1, −0.98, …, 1.
+    pub curve: Vec<(f64, f64)>,
+    pub rms_last: f64,
+    pub rms_map: f64,
+    pub steps: usize,
+}
+
+/// Runs the loop directly coupled, as [`run`], with `controller.disturbance_map` on.
+pub fn disturbance_map_run(
+    plant: PlantParams,
+    controller: Params,
+    reference: impl Fn(f64) -> f64,
+    duration: f64,
+    from: f64,
+) -> Result<MapRun, String> {
+    let controller = Params { disturbance_map: true, ..controller };
+    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    let mut ctrl = Controller::new(controller)?;
+    let mut held = [0.0; 3];
+    let mut out = MapRun::default();
+    let (mut a, mut b) = (0.0, 0.0);
+    for k in 0..(duration / SAMPLE_PERIOD).round() as usize {
+        let t = k as f64 * SAMPLE_PERIOD;
+        let s = ctrl.tick(plant.outputs().encoder_counts, reference(t));
+        if let Some((bd, last, map)) = ctrl.bd_residuals() {
+            let m = ctrl.disturbance_map().expect("the map is on");
+            // The update just made: its command, and the BD it measured.
+            out.pairs.push((m.last_command, bd));
+            if t >= from {
+                a += last * last;
+                b += map * map;
+                out.steps += 1;
+            }
+        }
+        plant
+            .step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, SAMPLE_PERIOD)
+            .map_err(|e| e.to_string())?;
+        held = s.dac;
+    }
+    let n = out.steps.max(1) as f64;
+    out.rms_last = (a / n).sqrt();
+    out.rms_map = (b / n).sqrt();
+    let m = ctrl.disturbance_map().expect("the map is on");
+    out.curve = (-50..=50).map(|k| (k as f64 / 50.0, m.predict(k as f64 / 50.0))).collect();
+    Ok(out)
+}
+
 #[cfg(test)]
 mod slew_tests {
     use super::*;

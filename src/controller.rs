@@ -35,6 +35,31 @@ pub fn parameters(p: &Params) -> Vec<(String, String)> {
         v.push((format!("basis_peak[{}]", i + 1), format!("{peak}")));
         v.push((format!("scale_weights_start[{}]", i + 1), format!("{weight}")));
     }
+    // The options of docs/model.md §4.2, only when on: runs with them off set exactly the
+    // parameters they always did.
+    if p.analog {
+        v.push(("analog".into(), "true".into()));
+        let a = &p.analog_params;
+        for (n, x) in [
+            ("analog_range", a.range),
+            ("analog_gain", a.gain),
+            ("analog_loop_gain", a.loop_gain),
+            ("analog_recentre_band", a.recentre_band),
+        ] {
+            v.push((n.to_string(), format!("{x}")));
+        }
+    }
+    for (n, on) in
+        [("disturbance_map", p.disturbance_map), ("use_disturbance_map", p.use_disturbance_map)]
+    {
+        if on {
+            v.push((n.to_string(), "true".into()));
+        }
+    }
+    if p.single_integrator {
+        v.push(("single_integrator".into(), "true".into()));
+        v.push(("single_integrator_gain".into(), format!("{}", p.single_integrator_gain)));
+    }
     v.into_iter().map(|(n, x)| (format!("controller.{n}"), x)).collect()
 }
 

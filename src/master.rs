@@ -39,6 +39,11 @@ pub struct InputTable {
 }
 
 impl InputTable {
+    /// The `(time, value)` rows of column `column`.
+    pub fn points(&self, column: usize) -> Vec<(f64, f64)> {
+        self.rows.iter().map(|(t, v)| (*t, v[column])).collect()
+    }
+
     /// One signal from `(time, value)` rows, held from each time on; the times as
     /// [`InputTable::parse`] wants them, non-decreasing and finite.
     pub fn steps(name: &str, rows: &[(f64, f64)]) -> Result<InputTable, String> {

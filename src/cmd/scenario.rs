@@ -71,6 +71,12 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
             r.write_csv(w)
         })?;
     }
+    if scenario::is_future_work(s.name) {
+        super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
+            scenario::future_work_png(s.title, &names, &views, p)
+        })?;
+        return scenario::write_extras(s.name, &args.out);
+    }
     super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
         plot::closed_loop_png(s.title, &names, &views, p)
     })

@@ -78,6 +78,46 @@ impl Loop {
         self.compensator.step(g, error) + ff
     }
 
+    /// [`Loop::iterate`] with the single-integrator compensator `C(z) = k` (the plant's
+    /// own integrator is the loop's only one, `L(z) = k/(z − 1)`): for use with the
+    /// disturbance map, whose prediction removes the per-step disturbance the second
+    /// integrator was there for. The compensator's state is not touched.
+    #[allow(clippy::too_many_arguments)]
+    pub fn iterate_single(
+        &mut self,
+        k: f64,
+        g: &Gains,
+        r: f64,
+        y: f64,
+        prefilter: bool,
+        feedforward: bool,
+        deadband: f64,
+    ) -> f64 {
+        if !self.started {
+            self.started = true;
+            self.prefilter.start(y);
+            self.feedforward.start(y);
+        }
+        let r = if prefilter { self.prefilter.filter(g.prefilter_pole, r) } else { r };
+        if (r - y).abs() < deadband {
+            self.feedforward.hold(r);
+            return 0.0;
+        }
+        let (error, ff) = self.feedforward.split(r, y, feedforward);
+        k * error + ff
+    }
+
+    /// No move: the target is held another way (analog mode). The integrators hold, and
+    /// the prefilter and the feedforward take `r` as reached, so stepping resumes from it.
+    pub fn hold(&mut self, r: f64, y: f64) {
+        if !self.started {
+            self.started = true;
+            self.feedforward.start(y);
+        }
+        self.prefilter.start(r);
+        self.feedforward.hold(r);
+    }
+
     pub(crate) fn save(&self, w: &mut inchworm_state_bytes::Writer) {
         w.u8(u8::from(self.started));
         for v in [
@@ -184,9 +224,44 @@ pub fn margins(g: &Gains, fs: f64) -> Margins {
     }
 }
 
+/// Margins of the single-integrator loop `L(z) = k/(z − 1)` at iteration rate `fs`, in
+/// closed form: `|L| = k / (2 sin(w/2))`, `arg L = −90° − w/2`, `L(−1) = −k/2`.
+pub fn single_integrator_margins(k: f64, fs: f64) -> Margins {
+    let wc = 2.0 * (k / 2.0).asin();
+    let to_hz = |w: f64| w * fs / (2.0 * std::f64::consts::PI);
+    // Closed loop k/(z − 1 + k): |T|² = k² / (k² + 2(1 − k)(1 − cos w)) = 1/2.
+    let c = 1.0 - k * k / (2.0 * (1.0 - k));
+    Margins {
+        crossover_hz: to_hz(wc),
+        phase_margin_deg: 90.0 - (wc / 2.0).to_degrees(),
+        gain_margin_db: -20.0 * (k / 2.0).log10(),
+        closed_loop_bandwidth_hz: if k < 1.0 && c.abs() <= 1.0 {
+            to_hz(c.acos())
+        } else {
+            fs / 2.0
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn single_integrator_margins_in_closed_form() {
+        let k = 0.6;
+        let m = single_integrator_margins(k, 5.0);
+        let w = m.crossover_hz * 2.0 * std::f64::consts::PI / 5.0;
+        // |k/(e^{jw} − 1)| = 1 and arg = −90° − w/2 at the crossover.
+        let (re, im) = (w.cos() - 1.0, w.sin());
+        assert!((k / re.hypot(im) - 1.0).abs() < 1e-12);
+        let phase = (-im).atan2(re).to_degrees(); // arg(1/(e^{jw} − 1))
+        assert!((180.0 + phase - m.phase_margin_deg).abs() < 1e-9, "{phase} {m:?}");
+        assert!(
+            (m.gain_margin_db - 10.4576).abs() < 1e-4 && (m.phase_margin_deg - 72.54).abs() < 0.01
+        );
+        assert!((m.crossover_hz - 0.4849).abs() < 1e-4);
+    }
 
     #[test]
     fn margins_of_the_implemented_gains_meet_spec_4() {

@@ -29,7 +29,9 @@
 //! count at t = 0 (which also starts the prefilter and the feedforward's previous
 //! reference there).
 
+pub mod analog;
 pub mod basis;
+pub mod bdmap;
 pub mod compensator;
 pub mod estimator;
 pub mod feedforward;
@@ -38,7 +40,9 @@ pub mod measurements;
 pub mod prefilter;
 pub mod waveform;
 
+use analog::{Analog, AnalogParams};
 use basis::Basis;
+use bdmap::DisturbanceMap;
 use compensator::{Gains, Loop};
 use estimator::{Estimator, Noise};
 use gait::{Direction, Timing};
@@ -81,6 +85,18 @@ pub struct Params {
     pub disturbance_start: f64,
     /// Encoder resolution (m per count).
     pub q_enc: f64,
+    /// Analog mode near the target ([`analog`], docs/model.md §4.2); default off.
+    pub analog: bool,
+    pub analog_params: AnalogParams,
+    /// Estimate the brake-disturbance map over the extension command ([`bdmap`]).
+    pub disturbance_map: bool,
+    /// Plan with the map's prediction for the coming step instead of the latest estimate
+    /// (needs `disturbance_map` and `use_disturbance_estimate`).
+    pub use_disturbance_map: bool,
+    /// The single-integrator compensator `C(z) = single_integrator_gain` instead of
+    /// `K (z − a)/(z − 1)` (needs `use_disturbance_map`).
+    pub single_integrator: bool,
+    pub single_integrator_gain: f64,
 }
 
 impl Default for Params {
@@ -98,6 +114,12 @@ impl Default for Params {
             scale_weights_start: CALIBRATED_WEIGHTS,
             disturbance_start: CALIBRATED_DISTURBANCE,
             q_enc: 1.2e-9,
+            analog: false,
+            analog_params: AnalogParams::default(),
+            disturbance_map: false,
+            use_disturbance_map: false,
+            single_integrator: false,
+            single_integrator_gain: 0.6,
         }
     }
 }
@@ -155,6 +177,29 @@ impl Params {
         }
         finite("disturbance_start", self.disturbance_start)?;
         positive("q_enc", self.q_enc)?;
+        if self.use_disturbance_map && !(self.disturbance_map && self.use_disturbance_estimate) {
+            return Err(
+                "use_disturbance_map needs disturbance_map and use_disturbance_estimate on".into(),
+            );
+        }
+        if self.single_integrator {
+            if !self.use_disturbance_map {
+                return Err("single_integrator needs use_disturbance_map on (the map's prediction replaces the second integrator)".into());
+            }
+            let k = self.single_integrator_gain;
+            if !(k > 0.0 && k < 2.0) {
+                return Err(format!("single_integrator_gain must be in (0, 2), got {k}"));
+            }
+        }
+        if self.analog {
+            self.analog_params.validate()?;
+            if self.deadband > 0.0 {
+                return Err(format!(
+                    "deadband must be 0 with analog on (analog mode holds the target instead of parking), got {}",
+                    self.deadband
+                ));
+            }
+        }
         Ok(())
     }
 }
@@ -211,6 +256,30 @@ pub struct Controller {
     fraction_left: Option<f64>,
     plan: Option<Plan>,
     iterations: u64,
+    analog: Analog,
+    bdmap: Option<DisturbanceMap>,
+    /// At a tick that updated the estimator with the map on: the measured BD, and it
+    /// minus the latest estimate and minus the map's prediction, both from before the
+    /// update.
+    bd_residuals: Option<(f64, f64, f64)>,
+}
+
+/// The plan of a move `d` with the disturbance the map predicts for each of its steps
+/// from the latest estimate `level`:
+/// the full steps' at ±1, the fraction's at its own amplitude (a fixed point, three
+/// passes: the map is flat to a few percent over a step's change of amplitude).
+fn mapped_plan(basis: &Basis, theta: &[f64; 10], map: &DisturbanceMap, level: f64, d: f64) -> Plan {
+    let predict = |c: f64| map.predict_from(level, c);
+    let full = predict(if d >= 0.0 { 1.0 } else { -1.0 });
+    let mut plan = waveform::plan(basis, theta, full, d);
+    let sd = if d >= 0.0 { plan.step_forward } else { plan.step_backward };
+    let frac_d = d - f64::from(plan.n_steps) * sd.unwrap_or(0.0);
+    let mut y = basis.eval(frac_d - full, theta).clamp(-1.0, 1.0);
+    for _ in 0..3 {
+        y = basis.eval(frac_d - predict(y), theta).clamp(-1.0, 1.0);
+    }
+    plan.fraction = y;
+    plan
 }
 
 fn quantize(v: f64) -> (f64, u16) {
@@ -249,6 +318,16 @@ impl Controller {
             fraction_left: None,
             plan: None,
             iterations: 0,
+            analog: Analog::new(params.disturbance_start / params.analog_params.gain),
+            bdmap: params.disturbance_map.then(|| {
+                DisturbanceMap::new(
+                    params.disturbance_start,
+                    params.noise.disturbance_prior,
+                    params.noise.disturbance_process,
+                    params.noise.bd_measurement,
+                )
+            }),
+            bd_residuals: None,
             params,
         })
     }
@@ -259,6 +338,22 @@ impl Controller {
 
     pub fn estimator(&self) -> &Estimator {
         &self.estimator
+    }
+
+    /// The analog mode's state (phase, extension command, entries and re-centrings).
+    pub fn analog(&self) -> &Analog {
+        &self.analog
+    }
+
+    /// The brake-disturbance map, when `disturbance_map` is on.
+    pub fn disturbance_map(&self) -> Option<&DisturbanceMap> {
+        self.bdmap.as_ref()
+    }
+
+    /// Set at a tick that updated the estimator, with the map on: (measured BD, measured
+    /// BD − latest estimate, measured BD − map prediction), both before the update.
+    pub fn bd_residuals(&self) -> Option<(f64, f64, f64)> {
+        self.bd_residuals
     }
 
     /// Control iterations run so far.
@@ -284,6 +379,21 @@ impl Controller {
         let y_now = encoder_counts as f64 * self.params.q_enc;
         let mut iterated = false;
         let mut no_root = false;
+        if self.bdmap.is_some() {
+            self.bd_residuals = None;
+        }
+        if self.analog.active() {
+            let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
+            if !self.analog.active() {
+                // Parked again: the next tick starts a step with nothing to measure, and
+                // the stepping loop's feedforward from where the runner was held.
+                self.feedback.hold(self.analog.tracked(), y_now);
+                self.sample = 1;
+                self.first = true;
+                self.current = StepKind::Idle;
+            }
+            return self.output(volts, reference, y_now, false, false);
+        }
         if self.sample == 1 {
             // The encoder reads w_enc(n) of the step that just finished.
             let mut y_measured = y_now;
@@ -301,25 +411,68 @@ impl Controller {
                 );
                 if direction.is_some() {
                     let t_step = n as f64 * SAMPLE_PERIOD;
+                    if let Some(m) = &mut self.bdmap {
+                        let level = self.estimator.disturbance();
+                        self.bd_residuals = Some((
+                            raw.bd,
+                            raw.bd - level,
+                            raw.bd - m.predict_from(level, raw.ext_cmd),
+                        ));
+                        m.update(t_step, raw.ext_cmd, raw.bd);
+                    }
                     self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
                 }
                 y_measured = raw.s[6];
             }
             self.first = false;
+            if self.params.analog
+                && self.full_steps_left == 0
+                && self.fraction_left.is_none()
+                && (reference - y_measured).abs() < self.params.analog_params.range
+            {
+                // Near the target: hold in DRIVE instead of stepping. The feedforward takes
+                // the reference as its previous one, as in the deadband.
+                self.feedback.hold(reference, y_measured);
+                self.iterations += 1;
+                self.analog.offset =
+                    if self.params.use_disturbance_estimate && self.analog.entries == 0 {
+                        self.estimator.disturbance() / self.params.analog_params.gain
+                    } else {
+                        self.analog.offset
+                    };
+                self.analog.enter();
+                let volts = self.analog.tick(&self.params.analog_params, y_now, reference);
+                return self.output(volts, reference, y_now, true, false);
+            }
             if self.full_steps_left == 0 && self.fraction_left.is_none() {
-                let d = self.feedback.iterate(
-                    &self.params.gains,
-                    reference,
-                    y_measured,
-                    self.params.prefilter,
-                    self.params.feedforward,
-                    self.params.deadband,
-                );
+                let d = if self.params.single_integrator {
+                    self.feedback.iterate_single(
+                        self.params.single_integrator_gain,
+                        &self.params.gains,
+                        reference,
+                        y_measured,
+                        self.params.prefilter,
+                        self.params.feedforward,
+                        self.params.deadband,
+                    )
+                } else {
+                    self.feedback.iterate(
+                        &self.params.gains,
+                        reference,
+                        y_measured,
+                        self.params.prefilter,
+                        self.params.feedforward,
+                        self.params.deadband,
+                    )
+                };
                 self.iterations += 1;
                 iterated = true;
                 if d != 0.0 || self.params.deadband == 0.0 {
                     let (theta, bd) = self.estimates();
-                    let plan = waveform::plan(&self.basis, &theta, bd, d);
+                    let plan = match (&self.bdmap, self.params.use_disturbance_map) {
+                        (Some(m), true) => mapped_plan(&self.basis, &theta, m, bd, d),
+                        _ => waveform::plan(&self.basis, &theta, bd, d),
+                    };
                     no_root = plan.no_root;
                     self.full_steps_left = plan.n_steps;
                     self.move_direction =
@@ -354,7 +507,18 @@ impl Controller {
             self.ext[next - 1] = volts[2] / DAC_FULL_SCALE;
         }
         self.sample = next;
+        self.output(volts, reference, y_now, iterated, no_root)
+    }
 
+    /// The sample for commanded `volts`, with the plan outputs of the latest move.
+    fn output(
+        &self,
+        volts: [f64; 3],
+        reference: f64,
+        y_now: f64,
+        iterated: bool,
+        no_root: bool,
+    ) -> Sample {
         let q = volts.map(quantize);
         let plan = self.plan.unwrap_or(Plan {
             step_forward: None,
@@ -374,7 +538,7 @@ impl Controller {
             n_steps: plan.n_steps,
             fraction: plan.fraction,
             scale_weights: self.estimator.weights(),
-            moving: matches!(self.current, StepKind::Gait { .. }),
+            moving: matches!(self.current, StepKind::Gait { .. }) || self.analog.active(),
             iterated,
             no_root,
         }
@@ -427,6 +591,13 @@ impl Controller {
             }
         }
         w.u64(self.iterations);
+        // Only with the option on, so the default layout is unchanged.
+        if self.params.analog {
+            self.analog.save(&mut w);
+        }
+        if let Some(m) = &self.bdmap {
+            m.save(&mut w);
+        }
     }
 
     /// Restores what `save_state` wrote, for a controller with the same parameters; on
@@ -485,6 +656,12 @@ impl Controller {
             None
         };
         next.iterations = r.u64()?;
+        if self.params.analog {
+            next.analog = Analog::load(&mut r)?;
+        }
+        if let Some(m) = &mut next.bdmap {
+            m.load(&mut r)?;
+        }
         r.finish()?;
         if !(1..=self.timing.samples).contains(&next.sample) {
             return Err(format!("controller state: sample {} outside the step", next.sample));
@@ -535,6 +712,94 @@ mod tests {
             let e = p.validate().expect_err(field);
             assert!(e.starts_with(field), "error for {field}: {e:?}");
             assert!(Controller::new(p).is_err());
+        }
+    }
+
+    #[test]
+    fn analog_options_are_checked_together() {
+        let on = || Params { analog: true, ..Params::default() };
+        assert_eq!(on().validate(), Ok(()));
+        let a = AnalogParams::default;
+        let cases: [(&str, Params); 5] = [
+            ("deadband", Params { deadband: 1e-9, ..on() }),
+            ("analog_range", Params { analog_params: AnalogParams { range: 3e-6, ..a() }, ..on() }),
+            ("analog_gain", Params { analog_params: AnalogParams { gain: 0.0, ..a() }, ..on() }),
+            (
+                "analog_loop_gain",
+                Params { analog_params: AnalogParams { loop_gain: 1.0, ..a() }, ..on() },
+            ),
+            (
+                "analog_recentre_band",
+                Params { analog_params: AnalogParams { recentre_band: 4.0, ..a() }, ..on() },
+            ),
+        ];
+        for (field, p) in cases {
+            let e = p.validate().expect_err(field);
+            assert!(e.starts_with(field), "error for {field}: {e:?}");
+            // Off, the analog values are not looked at.
+            assert_eq!(Params { analog: false, deadband: 0.0, ..p }.validate(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn the_disturbance_map_flag_needs_the_map_and_the_estimate() {
+        let e = Params { use_disturbance_map: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("use_disturbance_map"), "{e}");
+        let p = Params {
+            use_disturbance_map: true,
+            disturbance_map: true,
+            use_disturbance_estimate: false,
+            ..Params::default()
+        };
+        assert!(p.validate().is_err());
+        assert_eq!(Params { use_disturbance_map: false, ..p }.validate(), Ok(()));
+        let e = Params { single_integrator: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("single_integrator"), "{e}");
+        let p = Params {
+            single_integrator: true,
+            single_integrator_gain: 2.0,
+            disturbance_map: true,
+            use_disturbance_map: true,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().starts_with("single_integrator_gain"));
+        assert_eq!(Params { single_integrator_gain: 0.6, ..p }.validate(), Ok(()));
+    }
+
+    #[test]
+    fn disturbance_map_state_round_trips() {
+        let p = Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() };
+        let mut c = Controller::new(p.clone()).unwrap();
+        for k in 0..1000 {
+            c.tick(k / 10, 30e-6);
+        }
+        let mut bytes = Vec::new();
+        c.save_state(&mut bytes);
+        let mut d = Controller::new(p).unwrap();
+        d.load_state(&bytes).unwrap();
+        assert_eq!(c.disturbance_map(), d.disturbance_map());
+        for k in 1000..1500 {
+            assert_eq!(c.tick(k / 10, 30e-6), d.tick(k / 10, 30e-6), "tick {k}");
+        }
+    }
+
+    #[test]
+    fn analog_state_is_saved_only_with_the_option_on() {
+        let mut off = Vec::new();
+        Controller::new(Params::default()).unwrap().save_state(&mut off);
+        let mut c = Controller::new(Params { analog: true, ..Params::default() }).unwrap();
+        // Into analog hold: the first iteration is within range of the reference.
+        for _ in 0..20 {
+            c.tick(0, 1e-6);
+        }
+        assert!(c.analog().active());
+        let mut on = Vec::new();
+        c.save_state(&mut on);
+        assert!(on.len() > off.len());
+        let mut d = Controller::new(Params { analog: true, ..Params::default() }).unwrap();
+        d.load_state(&on).unwrap();
+        for k in 0..200 {
+            assert_eq!(c.tick(k, 1e-6), d.tick(k, 1e-6), "tick {k}");
         }
     }
 

@@ -41,6 +41,9 @@ fn tick_does_not_allocate() {
             samples_per_step: 10,
             ..Params::default()
         },
+        // Analog mode: entries, holds, re-centrings and exits.
+        Params { analog: true, samples_per_step: 10, ..Params::default() },
+        Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() },
     ] {
         let before_new = ALLOCATIONS.with(Cell::get);
         let mut c = Controller::new(p).unwrap();

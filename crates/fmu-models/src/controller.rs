@@ -48,13 +48,22 @@ mod vr {
     pub const DISTURBANCE_START: u32 = 116;
     pub const BASIS_PEAK: u32 = 120; // ..=129
     pub const SCALE_WEIGHTS_START: u32 = 130; // ..=139
+    pub const ANALOG: u32 = 140;
+    pub const ANALOG_RANGE: u32 = 141;
+    pub const ANALOG_GAIN: u32 = 142;
+    pub const ANALOG_LOOP_GAIN: u32 = 143;
+    pub const ANALOG_RECENTRE_BAND: u32 = 144;
+    pub const DISTURBANCE_MAP: u32 = 145;
+    pub const USE_DISTURBANCE_MAP: u32 = 146;
+    pub const SINGLE_INTEGRATOR: u32 = 147;
+    pub const SINGLE_INTEGRATOR_GAIN: u32 = 148;
 }
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
 #[rustfmt::skip]
-static VARIABLES: [Variable; 62] = [
+static VARIABLES: [Variable; 71] = [
     Variable::input("reference", vr::REFERENCE, 0.0, M, "Reference position of the runner"),
     Variable::integer_input("encoder_counts", vr::ENCODER_COUNTS, 0, None, "Encoder reading of the plant (counts of q_enc)"),
     Variable::output("dac_earth", vr::DAC_EARTH, Kind::Real, V, "Earth-brake DAC volts to hold over the next 2 ms sample (16-bit quantized)").discrete(),
@@ -117,10 +126,22 @@ static VARIABLES: [Variable; 62] = [
     Variable::parameter("scale_weights_start[8]", vr::SCALE_WEIGHTS_START + 7, CALIBRATED_WEIGHTS[7], None, "Initial inverse scale factor weight 8 (fia20 calibration)"),
     Variable::parameter("scale_weights_start[9]", vr::SCALE_WEIGHTS_START + 8, CALIBRATED_WEIGHTS[8], None, "Initial inverse scale factor weight 9 (fia20 calibration)"),
     Variable::parameter("scale_weights_start[10]", vr::SCALE_WEIGHTS_START + 9, CALIBRATED_WEIGHTS[9], None, "Initial inverse scale factor weight 10 (fia20 calibration)"),
+    Variable::boolean_parameter("analog", vr::ANALOG, false, "Analog mode near the target: hold in DRIVE with the extension under a loop of its own instead of stepping (deadband must be 0)"),
+    Variable::parameter("analog_range", vr::ANALOG_RANGE, 2.5e-6, M, "Analog mode: enter at an iteration with |reference - position| below this, leave above twice it (0 < 2 x range < (5 V - analog_recentre_band) x analog_gain)").with_range(0.0, 2e-5),
+    Variable::parameter("analog_gain", vr::ANALOG_GAIN, 1.7e-6, Some("m/V"), "Analog mode: DRIVE gain of the extension the loop is designed on, m per DAC volt (> 0)").with_range(1e-8, 1e-4),
+    Variable::parameter("analog_loop_gain", vr::ANALOG_LOOP_GAIN, 0.3, None, "Analog mode: integrator gain k_I per sample, u += (k_I / analog_gain) e (0 < k_I < 1)").with_range(0.0, 1.0),
+    Variable::parameter("analog_recentre_band", vr::ANALOG_RECENTRE_BAND, 1.5, V, "Analog mode: re-centre the extension when its command leaves [band, 10 V - band] (0.5 <= band < 4 V)").with_range(0.5, 4.0),
+    Variable::boolean_parameter("disturbance_map", vr::DISTURBANCE_MAP, false, "Estimate the brake-disturbance map over the extension command (a second Kalman filter, 9 weights)"),
+    Variable::boolean_parameter("use_disturbance_map", vr::USE_DISTURBANCE_MAP, false, "Plan with the map's prediction for the coming step (needs disturbance_map and use_disturbance_estimate)"),
+    Variable::boolean_parameter("single_integrator", vr::SINGLE_INTEGRATOR, false, "Single-integrator compensator C(z) = single_integrator_gain instead of K (z - a)/(z - 1) (needs use_disturbance_map)"),
+    Variable::parameter("single_integrator_gain", vr::SINGLE_INTEGRATOR_GAIN, 0.6, None, "k of the single-integrator compensator, loop k/(z - 1) (0 < k < 2)").with_range(0.0, 2.0),
 ];
 
-static UNITS: [Unit; 2] =
-    [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 }];
+static UNITS: [Unit; 3] = [
+    Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
+    Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 },
+    Unit { name: "m/V", kg: -1, m: -1, s: 3, a: 1 },
+];
 
 static INFO: ModelInfo = ModelInfo {
     model_name: "InchwormController",
@@ -159,6 +180,11 @@ fn real_param(p: &mut Params, r: u32) -> Option<&mut f64> {
         vr::BD_NOISE => &mut p.noise.bd_measurement,
         vr::Q_ENC => &mut p.q_enc,
         vr::DISTURBANCE_START => &mut p.disturbance_start,
+        vr::ANALOG_RANGE => &mut p.analog_params.range,
+        vr::ANALOG_GAIN => &mut p.analog_params.gain,
+        vr::ANALOG_LOOP_GAIN => &mut p.analog_params.loop_gain,
+        vr::ANALOG_RECENTRE_BAND => &mut p.analog_params.recentre_band,
+        vr::SINGLE_INTEGRATOR_GAIN => &mut p.single_integrator_gain,
         r if (vr::BASIS_PEAK..vr::BASIS_PEAK + 10).contains(&r) => {
             &mut p.basis_peaks[(r - vr::BASIS_PEAK) as usize]
         }
@@ -175,6 +201,10 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
         vr::PREFILTER => &mut p.prefilter,
         vr::USE_SCALE_FACTOR_ESTIMATE => &mut p.use_scale_factor_estimate,
         vr::USE_DISTURBANCE_ESTIMATE => &mut p.use_disturbance_estimate,
+        vr::ANALOG => &mut p.analog,
+        vr::DISTURBANCE_MAP => &mut p.disturbance_map,
+        vr::USE_DISTURBANCE_MAP => &mut p.use_disturbance_map,
+        vr::SINGLE_INTEGRATOR => &mut p.single_integrator,
         _ => return None,
     })
 }
