@@ -43,7 +43,7 @@ fn rusage(who: libc::c_int) -> f64 {
 }
 
 fn main() {
-    let ssp = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist/InchwormSystem.ssp");
+    let ssp = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist/InchwormSystemOpen.ssp");
     if !ssp.is_file() {
         eprintln!("bench sweep: build dist/ first: cargo run --release -p fmu-build");
         std::process::exit(1);

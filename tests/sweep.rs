@@ -13,7 +13,7 @@ use inchworm::sweep::{json_line, results_csv};
 const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 
 fn ssp() -> PathBuf {
-    let p = Path::new(DIST).join("InchwormSystem.ssp");
+    let p = Path::new(DIST).join("InchwormSystemOpen.ssp");
     assert!(p.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
     p
 }

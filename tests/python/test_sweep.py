@@ -16,7 +16,7 @@ sys.path.insert(0, str(ROOT / "python" / "inchworm_dask"))
 import inchworm_dask  # noqa: E402
 
 EXE = ROOT / "target" / "release" / "inchworm"
-SSP = ROOT / "dist" / "InchwormSystem.ssp"
+SSP = ROOT / "dist" / "InchwormSystemOpen.ssp"
 METRICS = ["settle:1e-6", "rms:6:10", "disturbance", "slips", "max:plant.runner_position"]
 
 
