@@ -17,6 +17,8 @@ pub enum ImportError {
     UnsafePath(String),
     /// The archive has no `modelDescription.xml` at its root.
     NoModelDescription,
+    /// The archive passes a cap of [`crate::archive::Limits`] (the text says which).
+    Limit(String),
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
     Description { line: usize, column: usize, message: String },
     /// `fmiVersion` is not 2.x.
@@ -49,6 +51,7 @@ impl fmt::Display for ImportError {
                 )
             }
             ImportError::NoModelDescription => write!(f, "the archive has no modelDescription.xml at its root"),
+            ImportError::Limit(what) => write!(f, "{what}: refused"),
             ImportError::Description { line, column, message } => {
                 write!(f, "modelDescription.xml line {line}, column {column}: {message}")
             }
