@@ -34,6 +34,14 @@ pub fn write_file(
     Ok(())
 }
 
+/// Creates `path` (and its folder) for a writer that fills it over time, as `inchworm run`
+/// streams its rows; the caller flushes it and says `wrote`.
+pub fn create_file(path: &Path) -> Result<BufWriter<File>, String> {
+    create_parent(path)?;
+    let f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(BufWriter::new(f))
+}
+
 /// [`write_file`] for a plot: plotters creates and writes the PNG itself, so this only
 /// makes the folder, draws and reports.
 pub fn write_png(
