@@ -47,7 +47,7 @@ impl fmt::Display for ImportError {
             ImportError::UnsafePath(p) => {
                 write!(
                     f,
-                    "the archive entry `{p}` points outside the FMU (absolute or `..` path): refused"
+                    "the archive entry `{p}` points outside the archive (absolute or `..` path): refused"
                 )
             }
             ImportError::NoModelDescription => write!(f, "the archive has no modelDescription.xml at its root"),
