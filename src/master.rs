@@ -664,7 +664,24 @@ impl Simulation {
             if only.is_none_or(|c| c == dst.component) {
                 let v = match feed {
                     Feed::Latest(j) => self.latest[j],
-                    Feed::SystemInput(j) => self.input_value(j, t),
+                    Feed::SystemInput(j) => {
+                        let v = self.input_value(j, t);
+                        // A CSV value for an Integer input: out of 32 bits, the cast
+                        // would saturate silently.
+                        let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
+                        if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
+                            let name = match (self.input_columns[j], &self.input) {
+                                (Some(c), Some(table)) => table.names[c].as_str(),
+                                _ => "?",
+                            };
+                            return Err(format!(
+                                "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
+                                i32::MIN,
+                                i32::MAX
+                            ));
+                        }
+                        v
+                    }
                 };
                 self.values[i] = v;
             }

@@ -430,3 +430,14 @@ def test_a_parse_failure_leaves_no_folder(tmp, tmp_path):
     r = run_ssp(tmp, tmp_path, SSP, "--output", "plant.no_such_variable")
     assert r.returncode == 1
     assert "no_such_variable" in error_line(r)
+
+
+def test_an_integer_input_out_of_range_is_refused_not_saturated(tmp, tmp_path):
+    csv = ref_csv(tmp_path, "time,encoder_counts\n0,0\n0.004,3e9\n", "int.csv")
+    out = tmp_path / "o.csv"
+    r = inchworm(tmp, "run", DIST / "InchwormController.fmu", "--input", csv, "--stop-time", "0.01", "--out", out)
+    assert r.returncode == 1
+    assert error_line(r) == (
+        "error: input CSV column `encoder_counts` = 3000000000 at t = 0.004: out of the Integer range "
+        f"-2147483648..=2147483647 ({out} holds the rows to t = 0.004 s)"
+    )
