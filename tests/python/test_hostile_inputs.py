@@ -441,3 +441,14 @@ def test_an_integer_input_out_of_range_is_refused_not_saturated(tmp, tmp_path):
         "error: input CSV column `encoder_counts` = 3000000000 at t = 0.004: out of the Integer range "
         f"-2147483648..=2147483647 ({out} holds the rows to t = 0.004 s)"
     )
+
+
+def test_an_input_csv_past_its_cap_is_refused(tmp, tmp_path):
+    csv = ref_csv(tmp_path, "time,reference\n" + "0,1e-4\n" * 1000, "big.csv")
+    r = inchworm(tmp, "run", SSP, "--input", csv, "--stop-time", "0.01", "--out", tmp_path / "o.csv",
+                 env={"INCHWORM_MAX_INPUT_BYTES": "1000"})
+    assert r.returncode == 1
+    assert error_line(r) == (
+        f"error: {csv}: the input CSV is larger than 1000 bytes "
+        "(raise the limit with INCHWORM_MAX_INPUT_BYTES): refused"
+    )
