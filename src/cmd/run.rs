@@ -1,13 +1,11 @@
 //! `inchworm run`: the master on any flat SSP or single FMI 2.0 CS FMU, its recorded
 //! variables written as CSV (and a plot).
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-
-use std::io::Write;
 
 use inchworm::master::{self, Coupling, Options};
 use inchworm::plot;
