@@ -11,9 +11,11 @@
 //! * [`scenario`]: the paper's scenarios, through the master on the SSP or direct;
 //! * [`master`], [`ssp`]: the co-simulation master for SSP systems and single FMUs, in
 //!   load / initialise / step phases;
+//! * [`archive`]: unpacking an SSP within caps, and keeping its paths inside it;
 //! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`);
 //! * [`sweep`]: grid and Monte Carlo sweeps of a system, their plan, metrics and results.
 
+pub mod archive;
 pub mod bridge;
 pub mod closed_loop;
 pub mod controller;

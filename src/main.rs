@@ -87,6 +87,19 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // A bug must still end in one clear line, not a backtrace: the run's own errors are
+    // all `Err`s, so a panic is the binary's fault, said as such (exit status 101).
+    std::panic::set_hook(Box::new(|info| {
+        let what = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown".into());
+        let at =
+            info.location().map(|l| format!(" at {}:{}", l.file(), l.line())).unwrap_or_default();
+        eprintln!("error: internal error (a bug in inchworm, please report it): {what}{at}");
+    }));
     let cli = Cli::parse();
     let level = match &cli.command {
         Command::Gait(args) if args.fmi_logging => log::LevelFilter::Info,
@@ -108,7 +121,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            // The shell's convention for a run a signal stopped: 128 + the signal.
+            match inchworm::master::stop_signal() {
+                Some(s) => ExitCode::from((128 + s).clamp(0, 255) as u8),
+                None => ExitCode::FAILURE,
+            }
         }
     }
 }

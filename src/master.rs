@@ -5,7 +5,9 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::atomic::{AtomicI32, Ordering};
 
+use crate::archive::cut;
 use crate::fmu::{CsFmu, FmuError, Var, VarType};
 use crate::ssp::{Archive, End};
 use crate::trace::Trace;
@@ -59,23 +61,30 @@ impl InputTable {
         })
     }
 
+    /// Parses the CSV text. A leading UTF-8 byte-order mark is skipped; a line echoed in an
+    /// error is cut to 200 characters.
     pub fn parse(text: &str) -> Result<InputTable, String> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = lines.next().ok_or("input CSV is empty")?;
         let cols: Vec<String> =
             header.split(',').map(|c| c.trim().trim_matches('"').to_string()).collect();
         if cols.first().map(String::as_str) != Some("time") || cols.len() < 2 {
+            let header = cut(header, 200);
             return Err(format!("input CSV header must be `time,<name>,…`, got `{header}`"));
         }
         let mut rows = Vec::new();
         for (i, l) in lines.enumerate() {
             let v: Result<Vec<f64>, _> = l.split(',').map(|x| x.trim().parse::<f64>()).collect();
-            let v = v.map_err(|_| format!("input CSV line {}: not all numbers: `{l}`", i + 2))?;
+            let v = v.map_err(|_| {
+                format!("input CSV line {}: not all numbers: `{}`", i + 2, cut(l, 200))
+            })?;
             if v.len() != cols.len() || v.iter().any(|x| !x.is_finite()) {
                 return Err(format!(
-                    "input CSV line {}: expected {} finite numbers, got `{l}`",
+                    "input CSV line {}: expected {} finite numbers, got `{}`",
                     i + 2,
-                    cols.len()
+                    cols.len(),
+                    cut(l, 200)
                 ));
             }
             if rows.last().is_some_and(|(t, _): &(f64, Vec<f64>)| v[0] < *t) {
@@ -87,6 +96,11 @@ impl InputTable {
             return Err("input CSV has no rows".into());
         }
         Ok(InputTable { names: cols[1..].to_vec(), rows })
+    }
+
+    /// The time of the first row: before it the table has no value.
+    pub fn start_time(&self) -> f64 {
+        self.rows[0].0
     }
 
     pub fn value(&self, column: usize, t: f64) -> f64 {
@@ -160,8 +174,21 @@ fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
         },
         _ => text.trim().parse::<f64>().map_err(|_| format!("{name} = {text}: not a number"))?,
     };
-    if ty == VarType::Integer && value.fract() != 0.0 {
-        return Err(format!("{name} = {text}: not an integer"));
+    if !value.is_finite() {
+        return Err(format!("{name} = {text}: not a finite number"));
+    }
+    if matches!(ty, VarType::Integer | VarType::Enumeration) {
+        if value.fract() != 0.0 {
+            return Err(format!("{name} = {text}: not an integer"));
+        }
+        // fmi2Integer is 32 bits: a cast would saturate silently.
+        if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&value) {
+            return Err(format!(
+                "{name} = {text}: out of the Integer range {}..={}",
+                i32::MIN,
+                i32::MAX
+            ));
+        }
     }
     Ok(value)
 }
@@ -337,9 +364,18 @@ impl System {
             });
         }
         let a = Archive::open(path)?;
+        let here = |e: String| format!("{}: {e}", path.display());
+        // Every name and source checked before any FMU is loaded.
+        let mut sources = Vec::new();
+        for (i, c) in a.system.components.iter().enumerate() {
+            if a.system.components[..i].iter().any(|d| d.name == c.name) {
+                return Err(here(format!("two components are named `{}`", cut(&c.name, 200))));
+            }
+            sources.push(crate::archive::source_path(&a.dir, &c.name, &c.source).map_err(here)?);
+        }
         let mut components = Vec::new();
-        for c in &a.system.components {
-            let fmu = CsFmu::load(&a.dir.join(&c.source), &c.name, false)
+        for (c, source) in a.system.components.iter().zip(&sources) {
+            let fmu = CsFmu::load(source, &c.name, false)
                 .map_err(|e| format!("component {}: {e}", c.name))?;
             components.push(Component { name: c.name.clone(), fmu });
         }
@@ -386,8 +422,14 @@ impl System {
     /// Every input port fed by a component output or a system input, and the port behind
     /// each system output connector.
     fn wire(&self) -> Result<Wiring, String> {
-        let mut wiring = Vec::new();
+        let mut wiring: Vec<(Port, Source)> = Vec::new();
+        // Who drives each input so far, to name both when a second connection comes.
+        let mut drivers: Vec<&End> = Vec::new();
         let mut system_outputs = BTreeMap::new();
+        let named = |e: &End| match &e.element {
+            Some(el) => format!("{el}.{}", e.connector),
+            None => e.connector.clone(),
+        };
         for (a, b) in &self.connections {
             let source = match &a.element {
                 Some(e) => Source::Output(self.port(e, &a.connector)?),
@@ -398,9 +440,32 @@ impl System {
                 ),
             };
             match (&b.element, source) {
-                (Some(e), s) => wiring.push((self.port(e, &b.connector)?, s)),
+                (Some(e), s) => {
+                    let dst = self.port(e, &b.connector)?;
+                    if let Source::Output(p) = s {
+                        if (p.component, p.vr) == (dst.component, dst.vr) {
+                            return Err(format!("connection from `{}` to itself", named(b)));
+                        }
+                    }
+                    let same = |q: &Port| (q.component, q.vr) == (dst.component, dst.vr);
+                    if let Some(i) = wiring.iter().position(|(q, _)| same(q)) {
+                        return Err(format!(
+                            "input `{}` is driven by two connections, from `{}` and from `{}`",
+                            named(b),
+                            named(drivers[i]),
+                            named(a)
+                        ));
+                    }
+                    wiring.push((dst, s));
+                    drivers.push(a);
+                }
                 (None, Source::Output(p)) => {
-                    system_outputs.insert(b.connector.clone(), p);
+                    if system_outputs.insert(b.connector.clone(), p).is_some() {
+                        return Err(format!(
+                            "system output `{}` is driven by two connections",
+                            b.connector
+                        ));
+                    }
                 }
                 (None, Source::Input(_)) => {
                     return Err(format!(
@@ -469,6 +534,17 @@ impl System {
         if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
             return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
         }
+        let n_steps = step_count(stop, h)?;
+        if let Some(t) = &opts.input {
+            // Before its first row a table has no value; holding that row back to t = 0
+            // would drive the system with a value it was not given.
+            if t.start_time() > 1e-9 {
+                return Err(format!(
+                    "input CSV starts at t = {}, after the start time 0: its first row must be at t = 0 or earlier",
+                    t.start_time()
+                ));
+            }
+        }
         let Wiring { inputs: wiring, system_outputs } = self.wire()?;
         let input_columns: Vec<Option<usize>> = self
             .inputs
@@ -529,7 +605,7 @@ impl System {
             input_columns,
             coupling: opts.coupling,
             h,
-            n_steps: (stop / h).round().max(1.0) as u64,
+            n_steps,
             k: 0,
             components: self.components,
             _archive: self.archive,
@@ -563,7 +639,7 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// The communication points to step through: `stop / h`, at least one.
+    /// The communication steps to the stop time: `stop / h`, a whole number.
     pub fn n_steps(&self) -> u64 {
         self.n_steps
     }
@@ -593,7 +669,24 @@ impl Simulation {
             if only.is_none_or(|c| c == dst.component) {
                 let v = match feed {
                     Feed::Latest(j) => self.latest[j],
-                    Feed::SystemInput(j) => self.input_value(j, t),
+                    Feed::SystemInput(j) => {
+                        let v = self.input_value(j, t);
+                        // A CSV value for an Integer input: out of 32 bits, the cast
+                        // would saturate silently.
+                        let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
+                        if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
+                            let name = match (self.input_columns[j], &self.input) {
+                                (Some(c), Some(table)) => table.names[c].as_str(),
+                                _ => "?",
+                            };
+                            return Err(format!(
+                                "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
+                                i32::MIN,
+                                i32::MAX
+                            ));
+                        }
+                        v
+                    }
                 };
                 self.values[i] = v;
             }
@@ -644,22 +737,114 @@ impl Simulation {
         }
         Ok(())
     }
+
+    /// Steps to the stop time and hands every row to `sink` as soon as it is computed, t = 0
+    /// first: nothing grows with the number of steps, so a run of any length runs in the
+    /// same memory. Stops between two steps, with an error, on SIGINT or SIGTERM once
+    /// [`stop_on_signals`] is installed.
+    pub fn run_into(
+        mut self,
+        mut sink: impl FnMut(f64, &[f64]) -> Result<(), String>,
+        mut progress: impl FnMut(f64),
+    ) -> Result<(), String> {
+        let n = self.n_steps;
+        sink(0.0, &self.sample()?)?;
+        for k in 0..n {
+            interrupted()?;
+            self.step()?;
+            sink(self.time(), &self.sample()?)?;
+            progress((k + 1) as f64 / n as f64);
+        }
+        self.terminate()
+    }
+}
+
+/// The largest step count run: past 2^53 steps `k h` is no longer exact in an `f64`, so
+/// the grid would drift (and such a run would take years).
+const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
+
+/// `stop / h` as a whole number of steps, or why not. A last step shorter than `h` would
+/// be refused by FMUs with a fixed sample (the controller takes whole 2 ms samples only),
+/// and only at the end of the run: such a stop time is refused before the first step.
+fn step_count(stop: f64, h: f64) -> Result<u64, String> {
+    let steps = stop / h;
+    if steps > MAX_STEPS {
+        return Err(format!(
+            "stop time {stop:e} / step size {h} = {steps:e} steps: more than the 2^53 this master can count exactly"
+        ));
+    }
+    let n = steps.round();
+    if n < 1.0 || (steps - n).abs() > 1e-9 * n {
+        return Err(format!(
+            "stop time {stop} is not a whole number of steps of {h} ({stop} / {h} = {steps}): choose a stop time that is"
+        ));
+    }
+    Ok(n as u64)
+}
+
+/// The signal that asked the run to stop (0: none).
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+#[cfg(unix)]
+extern "C" fn on_signal(sig: libc::c_int) {
+    // A second signal means now: the default action, without waiting for the step.
+    if SIGNAL.swap(sig, Ordering::SeqCst) != 0 {
+        // SAFETY: signal and raise are async-signal-safe.
+        unsafe {
+            libc::signal(sig, libc::SIG_DFL);
+            libc::raise(sig);
+        }
+    }
+}
+
+/// Makes SIGINT and SIGTERM stop [`Simulation::run_into`] between two steps with an error,
+/// so the caller returns through its destructors and the unpacked archives are removed.
+/// Only for a caller that runs the master: elsewhere the signals would be ignored.
+pub fn stop_on_signals() {
+    #[cfg(unix)]
+    // SAFETY: the handler only touches an atomic and async-signal-safe calls.
+    unsafe {
+        let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+        libc::signal(libc::SIGINT, handler);
+        libc::signal(libc::SIGTERM, handler);
+    }
+}
+
+/// The signal that stopped the run, if one did: for the exit status 128 + signal.
+pub fn stop_signal() -> Option<i32> {
+    Some(SIGNAL.load(Ordering::SeqCst)).filter(|&s| s != 0)
+}
+
+/// An error once a stop signal has come.
+pub fn interrupted() -> Result<(), String> {
+    match stop_signal() {
+        None => Ok(()),
+        Some(s) => {
+            let name = match s {
+                libc::SIGINT => "SIGINT",
+                libc::SIGTERM => "SIGTERM",
+                _ => "a signal",
+            };
+            Err(format!("interrupted by {name}"))
+        }
+    }
 }
 
 /// Runs `path` (an `.ssp`, or a single `.fmu`): loads it, initializes it, steps it to the
 /// stop time and records the chosen variables at every communication point, t = 0 first.
-pub fn run(path: &Path, opts: &Options, mut progress: impl FnMut(f64)) -> Result<Trace, String> {
-    let mut sim = System::load(path)?.initialise(opts)?;
-    let n = sim.n_steps();
+///
+/// The whole trace is kept in memory: for short runs (scenarios, tests). A long run
+/// streams its rows with [`Simulation::run_into`].
+pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Trace, String> {
+    let sim = System::load(path)?.initialise(opts)?;
     let mut trace = Trace::new(sim.record_names().to_vec());
-    trace.rows.reserve(n as usize + 1);
-    trace.push(0.0, sim.sample()?);
-    for k in 0..n {
-        sim.step()?;
-        trace.push(sim.time(), sim.sample()?);
-        progress((k + 1) as f64 / n as f64);
-    }
-    sim.terminate()?;
+    sim.run_into(
+        |t, row| {
+            trace.push(t, row.to_vec());
+            Ok(())
+        },
+        progress,
+    )?;
     Ok(trace)
 }
 

@@ -56,15 +56,19 @@ fn required(e: &BytesStart, name: &str) -> Result<String, String> {
 /// Parses `SystemStructure.ssd`. Nested systems are refused with a message: this master
 /// runs flat systems.
 pub fn parse_ssd(xml: &str) -> Result<System, String> {
+    let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut sys = System::default();
     // Element path of local names, to know whose <Connector> this is.
     let mut path: Vec<String> = Vec::new();
+    let mut open = Open::default();
     let mut systems = 0;
     loop {
         let ev = reader.read_event().map_err(|e| {
-            format!("SystemStructure.ssd: XML error at byte {}: {e}", reader.buffer_position())
+            let at = line_of(xml, reader.error_position());
+            format!("SystemStructure.ssd line {at}: malformed XML: {e}")
         })?;
+        open.track(&ev);
         let (e, empty) = match &ev {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
@@ -72,7 +76,10 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
                 path.pop();
                 continue;
             }
-            Event::Eof => break,
+            Event::Eof => {
+                open.complete("SystemStructure.ssd ", xml)?;
+                break;
+            }
             _ => continue,
         };
         let name = e.local_name().into_inner().to_owned();
@@ -145,11 +152,17 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
 
 /// Parses an `.ssv` parameter set into `component.variable` → value text.
 pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
+    let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut out = BTreeMap::new();
     let mut current: Option<String> = None;
+    let mut open = Open::default();
     loop {
-        match reader.read_event().map_err(|e| format!("parameter set: XML error: {e}"))? {
+        let ev = reader.read_event().map_err(|e| {
+            format!("line {}: malformed XML: {e}", line_of(xml, reader.error_position()))
+        })?;
+        open.track(&ev);
+        match ev {
             Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
                 "Parameter" => current = Some(required(&e, "name")?),
                 "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => {
@@ -159,32 +172,71 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
                 }
                 _ => {}
             },
-            Event::Eof => break,
+            Event::Eof => {
+                open.complete("", xml)?;
+                break;
+            }
             _ => {}
         }
     }
     Ok(out)
 }
 
+/// 1-based line of byte offset `pos` in `xml`.
+fn line_of(xml: &str, pos: u64) -> usize {
+    let end = (pos as usize).min(xml.len());
+    xml.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// The elements open so far. quick-xml reports the end of the text as a plain end of
+/// file even inside an element, so a file cut short would parse as a complete, smaller
+/// one: the file is complete only when every element it opened is closed.
+#[derive(Default)]
+struct Open {
+    names: Vec<String>,
+    root_seen: bool,
+}
+
+impl Open {
+    fn track(&mut self, ev: &Event) {
+        match ev {
+            Event::Start(e) => {
+                self.root_seen = true;
+                self.names.push(e.name().as_ref().to_owned());
+            }
+            Event::Empty(_) => self.root_seen = true,
+            Event::End(_) => {
+                self.names.pop();
+            }
+            _ => {}
+        }
+    }
+
+    fn complete(&self, file: &str, xml: &str) -> Result<(), String> {
+        match self.names.last() {
+            Some(inner) => Err(format!(
+                "{file}line {}: the file ends inside <{}>: expected </{inner}> (a truncated file?)",
+                line_of(xml, xml.len() as u64),
+                self.names.join("> <"),
+            )),
+            None if !self.root_seen => Err(format!("{file}has no root element (an empty file?)")),
+            None => Ok(()),
+        }
+    }
+}
+
 /// An SSP archive unpacked into a temporary directory (removed on drop).
 pub struct Archive {
     pub dir: PathBuf,
     pub system: System,
+    /// Owns `dir`: removes it when the archive is dropped.
+    _unpacked: crate::archive::Unpacked,
 }
 
 impl Archive {
     pub fn open(path: &Path) -> Result<Archive, String> {
-        let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut zip = zip::ZipArchive::new(file)
-            .map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
-        // Unique per open archive: several may be open at once in one process.
-        static OPENED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = OPENED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let dir =
-            std::env::temp_dir().join(format!("inchworm-ssp-{}-{n}-{stem}", std::process::id()));
-        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        zip.extract(&dir).map_err(|e| format!("{}: cannot unpack: {e}", path.display()))?;
+        let unpacked = crate::archive::unpack_ssp(path)?;
+        let dir = unpacked.dir().to_path_buf();
         let mut ssd = String::new();
         std::fs::File::open(dir.join("SystemStructure.ssd"))
             .and_then(|mut f| f.read_to_string(&mut ssd))
@@ -192,7 +244,7 @@ impl Archive {
                 format!("{}: no readable SystemStructure.ssd at its root: {e}", path.display())
             })?;
         let system = parse_ssd(&ssd).map_err(|e| format!("{}: {e}", path.display()))?;
-        Ok(Archive { dir, system })
+        Ok(Archive { dir, system, _unpacked: unpacked })
     }
 
     /// The parameter set `name` as `component.variable` → value text: the SSD's
@@ -205,7 +257,7 @@ impl Archive {
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
         let text = std::fs::read_to_string(&p)
             .map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
-        parse_ssv(&text).map_err(|e| format!("parameter set {name}: {e}"))
+        parse_ssv(&text).map_err(|e| format!("parameter set {name} (resources/{name}.ssv): {e}"))
     }
 }
 
@@ -400,12 +452,6 @@ pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, Stri
     }
 }
 
-impl Drop for Archive {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -442,6 +488,13 @@ mod tests {
         .unwrap_err()
         .contains("nested"));
         assert!(parse_ssd("<a><b></a>").is_err());
+        let cut = &xml[..xml.find("  <ssd:DefaultExperiment").unwrap()];
+        assert_eq!(
+            parse_ssd(cut).unwrap_err(),
+            "SystemStructure.ssd line 16: the file ends inside <ssd:SystemStructureDescription>: \
+             expected </ssd:SystemStructureDescription> (a truncated file?)"
+        );
+        assert!(parse_ssd(&format!("\u{feff}{xml}")).is_ok(), "a BOM is skipped");
     }
 
     #[test]
@@ -485,8 +538,8 @@ mod tests {
 
     #[test]
     fn first_bindings_by_default_and_a_selected_set_over_them() {
-        let dir =
-            std::env::temp_dir().join(format!("inchworm-ssp-bindings-{}", std::process::id()));
+        let unpacked = crate::archive::Unpacked::new(tempfile::tempdir().unwrap());
+        let dir = unpacked.dir().to_path_buf();
         std::fs::create_dir_all(dir.join("resources")).unwrap();
         let ssv = |set: &str, body: &str| {
             format!(
@@ -511,7 +564,7 @@ mod tests {
 </ssd:Elements></ssd:System></ssd:SystemStructureDescription>"#,
         )
         .unwrap();
-        let a = Archive { dir, system: System::default() };
+        let a = Archive { dir, system: System::default(), _unpacked: unpacked };
         let pairs =
             |m: BTreeMap<String, String>| -> Vec<(String, String)> { m.into_iter().collect() };
         let kv = |v: &[(&str, &str)]| -> Vec<(String, String)> {
@@ -540,5 +593,11 @@ mod tests {
         let p = parse_ssv(xml).unwrap();
         assert_eq!(p["plant.T_em"], "2.5");
         assert_eq!(p["controller.prefilter"], "true");
+        let cut = &xml[..xml.find("<ssv:Parameter name=\"controller").unwrap()];
+        assert_eq!(
+            parse_ssv(cut).unwrap_err(),
+            "line 3: the file ends inside <ssv:ParameterSet> <ssv:Parameters>: \
+             expected </ssv:Parameters> (a truncated file?)"
+        );
     }
 }

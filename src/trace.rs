@@ -35,11 +35,107 @@ impl Trace {
     /// CSV `time,<name>,…`, every value in the shortest text that reads back as the same
     /// `f64`.
     pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-        writeln!(w, "time,{}", self.names.join(","))?;
+        write_header(w, &self.names)?;
         for (t, v) in &self.rows {
-            let vals: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
-            writeln!(w, "{t},{}", vals.join(","))?;
+            write_row(w, *t, v)?;
         }
         Ok(())
+    }
+}
+
+/// The CSV header of [`Trace::write_csv`], for a writer that streams its rows.
+pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Result<()> {
+    writeln!(w, "time,{}", names.join(","))
+}
+
+/// One CSV row of [`Trace::write_csv`].
+pub fn write_row(w: &mut dyn std::io::Write, t: f64, row: &[f64]) -> std::io::Result<()> {
+    write!(w, "{t}")?;
+    for x in row {
+        write!(w, ",{x}")?;
+    }
+    writeln!(w)
+}
+
+/// A bounded, evenly spaced sample of a run of any length, for a plot: it keeps every
+/// `stride`-th row, and when it holds `2 cap` rows it drops every other one and doubles
+/// the stride. So it never holds more than `2 cap` rows, and always at least `cap` once
+/// the run is that long, spread over the whole run; the last row is always kept.
+pub struct Decimated {
+    trace: Trace,
+    cap: usize,
+    stride: u64,
+    seen: u64,
+    last: Option<(f64, Vec<f64>)>,
+}
+
+impl Decimated {
+    pub fn new(names: Vec<String>, cap: usize) -> Decimated {
+        Decimated { trace: Trace::new(names), cap: cap.max(1), stride: 1, seen: 0, last: None }
+    }
+
+    pub fn push(&mut self, t: f64, row: &[f64]) {
+        // The stride is a power of two (rust-version 1.82 predates is_multiple_of).
+        if self.seen & (self.stride - 1) == 0 {
+            self.last = None;
+            self.trace.push(t, row.to_vec());
+            if self.trace.rows.len() >= 2 * self.cap {
+                // The newest row has an odd index and goes: keep it as the last.
+                self.last = self.trace.rows.last().cloned();
+                let mut i = 0;
+                self.trace.rows.retain(|_| {
+                    i += 1;
+                    i % 2 == 1
+                });
+                self.stride *= 2;
+            }
+        } else {
+            self.last = Some((t, row.to_vec()));
+        }
+        self.seen += 1;
+    }
+
+    /// The sample, ending at the last row pushed.
+    pub fn finish(mut self) -> Trace {
+        if let Some((t, row)) = self.last.take() {
+            self.trace.push(t, row);
+        }
+        self.trace
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimation_is_bounded_even_and_ends_at_the_end() {
+        let mut d = Decimated::new(vec!["x".into()], 100);
+        for k in 0..1_000_001u64 {
+            d.push(k as f64, &[k as f64]);
+        }
+        let t = d.finish();
+        assert!((100..=201).contains(&t.rows.len()), "{}", t.rows.len());
+        assert_eq!(t.rows[0].0, 0.0);
+        assert_eq!(t.rows.last().unwrap().0, 1e6);
+        let gaps: Vec<f64> = t.rows.windows(2).map(|w| w[1].0 - w[0].0).collect();
+        let stride = gaps[0];
+        assert!(gaps[..gaps.len() - 1].iter().all(|&g| g == stride), "even spacing");
+    }
+
+    #[test]
+    fn streamed_rows_are_the_csv_rows() {
+        let mut t = Trace::new(vec!["a".into(), "b".into()]);
+        t.push(0.0, vec![1.5, -2.0]);
+        t.push(0.002, vec![1e-7, 3.0]);
+        let mut whole = Vec::new();
+        t.write_csv(&mut whole).unwrap();
+        let mut streamed = Vec::new();
+        write_header(&mut streamed, &t.names).unwrap();
+        for (time, row) in &t.rows {
+            write_row(&mut streamed, *time, row).unwrap();
+        }
+        assert_eq!(whole, streamed);
+        assert_eq!(String::from_utf8(whole).unwrap(), "time,a,b\n0,1.5,-2\n0.002,0.0000001,3\n");
     }
 }

@@ -148,3 +148,59 @@ fn bad_files_names_and_values_are_refused_clearly() {
     assert!(e.contains("nobinary.fmu"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn streamed_rows_are_the_collected_trace() {
+    let ssp = dist("InchwormSystem.ssp");
+    let mut o = options(None, Coupling::Jacobi);
+    o.stop_time = Some(1.0);
+    let collected = run(&ssp, &o, |_| {}).unwrap();
+    let sim = inchworm::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
+    assert_eq!(sim.n_steps(), 500);
+    let mut streamed = Trace::new(sim.record_names().to_vec());
+    sim.run_into(
+        |t, row| {
+            streamed.push(t, row.to_vec());
+            Ok(())
+        },
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(streamed, collected);
+    assert_eq!(streamed.rows.len(), 501);
+    assert_eq!(streamed.rows.last().unwrap().0, 1.0);
+}
+
+#[test]
+fn a_stop_time_off_the_grid_is_refused_before_any_step() {
+    let ssp = dist("InchwormSystem.ssp");
+    let mut o = options(None, Coupling::Jacobi);
+    o.stop_time = Some(0.011);
+    assert_eq!(
+        error_of(&ssp, &o),
+        "stop time 0.011 is not a whole number of steps of 0.002 (0.011 / 0.002 = 5.5): choose a stop time that is"
+    );
+    o.stop_time = Some(0.001);
+    assert!(error_of(&ssp, &o).starts_with("stop time 0.001 is not a whole number of steps"));
+    o.stop_time = Some(1e300);
+    assert!(error_of(&ssp, &o).ends_with("more than the 2^53 this master can count exactly"));
+    // 10 s in 2 ms steps is 5000.000000000001 in floating point: on the grid.
+    o.stop_time = Some(10.0);
+    let sim = inchworm::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
+    assert_eq!(sim.n_steps(), 5000);
+}
+
+#[test]
+fn input_tables_skip_a_bom_and_cut_what_they_echo() {
+    let t = InputTable::parse("\u{feff}time,reference\n0,1\n").unwrap();
+    assert_eq!(t.names, vec!["reference".to_string()]);
+    let long = format!("time,x\n0,{}y\n", "1".repeat(10_000));
+    let e = InputTable::parse(&long).unwrap_err();
+    assert_eq!(e, format!("input CSV line 2: not all numbers: `0,{}…`", "1".repeat(198)));
+    let mut o = options(None, Coupling::Jacobi);
+    o.input = Some(InputTable::parse("time,reference\n0.5,1e-4\n").unwrap());
+    assert_eq!(
+        error_of(&dist("InchwormSystem.ssp"), &o),
+        "input CSV starts at t = 0.5, after the start time 0: its first row must be at t = 0 or earlier"
+    );
+}

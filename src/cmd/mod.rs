@@ -35,6 +35,14 @@ pub fn write_file(
     Ok(())
 }
 
+/// Creates `path` (and its folder) for a writer that fills it over time, as `inchworm run`
+/// streams its rows; the caller flushes it and says `wrote`.
+pub fn create_file(path: &Path) -> Result<BufWriter<File>, String> {
+    create_parent(path)?;
+    let f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(BufWriter::new(f))
+}
+
 /// [`write_file`] for a plot: plotters creates and writes the PNG itself, so this only
 /// makes the folder, draws and reports.
 pub fn write_png(
@@ -59,9 +67,29 @@ pub fn parse_params(params: &[String]) -> Result<Vec<(String, String)>, String> 
         .collect()
 }
 
+/// The largest input CSV read, bytes, unless `INCHWORM_MAX_INPUT_BYTES` says otherwise: the
+/// table is held in memory (a few times its text), and a file from outside may be any size.
+const MAX_INPUT_BYTES: u64 = 256 << 20;
+
 /// A CSV of inputs (`time,<name>,…`) read from `path`; errors name the file.
 pub fn read_input(path: &Path) -> Result<inchworm::master::InputTable, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let here = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let limit = match std::env::var("INCHWORM_MAX_INPUT_BYTES") {
+        Err(_) => MAX_INPUT_BYTES,
+        Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
+            here(&format!("INCHWORM_MAX_INPUT_BYTES=`{v}` is not a positive whole number"))
+        })?,
+    };
+    let file = File::open(path).map_err(|e| here(&e))?;
+    let mut text = String::new();
+    // Counted while reading, so a growing file or a pipe is bounded too.
+    std::io::Read::read_to_string(&mut std::io::Read::take(file, limit + 1), &mut text)
+        .map_err(|e| here(&e))?;
+    if text.len() as u64 > limit {
+        return Err(here(&format!(
+            "the input CSV is larger than {limit} bytes (raise the limit with INCHWORM_MAX_INPUT_BYTES): refused"
+        )));
+    }
     inchworm::master::InputTable::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 

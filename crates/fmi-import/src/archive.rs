@@ -1,73 +1,83 @@
-//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop.
+//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop; and the
+//! bounded, confined unpacking both FMUs and the master's SSP archives go through.
 
 use std::fs;
-use std::io::{self, Read};
+use std::io::{self, Read, Seek};
 use std::path::{Component, Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::ImportError;
+
+/// Caps on what an archive may unpack to. An archive comes from outside: a few MB of zip
+/// can inflate to any size, so every figure is checked against the bytes actually
+/// inflated, not the sizes the archive declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// All entries together, bytes.
+    pub total_bytes: u64,
+    /// One entry, bytes.
+    pub entry_bytes: u64,
+    /// Entries (files and folders).
+    pub entries: u64,
+}
+
+/// The variables that raise the caps, for users with large FMUs.
+pub const ENV_TOTAL: &str = "INCHWORM_MAX_UNPACKED_BYTES";
+pub const ENV_ENTRY: &str = "INCHWORM_MAX_ENTRY_BYTES";
+pub const ENV_ENTRIES: &str = "INCHWORM_MAX_ENTRIES";
+
+impl Limits {
+    /// 1 GiB in all, 512 MiB an entry, 10 000 entries: far above the project's FMUs
+    /// (under 1 MB) and large vendor FMUs, far below what would fill a disk.
+    pub const DEFAULT: Limits =
+        Limits { total_bytes: 1 << 30, entry_bytes: 512 << 20, entries: 10_000 };
+
+    /// [`Limits::DEFAULT`], each figure replaced by its environment variable if set.
+    pub fn from_env() -> Result<Limits, ImportError> {
+        let read = |name: &'static str, default: u64| -> Result<u64, ImportError> {
+            match std::env::var(name) {
+                Err(_) => Ok(default),
+                Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
+                    ImportError::Limit(format!("{name}=`{v}` is not a positive whole number"))
+                }),
+            }
+        };
+        Ok(Limits {
+            total_bytes: read(ENV_TOTAL, Limits::DEFAULT.total_bytes)?,
+            entry_bytes: read(ENV_ENTRY, Limits::DEFAULT.entry_bytes)?,
+            entries: read(ENV_ENTRIES, Limits::DEFAULT.entries)?,
+        })
+    }
+}
 
 /// An unpacked FMU: the directory and the text of its `modelDescription.xml`. Dropping it
 /// deletes the directory.
 #[derive(Debug)]
 pub struct Unpacked {
-    dir: PathBuf,
+    dir: tempfile::TempDir,
     pub(crate) model_description: String,
 }
 
 impl Unpacked {
     /// The directory the archive was unpacked into.
     pub fn dir(&self) -> &Path {
-        &self.dir
+        self.dir.path()
     }
 }
 
-impl Drop for Unpacked {
-    fn drop(&mut self) {
-        if let Err(e) = fs::remove_dir_all(&self.dir) {
-            if e.kind() != io::ErrorKind::NotFound {
-                log::warn!("cannot remove the unpacked FMU {}: {e}", self.dir.display());
-            }
-        }
-    }
-}
-
-/// A new, empty directory under the system temp dir, unique within and across processes.
-fn unique_dir() -> Result<PathBuf, ImportError> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let base = std::env::temp_dir();
-    let base = if base.is_absolute() {
-        base
-    } else {
-        std::env::current_dir().map(|d| d.join(&base)).unwrap_or(base)
-    };
-    for _ in 0..100 {
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let nanos = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
-        let dir = base.join(format!("inchworm-fmu-{}-{n}-{nanos}", std::process::id()));
-        match fs::create_dir(&dir) {
-            Ok(()) => return Ok(dir),
-            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
-            Err(source) => {
-                return Err(ImportError::Io {
-                    what: format!("cannot create the directory {}", dir.display()),
-                    source,
-                })
-            }
-        }
-    }
-    Err(ImportError::Io {
-        what: format!("cannot create a unique directory under {}", base.display()),
-        source: io::Error::from(io::ErrorKind::AlreadyExists),
+/// A new, empty directory under the system temp dir: a random name, created exclusively
+/// and readable by its owner only, so no other local user can pre-create or swap it.
+pub fn temp_dir(prefix: &str) -> Result<tempfile::TempDir, ImportError> {
+    tempfile::Builder::new().prefix(prefix).tempdir().map_err(|source| ImportError::Io {
+        what: format!("cannot create a directory under {}", std::env::temp_dir().display()),
+        source,
     })
 }
 
 /// The relative path an archive entry may be written to, or `None` for a dangerous one.
-fn safe_relative(name: &str) -> Option<PathBuf> {
+pub fn safe_relative(name: &str) -> Option<PathBuf> {
     // Zip names use '/', but some Windows tools write '\'.
     let name = name.replace('\\', "/");
-    if name.starts_with('/') || name.contains(':') && cfg!(windows) {
+    if name.starts_with('/') || name.contains(':') && cfg!(windows) || name.contains('\0') {
         return None;
     }
     let mut out = PathBuf::new();
@@ -81,24 +91,32 @@ fn safe_relative(name: &str) -> Option<PathBuf> {
     Some(out)
 }
 
-/// Unpacks the FMU at `path`; fails if it is not a zip, has an entry pointing outside
-/// the directory, or lacks `modelDescription.xml`.
-pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
-    let file = fs::File::open(path)
-        .map_err(|source| ImportError::Io { what: "cannot open the file".into(), source })?;
-    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(ImportError::NotZip)?;
+fn too_big(what: String, env: &str, limit: u64) -> ImportError {
+    ImportError::Limit(format!("{what} (limit {limit} bytes; raise it with {env})"))
+}
+
+/// Unpacks every entry of `zip` into `dir`, refusing names that leave it and stopping at
+/// the first cap passed; regular files only (a symbolic-link entry becomes a plain file
+/// holding its target's name, so nothing unpacked points outside `dir`).
+pub fn extract<R: Read + Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    dir: &Path,
+    limits: &Limits,
+) -> Result<(), ImportError> {
+    if zip.len() as u64 > limits.entries {
+        return Err(ImportError::Limit(format!(
+            "the archive has {} entries (limit {}; raise it with {ENV_ENTRIES})",
+            zip.len(),
+            limits.entries
+        )));
+    }
     // Check every name before writing anything.
-    let mut has_md = false;
     for i in 0..zip.len() {
         let name = zip.name_for_index(i).unwrap_or_default().to_owned();
-        let rel = safe_relative(&name).ok_or_else(|| ImportError::UnsafePath(name.clone()))?;
-        has_md |= rel == Path::new("modelDescription.xml");
+        safe_relative(&name).ok_or(ImportError::UnsafePath(name))?;
     }
-    if !has_md {
-        return Err(ImportError::NoModelDescription);
-    }
-    let mut unpacked = Unpacked { dir: unique_dir()?, model_description: String::new() };
-    let mut md = None;
+    let mut total = 0u64;
+    let mut buf = vec![0u8; 64 << 10];
     for i in 0..zip.len() {
         let mut entry = zip.by_index(i).map_err(ImportError::NotZip)?;
         let name = entry.name().to_owned();
@@ -106,7 +124,7 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
         if rel.as_os_str().is_empty() {
             continue;
         }
-        let target = unpacked.dir.join(&rel);
+        let target = dir.join(&rel);
         let io_err =
             |source: io::Error| ImportError::Io { what: format!("cannot unpack `{name}`"), source };
         if entry.is_dir() {
@@ -116,14 +134,69 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
         if let Some(parent) = target.parent() {
             fs::create_dir_all(parent).map_err(io_err)?;
         }
-        let mut bytes = Vec::with_capacity(entry.size().min(1 << 28) as usize);
-        entry.read_to_end(&mut bytes).map_err(io_err)?;
-        if rel == Path::new("modelDescription.xml") {
-            md = Some(bytes.clone());
+        // create_new: two entries of one name must not overwrite each other unseen.
+        let mut out =
+            fs::OpenOptions::new().write(true).create_new(true).open(&target).map_err(io_err)?;
+        let mut written = 0u64;
+        loop {
+            let n = match entry.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(io_err(e)),
+            };
+            written += n as u64;
+            total += n as u64;
+            if written > limits.entry_bytes {
+                return Err(too_big(
+                    format!(
+                        "the archive entry `{name}` unpacks to more than {} bytes",
+                        limits.entry_bytes
+                    ),
+                    ENV_ENTRY,
+                    limits.entry_bytes,
+                ));
+            }
+            if total > limits.total_bytes {
+                return Err(too_big(
+                    format!("the archive unpacks to more than {} bytes", limits.total_bytes),
+                    ENV_TOTAL,
+                    limits.total_bytes,
+                ));
+            }
+            io::Write::write_all(&mut out, &buf[..n]).map_err(io_err)?;
         }
-        fs::write(&target, &bytes).map_err(io_err)?;
     }
-    let md = md.ok_or(ImportError::NoModelDescription)?;
+    Ok(())
+}
+
+/// Unpacks the FMU at `path` within [`Limits::from_env`]; fails if it is not a zip, has an
+/// entry pointing outside the directory, passes a cap, or lacks `modelDescription.xml`.
+pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
+    unpack_with(path, &Limits::from_env()?)
+}
+
+/// [`unpack`] within `limits`.
+pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError> {
+    let file = fs::File::open(path)
+        .map_err(|source| ImportError::Io { what: "cannot open the file".into(), source })?;
+    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(ImportError::NotZip)?;
+    let has_md = (0..zip.len()).any(|i| {
+        zip.name_for_index(i).and_then(safe_relative).as_deref()
+            == Some(Path::new("modelDescription.xml"))
+    });
+    if !has_md {
+        // An unsafe name is the graver finding: report it first.
+        for i in 0..zip.len() {
+            let name = zip.name_for_index(i).unwrap_or_default().to_owned();
+            safe_relative(&name).ok_or(ImportError::UnsafePath(name))?;
+        }
+        return Err(ImportError::NoModelDescription);
+    }
+    let dir = temp_dir("inchworm-fmu-")?;
+    extract(&mut zip, dir.path(), limits)?;
+    let md = fs::read(dir.path().join("modelDescription.xml"))
+        .map_err(|_| ImportError::NoModelDescription)?;
     let md = md.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&md);
     let text = String::from_utf8(md.to_vec()).map_err(|e| {
         let (line, column) = crate::description::line_column(
@@ -132,8 +205,7 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
         );
         ImportError::Description { line, column, message: "the file is not valid UTF-8".into() }
     })?;
-    unpacked.model_description = text;
-    Ok(unpacked)
+    Ok(Unpacked { dir, model_description: text })
 }
 
 #[cfg(test)]

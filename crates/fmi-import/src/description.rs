@@ -178,6 +178,19 @@ pub(crate) fn line_column(text: &str, pos: usize) -> (usize, usize) {
     (line, before[line_start..].chars().count() + 1)
 }
 
+/// A name usable as one file name in one folder: not empty, no separator, not `.`/`..`.
+fn plain_file_name(s: &str) -> bool {
+    !s.is_empty() && s != "." && s != ".." && !s.contains(['/', '\\', '\0', ':'])
+}
+
+/// `s` cut to its first `n` characters, marked if cut, for echoing untrusted text.
+pub(crate) fn cut(s: &str, n: usize) -> String {
+    match s.char_indices().nth(n) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
 struct Parser<'a> {
     text: &'a str,
     reader: Reader<&'a [u8]>,
@@ -320,7 +333,11 @@ impl<'a> Parser<'a> {
         if !self.stack.is_empty() {
             return Err(self.error(
                 self.text.len(),
-                format!("the file ends inside <{}>", self.stack.join("> <")),
+                format!(
+                    "the file ends inside <{}>: expected </{}> (a truncated file?)",
+                    self.stack.join("> <"),
+                    self.stack.last().map_or("", String::as_str)
+                ),
             ));
         }
         Ok(self.md)
@@ -365,6 +382,14 @@ impl<'a> Parser<'a> {
                     self.required(&a, &name, "modelIdentifier", pos)?.trim().to_owned();
                 if model_identifier.is_empty() {
                     return Err(self.error(pos, "<CoSimulation> has an empty modelIdentifier"));
+                }
+                // It names the binary to dlopen: a path in it would load a library from
+                // outside the FMU.
+                if !plain_file_name(&model_identifier) {
+                    return Err(self.error(
+                        pos,
+                        format!("<CoSimulation> modelIdentifier=\"{}\" is not a plain file name (no `/`, `\\`, `:` or NUL; not `.` or `..`): refused", cut(&model_identifier, 200)),
+                    ));
                 }
                 self.md.co_simulation = Some(CoSimulation {
                     model_identifier,
@@ -622,6 +647,30 @@ mod tests {
         assert!(e.contains("name=\"b\"> has no type element"), "{e}");
         let e = err(&MD.replace("stepSize=\"1e-3\"", "stepSize=\"fast\""));
         assert!(e.contains("stepSize=\"fast\" is not a number"), "{e}");
+    }
+
+    #[test]
+    fn a_truncated_file_is_refused_with_what_was_expected() {
+        let cut_at = MD.find("</ModelVariables>").unwrap();
+        let e = err(&MD[..cut_at]);
+        assert!(
+            e.contains("the file ends inside <fmiModelDescription> <ModelVariables>: expected </ModelVariables> (a truncated file?)"),
+            "{e}"
+        );
+        let e = err(MD.trim_end().strip_suffix("</fmiModelDescription>").unwrap());
+        assert!(e.contains("expected </fmiModelDescription>"), "{e}");
+        // Cut inside a tag.
+        let e = err(&MD[..MD.find("<ModelStructure>").unwrap() + 4]);
+        assert!(e.contains("malformed XML") || e.contains("the file ends inside"), "{e}");
+    }
+
+    #[test]
+    fn a_model_identifier_with_a_path_is_refused() {
+        for evil in ["../../../../tmp/x/evil", "/tmp/evil", "a\\b", "..", "sub/m"] {
+            let e =
+                err(&MD.replace(r#"modelIdentifier="m""#, &format!(r#"modelIdentifier="{evil}""#)));
+            assert!(e.contains("is not a plain file name"), "{evil}: {e}");
+        }
     }
 
     #[test]

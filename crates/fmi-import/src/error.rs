@@ -17,6 +17,8 @@ pub enum ImportError {
     UnsafePath(String),
     /// The archive has no `modelDescription.xml` at its root.
     NoModelDescription,
+    /// The archive passes a cap of [`crate::archive::Limits`] (the text says which).
+    Limit(String),
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
     Description { line: usize, column: usize, message: String },
     /// `fmiVersion` is neither 2.x nor 3.x.
@@ -45,10 +47,11 @@ impl fmt::Display for ImportError {
             ImportError::UnsafePath(p) => {
                 write!(
                     f,
-                    "the archive entry `{p}` points outside the FMU (absolute or `..` path): refused"
+                    "the archive entry `{p}` points outside the archive (absolute or `..` path): refused"
                 )
             }
             ImportError::NoModelDescription => write!(f, "the archive has no modelDescription.xml at its root"),
+            ImportError::Limit(what) => write!(f, "{what}: refused"),
             ImportError::Description { line, column, message } => {
                 write!(f, "modelDescription.xml line {line}, column {column}: {message}")
             }

@@ -201,7 +201,7 @@ fn bad_files_are_refused_clearly() {
     entries.push(("../../evil.txt".into(), b"gotcha".to_vec()));
     common::write_zip(&slip, &entries);
     let e = load_err(&slip);
-    assert!(e.contains("../../evil.txt") && e.contains("outside the FMU"), "{e}");
+    assert!(e.contains("../../evil.txt") && e.contains("outside the archive"), "{e}");
 
     let no_bin = plant_variant(
         &dir,

@@ -1,0 +1,89 @@
+//! Unpacking an SSP archive and keeping what it names inside it. An SSP comes from outside:
+//! it is unpacked within the same caps as an FMU (`inchworm_fmi_import::archive::Limits`,
+//! raised by the `INCHWORM_MAX_*` variables), into a folder of an unpredictable name
+//! created exclusively, and every path its SSD gives must stay inside that folder.
+
+use std::path::{Path, PathBuf};
+
+use inchworm_fmi_import::archive::{self as fmu_archive, Limits};
+
+/// An unpacked archive's folder, removed when dropped, also on an error's way out.
+#[derive(Debug)]
+pub struct Unpacked {
+    dir: tempfile::TempDir,
+}
+
+impl Unpacked {
+    /// Takes ownership of a folder already made (tests build archives by hand).
+    pub fn new(dir: tempfile::TempDir) -> Unpacked {
+        Unpacked { dir }
+    }
+
+    pub fn dir(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+/// Unpacks the SSP at `path` into a new temporary folder.
+pub fn unpack_ssp(path: &Path) -> Result<Unpacked, String> {
+    let here = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let file = std::fs::File::open(path).map_err(|e| here(&e))?;
+    let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
+        .map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
+    let limits = Limits::from_env().map_err(|e| here(&e))?;
+    let dir = fmu_archive::temp_dir("inchworm-ssp-").map_err(|e| here(&e))?;
+    fmu_archive::extract(&mut zip, dir.path(), &limits)
+        .map_err(|e| format!("{}: cannot unpack: {e}", path.display()))?;
+    Ok(Unpacked { dir })
+}
+
+/// The file an SSD `source` names, inside the unpacked archive `dir`. A source that is
+/// absolute, climbs out with `..`, or is a URI with a scheme (`file:`, `http:`) would load
+/// something the archive does not hold, so it is refused.
+pub fn source_path(dir: &Path, component: &str, source: &str) -> Result<PathBuf, String> {
+    let shown = cut(source, 200);
+    let refuse = |why: &str| {
+        format!("component {component}: source \"{shown}\" {why}: refused (it must be a relative path inside the SSP, e.g. resources/Model.fmu)")
+    };
+    if source.contains(':') {
+        return Err(refuse("is a URI or a drive path"));
+    }
+    let rel = fmu_archive::safe_relative(source)
+        .ok_or_else(|| refuse("is absolute or climbs out of the SSP with `..`"))?;
+    if rel.as_os_str().is_empty() {
+        return Err(refuse("names no file"));
+    }
+    Ok(dir.join(rel))
+}
+
+/// `s` cut to its first `n` characters (marked `…` when cut), to echo untrusted text.
+pub fn cut(s: &str, n: usize) -> String {
+    match s.char_indices().nth(n) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sources_stay_inside_the_archive() {
+        let d = Path::new("/x");
+        assert_eq!(source_path(d, "a", "resources/A.fmu").unwrap(), d.join("resources/A.fmu"));
+        assert_eq!(source_path(d, "a", "./A.fmu").unwrap(), d.join("A.fmu"));
+        for bad in ["/tmp/A.fmu", "../A.fmu", "resources/../../A.fmu", "file:///tmp/A.fmu", "."] {
+            let e = source_path(d, "a", bad).unwrap_err();
+            assert!(e.starts_with(&format!("component a: source \"{bad}\" ")), "{e}");
+            assert!(e.contains(": refused"), "{e}");
+        }
+    }
+
+    #[test]
+    fn cut_marks_what_it_drops() {
+        assert_eq!(cut("abc", 3), "abc");
+        assert_eq!(cut("abcd", 3), "abc…");
+        assert_eq!(cut("ééé", 2), "éé…");
+    }
+}
