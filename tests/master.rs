@@ -151,7 +151,7 @@ fn bad_files_names_and_values_are_refused_clearly() {
 
 #[test]
 fn streamed_rows_are_the_collected_trace() {
-    let ssp = dist("InchwormSystem.ssp");
+    let ssp = dist("InchwormSystemOpen.ssp");
     let mut o = options(None, Coupling::Jacobi);
     o.stop_time = Some(1.0);
     let collected = run(&ssp, &o, |_| {}).unwrap();
@@ -173,7 +173,7 @@ fn streamed_rows_are_the_collected_trace() {
 
 #[test]
 fn a_stop_time_off_the_grid_is_refused_before_any_step() {
-    let ssp = dist("InchwormSystem.ssp");
+    let ssp = dist("InchwormSystemOpen.ssp");
     let mut o = options(None, Coupling::Jacobi);
     o.stop_time = Some(0.011);
     assert_eq!(
@@ -200,7 +200,7 @@ fn input_tables_skip_a_bom_and_cut_what_they_echo() {
     let mut o = options(None, Coupling::Jacobi);
     o.input = Some(InputTable::parse("time,reference\n0.5,1e-4\n").unwrap());
     assert_eq!(
-        error_of(&dist("InchwormSystem.ssp"), &o),
+        error_of(&dist("InchwormSystemOpen.ssp"), &o),
         "input CSV starts at t = 0.5, after the start time 0: its first row must be at t = 0 or earlier"
     );
 }

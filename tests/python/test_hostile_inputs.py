@@ -16,7 +16,7 @@ from conftest import DIST, ROOT
 
 # INCHWORM_BIN: another build to hold to the same cases (e.g. an older one, to see them fail).
 BIN = pathlib.Path(os.environ.get("INCHWORM_BIN", ROOT / "target" / "release" / "inchworm"))
-SSP = DIST / "InchwormSystem.ssp"
+SSP = DIST / "InchwormSystemOpen.ssp"  # the system with a reference input
 PLANT = DIST / "InchwormPlant.fmu"
 
 
@@ -172,13 +172,13 @@ def test_a_truncated_ssd_is_refused_with_line_and_expected_tag(tmp, tmp_path):
 
 def test_a_truncated_ssv_is_refused_with_line_and_expected_tag(tmp, tmp_path):
     with zipfile.ZipFile(SSP) as z:
-        ssv = z.read("resources/fia20.ssv").decode()
+        ssv = z.read("resources/plant.fia20.ssv").decode()
     cut = ssv[: ssv.rindex("<ssv:Parameter ")]
-    ssp = rezip(SSP, tmp_path / "cut-ssv.ssp", replace={"resources/fia20.ssv": cut.encode()})
+    ssp = rezip(SSP, tmp_path / "cut-ssv.ssp", replace={"resources/plant.fia20.ssv": cut.encode()})
     r = run_ssp(tmp, tmp_path, ssp, "--parameter-set", "fia20")
     assert r.returncode == 1
     assert error_line(r) == (
-        f"error: parameter set fia20 (resources/fia20.ssv): line {line_of_end(cut)}: the file ends inside "
+        f"error: resources/plant.fia20.ssv: line {line_of_end(cut)}: the file ends inside "
         "<ssv:ParameterSet> <ssv:Parameters>: expected </ssv:Parameters> (a truncated file?)"
     )
 
@@ -225,10 +225,12 @@ def test_an_entry_past_the_entry_cap_is_refused(tmp, tmp_path):
 
 def test_too_many_entries_are_refused(tmp, tmp_path):
     ssp = rezip(SSP, tmp_path / "many.ssp", add={f"resources/e{i}": b"" for i in range(20)})
+    with zipfile.ZipFile(ssp) as z:
+        entries = len(z.namelist())
     r = run_ssp(tmp, tmp_path, ssp, env={"INCHWORM_MAX_ENTRIES": "25"})
     assert r.returncode == 1
     assert error_line(r) == (
-        f"error: {ssp}: cannot unpack: the archive has 28 entries (limit 25; raise it with INCHWORM_MAX_ENTRIES): refused"
+        f"error: {ssp}: cannot unpack: the archive has {entries} entries (limit 25; raise it with INCHWORM_MAX_ENTRIES): refused"
     )
 
 

@@ -35,7 +35,7 @@ fn both_fmus_load_with_their_variables() {
 
     let ctrl = CsFmu::load(&dist("InchwormController.fmu"), "controller", false).unwrap();
     assert_eq!(ctrl.model_name(), "InchwormController");
-    assert_eq!(ctrl.variables().count(), 62);
+    assert_eq!(ctrl.variables().count(), 71);
     assert_eq!(ctrl.vrs_of(&["reference"], VarType::Real).unwrap(), [2]);
     assert_eq!(ctrl.vrs_of(&["encoder_counts"], VarType::Integer).unwrap(), [1]);
     assert_eq!(ctrl.vrs_of(&["feedforward", "prefilter"], VarType::Boolean).unwrap(), [100, 101]);
