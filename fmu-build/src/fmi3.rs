@@ -6,7 +6,6 @@
 //! FMI version.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use inchworm_fmi_export::fmi3::model_description::model_description;
 use inchworm_fmi_export::{model_description as md2, Model};
@@ -54,17 +53,7 @@ fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
 }
 
 fn build(root: &Path, fmus: &[Fmu3]) -> Result<(), String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root).args(["build", "--release", "--lib"]);
-    for f in fmus {
-        cmd.args(["-p", f.package]);
-    }
-    let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !status.success() {
-        return Err(format!("cargo build of the FMI 3.0 FMU libraries failed ({status})"));
-    }
-    Ok(())
+    super::build_libraries(root, fmus.iter().map(|f| f.package), "FMI 3.0 FMU libraries")
 }
 
 fn package(root: &Path, f: &Fmu3) -> Result<PathBuf, String> {

@@ -57,15 +57,24 @@ fn target_dir(root: &Path) -> PathBuf {
 }
 
 fn build(root: &Path, fmus: &[Fmu]) -> Result<(), String> {
+    build_libraries(root, fmus.iter().map(|f| f.package), "FMU libraries")
+}
+
+/// `cargo build --release --lib` of the named packages, in one cargo call.
+fn build_libraries<'a>(
+    root: &Path,
+    packages: impl Iterator<Item = &'a str>,
+    what: &str,
+) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(root).args(["build", "--release", "--lib"]);
-    for f in fmus {
-        cmd.args(["-p", f.package]);
+    for p in packages {
+        cmd.args(["-p", p]);
     }
     let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
-        return Err(format!("cargo build of the FMU libraries failed ({status})"));
+        return Err(format!("cargo build of the {what} failed ({status})"));
     }
     Ok(())
 }

@@ -69,11 +69,7 @@ unsafe fn with_instance<M: Model>(
     match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
         Ok(status) => status,
         Err(panic) => {
-            let what = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".into());
+            let what = crate::instance::panic_text(panic.as_ref());
             inst.state = State::Fatal;
             inst.log(
                 fmi2Fatal,

@@ -211,3 +211,12 @@ impl<M: Model> Drop for Instance<M> {
         }
     }
 }
+
+/// What a caught panic says, for the log line that ends the instance.
+pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
