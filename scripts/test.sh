@@ -8,7 +8,7 @@ bash scripts/setup.sh
 
 # The repository stands on its own: nothing tracked may read the design inputs beside it.
 if git grep -n '\.\./shared' -- . ':!scripts/test.sh' >/dev/null 2>&1; then
-    echo "test.sh: tracked files name ../shared, which users of this repository do not have:" >&2
+    echo "test.sh: tracked files read the design folder beside the repository, which its users do not have:" >&2
     git grep -n '\.\./shared' -- . ':!scripts/test.sh' >&2
     exit 1
 fi
