@@ -78,7 +78,16 @@ pub(crate) struct Binary {
 /// `binaries/<platform>/<model_identifier>.<ext>` (relative to `dir`, the unpacked FMU),
 /// or a clear error naming the platforms the FMU does carry.
 pub fn library_path(dir: &Path, model_identifier: &str) -> Result<PathBuf, ImportError> {
-    let (platform, ext) = PLATFORM;
+    library_path_for(PLATFORM, dir, model_identifier)
+}
+
+/// [`library_path`] for a platform folder and library extension (FMI 2.0 and FMI 3.0 name
+/// their platform folders differently).
+pub fn library_path_for(
+    (platform, ext): (&'static str, &str),
+    dir: &Path,
+    model_identifier: &str,
+) -> Result<PathBuf, ImportError> {
     let file = format!("{model_identifier}.{ext}");
     let relative = Path::new("binaries").join(platform).join(&file);
     if dir.join(&relative).is_file() {

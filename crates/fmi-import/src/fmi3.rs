@@ -24,7 +24,7 @@
 use std::ffi::{CStr, CString};
 use std::mem::ManuallyDrop;
 use std::os::raw::{c_char, c_void};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use inchworm_fmi3_abi::*;
 use libloading::Library;
@@ -546,29 +546,6 @@ unsafe extern "C" fn log_message(
     crate::logger::inchworm_fmi_import_log(env, std::ptr::null(), status, category, message);
 }
 
-fn library_path(dir: &Path, model_identifier: &str) -> Result<PathBuf, ImportError> {
-    let (platform, ext) = PLATFORM3;
-    let file = format!("{model_identifier}.{ext}");
-    let relative = Path::new("binaries").join(platform).join(&file);
-    if dir.join(&relative).is_file() {
-        return Ok(relative);
-    }
-    let mut available: Vec<String> = std::fs::read_dir(dir.join("binaries"))
-        .map(|rd| {
-            rd.filter_map(Result::ok)
-                .filter(|e| e.path().is_dir())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    available.sort();
-    Err(ImportError::NoBinary {
-        platform,
-        expected: format!("binaries/{platform}/{file}"),
-        available,
-    })
-}
-
 fn load_library(dir: &Path, relative: &Path) -> Result<(Library, Api3, String), ImportError> {
     let path = dir.join(relative);
     let shown = relative.to_path_buf();
@@ -636,7 +613,8 @@ pub(crate) fn load(
     let Some(cs) = &description.co_simulation else {
         return Err(FmuError::NotCoSimulation { model });
     };
-    let relative = library_path(unpacked.dir(), &cs.model_identifier).map_err(import)?;
+    let relative = crate::binary::library_path_for(PLATFORM3, unpacked.dir(), &cs.model_identifier)
+        .map_err(import)?;
     let (library, api3, version) = load_library(unpacked.dir(), &relative).map_err(import)?;
 
     let nul = |what| import(ImportError::Nul { what });
