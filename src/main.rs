@@ -17,7 +17,7 @@ use cmd::sweep::SweepArgs;
 #[command(
     name = "inchworm",
     version,
-    about = "Co-simulation of JPL's inchworm actuator: runs its FMI 2.0 FMUs, writes CSV and plots"
+    about = "Co-simulation of JPL's inchworm actuator: runs its FMI 2.0 and 3.0 FMUs, writes CSV and plots"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -35,12 +35,13 @@ enum Command {
     /// from that time over the next sample, and the plant outputs at that time, in SI
     /// units (s, V, m; mode 1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE).
     Gait(GaitArgs),
-    /// Run a named scenario of the paper (fig5, staircase, calibration, fia6: closed loops
-    /// through the master on dist/InchwormSystem.ssp, or the crates with --direct; stall:
-    /// open-loop slews of the plant crate), write <out>/<name>_<variant>.csv and
-    /// <out>/<name>.png, and print settle times, RMS and estimates.
+    /// Run a named scenario (fig5, staircase, calibration, fia6: the paper's closed loops
+    /// through the master on dist/InchwormSystem.ssp, or the crates with --direct; slew,
+    /// stall: open-loop slews of the plant crate; mirror: the three-actuator mount;
+    /// analog, fastgait, future, bdmap: the controller's options beyond the paper), write
+    /// its CSVs and <out>/<name>.png, and print settle times, RMS and estimates.
     Scenario(ScenarioArgs),
-    /// Run an SSP system (.ssp) or a single FMI 2.0 Co-Simulation FMU (.fmu) with a fixed
+    /// Run an SSP system (.ssp) or a single FMI 2.0 or 3.0 Co-Simulation FMU (.fmu) with a fixed
     /// communication step, and write the chosen variables at every communication point as
     /// CSV.
     Run(RunArgs),

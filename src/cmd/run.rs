@@ -1,4 +1,4 @@
-//! `inchworm run`: the master on any flat SSP or single FMI 2.0 CS FMU, its recorded
+//! `inchworm run`: the master on any flat SSP or single FMI 2.0 or 3.0 CS FMU, its recorded
 //! variables written as CSV (and a plot).
 
 use std::io::{IsTerminal, Write};
@@ -19,25 +19,8 @@ const PLOT_POINTS: usize = 2000;
 pub struct RunArgs {
     /// The system (.ssp) or FMU (.fmu).
     pub file: PathBuf,
-    /// Stop time (s); default: the file's default experiment, else 1 s.
-    #[arg(long)]
-    pub stop_time: Option<f64>,
-    /// Communication step (s); default: the file's, else stop time / 500.
-    #[arg(long)]
-    pub step_size: Option<f64>,
-    #[arg(long, value_enum, default_value = "jacobi")]
-    pub coupling: CouplingArg,
-    /// A start value or parameter: component.variable=value (variable=value for an FMU).
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    pub params: Vec<String>,
-    /// A parameter set of the SSP, by name: every ParameterBinding of the SSD whose
-    /// ssv:ParameterSet has this name (an SSP without bindings: resources/<name>.ssv).
-    #[arg(long)]
-    pub parameter_set: Option<String>,
-    /// CSV `time,<input>,…` for the system's (or FMU's) unconnected inputs, held
-    /// piecewise constant.
-    #[arg(long)]
-    pub input: Option<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
     /// A variable to record (component.variable, or a system output); repeatable;
     /// default: the system's outputs.
     #[arg(long = "output", value_name = "NAME")]
@@ -58,19 +41,51 @@ pub enum CouplingArg {
     GaussSeidel,
 }
 
+/// How a system is simulated: the options `inchworm run` and `inchworm sweep` share.
+#[derive(Args)]
+pub struct SimArgs {
+    /// Stop time (s); default: the file's default experiment, else 1 s.
+    #[arg(long)]
+    pub stop_time: Option<f64>,
+    /// Communication step (s); default: the file's, else stop time / 500.
+    #[arg(long)]
+    pub step_size: Option<f64>,
+    #[arg(long, value_enum, default_value = "jacobi")]
+    pub coupling: CouplingArg,
+    /// A start value or parameter: component.variable=value (variable=value for an FMU);
+    /// repeatable (in a sweep: fixed for every run).
+    #[arg(long = "param", value_name = "NAME=VALUE")]
+    pub params: Vec<String>,
+    /// A parameter set of the SSP, by name: every ParameterBinding of the SSD whose
+    /// ssv:ParameterSet has this name (an SSP without bindings: resources/<name>.ssv).
+    #[arg(long)]
+    pub parameter_set: Option<String>,
+    /// CSV `time,<input>,…` for the system's (or FMU's) unconnected inputs, held
+    /// piecewise constant.
+    #[arg(long)]
+    pub input: Option<PathBuf>,
+}
+
+impl SimArgs {
+    /// The master's options for these arguments, recording `outputs`.
+    pub fn options(&self, outputs: Vec<String>) -> Result<Options, String> {
+        Ok(Options {
+            stop_time: self.stop_time,
+            step_size: self.step_size,
+            coupling: match self.coupling {
+                CouplingArg::Jacobi => Coupling::Jacobi,
+                CouplingArg::GaussSeidel => Coupling::GaussSeidel,
+            },
+            params: super::parse_params(&self.params)?,
+            parameter_set: self.parameter_set.clone(),
+            input: self.input.as_deref().map(super::read_input).transpose()?,
+            outputs,
+        })
+    }
+}
+
 pub fn run(args: &RunArgs) -> Result<(), String> {
-    let opts = Options {
-        stop_time: args.stop_time,
-        step_size: args.step_size,
-        coupling: match args.coupling {
-            CouplingArg::Jacobi => Coupling::Jacobi,
-            CouplingArg::GaussSeidel => Coupling::GaussSeidel,
-        },
-        params: super::parse_params(&args.params)?,
-        parameter_set: args.parameter_set.clone(),
-        input: args.input.as_deref().map(super::read_input).transpose()?,
-        outputs: args.outputs.clone(),
-    };
+    let opts = args.sim.options(args.outputs.clone())?;
     // Before any work: a bad font or output path fails before the run, not after it.
     if args.plot.is_some() {
         plot::load_font(&args.font)?;

@@ -9,14 +9,13 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::master::Coupling;
 use inchworm::plot;
 use inchworm::sweep::exec::{self, Setup};
 use inchworm::sweep::metrics::{self, Metric};
 use inchworm::sweep::plan::{self, Plan};
 use inchworm::sweep::{self as sw, plots};
 
-use super::run::CouplingArg;
+use super::run::SimArgs;
 
 #[derive(Args)]
 pub struct SweepArgs {
@@ -44,23 +43,8 @@ pub struct SweepArgs {
     /// Worker threads, each with its own loaded system; default: every core.
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// Stop time (s); default: the file's default experiment, else 1 s.
-    #[arg(long)]
-    pub stop_time: Option<f64>,
-    /// Communication step (s); default: the file's, else stop time / 500.
-    #[arg(long)]
-    pub step_size: Option<f64>,
-    #[arg(long, value_enum, default_value = "jacobi")]
-    pub coupling: CouplingArg,
-    /// A fixed parameter of every run: component.variable=value; repeatable.
-    #[arg(long = "param", value_name = "NAME=VALUE")]
-    pub params: Vec<String>,
-    /// A parameter set of the SSP, by name (resources/<name>.ssv), set before the rest.
-    #[arg(long)]
-    pub parameter_set: Option<String>,
-    /// CSV `time,<input>,…` for the system's unconnected inputs, as `inchworm run` takes it.
-    #[arg(long)]
-    pub input: Option<PathBuf>,
+    #[command(flatten)]
+    pub sim: SimArgs,
     /// The folder for plan.csv, results.csv and the plots.
     #[arg(long, default_value = "out/sweep")]
     pub out: PathBuf,
@@ -169,17 +153,15 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
             w.write_all(plan.to_csv().as_bytes())
         });
     }
+    let opts = args.sim.options(Vec::new())?;
     let setup = Setup {
         system: args.file.clone(),
-        stop_time: args.stop_time,
-        step_size: args.step_size,
-        coupling: match args.coupling {
-            CouplingArg::Jacobi => Coupling::Jacobi,
-            CouplingArg::GaussSeidel => Coupling::GaussSeidel,
-        },
-        params: super::parse_params(&args.params)?,
-        parameter_set: args.parameter_set.clone(),
-        input: args.input.as_deref().map(super::read_input).transpose()?,
+        stop_time: opts.stop_time,
+        step_size: opts.step_size,
+        coupling: opts.coupling,
+        params: opts.params,
+        parameter_set: opts.parameter_set,
+        input: opts.input,
         metrics: metrics.clone(),
     };
     let jobs =
