@@ -38,18 +38,12 @@ fn fmus() -> [Fmu3; 2] {
     ]
 }
 
-/// FMI 3.0 platform tuple (section 2.5.1.1) and shared-library naming of the host.
+/// The host's FMI 3.0 platform tuple and shared-library naming, from the one platform table.
 fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
-    match (std::env::consts::OS, std::env::consts::ARCH) {
-        ("linux", "x86_64") => Ok(("x86_64-linux", "lib", "so")),
-        ("linux", "aarch64") => Ok(("aarch64-linux", "lib", "so")),
-        ("linux", "x86") => Ok(("x86-linux", "lib", "so")),
-        ("macos", "x86_64") => Ok(("x86_64-darwin", "lib", "dylib")),
-        ("macos", "aarch64") => Ok(("aarch64-darwin", "lib", "dylib")),
-        ("windows", "x86_64") => Ok(("x86_64-windows", "", "dll")),
-        ("windows", "x86") => Ok(("x86-windows", "", "dll")),
-        (os, arch) => Err(format!("no FMI 3.0 platform tuple for {os}/{arch}")),
-    }
+    let (os, arch) = (std::env::consts::OS, std::env::consts::ARCH);
+    inchworm_fmi_abi::platform::of(os, arch)
+        .map(|p| (p.fmi3, p.lib_prefix, p.lib_ext))
+        .ok_or_else(|| format!("no FMI 3.0 platform tuple for {os}/{arch}"))
 }
 
 fn build(root: &Path, fmus: &[Fmu3]) -> Result<(), String> {

@@ -30,16 +30,12 @@ fn fmu<M: Model>(package: &'static str, lib_stem: &'static str) -> Fmu {
     }
 }
 
-/// FMI platform folder and shared-library naming of the host; another platform is a line here.
+/// The host's FMI 2.0 platform folder and shared-library naming, from the one platform table.
 fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
-    match (std::env::consts::OS, std::env::consts::ARCH) {
-        ("linux", "x86_64") => Ok(("linux64", "lib", "so")),
-        ("linux", "x86") => Ok(("linux32", "lib", "so")),
-        ("macos", _) => Ok(("darwin64", "lib", "dylib")),
-        ("windows", "x86_64") => Ok(("win64", "", "dll")),
-        ("windows", "x86") => Ok(("win32", "", "dll")),
-        (os, arch) => Err(format!("no FMI 2.0 platform folder for {os}/{arch}")),
-    }
+    let (os, arch) = (std::env::consts::OS, std::env::consts::ARCH);
+    inchworm_fmi_abi::platform::of(os, arch)
+        .and_then(|p| Some((p.fmi2?, p.lib_prefix, p.lib_ext)))
+        .ok_or_else(|| format!("no FMI 2.0 platform folder for {os}/{arch}"))
 }
 
 fn workspace_root() -> PathBuf {

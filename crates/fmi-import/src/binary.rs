@@ -9,20 +9,23 @@ use libloading::Library;
 use crate::ffi::*;
 use crate::ImportError;
 
-/// The FMI 2.0 platform folder and library extension of this build.
-pub const PLATFORM: (&str, &str) = if cfg!(all(target_os = "linux", target_pointer_width = "64")) {
-    ("linux64", "so")
-} else if cfg!(target_os = "linux") {
-    ("linux32", "so")
-} else if cfg!(target_os = "macos") {
-    ("darwin64", "dylib")
-} else if cfg!(all(windows, target_pointer_width = "64")) {
-    ("win64", "dll")
-} else if cfg!(windows) {
-    ("win32", "dll")
-} else {
-    ("unknown", "so")
-};
+/// The FMI 2.0 platform folder and library extension of this host, from the project's one
+/// platform table. Where FMI 2.0 names no folder (64-bit ARM Linux) the lookup fails
+/// with the folders the FMU does carry.
+pub fn fmi2_platform() -> (&'static str, &'static str) {
+    match inchworm_fmi_abi::platform::host() {
+        Some(p) => (p.fmi2.unwrap_or("(none: FMI 2.0 names no folder for this host)"), p.lib_ext),
+        None => ("(none: this host is not in the platform table)", "so"),
+    }
+}
+
+/// The FMI 3.0 platform tuple and library extension of this host.
+pub fn fmi3_platform() -> (&'static str, &'static str) {
+    match inchworm_fmi_abi::platform::host() {
+        Some(p) => (p.fmi3, p.lib_ext),
+        None => ("(none: this host is not in the platform table)", "so"),
+    }
+}
 
 /// The Co-Simulation functions of one binary. The required ones are plain pointers; the
 /// optional ones (FMU state) are `None` when absent. All functions of the FMI 2.0 CS API
@@ -78,7 +81,7 @@ pub(crate) struct Binary {
 /// `binaries/<platform>/<model_identifier>.<ext>` (relative to `dir`, the unpacked FMU),
 /// or a clear error naming the platforms the FMU does carry.
 pub fn library_path(dir: &Path, model_identifier: &str) -> Result<PathBuf, ImportError> {
-    library_path_for(PLATFORM, dir, model_identifier)
+    library_path_for(fmi2_platform(), dir, model_identifier)
 }
 
 /// [`library_path`] for a platform folder and library extension (FMI 2.0 and FMI 3.0 name

@@ -26,7 +26,7 @@ use std::mem::ManuallyDrop;
 use std::os::raw::{c_char, c_void};
 use std::path::Path;
 
-use inchworm_fmi3_abi::*;
+use inchworm_fmi_abi::fmi3::*;
 use libloading::Library;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
@@ -37,25 +37,6 @@ use crate::description::{ModelDescription, VarType, Variability, Variable};
 use crate::ffi::*;
 use crate::logger::LogEnv;
 use crate::{archive::Unpacked, CsFmu, FmuError, ImportError};
-
-/// The FMI 3.0 platform tuple and library extension of this host.
-pub const PLATFORM3: (&str, &str) = if cfg!(all(target_os = "linux", target_arch = "x86_64")) {
-    ("x86_64-linux", "so")
-} else if cfg!(all(target_os = "linux", target_arch = "aarch64")) {
-    ("aarch64-linux", "so")
-} else if cfg!(all(target_os = "linux", target_arch = "x86")) {
-    ("x86-linux", "so")
-} else if cfg!(all(target_os = "macos", target_arch = "aarch64")) {
-    ("aarch64-darwin", "dylib")
-} else if cfg!(target_os = "macos") {
-    ("x86_64-darwin", "dylib")
-} else if cfg!(all(windows, target_pointer_width = "64")) {
-    ("x86_64-windows", "dll")
-} else if cfg!(windows) {
-    ("x86-windows", "dll")
-} else {
-    ("unknown", "so")
-};
 
 /// Whether the root element declares `fmiVersion="3.*"` (anything else, malformed XML
 /// included, is left to the FMI 2.0 parser and its error messages).
@@ -613,8 +594,12 @@ pub(crate) fn load(
     let Some(cs) = &description.co_simulation else {
         return Err(FmuError::NotCoSimulation { model });
     };
-    let relative = crate::binary::library_path_for(PLATFORM3, unpacked.dir(), &cs.model_identifier)
-        .map_err(import)?;
+    let relative = crate::binary::library_path_for(
+        crate::binary::fmi3_platform(),
+        unpacked.dir(),
+        &cs.model_identifier,
+    )
+    .map_err(import)?;
     let (library, api3, version) = load_library(unpacked.dir(), &relative).map_err(import)?;
 
     let nul = |what| import(ImportError::Nul { what });

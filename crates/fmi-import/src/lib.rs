@@ -32,7 +32,7 @@ use std::ffi::{CStr, CString};
 use std::mem::ManuallyDrop;
 use std::path::Path;
 
-pub use binary::PLATFORM;
+pub use binary::{fmi2_platform, fmi3_platform};
 pub use description::{
     Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType, Variability,
     Variable,

@@ -1,9 +1,6 @@
 //! The FMI 3.0 C ABI (`fmi3PlatformTypes.h`, `fmi3FunctionTypes.h`), written out by hand
-//! like its FMI 2.0 sibling `inchworm-fmi2-abi`: no libclang run for any build. FMI 3.0's
-//! logger is a plain (non-variadic) function, so both sides are Rust only. The export
-//! layer (`inchworm-fmi-export`, module `fmi3`) implements these signatures; the import
-//! layer (`inchworm-fmi-import`, module `fmi3`) calls them.
-#![allow(non_camel_case_types, non_snake_case, non_upper_case_globals)]
+//! like its FMI 2.0 sibling: no libclang run for any build. FMI 3.0's logger is a plain
+//! (non-variadic) function, so both sides are Rust only.
 
 use std::os::raw::{c_char, c_int, c_void};
 

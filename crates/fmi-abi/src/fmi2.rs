@@ -1,8 +1,6 @@
 //! The FMI 2.0 C ABI (`fmi2TypesPlatform.h`, `fmi2FunctionTypes.h`), written out by hand:
 //! the standard froze it in 2014, and a page of declarations spares every build of the
-//! FMUs and the master a libclang/bindgen run. The export layer (`inchworm-fmi-export`)
-//! implements these signatures; the import layer (`inchworm-fmi-import`) calls them.
-#![allow(non_camel_case_types, non_snake_case, non_upper_case_globals)]
+//! FMUs and the master a libclang/bindgen run.
 
 use std::os::raw::{c_char, c_int, c_uint, c_void};
 
