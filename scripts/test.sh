@@ -18,6 +18,9 @@ cargo fmt --all --check
 cargo fmt --check --manifest-path crates/hil-protocol/ffi/Cargo.toml
 cargo fmt --check --manifest-path crates/hil-protocol/fuzz/Cargo.toml
 cargo clippy --release --workspace --all-targets -- -D warnings
+# The committed generated files (modelDescription/) against the variable tables, before
+# fmu-build rewrites them: this is the step that fails when they drift.
+cargo run --release -q -p fmu-build -- --check
 cargo run --release -q -p fmu-build
 cargo test --release --workspace
 .venv/bin/python -m pytest tests/python -q -p no:cacheprovider

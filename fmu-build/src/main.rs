@@ -1,18 +1,53 @@
 //! `cargo run --release -p fmu-build`: builds each FMU's shared library, generates its
 //! `modelDescription.xml` and documentation from the variable table, writes the committed
-//! copy in `modelDescription/` and packages `dist/<Model>.fmu`.
+//! copies under `modelDescription/` and packages `dist/<Model>.fmu` (FMI 2.0),
+//! `dist/fmi3/<Model>.fmu` (FMI 3.0) and the SSP systems over them.
+//!
+//! `cargo run --release -p fmu-build -- --check` builds nothing and writes nothing: it
+//! generates every committed file again (model descriptions of both standards, the system
+//! descriptions and their parameter sets) and fails, naming each file, where the committed
+//! copy differs. `scripts/test.sh` runs it before anything regenerates the files, so an
+//! edited description or a table changed without its description fails CI.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
-use inchworm_fmi_export::{model_description, Model};
+use inchworm_fmi_abi::platform::Platform;
+use inchworm_fmi_export::{fmi3, model_description, Model};
 
-mod fmi3;
 mod ssp;
 
-/// One FMU to package: its model, the cargo package of its cdylib and the library stem.
+/// The FMI version of one packaged FMU: the one place where the two standards' files and
+/// folders differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Standard {
+    Fmi2,
+    Fmi3,
+}
+
+impl Standard {
+    /// The folder below `dist/` and below `modelDescription/`.
+    fn subdir(self) -> &'static str {
+        match self {
+            Standard::Fmi2 => "",
+            Standard::Fmi3 => "fmi3",
+        }
+    }
+
+    /// The `binaries/` folder of a platform (FMI 2.0 names fewer platforms than FMI 3.0).
+    fn binaries_folder(self, p: &Platform) -> Option<&'static str> {
+        match self {
+            Standard::Fmi2 => p.fmi2,
+            Standard::Fmi3 => Some(p.fmi3),
+        }
+    }
+}
+
+/// One FMU to package: its model, the standard, the cargo package of its cdylib and the
+/// library stem.
 struct Fmu {
+    standard: Standard,
     identifier: &'static str,
     package: &'static str,
     lib_stem: &'static str,
@@ -20,22 +55,148 @@ struct Fmu {
     documentation: fn() -> String,
 }
 
-fn fmu<M: Model>(package: &'static str, lib_stem: &'static str) -> Fmu {
+fn fmu<M: Model>(standard: Standard, package: &'static str, lib_stem: &'static str) -> Fmu {
     Fmu {
+        standard,
         identifier: M::info().model_identifier,
         package,
         lib_stem,
-        model_description: model_description::model_description::<M>,
+        model_description: match standard {
+            Standard::Fmi2 => model_description::model_description::<M>,
+            Standard::Fmi3 => fmi3::model_description::model_description::<M>,
+        },
         documentation: model_description::documentation::<M>,
     }
 }
 
-/// The host's FMI 2.0 platform folder and shared-library naming, from the one platform table.
-fn platform() -> Result<(&'static str, &'static str, &'static str), String> {
-    let (os, arch) = (std::env::consts::OS, std::env::consts::ARCH);
-    inchworm_fmi_abi::platform::of(os, arch)
-        .and_then(|p| Some((p.fmi2?, p.lib_prefix, p.lib_ext)))
-        .ok_or_else(|| format!("no FMI 2.0 platform folder for {os}/{arch}"))
+fn fmus() -> Vec<Fmu> {
+    use inchworm_fmu_models::{ControllerFmu, MountFmu, PlantFmu, ReferenceFmu};
+    use Standard::{Fmi2, Fmi3};
+    vec![
+        fmu::<PlantFmu>(Fmi2, "inchworm-plant-fmu", "inchworm_plant_fmu"),
+        fmu::<ControllerFmu>(Fmi2, "inchworm-controller-fmu", "inchworm_controller_fmu"),
+        fmu::<ReferenceFmu>(Fmi2, "inchworm-reference-fmu", "inchworm_reference_fmu"),
+        fmu::<MountFmu>(Fmi2, "inchworm-mount-fmu", "inchworm_mount_fmu"),
+        fmu::<PlantFmu>(Fmi3, "inchworm-plant-fmu3", "inchworm_plant_fmu3"),
+        fmu::<ControllerFmu>(Fmi3, "inchworm-controller-fmu3", "inchworm_controller_fmu3"),
+    ]
+}
+
+/// One SSP to package: where it goes, its specification and which of its FMUs are taken
+/// from `dist/fmi3/` (the others are FMI 2.0, from `dist/`).
+struct System {
+    standard: Standard,
+    spec: ssp::SystemSpec,
+    /// The archive's name, if not the specification's.
+    name: Option<&'static str>,
+    fmi3: &'static [&'static str],
+}
+
+fn systems() -> Vec<System> {
+    let fmi2 = |spec| System { standard: Standard::Fmi2, spec, name: None, fmi3: &[] };
+    vec![
+        fmi2(ssp::closed_system()),
+        fmi2(ssp::open_system()),
+        fmi2(ssp::mirror_mount()),
+        // Both FMUs FMI 3.0: the open loop (the reference from the system input), the same
+        // system as `dist/InchwormSystemOpen.ssp` under the name FMI 3.0 users look for.
+        System {
+            standard: Standard::Fmi3,
+            spec: ssp::open_system(),
+            name: Some("InchwormSystem"),
+            fmi3: &["InchwormPlant", "InchwormController"],
+        },
+        // The closed loop with the FMI 3.0 plant and the FMI 2.0 controller and reference,
+        // the same system as `dist/InchwormSystem.ssp`.
+        System {
+            standard: Standard::Fmi3,
+            spec: ssp::closed_system(),
+            name: Some("InchwormSystemMixed"),
+            fmi3: &["InchwormPlant"],
+        },
+    ]
+}
+
+/// Every file that is generated and committed, as (path relative to the workspace root,
+/// text): the model descriptions of both standards, and for each FMI 2.0 system its
+/// `SystemStructure.ssd` and parameter sets (the FMI 3.0 systems reuse those
+/// specifications unchanged, so their texts are the same).
+fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
+    let mut files = Vec::new();
+    for f in fmus {
+        let path = Path::new("modelDescription")
+            .join(f.standard.subdir())
+            .join(format!("{}.xml", f.identifier));
+        files.push((path, (f.model_description)()));
+    }
+    for s in systems.iter().filter(|s| s.standard == Standard::Fmi2) {
+        let dir = Path::new("modelDescription").join("ssp").join(s.spec.name);
+        files.push((dir.join("SystemStructure.ssd"), s.spec.system_description()));
+        for (path, text) in s.spec.parameter_files() {
+            files.push((dir.join(path), text));
+        }
+    }
+    files
+}
+
+/// The committed files under `root` that differ from what the tables generate now, each
+/// with what is wrong; also those in the generated folders that nothing generates.
+fn drift(root: &Path, files: &[(PathBuf, String)]) -> Vec<String> {
+    let mut found = Vec::new();
+    for (path, text) in files {
+        match std::fs::read(root.join(path)) {
+            Ok(bytes) if bytes == text.as_bytes() => {}
+            Ok(bytes) => {
+                let line = first_difference(&bytes, text.as_bytes());
+                found.push(format!(
+                    "{} differs from the generated text from line {line}",
+                    path.display()
+                ))
+            }
+            Err(e) => found.push(format!("{} cannot be read: {e}", path.display())),
+        }
+    }
+    let mut on_disk = Vec::new();
+    list_files(&root.join("modelDescription"), root, &mut on_disk);
+    on_disk.sort();
+    for path in on_disk {
+        if !files.iter().any(|(p, _)| *p == path) {
+            found.push(format!(
+                "{} is not generated by anything (left from a removed model?)",
+                path.display()
+            ));
+        }
+    }
+    found
+}
+
+/// The 1-based line where two texts first differ.
+fn first_difference(a: &[u8], b: &[u8]) -> usize {
+    let common = a.iter().zip(b).take_while(|(x, y)| x == y).count();
+    1 + a[..common].iter().filter(|&&c| c == b'\n').count()
+}
+
+fn list_files(dir: &Path, root: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.filter_map(Result::ok) {
+        let p = e.path();
+        if p.is_dir() {
+            list_files(&p, root, out);
+        } else if let Ok(rel) = p.strip_prefix(root) {
+            out.push(rel.to_path_buf());
+        }
+    }
+}
+
+fn write_committed(root: &Path, files: &[(PathBuf, String)]) -> Result<(), String> {
+    for (path, text) in files {
+        let path = root.join(path);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        }
+        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
 }
 
 fn workspace_root() -> PathBuf {
@@ -52,46 +213,46 @@ fn target_dir(root: &Path) -> PathBuf {
         .unwrap_or_else(|| root.join("target"))
 }
 
+/// `cargo build --release --lib` of every FMU's package, in one cargo call.
 fn build(root: &Path, fmus: &[Fmu]) -> Result<(), String> {
-    build_libraries(root, fmus.iter().map(|f| f.package), "FMU libraries")
-}
-
-/// `cargo build --release --lib` of the named packages, in one cargo call.
-fn build_libraries<'a>(
-    root: &Path,
-    packages: impl Iterator<Item = &'a str>,
-    what: &str,
-) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(root).args(["build", "--release", "--lib"]);
-    for p in packages {
-        cmd.args(["-p", p]);
+    for f in fmus {
+        cmd.args(["-p", f.package]);
     }
     let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
-        return Err(format!("cargo build of the {what} failed ({status})"));
+        return Err(format!("cargo build of the FMU libraries failed ({status})"));
     }
     Ok(())
 }
 
+fn host() -> Result<&'static Platform, String> {
+    let (os, arch) = (std::env::consts::OS, std::env::consts::ARCH);
+    inchworm_fmi_abi::platform::host().ok_or_else(|| format!("no FMI platform names {os}/{arch}"))
+}
+
+fn dist_dir(root: &Path, standard: Standard) -> PathBuf {
+    root.join("dist").join(standard.subdir())
+}
+
 fn package(root: &Path, f: &Fmu) -> Result<PathBuf, String> {
-    let (platform, prefix, ext) = platform()?;
+    let host = host()?;
+    let folder = f.standard.binaries_folder(host).ok_or_else(|| {
+        format!("{:?} names no binaries folder for {}/{}", f.standard, host.os, host.arch)
+    })?;
+    let (prefix, ext) = (host.lib_prefix, host.lib_ext);
     let lib = target_dir(root).join("release").join(format!("{prefix}{}.{ext}", f.lib_stem));
     let binary = std::fs::read(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
     let xml = (f.model_description)();
-    let md_dir = root.join("modelDescription");
-    std::fs::create_dir_all(&md_dir).map_err(|e| format!("{}: {e}", md_dir.display()))?;
-    let md_path = md_dir.join(format!("{}.xml", f.identifier));
-    std::fs::write(&md_path, &xml).map_err(|e| format!("{}: {e}", md_path.display()))?;
-
-    let dist = root.join("dist");
+    let dist = dist_dir(root, f.standard);
     std::fs::create_dir_all(&dist).map_err(|e| format!("{}: {e}", dist.display()))?;
     let out = dist.join(format!("{}.fmu", f.identifier));
     let docs = (f.documentation)();
     let entries: [(String, &[u8]); 3] = [
         ("modelDescription.xml".into(), xml.as_bytes()),
-        (format!("binaries/{platform}/{}.{ext}", f.identifier), &binary),
+        (format!("binaries/{folder}/{}.{ext}", f.identifier), &binary),
         ("documentation/index.html".into(), docs.as_bytes()),
     ];
     write_zip(&out, &entries)?;
@@ -115,27 +276,16 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
     std::fs::rename(&tmp, out).map_err(|e| err(&e))
 }
 
-/// `dist/<system>.ssp` from the packaged FMUs: the SSD, each FMU once, every parameter set.
-fn package_system(root: &Path, spec: &ssp::SystemSpec) -> Result<PathBuf, String> {
-    let dist = root.join("dist");
-    let out = dist.join(format!("{}.ssp", spec.name));
-    write_system(spec, &|id| dist.join(format!("{id}.fmu")), &out)?;
-    Ok(out)
-}
-
-/// Writes the `.ssp` of `spec` to `out`, each FMU read from `fmu_path(identifier)`.
-fn write_system(
-    spec: &ssp::SystemSpec,
-    fmu_path: &dyn Fn(&str) -> PathBuf,
-    out: &Path,
-) -> Result<(), String> {
+/// The `.ssp` of one system: the SSD, each FMU once, every parameter set.
+fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
     let mut fmus = Vec::new();
-    for id in spec.fmus() {
-        let p = fmu_path(id);
+    for id in s.spec.fmus() {
+        let standard = if s.fmi3.contains(&id) { Standard::Fmi3 } else { Standard::Fmi2 };
+        let p = dist_dir(root, standard).join(format!("{id}.fmu"));
         fmus.push((id, std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?));
     }
-    let ssd = spec.system_description();
-    let sets = spec.parameter_files();
+    let ssd = s.spec.system_description();
+    let sets = s.spec.parameter_files();
     let mut entries: Vec<(String, &[u8])> = vec![("SystemStructure.ssd".into(), ssd.as_bytes())];
     for (id, bytes) in &fmus {
         entries.push((format!("resources/{id}.fmu"), bytes));
@@ -143,35 +293,47 @@ fn write_system(
     for (path, text) in &sets {
         entries.push((path.clone(), text.as_bytes()));
     }
-    write_zip(out, &entries)
+    let name = s.name.unwrap_or(s.spec.name);
+    let out = dist_dir(root, s.standard).join(format!("{name}.ssp"));
+    write_zip(&out, &entries)?;
+    Ok(out)
 }
 
 fn main() -> ExitCode {
     let root = workspace_root();
-    let fmus = [
-        fmu::<inchworm_fmu_models::PlantFmu>("inchworm-plant-fmu", "inchworm_plant_fmu"),
-        fmu::<inchworm_fmu_models::ControllerFmu>(
-            "inchworm-controller-fmu",
-            "inchworm_controller_fmu",
-        ),
-        fmu::<inchworm_fmu_models::ReferenceFmu>(
-            "inchworm-reference-fmu",
-            "inchworm_reference_fmu",
-        ),
-        fmu::<inchworm_fmu_models::MountFmu>("inchworm-mount-fmu", "inchworm_mount_fmu"),
-    ];
+    let (fmus, systems) = (fmus(), systems());
+    let files = committed_files(&fmus, &systems);
+    let check = match std::env::args().nth(1).as_deref() {
+        None => false,
+        Some("--check") => true,
+        Some(other) => {
+            eprintln!("fmu-build: unknown argument `{other}` (the only option is --check)");
+            return ExitCode::from(2);
+        }
+    };
+    if check {
+        let found = drift(&root, &files);
+        if found.is_empty() {
+            println!("fmu-build --check: {} generated files match the committed ones", files.len());
+            return ExitCode::SUCCESS;
+        }
+        for f in &found {
+            eprintln!("fmu-build --check: {f}");
+        }
+        eprintln!(
+            "fmu-build --check: {} of the committed generated files drifted from the variable tables; run `cargo run --release -p fmu-build` and commit modelDescription/",
+            found.len()
+        );
+        return ExitCode::FAILURE;
+    }
     let run = || -> Result<(), String> {
         build(&root, &fmus)?;
+        write_committed(&root, &files)?;
         for f in &fmus {
-            let out = package(&root, f)?;
-            println!("fmu-build: wrote {}", out.display());
+            println!("fmu-build: wrote {}", package(&root, f)?.display());
         }
-        for spec in [ssp::closed_system(), ssp::open_system(), ssp::mirror_mount()] {
-            let out = package_system(&root, &spec)?;
-            println!("fmu-build: wrote {}", out.display());
-        }
-        for out in fmi3::package_all(&root)? {
-            println!("fmu-build: wrote {}", out.display());
+        for s in &systems {
+            println!("fmu-build: wrote {}", package_system(&root, s)?.display());
         }
         Ok(())
     };
@@ -181,5 +343,67 @@ fn main() -> ExitCode {
             eprintln!("fmu-build: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A copy of the committed generated files in a scratch folder, as CI's clone has them.
+    fn committed_copy(files: &[(PathBuf, String)]) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        let root = workspace_root();
+        for (path, _) in files {
+            let to = dir.path().join(path);
+            std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+            std::fs::copy(root.join(path), &to).unwrap_or_else(|e| {
+                panic!("{}: {e} (run fmu-build and commit it)", path.display())
+            });
+        }
+        dir
+    }
+
+    #[test]
+    fn the_committed_files_are_what_the_tables_generate() {
+        let files = committed_files(&fmus(), &systems());
+        assert_eq!(drift(&workspace_root(), &files), Vec::<String>::new());
+    }
+
+    #[test]
+    fn an_edited_description_a_missing_set_and_a_stray_file_are_each_named() {
+        let files = committed_files(&fmus(), &systems());
+        let dir = committed_copy(&files);
+        assert!(drift(dir.path(), &files).is_empty());
+
+        let plant = dir.path().join("modelDescription/fmi3/InchwormPlant.xml");
+        let text = std::fs::read_to_string(&plant).unwrap();
+        let edited = text.replacen("causality=\"input\"", "causality=\"parameter\"", 1);
+        assert_ne!(edited, text, "the plant has inputs to edit");
+        std::fs::write(&plant, edited).unwrap();
+        let set = dir.path().join("modelDescription/ssp/InchwormSystem/resources/plant.fia6.ssv");
+        std::fs::remove_file(&set).unwrap();
+        std::fs::write(dir.path().join("modelDescription/Old.xml"), "<x/>").unwrap();
+
+        let found = drift(dir.path(), &files);
+        assert_eq!(found.len(), 3, "{found:#?}");
+        assert!(
+            found[0].starts_with("modelDescription/fmi3/InchwormPlant.xml differs"),
+            "{found:#?}"
+        );
+        assert!(
+            found[1].starts_with(
+                "modelDescription/ssp/InchwormSystem/resources/plant.fia6.ssv cannot be read"
+            ),
+            "{found:#?}"
+        );
+        assert!(found[2].starts_with("modelDescription/Old.xml is not generated"), "{found:#?}");
+    }
+
+    #[test]
+    fn the_first_differing_line_is_reported() {
+        assert_eq!(first_difference(b"a\nb\nc\n", b"a\nb\nd\n"), 3);
+        assert_eq!(first_difference(b"a\n", b"a\n"), 2);
+        assert_eq!(first_difference(b"x", b"y"), 1);
     }
 }
