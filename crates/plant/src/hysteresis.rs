@@ -127,6 +127,22 @@ impl Hysteresis {
         }
     }
 
+    /// Whether [`Self::sync`] at `ξ` and the sign of `ξ̇` would leave the memories and the
+    /// slipping set as they are, with nothing slipping: then it only sets the direction,
+    /// which then weighs nothing (`c0` and the thresholds ignore it), and a quiet step can
+    /// skip the re-derivation. The same operations as `sync`, so the same decision.
+    pub fn sync_keeps(&self, xi: f64, xi_rate_sign: i8) -> bool {
+        self.sliding == 0
+            && (0..N_PLAYS).all(|i| {
+                let memory = play(self.memory[i], xi, self.radius[i]);
+                let tol = 1e-9 * (1.0 + self.radius[i]);
+                let at_upper = memory <= xi - self.radius[i] + tol;
+                let at_lower = memory >= xi + self.radius[i] - tol;
+                memory.to_bits() == self.memory[i].to_bits()
+                    && !((xi_rate_sign > 0 && at_upper) || (xi_rate_sign < 0 && at_lower))
+            })
+    }
+
     /// The `ξ` at which the next stuck play starts to move upwards / downwards.
     pub fn next_thresholds(&self) -> (f64, f64) {
         let mut up = f64::INFINITY;

@@ -10,6 +10,7 @@ pub mod hysteresis;
 pub mod linear;
 mod noise;
 pub mod params;
+mod quiet;
 pub mod rk4;
 mod solver;
 mod state;
@@ -20,6 +21,7 @@ use configs::{ChainRemainder, ConfigTable, Remainder};
 use hysteresis::Hysteresis;
 use linear::{ix, Chain, Propagators, Vector};
 pub use params::{ParamError, PlantParams, N_PLAYS};
+use quiet::QuietPlan;
 use solver::Armed;
 pub use solver::{StepError, MAX_STEP};
 
@@ -118,6 +120,10 @@ pub struct Plant {
     /// steps repeat, so their tails do too.
     remainders: Vec<Option<Remainder>>,
     chain_remainder: Option<ChainRemainder>,
+    /// The quiet-step plans of each mode with nothing slipping, for one step length each.
+    quiet: [Option<Arc<QuietPlan>>; 4],
+    /// The length of the last step (bits of `h`): a plan is built when a length repeats.
+    last_h: u64,
     /// Always scan every point (the solver before the quiet-step bound); results are
     /// bit-identical either way. For benchmarks and tests.
     scan_always: bool,
@@ -171,6 +177,8 @@ impl Plant {
             configs: vec![None; 4 << N_PLAYS],
             remainders: vec![None; 4 << N_PLAYS],
             chain_remainder: None,
+            quiet: Default::default(),
+            last_h: 0,
             scan_always: false,
             scan_stats: ScanStats::default(),
         })

@@ -157,11 +157,21 @@ struct FunctionalBound<const D: usize> {
     lo: SVector<f64, D>,
     hi: SVector<f64, D>,
     rho: SVector<f64, D>,
-    /// `ρ + ρ|P̂|`: weights of `|z|` in the rounding slack.
+    /// `ρ + ρ|P̂| + α`: weights of `|z|` in the rounding slack.
     slack: SVector<f64, D>,
 }
 
-/// A state split against the settling matrix, ready for [`Propagators::range`].
+/// A row whose value on the state a bound must hold.
+pub(crate) struct BoundRow<const D: usize> {
+    /// The value is this row of the state, in exact arithmetic.
+    pub(crate) row: SVector<f64, D>,
+    /// For a value computed through products (`c · (M_m ⋯ (M_1 z))`, `row` = `c M_m ⋯ M_1`):
+    /// `|c| |M_m| ⋯ |M_1|`, which bounds the rounding of those products and of `row` itself
+    /// (at most ~2(m + 1)·14 u of it, far inside `BOUND_SLACK`). `None` for a plain dot product.
+    pub(crate) magnitude: Option<SVector<f64, D>>,
+}
+
+/// A state split against the settling matrix, ready for [`ScanBound::range`].
 pub struct Split<const D: usize> {
     z: SVector<f64, D>,
     z_abs: SVector<f64, D>,
@@ -179,18 +189,34 @@ impl<const D: usize> ScanBound<D> {
         for _ in 0..SETTLE_SQUARINGS {
             settle = settle * settle;
         }
+        let w = watched.len();
+        let rows: Vec<Vec<BoundRow<D>>> = (0..w)
+            .map(|o| {
+                (0..=scan_points)
+                    .map(|k| BoundRow {
+                        row: if k == 0 { watched[o] } else { scan[(k - 1) * w + o] },
+                        magnitude: None,
+                    })
+                    .collect()
+            })
+            .collect();
+        Self::from_rows(settle, &rows)
+    }
+
+    /// The bound of every functional `o` over its rows `rows[o]`, against the settling
+    /// matrix `settle`; `None` if anything in it isn't finite.
+    pub(crate) fn from_rows(settle: SMatrix<f64, D, D>, rows: &[Vec<BoundRow<D>>]) -> Option<Self> {
         if !settle.iter().all(|x| x.is_finite()) {
             return None;
         }
         let settle_abs = settle.abs();
-        let w = watched.len();
-        let mut functionals = Vec::with_capacity(w);
-        for o in 0..w {
+        let mut functionals = Vec::with_capacity(rows.len());
+        for rows in rows {
             let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
             let mut hi = SVector::<f64, D>::repeat(f64::NEG_INFINITY);
             let mut rho = SVector::<f64, D>::zeros();
-            for k in 0..=scan_points {
-                let r = if k == 0 { watched[o] } else { scan[(k - 1) * w + o] };
+            let mut alpha = SVector::<f64, D>::zeros();
+            for BoundRow { row: r, magnitude } in rows {
                 // (r P̂) as a column.
                 let t = settle.transpose() * r;
                 for i in 0..D {
@@ -200,15 +226,49 @@ impl<const D: usize> ScanBound<D> {
                     lo[i] = lo[i].min(t[i]);
                     hi[i] = hi[i].max(t[i]);
                     rho[i] = rho[i].max(r[i].abs());
+                    if let Some(a) = magnitude {
+                        alpha[i] = alpha[i].max(a[i]);
+                    }
                 }
             }
-            let slack = rho + settle_abs.transpose() * rho;
+            let slack = rho + settle_abs.transpose() * rho + alpha;
             if !slack.iter().all(|x| x.is_finite()) {
                 return None;
             }
             functionals.push(FunctionalBound { lo, hi, rho, slack });
         }
         Some(ScanBound { settle, functionals })
+    }
+
+    pub(crate) fn settle(&self) -> &SMatrix<f64, D, D> {
+        &self.settle
+    }
+
+    /// Splits `z` for [`Self::range`].
+    #[inline]
+    pub fn split(&self, z: &SVector<f64, D>) -> Split<D> {
+        let v = z - mul_vec(&self.settle, z);
+        Split { z: *z, z_abs: z.abs(), v_abs: v.abs() }
+    }
+
+    /// An interval that holds the computed value of every row of functional `o` on the
+    /// split state; `None` if it isn't finite (then neither is the state).
+    #[inline]
+    pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
+        let f = &self.functionals[o];
+        let (mut lo, mut hi, mut moving, mut weight) = (0.0, 0.0, 0.0, 0.0);
+        for i in 0..D {
+            let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
+            lo += a.min(b);
+            hi += a.max(b);
+            moving += f.rho[i] * s.v_abs[i];
+            weight += f.slack[i] * s.z_abs[i];
+        }
+        let margin = moving * (1.0 + BOUND_SLACK) + BOUND_SLACK * weight + 1e-300;
+        let (lo, hi) = (lo - margin, hi + margin);
+        // A finite weight means a finite state: every slack weight is positive or 0·∞ = NaN.
+        let finite = lo.is_finite() && hi.is_finite() && weight.is_finite();
+        finite.then_some((lo, hi))
     }
 }
 
@@ -241,9 +301,7 @@ impl<const D: usize> Propagators<D> {
     /// Splits `z` for [`Self::range`]; `None` if this table has no bound.
     #[inline]
     pub fn split(&self, z: &SVector<f64, D>) -> Option<Split<D>> {
-        let b = self.bound.as_ref()?;
-        let v = z - mul_vec(&b.settle, z);
-        Some(Split { z: *z, z_abs: z.abs(), v_abs: v.abs() })
+        Some(self.bound.as_ref()?.split(z))
     }
 
     /// An interval that holds the computed value of watched functional `o` at every scan
@@ -251,20 +309,9 @@ impl<const D: usize> Propagators<D> {
     /// for `k ≥ 1`, `watched[o].dot(z)` for `k = 0`. `None` if it isn't finite.
     #[inline]
     pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
-        let f = &self.bound.as_ref()?.functionals[o];
-        let (mut lo, mut hi, mut moving, mut weight) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..D {
-            let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
-            lo += a.min(b);
-            hi += a.max(b);
-            moving += f.rho[i] * s.v_abs[i];
-            weight += f.slack[i] * s.z_abs[i];
-        }
-        let margin = moving * (1.0 + BOUND_SLACK) + BOUND_SLACK * weight + 1e-300;
-        let (lo, hi) = (lo - margin, hi + margin);
-        let finite = lo.is_finite() && hi.is_finite() && weight.is_finite();
+        let range = self.bound.as_ref()?.range(o, s);
         #[cfg(debug_assertions)]
-        if finite {
+        if let Some((lo, hi)) = range {
             for k in 0..=self.scan_points {
                 let v = if k == 0 { self.watched[o].dot(&s.z) } else { self.scanned(k, o, &s.z) };
                 assert!(
@@ -273,7 +320,7 @@ impl<const D: usize> Propagators<D> {
                 );
             }
         }
-        finite.then_some((lo, hi))
+        range
     }
 
     /// Exact propagation over `ticks`, plus the sub-tick remainder `rest` seconds (< 1 tick)

@@ -106,7 +106,7 @@ fn event_budget(h: f64) -> u32 {
 }
 
 /// A scan of fewer points than this is cheaper than the bound that could skip it.
-const MIN_BOUND_POINTS: usize = 16;
+pub(crate) const MIN_BOUND_POINTS: usize = 16;
 
 /// The play thresholds and the sliding direction the event loop watches, a function of
 /// the hysteresis state alone.
@@ -115,17 +115,60 @@ pub(crate) struct Armed {
     up: f64,
     down: f64,
     direction: f64,
+    /// `c0` of `u_h = W ξ + c0` (`Hysteresis::offset`).
+    c0: f64,
 }
 
 impl Armed {
     pub(crate) fn of(h: &Hysteresis) -> Armed {
         let (up, down) = h.next_thresholds();
-        Armed { up, down, direction: f64::from(h.direction) * f64::from(u8::from(h.sliding != 0)) }
+        Armed { up, down, direction: Armed::direction(h), c0: h.offset() }
+    }
+
+    /// The sliding direction, 0 (of the sign of `ξ̇`) while nothing slides.
+    fn direction(h: &Hysteresis) -> f64 {
+        f64::from(h.direction) * f64::from(u8::from(h.sliding != 0))
+    }
+
+    /// After a change of `h.direction` alone (nothing slides, so only the sign of the zero
+    /// changes): as `Armed::of(h)` would give.
+    pub(crate) fn sync_direction(&mut self, h: &Hysteresis) {
+        self.direction = Armed::direction(h);
+    }
+
+    pub(crate) fn c0(&self) -> f64 {
+        self.c0
+    }
+}
+
+/// A step of `h` seconds in whole ticks and the sub-tick rest (s).
+pub(crate) fn ticks_of(h: f64) -> (u64, f64) {
+    let exact = h / TICK;
+    (exact.floor() as u64, (exact - exact.floor()) * TICK)
+}
+
+/// DAC volts as the plant holds them: clamped to 0–10 V, a non-finite value as 0 V.
+pub(crate) fn held_volts(v: f64) -> f64 {
+    if v.is_finite() {
+        v.clamp(0.0, 10.0)
+    } else {
+        0.0
+    }
+}
+
+/// The direction of `ξ` from a value with the sign of `ξ̇`.
+pub(crate) fn rate_sign(rate: f64) -> i8 {
+    if rate > 0.0 {
+        1
+    } else if rate < 0.0 {
+        -1
+    } else {
+        0
     }
 }
 
 /// What the event loop watches during one piece, frozen at its start.
-struct Watch<'a> {
+pub(crate) struct Watch<'a> {
     vth: f64,
     earth_closed: bool,
     nonearth_closed: bool,
@@ -193,6 +236,9 @@ impl Plant {
         if !(h > 0.0 && h <= MAX_STEP) {
             return Err(StepError::StepSize { h });
         }
+        if let Some(report) = self.quiet_step(dac, h) {
+            return Ok(report);
+        }
         let before = Snapshot::take(self);
         let report = self.advance_held(dac, h);
         let finite = self.time.is_finite()
@@ -212,15 +258,12 @@ impl Plant {
 
     fn advance_held(&mut self, dac: Dac, h: f64) -> StepReport {
         let mut report = StepReport::default();
-        let volts = |v: f64| if v.is_finite() { v.clamp(0.0, 10.0) } else { 0.0 };
-        self.z[ix::UX] = volts(dac.extension);
-        self.earth[3] = volts(dac.earth);
-        self.nonearth[3] = volts(dac.nonearth);
+        self.z[ix::UX] = held_volts(dac.extension);
+        self.earth[3] = held_volts(dac.earth);
+        self.nonearth[3] = held_volts(dac.nonearth);
         self.sync_hysteresis();
 
-        let exact = h / TICK;
-        let mut left = exact.floor() as u64;
-        let rest = (exact - exact.floor()) * TICK;
+        let (mut left, rest) = ticks_of(h);
         let mut events = 0u32;
         // Stops inside a piece, events or turns of ξ: what the budget bounds. (`events`
         // alone decides the cached tail, as it always has, so results keep their bits.)
@@ -444,8 +487,32 @@ impl Plant {
     /// so `true` means `scan` would return all points; in doubt it says `false`.
     fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
         let chain = &self.chain;
-        let brake = |state: &Chain, closed_below: bool| -> bool {
-            let Some((lo, hi)) = chain.split(state).and_then(|s| chain.range(0, &s)) else {
+        debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
+        self.clear_on(
+            watch,
+            |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s)),
+            &self.earth,
+            &self.nonearth,
+            || {
+                let s = cfg.split(&self.z)?;
+                Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
+            },
+        )
+    }
+
+    /// The decision of `provably_clear` on intervals of the brake volts of each chain
+    /// (`brake`), and of `ξ` and of the sign of `ξ̇` (`mechanics`), that hold every value
+    /// the event loop will compare: `true` means no point of them can stop it.
+    pub(crate) fn clear_on(
+        &self,
+        watch: &Watch,
+        brake: impl Fn(&Chain) -> Option<(f64, f64)>,
+        earth: &Chain,
+        nonearth: &Chain,
+        mechanics: impl FnOnce() -> Option<((f64, f64), (f64, f64))>,
+    ) -> bool {
+        let clear = |state: &Chain, closed_below: bool| -> bool {
+            let Some((lo, hi)) = brake(state) else {
                 return false;
             };
             if closed_below {
@@ -456,16 +523,10 @@ impl Plant {
         };
         // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
         // stays on its side of V_th, as does V_N.
-        if !brake(&self.earth, watch.earth_closed) || !brake(&self.nonearth, !watch.nonearth_closed)
-        {
+        if !clear(earth, watch.earth_closed) || !clear(nonearth, !watch.nonearth_closed) {
             return false;
         }
-        debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
-        let Some(s) = cfg.split(&self.z) else {
-            return false;
-        };
-        let (Some((xi_lo, xi_hi)), Some((rate_lo, rate_hi))) = (cfg.range(0, &s), cfg.range(1, &s))
-        else {
+        let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics() else {
             return false;
         };
         if watch.direction > 0.0 {
@@ -476,13 +537,14 @@ impl Plant {
         } else {
             // Nothing slides: ξ stays between the onsets, and so does any turn of ξ between
             // two points. The same floating-point operations as `extremum_may_cross` on
-            // bounds of its arguments: rounding is monotone, so these bound its results.
+            // bounds of its arguments: rounding is monotone, so these bound its results
+            // (for the tail of a step too, whose interval is shorter than a scan interval).
             let gain = watch.xi_row[ix::VX];
             if gain.is_nan() || gain < 0.0 {
                 return false;
             }
             let rate_max = rate_lo.abs().max(rate_hi.abs());
-            let dt = TICK * (1u64 << chain.scan_level) as f64;
+            let dt = TICK * (1u64 << self.chain.scan_level) as f64;
             let reach = dt * (rate_max + rate_max) * watch.xi_row[ix::VX];
             xi_hi + reach < watch.up && xi_lo - reach > watch.down
         }
@@ -497,13 +559,14 @@ impl Plant {
 
     /// What to watch in the current configuration, whose table is `cfg`: its watched rows
     /// are `ξ` and the sign of `ξ̇` (built from the same parameters, so the same bits).
-    fn watch<'a>(&self, cfg: &'a Propagators<{ linear::N }>) -> Watch<'a> {
-        let Armed { up, down, direction } = self.armed;
+    pub(crate) fn watch<'a>(&self, cfg: &'a Propagators<{ linear::N }>) -> Watch<'a> {
+        let Armed { up, down, direction, .. } = self.armed;
         #[cfg(debug_assertions)]
         {
             let fresh = Armed::of(&self.hysteresis);
             assert!(fresh.up.to_bits() == up.to_bits() && fresh.down.to_bits() == down.to_bits());
             assert!(fresh.direction.to_bits() == direction.to_bits());
+            assert!(fresh.c0.to_bits() == self.armed.c0.to_bits());
         }
         debug_assert!(
             cfg.watched[0] == linear::xi_row(&self.params, self.hysteresis.sticking_weight())
@@ -574,19 +637,12 @@ impl Plant {
                 linear::drive_rate_row(&self.params, self.mode).dot(&self.z),
             ),
         };
-        let sign = if rate > 0.0 {
-            1
-        } else if rate < 0.0 {
-            -1
-        } else {
-            0
-        };
-        self.hysteresis.sync(xi, sign);
+        self.hysteresis.sync(xi, rate_sign(rate));
         self.armed = Armed::of(&self.hysteresis);
-        self.z[ix::C0] = self.hysteresis.offset();
+        self.z[ix::C0] = self.armed.c0;
     }
 
-    fn sample_encoder(&mut self) {
+    pub(crate) fn sample_encoder(&mut self) {
         let mut x = self.z[ix::Y4];
         if self.params.encoder_noise > 0.0 {
             x += self.params.encoder_noise * gaussian(&mut self.rng);

@@ -1,0 +1,251 @@
+//! The quiet step: one bound, taken at the start of a step, that proves nothing the event
+//! loop watches can stop it anywhere in the step, then the step's propagation products and
+//! nothing else.
+//!
+//! Without an event, the event loop of `solver` makes a sequence of products that depends on
+//! `h` alone: the scan segments (each up to a top-level piece, by the set bits of its
+//! ticks), the cached tail below one scan interval, the sub-tick Taylor step. Every value
+//! it compares on the way is a watched row applied to a state that is a product of those
+//! matrices with the step's first state, so a [`ScanBound`] over those composed rows holds
+//! all of them; when it proves them clear, the loop would stop nowhere, and the quiet step
+//! makes the very same products (through the same functions) and gets the same bits.
+//! Nothing is written until the step is known finite, so there is nothing to undo.
+
+use std::sync::Arc;
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::configs::{product, table};
+use crate::linear::{
+    self, ix, mul_vec, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector, LEVELS,
+};
+use crate::solver::{ticks_of, MIN_BOUND_POINTS};
+use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
+
+/// Most scan segments a planned step may have: a 2 ms step has two (128 points and 3 at
+/// the default tolerance), longer steps take the general path.
+const MAX_SEGMENTS: usize = 2;
+
+/// What a quiet step of one length makes in one mode with nothing slipping.
+#[derive(Debug)]
+pub(crate) struct QuietPlan {
+    /// The step length it is for (bits of `h`).
+    h: u64,
+    /// `None` where the step is too long or the bound isn't finite.
+    body: Option<Body>,
+}
+
+#[derive(Debug)]
+struct Body {
+    /// Ticks of each scan segment, in order.
+    segments: Vec<u64>,
+    /// Segments long enough for the general path to try its bound (for `ScanStats`).
+    long_segments: u64,
+    /// The tail below one scan interval, as `Plant::remainder` caches it.
+    remainder: Option<(Matrix, ChainMatrix)>,
+    /// The sub-tick rest (s).
+    rest: f64,
+    mechanics: ScanBound<{ linear::N }>,
+    chain: ScanBound<4>,
+}
+
+/// `c` seen through the products `pre` (applied in order) as a bound row.
+fn compose<const D: usize>(c: &SVector<f64, D>, pre: &[SMatrix<f64, D, D>]) -> BoundRow<D> {
+    if pre.is_empty() {
+        return BoundRow { row: *c, magnitude: None };
+    }
+    let (mut row, mut magnitude) = (*c, c.abs());
+    for m in pre.iter().rev() {
+        row = m.transpose() * row;
+        magnitude = m.abs().transpose() * magnitude;
+    }
+    BoundRow { row, magnitude: Some(magnitude) }
+}
+
+/// The matrices `Propagators::advance` applies over `ticks`, in its order.
+fn advance_factors<const D: usize>(
+    t: &Propagators<D>,
+    mut ticks: u64,
+    out: &mut Vec<SMatrix<f64, D, D>>,
+) {
+    let top = 1u64 << (LEVELS - 1);
+    while ticks >= 2 * top {
+        out.push(t.phi[LEVELS - 1]);
+        ticks -= top;
+    }
+    while ticks != 0 {
+        out.push(t.phi[ticks.trailing_zeros() as usize]);
+        ticks &= ticks - 1;
+    }
+}
+
+/// Every row functional `o` of `t` is compared on during a step of these segments and
+/// tail: each segment's scan points from its first state, the tail's end.
+fn step_rows<const D: usize>(
+    t: &Propagators<D>,
+    o: usize,
+    segments: &[u64],
+    remainder: Option<&SMatrix<f64, D, D>>,
+) -> Vec<BoundRow<D>> {
+    let w = t.watched.len();
+    let mut pre = Vec::new();
+    // The step's first state: the tail's start when there is no segment.
+    let mut rows = vec![compose(&t.watched[o], &pre)];
+    for &ticks in segments {
+        let points = (ticks >> t.scan_level) as usize;
+        for k in 0..=points {
+            let c = if k == 0 { t.watched[o] } else { t.scan[(k - 1) * w + o] };
+            rows.push(compose(&c, &pre));
+        }
+        advance_factors(t, ticks, &mut pre);
+    }
+    if let Some(r) = remainder {
+        pre.push(*r);
+        rows.push(compose(&t.watched[o], &pre));
+    }
+    rows
+}
+
+impl QuietPlan {
+    fn new(h: f64, cfg: &Propagators<{ linear::N }>, chain: &Propagators<4>) -> QuietPlan {
+        QuietPlan { h: h.to_bits(), body: Body::new(h, cfg, chain) }
+    }
+}
+
+impl Body {
+    fn new(h: f64, cfg: &Propagators<{ linear::N }>, chain: &Propagators<4>) -> Option<Body> {
+        let (mut left, rest) = ticks_of(h);
+        let fine = 1u64 << chain.scan_level;
+        let mut segments = Vec::new();
+        // As `advance_held` cuts a step that has no event.
+        while left >= fine {
+            let points = ((left >> chain.scan_level) as usize).min(chain.scan_points);
+            let ticks = (points as u64) << chain.scan_level;
+            segments.push(ticks);
+            left -= ticks;
+            if segments.len() > MAX_SEGMENTS {
+                return None;
+            }
+        }
+        let long_segments = segments
+            .iter()
+            .filter(|&&t| (t >> chain.scan_level) as usize >= MIN_BOUND_POINTS)
+            .count() as u64;
+        let remainder = (left > 0).then(|| (product(&cfg.phi, left), product(&chain.phi, left)));
+        let rows = |o| step_rows(cfg, o, &segments, remainder.as_ref().map(|r| &r.0));
+        let mechanics = ScanBound::from_rows(*cfg.bound.as_ref()?.settle(), &[rows(0), rows(1)])?;
+        let chain_rows = step_rows(chain, 0, &segments, remainder.as_ref().map(|r| &r.1));
+        let chain = ScanBound::from_rows(*chain.bound.as_ref()?.settle(), &[chain_rows])?;
+        Some(Body { segments, long_segments, remainder, rest, mechanics, chain })
+    }
+}
+
+/// The state a quiet step ends in, before it is committed.
+struct Quiet {
+    z: Vector,
+    earth: Chain,
+    nonearth: Chain,
+    direction: i8,
+    long_segments: u64,
+}
+
+impl Plant {
+    /// The step when a bound proves it quiet (no brake switch, no slip onset or reversal,
+    /// no turn of `ξ` that could reach an onset) and its state stays finite: the same bits as
+    /// the event loop, at the cost of one bound and the products. `None` (and the plant
+    /// unchanged) otherwise, and then the event loop takes the step.
+    pub(crate) fn quiet_step(&mut self, dac: Dac, h: f64) -> Option<StepReport> {
+        let repeated = std::mem::replace(&mut self.last_h, h.to_bits()) == h.to_bits();
+        if self.scan_always || self.hysteresis.sliding != 0 {
+            return None;
+        }
+        let mode = self.mode.index();
+        let key = mode << N_PLAYS;
+        if self.quiet[mode].as_ref().is_none_or(|p| p.h != h.to_bits()) {
+            // Plans are for the steps a master repeats; the first step of a length and the
+            // first entry into a configuration take the general path.
+            self.configs[key].as_ref()?;
+            if !repeated {
+                return None;
+            }
+            self.build_quiet(mode, h);
+        }
+        let q = self.quiet_state(dac, h, key)?;
+        self.z = q.z;
+        self.earth = q.earth;
+        self.nonearth = q.nonearth;
+        self.hysteresis.direction = q.direction;
+        self.armed.sync_direction(&self.hysteresis);
+        self.scan_stats.skipped += q.long_segments;
+        self.time += h;
+        self.sample_encoder();
+        Some(StepReport::default())
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn build_quiet(&mut self, mode: usize, h: f64) {
+        let cfg = table(&self.configs, mode << N_PLAYS);
+        self.quiet[mode] = Some(Arc::new(QuietPlan::new(h, cfg, &self.chain)));
+    }
+
+    /// The end of the step if it is quiet and finite, from the plan of this mode and `h`.
+    #[inline]
+    fn quiet_state(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
+        let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
+        let cfg = table(&self.configs, key);
+        let chain = &*self.chain;
+        let (mut z, mut e, mut n) = (self.z, self.earth, self.nonearth);
+        let volts = crate::solver::held_volts;
+        z[ix::UX] = volts(dac.extension);
+        e[3] = volts(dac.earth);
+        n[3] = volts(dac.nonearth);
+        // What `sync_hysteresis` would do; a quiet step leaves the memories as they are.
+        let rate = cfg.watched[1].dot(&z);
+        let direction = crate::solver::rate_sign(rate);
+        if !self.hysteresis.sync_keeps(cfg.watched[0].dot(&z), direction) {
+            return None;
+        }
+        z[ix::C0] = self.armed.c0();
+        let watch = self.watch(cfg);
+        let clear = self.clear_on(
+            &watch,
+            |s: &Chain| plan.chain.range(0, &plan.chain.split(s)),
+            &e,
+            &n,
+            || {
+                let s = plan.mechanics.split(&z);
+                Some((plan.mechanics.range(0, &s)?, plan.mechanics.range(1, &s)?))
+            },
+        );
+        if !clear {
+            return None;
+        }
+        for &ticks in &plan.segments {
+            z = cfg.advance(z, ticks, 0.0);
+            e = chain.advance(e, ticks, 0.0);
+            n = chain.advance(n, ticks, 0.0);
+        }
+        if let Some((phi, chain_phi)) = &plan.remainder {
+            (z, e, n) = (mul_vec(phi, &z), mul_vec(chain_phi, &e), mul_vec(chain_phi, &n));
+        }
+        if plan.rest > 0.0 {
+            z = cfg.advance(z, 0, plan.rest);
+            e = chain.advance(e, 0, plan.rest);
+            n = chain.advance(n, 0, plan.rest);
+        }
+        if self.mode == Mode::Drive {
+            z[ix::Y4] = z[ix::Y3] + self.drive_offset;
+            z[ix::V4] = z[ix::V3];
+        }
+        let finite = (self.time + h).is_finite()
+            && z.iter().chain(e.iter()).chain(n.iter()).all(|v| v.is_finite());
+        finite.then_some(Quiet {
+            z,
+            earth: e,
+            nonearth: n,
+            direction,
+            long_segments: plan.long_segments,
+        })
+    }
+}
