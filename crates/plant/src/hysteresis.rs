@@ -131,6 +131,7 @@ impl Hysteresis {
     /// slipping set as they are, with nothing slipping: then it only sets the direction,
     /// which then weighs nothing (`c0` and the thresholds ignore it), and a quiet step can
     /// skip the re-derivation. The same operations as `sync`, so the same decision.
+    #[inline(always)]
     pub fn sync_keeps(&self, xi: f64, xi_rate_sign: i8) -> bool {
         self.sliding == 0
             && (0..N_PLAYS).all(|i| {

@@ -80,6 +80,16 @@ unsafe fn mul_vec_avx<const D: usize>(
     SVector::from(gemv_columns::<D>(m.as_slice(), x.as_slice()))
 }
 
+/// [`mul_vec`] for a caller that has dispatched on the CPU already: inlined, it takes the
+/// caller's instruction set (`#[target_feature]` functions get the AVX products).
+#[inline(always)]
+pub fn mul_vec_inline<const D: usize>(
+    m: &SMatrix<f64, D, D>,
+    x: &SVector<f64, D>,
+) -> SVector<f64, D> {
+    SVector::from(gemv_columns::<D>(m.as_slice(), x.as_slice()))
+}
+
 /// `y = a₀ x₀; y = aⱼ xⱼ + y` (j = 1 … D−1) over the columns `aⱼ` of the column-major `a`,
 /// written as nalgebra's `axcpy` writes it (IEEE addition commutes, so `+=` would do too).
 #[inline(always)]
@@ -149,16 +159,26 @@ const BOUND_SLACK: f64 = 1e-12;
 #[derive(Clone, Debug)]
 pub struct ScanBound<const D: usize> {
     settle: SMatrix<f64, D, D>,
-    functionals: Vec<FunctionalBound<D>>,
+    functionals: Vec<FunctionalBound>,
+}
+
+/// A vector of up to 16 components padded with zeros, summed four lanes wide: the order of
+/// a bound's sums is free (its slack covers any), and this one vectorizes.
+type Lanes = [f64; 16];
+
+fn lanes<const D: usize>(v: &SVector<f64, D>) -> Lanes {
+    let mut l = [0.0; 16];
+    l[..D].copy_from_slice(v.as_slice());
+    l
 }
 
 #[derive(Clone, Debug)]
-struct FunctionalBound<const D: usize> {
-    lo: SVector<f64, D>,
-    hi: SVector<f64, D>,
-    rho: SVector<f64, D>,
+struct FunctionalBound {
+    lo: Lanes,
+    hi: Lanes,
+    rho: Lanes,
     /// `ρ + ρ|P̂| + α`: weights of `|z|` in the rounding slack.
-    slack: SVector<f64, D>,
+    slack: Lanes,
 }
 
 /// A row whose value on the state a bound must hold.
@@ -173,9 +193,8 @@ pub(crate) struct BoundRow<const D: usize> {
 
 /// A state split against the settling matrix, ready for [`ScanBound::range`].
 pub struct Split<const D: usize> {
-    z: SVector<f64, D>,
-    z_abs: SVector<f64, D>,
-    v_abs: SVector<f64, D>,
+    z: Lanes,
+    v_abs: Lanes,
 }
 
 impl<const D: usize> ScanBound<D> {
@@ -206,6 +225,7 @@ impl<const D: usize> ScanBound<D> {
     /// The bound of every functional `o` over its rows `rows[o]`, against the settling
     /// matrix `settle`; `None` if anything in it isn't finite.
     pub(crate) fn from_rows(settle: SMatrix<f64, D, D>, rows: &[Vec<BoundRow<D>>]) -> Option<Self> {
+        assert!(D <= 16, "a bound is for at most 16 components");
         if !settle.iter().all(|x| x.is_finite()) {
             return None;
         }
@@ -235,7 +255,12 @@ impl<const D: usize> ScanBound<D> {
             if !slack.iter().all(|x| x.is_finite()) {
                 return None;
             }
-            functionals.push(FunctionalBound { lo, hi, rho, slack });
+            functionals.push(FunctionalBound {
+                lo: lanes(&lo),
+                hi: lanes(&hi),
+                rho: lanes(&rho),
+                slack: lanes(&slack),
+            });
         }
         Some(ScanBound { settle, functionals })
     }
@@ -248,22 +273,35 @@ impl<const D: usize> ScanBound<D> {
     #[inline]
     pub fn split(&self, z: &SVector<f64, D>) -> Split<D> {
         let v = z - mul_vec(&self.settle, z);
-        Split { z: *z, z_abs: z.abs(), v_abs: v.abs() }
+        Split { z: lanes(z), v_abs: lanes(&v.abs()) }
+    }
+
+    /// [`Self::split`] in the caller's instruction set (see [`mul_vec_inline`]).
+    #[inline(always)]
+    pub fn split_inline(&self, z: &SVector<f64, D>) -> Split<D> {
+        let v = z - mul_vec_inline(&self.settle, z);
+        Split { z: lanes(z), v_abs: lanes(&v.abs()) }
     }
 
     /// An interval that holds the computed value of every row of functional `o` on the
     /// split state; `None` if it isn't finite (then neither is the state).
-    #[inline]
+    #[inline(always)]
     pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
         let f = &self.functionals[o];
-        let (mut lo, mut hi, mut moving, mut weight) = (0.0, 0.0, 0.0, 0.0);
-        for i in 0..D {
-            let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
-            lo += a.min(b);
-            hi += a.max(b);
-            moving += f.rho[i] * s.v_abs[i];
-            weight += f.slack[i] * s.z_abs[i];
+        let (mut lo, mut hi, mut moving, mut weight) = ([0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]);
+        for c in 0..D.div_ceil(4) {
+            for l in 0..4 {
+                let i = 4 * c + l;
+                let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
+                // A NaN goes into the sums either way, and the finiteness test refuses it.
+                lo[l] += if a < b { a } else { b };
+                hi[l] += if a < b { b } else { a };
+                moving[l] += f.rho[i] * s.v_abs[i];
+                weight[l] += f.slack[i] * s.z[i].abs();
+            }
         }
+        let sum = |x: [f64; 4]| (x[0] + x[1]) + (x[2] + x[3]);
+        let (lo, hi, moving, weight) = (sum(lo), sum(hi), sum(moving), sum(weight));
         let margin = moving * (1.0 + BOUND_SLACK) + BOUND_SLACK * weight + 1e-300;
         let (lo, hi) = (lo - margin, hi + margin);
         // A finite weight means a finite state: every slack weight is positive or 0·∞ = NaN.
@@ -312,8 +350,9 @@ impl<const D: usize> Propagators<D> {
         let range = self.bound.as_ref()?.range(o, s);
         #[cfg(debug_assertions)]
         if let Some((lo, hi)) = range {
+            let z = SVector::<f64, D>::from_column_slice(&s.z[..D]);
             for k in 0..=self.scan_points {
-                let v = if k == 0 { self.watched[o].dot(&s.z) } else { self.scanned(k, o, &s.z) };
+                let v = if k == 0 { self.watched[o].dot(&z) } else { self.scanned(k, o, &z) };
                 assert!(
                     lo <= v && v <= hi,
                     "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]"
@@ -325,20 +364,43 @@ impl<const D: usize> Propagators<D> {
 
     /// Exact propagation over `ticks`, plus the sub-tick remainder `rest` seconds (< 1 tick)
     /// by a second-order Taylor step, whose error there is below 1e-20 of the state.
-    pub fn advance(&self, mut z: SVector<f64, D>, mut ticks: u64, rest: f64) -> SVector<f64, D> {
+    pub fn advance(&self, z: SVector<f64, D>, ticks: u64, rest: f64) -> SVector<f64, D> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.advance_avx(z, ticks, rest) };
+        }
+        self.advance_inline(z, ticks, rest)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn advance_avx(&self, z: SVector<f64, D>, ticks: u64, rest: f64) -> SVector<f64, D> {
+        self.advance_inline(z, ticks, rest)
+    }
+
+    /// [`Self::advance`] in the caller's instruction set (see [`mul_vec_inline`]): the same
+    /// products, the same bits.
+    #[inline(always)]
+    pub fn advance_inline(
+        &self,
+        mut z: SVector<f64, D>,
+        mut ticks: u64,
+        rest: f64,
+    ) -> SVector<f64, D> {
         let top = 1u64 << (LEVELS - 1);
         while ticks >= 2 * top {
-            z = mul_vec(&self.phi[LEVELS - 1], &z);
+            z = mul_vec_inline(&self.phi[LEVELS - 1], &z);
             ticks -= top;
         }
         // The set bits in increasing order, as a loop over all levels would take them.
         while ticks != 0 {
-            z = mul_vec(&self.phi[ticks.trailing_zeros() as usize], &z);
+            z = mul_vec_inline(&self.phi[ticks.trailing_zeros() as usize], &z);
             ticks &= ticks - 1;
         }
         if rest > 0.0 {
-            let az = mul_vec(&self.a, &z);
-            z += az * rest + mul_vec(&self.a, &az) * (0.5 * rest * rest);
+            let az = mul_vec_inline(&self.a, &z);
+            z += az * rest + mul_vec_inline(&self.a, &az) * (0.5 * rest * rest);
         }
         z
     }

@@ -17,7 +17,8 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::configs::{product, table};
 use crate::linear::{
-    self, ix, mul_vec, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector, LEVELS,
+    self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
+    LEVELS,
 };
 use crate::solver::{ticks_of, MIN_BOUND_POINTS};
 use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
@@ -190,8 +191,24 @@ impl Plant {
     }
 
     /// The end of the step if it is quiet and finite, from the plan of this mode and `h`.
-    #[inline]
     fn quiet_state(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
+        // One dispatch on the CPU for the whole step, so every product inlines.
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.quiet_state_avx(dac, h, key) };
+        }
+        self.quiet_state_inline(dac, h, key)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn quiet_state_avx(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
+        self.quiet_state_inline(dac, h, key)
+    }
+
+    #[inline(always)]
+    fn quiet_state_inline(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
         let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
         let cfg = table(&self.configs, key);
         let chain = &*self.chain;
@@ -208,38 +225,43 @@ impl Plant {
         }
         z[ix::C0] = self.armed.c0();
         let watch = self.watch(cfg);
-        let clear = self.clear_on(
-            &watch,
-            |s: &Chain| plan.chain.range(0, &plan.chain.split(s)),
-            &e,
-            &n,
-            || {
-                let s = plan.mechanics.split(&z);
-                Some((plan.mechanics.range(0, &s)?, plan.mechanics.range(1, &s)?))
-            },
-        );
+        let split = plan.mechanics.split_inline(&z);
+        let ranges = [
+            plan.chain.range(0, &plan.chain.split_inline(&e)),
+            plan.chain.range(0, &plan.chain.split_inline(&n)),
+            plan.mechanics.range(0, &split),
+            plan.mechanics.range(1, &split),
+        ];
+        // All four at once, no early exit: on a quiet step every one of them is needed.
+        let clear =
+            self.clear_on(&watch, || ranges[0], || ranges[1], || Some((ranges[2]?, ranges[3]?)));
         if !clear {
             return None;
         }
         for &ticks in &plan.segments {
-            z = cfg.advance(z, ticks, 0.0);
-            e = chain.advance(e, ticks, 0.0);
-            n = chain.advance(n, ticks, 0.0);
+            z = cfg.advance_inline(z, ticks, 0.0);
+            e = chain.advance_inline(e, ticks, 0.0);
+            n = chain.advance_inline(n, ticks, 0.0);
         }
         if let Some((phi, chain_phi)) = &plan.remainder {
-            (z, e, n) = (mul_vec(phi, &z), mul_vec(chain_phi, &e), mul_vec(chain_phi, &n));
+            (z, e, n) = (
+                mul_vec_inline(phi, &z),
+                mul_vec_inline(chain_phi, &e),
+                mul_vec_inline(chain_phi, &n),
+            );
         }
         if plan.rest > 0.0 {
-            z = cfg.advance(z, 0, plan.rest);
-            e = chain.advance(e, 0, plan.rest);
-            n = chain.advance(n, 0, plan.rest);
+            z = cfg.advance_inline(z, 0, plan.rest);
+            e = chain.advance_inline(e, 0, plan.rest);
+            n = chain.advance_inline(n, 0, plan.rest);
         }
         if self.mode == Mode::Drive {
             z[ix::Y4] = z[ix::Y3] + self.drive_offset;
             z[ix::V4] = z[ix::V3];
         }
-        let finite = (self.time + h).is_finite()
-            && z.iter().chain(e.iter()).chain(n.iter()).all(|v| v.is_finite());
+        // `x − x` is 0 for a finite `x` and NaN otherwise.
+        let finite =
+            (self.time + h).is_finite() && (z - z).sum() + (e - e).sum() + (n - n).sum() == 0.0;
         finite.then_some(Quiet {
             z,
             earth: e,

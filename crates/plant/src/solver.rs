@@ -488,11 +488,11 @@ impl Plant {
     fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
         let chain = &self.chain;
         debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
+        let brake = |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s));
         self.clear_on(
             watch,
-            |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s)),
-            &self.earth,
-            &self.nonearth,
+            || brake(&self.earth),
+            || brake(&self.nonearth),
             || {
                 let s = cfg.split(&self.z)?;
                 Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
@@ -500,19 +500,19 @@ impl Plant {
         )
     }
 
-    /// The decision of `provably_clear` on intervals of the brake volts of each chain
-    /// (`brake`), and of `ξ` and of the sign of `ξ̇` (`mechanics`), that hold every value
-    /// the event loop will compare: `true` means no point of them can stop it.
+    /// The decision of `provably_clear` on intervals of the brake volts of the earth and
+    /// the non-earth chain, and of `ξ` and of the sign of `ξ̇` (`mechanics`), that hold every
+    /// value the event loop will compare: `true` means no point of them can stop it.
+    #[inline(always)]
     pub(crate) fn clear_on(
         &self,
         watch: &Watch,
-        brake: impl Fn(&Chain) -> Option<(f64, f64)>,
-        earth: &Chain,
-        nonearth: &Chain,
+        earth: impl FnOnce() -> Option<(f64, f64)>,
+        nonearth: impl FnOnce() -> Option<(f64, f64)>,
         mechanics: impl FnOnce() -> Option<((f64, f64), (f64, f64))>,
     ) -> bool {
-        let clear = |state: &Chain, closed_below: bool| -> bool {
-            let Some((lo, hi)) = brake(state) else {
+        let clear = |range: Option<(f64, f64)>, closed_below: bool| -> bool {
+            let Some((lo, hi)) = range else {
                 return false;
             };
             if closed_below {
@@ -523,7 +523,7 @@ impl Plant {
         };
         // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
         // stays on its side of V_th, as does V_N.
-        if !clear(earth, watch.earth_closed) || !clear(nonearth, !watch.nonearth_closed) {
+        if !clear(earth(), watch.earth_closed) || !clear(nonearth(), !watch.nonearth_closed) {
             return false;
         }
         let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics() else {
