@@ -259,9 +259,9 @@ impl Plant {
             z[ix::Y4] = z[ix::Y3] + self.drive_offset;
             z[ix::V4] = z[ix::V3];
         }
-        // `x − x` is 0 for a finite `x` and NaN otherwise.
-        let finite =
-            (self.time + h).is_finite() && (z - z).sum() + (e - e).sum() + (n - n).sum() == 0.0;
+        // `0·x` is ±0 for a finite `x` and NaN otherwise.
+        let finite = (self.time + h).is_finite()
+            && (z * 0.0).sum() + (e * 0.0).sum() + (n * 0.0).sum() == 0.0;
         finite.then_some(Quiet {
             z,
             earth: e,
