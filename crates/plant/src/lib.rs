@@ -132,12 +132,14 @@ pub struct Plant {
     scan_stats: ScanStats,
 }
 
-/// How many long scans ran and how many the bound proved clear without scanning.
+/// How many long scans ran and how many the bound proved clear without scanning, and how
+/// many steps the quiet step took.
 #[doc(hidden)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScanStats {
     pub scanned: u64,
     pub skipped: u64,
+    pub quiet: u64,
 }
 
 impl Plant {

@@ -80,14 +80,109 @@ unsafe fn mul_vec_avx<const D: usize>(
     SVector::from(gemv_columns::<D>(m.as_slice(), x.as_slice()))
 }
 
-/// [`mul_vec`] for a caller that has dispatched on the CPU already: inlined, it takes the
-/// caller's instruction set (`#[target_feature]` functions get the AVX products).
+/// [`mul_vec`] for a caller that has dispatched on the CPU already, inlined into it: with
+/// `AVX` (only in a caller that runs with AVX) the products are written out in AVX
+/// instructions, which stay vectorized however much is inlined around them.
 #[inline(always)]
-pub fn mul_vec_inline<const D: usize>(
+pub fn mul_vec_inline<const D: usize, const AVX: bool>(
     m: &SMatrix<f64, D, D>,
     x: &SVector<f64, D>,
 ) -> SVector<f64, D> {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` callers run with AVX.
+        return SVector::from(unsafe { gemv_avx::<D>(m.as_slice(), x.as_slice()) });
+    }
     SVector::from(gemv_columns::<D>(m.as_slice(), x.as_slice()))
+}
+
+/// `gemv_columns` in AVX: each lane does exactly the multiplications and additions of its
+/// row, in the same order (a group of four rows per register, a tail of two in a half one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn gemv_avx<const D: usize>(a: &[f64], x: &[f64]) -> [f64; D] {
+    use std::arch::x86_64::*;
+    assert!(D <= 16 && D.is_multiple_of(2) && a.len() >= D * D && x.len() >= D);
+    let (a, xs) = (a.as_ptr(), x.as_ptr());
+    let full = D / 4;
+    let half = D % 4 == 2;
+    // SAFETY: every load and store is inside `a` (D·D), `x` (D) or `y` (D), by the assert.
+    unsafe {
+        let mut y = [_mm256_setzero_pd(); 4];
+        let x0 = _mm256_set1_pd(*xs);
+        for (g, yg) in y.iter_mut().enumerate().take(full) {
+            *yg = _mm256_mul_pd(_mm256_loadu_pd(a.add(4 * g)), x0);
+        }
+        let mut t = _mm_mul_pd(
+            if half { _mm_loadu_pd(a.add(4 * full)) } else { _mm_setzero_pd() },
+            _mm256_castpd256_pd128(x0),
+        );
+        for j in 1..D {
+            let col = a.add(j * D);
+            let xj = _mm256_set1_pd(*xs.add(j));
+            for (g, yg) in y.iter_mut().enumerate().take(full) {
+                *yg = _mm256_add_pd(_mm256_mul_pd(_mm256_loadu_pd(col.add(4 * g)), xj), *yg);
+            }
+            if half {
+                t = _mm_add_pd(
+                    _mm_mul_pd(_mm_loadu_pd(col.add(4 * full)), _mm256_castpd256_pd128(xj)),
+                    t,
+                );
+            }
+        }
+        let mut out = [0.0; D];
+        for (g, yg) in y.iter().enumerate().take(full) {
+            _mm256_storeu_pd(out.as_mut_ptr().add(4 * g), *yg);
+        }
+        if half {
+            _mm_storeu_pd(out.as_mut_ptr().add(4 * full), t);
+        }
+        out
+    }
+}
+
+/// `Σ aᵢ bᵢ` over the components of `b` (the order is free: it is a bound's sum).
+#[inline(always)]
+fn dot_lanes<const D: usize, const AVX: bool>(a: &Lanes, b: &SVector<f64, D>) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        // SAFETY: `AVX` callers run with AVX.
+        return unsafe { dot_lanes_avx(a, b) };
+    }
+    let mut acc = [0.0; 4];
+    for i in 0..D {
+        acc[i % 4] += a[i] * b[i];
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn dot_lanes_avx<const D: usize>(a: &Lanes, b: &SVector<f64, D>) -> f64 {
+    use std::arch::x86_64::*;
+    assert!(D <= 16 && D.is_multiple_of(2));
+    let (a, b) = (a.as_ptr(), b.as_slice().as_ptr());
+    let full = D / 4;
+    // SAFETY: every load is inside `a` (16) or `b` (D), by the assert.
+    unsafe {
+        let mut acc = _mm256_setzero_pd();
+        for g in 0..full {
+            acc = _mm256_add_pd(
+                _mm256_mul_pd(_mm256_loadu_pd(a.add(4 * g)), _mm256_loadu_pd(b.add(4 * g))),
+                acc,
+            );
+        }
+        let mut t = _mm_add_pd(_mm256_castpd256_pd128(acc), _mm256_extractf128_pd(acc, 1));
+        if D % 4 == 2 {
+            t = _mm_add_pd(
+                _mm_mul_pd(_mm_loadu_pd(a.add(4 * full)), _mm_loadu_pd(b.add(4 * full))),
+                t,
+            );
+        }
+        _mm_cvtsd_f64(_mm_add_sd(t, _mm_unpackhi_pd(t, t)))
+    }
 }
 
 /// `y = a₀ x₀; y = aⱼ xⱼ + y` (j = 1 … D−1) over the columns `aⱼ` of the column-major `a`,
@@ -172,13 +267,18 @@ fn lanes<const D: usize>(v: &SVector<f64, D>) -> Lanes {
     l
 }
 
+/// One functional's bound as three weight vectors of the split state: with `mid` and
+/// `rad` the centre and half-width of `[lo, hi]`, `Σ min(loᵢ zᵢ, hiᵢ zᵢ) = Σ midᵢ zᵢ −
+/// Σ radᵢ |zᵢ|` (and `max` with `+`), so the value lies in
+/// `mid·z ± ((rad + BOUND_SLACK (ρ + ρ|P̂| + α))·|z| + (1 + BOUND_SLACK) ρ·|v|)`. Rounding
+/// `mid` and `rad` costs a few `u` of `(|lo| + |hi|)·|z| ≤ ρ|P̂|·|z|`, inside the slack.
 #[derive(Clone, Debug)]
 struct FunctionalBound {
-    lo: Lanes,
-    hi: Lanes,
-    rho: Lanes,
-    /// `ρ + ρ|P̂| + α`: weights of `|z|` in the rounding slack.
-    slack: Lanes,
+    mid: Lanes,
+    /// `rad + BOUND_SLACK (ρ + ρ|P̂| + α)`: the weights of `|z|`.
+    spread: Lanes,
+    /// `(1 + BOUND_SLACK) ρ`: the weights of `|v|`.
+    moving: Lanes,
 }
 
 /// A row whose value on the state a bound must hold.
@@ -193,8 +293,9 @@ pub(crate) struct BoundRow<const D: usize> {
 
 /// A state split against the settling matrix, ready for [`ScanBound::range`].
 pub struct Split<const D: usize> {
-    z: Lanes,
-    v_abs: Lanes,
+    z: SVector<f64, D>,
+    z_abs: SVector<f64, D>,
+    v_abs: SVector<f64, D>,
 }
 
 impl<const D: usize> ScanBound<D> {
@@ -255,11 +356,12 @@ impl<const D: usize> ScanBound<D> {
             if !slack.iter().all(|x| x.is_finite()) {
                 return None;
             }
+            let mid = (lo + hi) * 0.5;
+            let rad = (hi - lo) * 0.5;
             functionals.push(FunctionalBound {
-                lo: lanes(&lo),
-                hi: lanes(&hi),
-                rho: lanes(&rho),
-                slack: lanes(&slack),
+                mid: lanes(&mid),
+                spread: lanes(&(rad + slack * BOUND_SLACK)),
+                moving: lanes(&(rho * (1.0 + BOUND_SLACK))),
             });
         }
         Some(ScanBound { settle, functionals })
@@ -273,38 +375,26 @@ impl<const D: usize> ScanBound<D> {
     #[inline]
     pub fn split(&self, z: &SVector<f64, D>) -> Split<D> {
         let v = z - mul_vec(&self.settle, z);
-        Split { z: lanes(z), v_abs: lanes(&v.abs()) }
+        Split { z: *z, z_abs: z.abs(), v_abs: v.abs() }
     }
 
     /// [`Self::split`] in the caller's instruction set (see [`mul_vec_inline`]).
     #[inline(always)]
-    pub fn split_inline(&self, z: &SVector<f64, D>) -> Split<D> {
-        let v = z - mul_vec_inline(&self.settle, z);
-        Split { z: lanes(z), v_abs: lanes(&v.abs()) }
+    pub fn split_inline<const AVX: bool>(&self, z: &SVector<f64, D>) -> Split<D> {
+        let v = z - mul_vec_inline::<D, AVX>(&self.settle, z);
+        Split { z: *z, z_abs: z.abs(), v_abs: v.abs() }
     }
 
     /// An interval that holds the computed value of every row of functional `o` on the
     /// split state; `None` if it isn't finite (then neither is the state).
     #[inline(always)]
-    pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
+    pub fn range<const AVX: bool>(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
         let f = &self.functionals[o];
-        let (mut lo, mut hi, mut moving, mut weight) = ([0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]);
-        for c in 0..D.div_ceil(4) {
-            for l in 0..4 {
-                let i = 4 * c + l;
-                let (a, b) = (f.lo[i] * s.z[i], f.hi[i] * s.z[i]);
-                // A NaN goes into the sums either way, and the finiteness test refuses it.
-                lo[l] += if a < b { a } else { b };
-                hi[l] += if a < b { b } else { a };
-                moving[l] += f.rho[i] * s.v_abs[i];
-                weight[l] += f.slack[i] * s.z[i].abs();
-            }
-        }
-        let sum = |x: [f64; 4]| (x[0] + x[1]) + (x[2] + x[3]);
-        let (lo, hi, moving, weight) = (sum(lo), sum(hi), sum(moving), sum(weight));
-        let margin = moving * (1.0 + BOUND_SLACK) + BOUND_SLACK * weight + 1e-300;
-        let (lo, hi) = (lo - margin, hi + margin);
-        // A finite weight means a finite state: every slack weight is positive or 0·∞ = NaN.
+        let centre = dot_lanes::<D, AVX>(&f.mid, &s.z);
+        let weight = dot_lanes::<D, AVX>(&f.spread, &s.z_abs);
+        let margin = weight + dot_lanes::<D, AVX>(&f.moving, &s.v_abs) + 1e-300;
+        let (lo, hi) = (centre - margin, centre + margin);
+        // A finite weight means a finite state: every weight of |z| is positive or 0·∞ = NaN.
         let finite = lo.is_finite() && hi.is_finite() && weight.is_finite();
         finite.then_some((lo, hi))
     }
@@ -347,10 +437,10 @@ impl<const D: usize> Propagators<D> {
     /// for `k ≥ 1`, `watched[o].dot(z)` for `k = 0`. `None` if it isn't finite.
     #[inline]
     pub fn range(&self, o: usize, s: &Split<D>) -> Option<(f64, f64)> {
-        let range = self.bound.as_ref()?.range(o, s);
+        let range = self.bound.as_ref()?.range::<false>(o, s);
         #[cfg(debug_assertions)]
         if let Some((lo, hi)) = range {
-            let z = SVector::<f64, D>::from_column_slice(&s.z[..D]);
+            let z = s.z;
             for k in 0..=self.scan_points {
                 let v = if k == 0 { self.watched[o].dot(&z) } else { self.scanned(k, o, &z) };
                 assert!(
@@ -370,19 +460,19 @@ impl<const D: usize> Propagators<D> {
             // SAFETY: the CPU has AVX.
             return unsafe { self.advance_avx(z, ticks, rest) };
         }
-        self.advance_inline(z, ticks, rest)
+        self.advance_inline::<false>(z, ticks, rest)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn advance_avx(&self, z: SVector<f64, D>, ticks: u64, rest: f64) -> SVector<f64, D> {
-        self.advance_inline(z, ticks, rest)
+        self.advance_inline::<true>(z, ticks, rest)
     }
 
     /// [`Self::advance`] in the caller's instruction set (see [`mul_vec_inline`]): the same
     /// products, the same bits.
     #[inline(always)]
-    pub fn advance_inline(
+    pub fn advance_inline<const AVX: bool>(
         &self,
         mut z: SVector<f64, D>,
         mut ticks: u64,
@@ -390,17 +480,17 @@ impl<const D: usize> Propagators<D> {
     ) -> SVector<f64, D> {
         let top = 1u64 << (LEVELS - 1);
         while ticks >= 2 * top {
-            z = mul_vec_inline(&self.phi[LEVELS - 1], &z);
+            z = mul_vec_inline::<D, AVX>(&self.phi[LEVELS - 1], &z);
             ticks -= top;
         }
         // The set bits in increasing order, as a loop over all levels would take them.
         while ticks != 0 {
-            z = mul_vec_inline(&self.phi[ticks.trailing_zeros() as usize], &z);
+            z = mul_vec_inline::<D, AVX>(&self.phi[ticks.trailing_zeros() as usize], &z);
             ticks &= ticks - 1;
         }
         if rest > 0.0 {
-            let az = mul_vec_inline(&self.a, &z);
-            z += az * rest + mul_vec_inline(&self.a, &az) * (0.5 * rest * rest);
+            let az = mul_vec_inline::<D, AVX>(&self.a, &z);
+            z += az * rest + mul_vec_inline::<D, AVX>(&self.a, &az) * (0.5 * rest * rest);
         }
         z
     }

@@ -172,14 +172,29 @@ impl Plant {
             self.build_quiet(mode, h);
         }
         let q = self.quiet_state(dac, h, key)?;
+        #[cfg(debug_assertions)]
+        let reference = {
+            let mut p = self.clone();
+            p.scan_always = true;
+            p.step(dac, h).expect("the quiet step is finite");
+            p
+        };
         self.z = q.z;
         self.earth = q.earth;
         self.nonearth = q.nonearth;
         self.hysteresis.direction = q.direction;
         self.armed.sync_direction(&self.hysteresis);
         self.scan_stats.skipped += q.long_segments;
+        self.scan_stats.quiet += 1;
         self.time += h;
         self.sample_encoder();
+        #[cfg(debug_assertions)]
+        {
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            self.save_state(&mut a);
+            reference.save_state(&mut b);
+            assert!(a == b, "the quiet step and the event loop differ");
+        }
         Some(StepReport::default())
     }
 
@@ -198,17 +213,17 @@ impl Plant {
             // SAFETY: the CPU has AVX.
             return unsafe { self.quiet_state_avx(dac, h, key) };
         }
-        self.quiet_state_inline(dac, h, key)
+        self.quiet_state_inline::<false>(dac, h, key)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     unsafe fn quiet_state_avx(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
-        self.quiet_state_inline(dac, h, key)
+        self.quiet_state_inline::<true>(dac, h, key)
     }
 
     #[inline(always)]
-    fn quiet_state_inline(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
+    fn quiet_state_inline<const AVX: bool>(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
         let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
         let cfg = table(&self.configs, key);
         let chain = &*self.chain;
@@ -225,12 +240,12 @@ impl Plant {
         }
         z[ix::C0] = self.armed.c0();
         let watch = self.watch(cfg);
-        let split = plan.mechanics.split_inline(&z);
+        let split = plan.mechanics.split_inline::<AVX>(&z);
         let ranges = [
-            plan.chain.range(0, &plan.chain.split_inline(&e)),
-            plan.chain.range(0, &plan.chain.split_inline(&n)),
-            plan.mechanics.range(0, &split),
-            plan.mechanics.range(1, &split),
+            plan.chain.range::<AVX>(0, &plan.chain.split_inline::<AVX>(&e)),
+            plan.chain.range::<AVX>(0, &plan.chain.split_inline::<AVX>(&n)),
+            plan.mechanics.range::<AVX>(0, &split),
+            plan.mechanics.range::<AVX>(1, &split),
         ];
         // All four at once, no early exit: on a quiet step every one of them is needed.
         let clear =
@@ -239,21 +254,21 @@ impl Plant {
             return None;
         }
         for &ticks in &plan.segments {
-            z = cfg.advance_inline(z, ticks, 0.0);
-            e = chain.advance_inline(e, ticks, 0.0);
-            n = chain.advance_inline(n, ticks, 0.0);
+            z = cfg.advance_inline::<AVX>(z, ticks, 0.0);
+            e = chain.advance_inline::<AVX>(e, ticks, 0.0);
+            n = chain.advance_inline::<AVX>(n, ticks, 0.0);
         }
         if let Some((phi, chain_phi)) = &plan.remainder {
             (z, e, n) = (
-                mul_vec_inline(phi, &z),
-                mul_vec_inline(chain_phi, &e),
-                mul_vec_inline(chain_phi, &n),
+                mul_vec_inline::<{ linear::N }, AVX>(phi, &z),
+                mul_vec_inline::<4, AVX>(chain_phi, &e),
+                mul_vec_inline::<4, AVX>(chain_phi, &n),
             );
         }
         if plan.rest > 0.0 {
-            z = cfg.advance_inline(z, 0, plan.rest);
-            e = chain.advance_inline(e, 0, plan.rest);
-            n = chain.advance_inline(n, 0, plan.rest);
+            z = cfg.advance_inline::<AVX>(z, 0, plan.rest);
+            e = chain.advance_inline::<AVX>(e, 0, plan.rest);
+            n = chain.advance_inline::<AVX>(n, 0, plan.rest);
         }
         if self.mode == Mode::Drive {
             z[ix::Y4] = z[ix::Y3] + self.drive_offset;

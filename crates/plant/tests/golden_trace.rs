@@ -153,14 +153,15 @@ fn check(name: &str, params: PlantParams, golden: u64) {
     for scan_always in [false, true] {
         let t = trace_hash(params.clone(), scan_always);
         eprintln!(
-            "{name}, scan_always {scan_always}: {} steps, {:.3} s simulated, long scans run {} / skipped {}, hash {:#018x}",
-            t.steps, t.time, t.stats.scanned, t.stats.skipped, t.hash
+            "{name}, scan_always {scan_always}: {} steps, {:.3} s simulated, long scans run {} / skipped {}, quiet steps {}, hash {:#018x}",
+            t.steps, t.time, t.stats.scanned, t.stats.skipped, t.stats.quiet, t.hash
         );
         assert!(t.time >= 100.0, "the sequence covers {} s", t.time);
         if scan_always {
             assert_eq!(t.stats, ScanStats::default(), "the reference path never skips");
         } else {
             assert!(t.stats.skipped > 0, "the bound never proved a scan clear");
+            assert!(t.stats.quiet > 0, "the quiet step never ran");
         }
         hashes.push(t.hash);
     }
