@@ -24,7 +24,7 @@ fn gaits() -> Vec<Dac> {
 
 /// Gaits, then holds in each mode at random extension volts, each at one step length.
 fn sequence() -> Vec<(Dac, f64)> {
-    let mut rng = 0x0_2026_12_01_u64;
+    let mut rng = 0x2026_1201_u64;
     let mut seq: Vec<(Dac, f64)> = gaits().into_iter().map(|d| (d, 0.002)).collect();
     for h in [0.002, 0.001, 0.0005, 0.0037, 0.0001, 0.002] {
         for (earth, nonearth) in [(0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0), (0.0, 0.0)] {
