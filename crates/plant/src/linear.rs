@@ -223,6 +223,10 @@ pub struct Propagators<const D: usize> {
     pub scan_points: usize,
     /// `scan[k * watched.len() + o]` = `watched[o]ᵀ e^{A (k+1) Δ}`.
     pub scan: Vec<SVector<f64, D>>,
+    /// The scan rows four points at a time, point-minor: `scan_lanes[((g·w + o)·D + i)·4 + l]`
+    /// is component `i` of `scan[(4g + l)·w + o]` (zero rows pad the last group), so one
+    /// register holds one component of four points' rows.
+    scan_lanes: Vec<f64>,
     /// Bounds of every watched functional over all scan points of a piece, from the state
     /// alone (see [`ScanBound`]); `None` if the configuration's long-time propagator isn't finite.
     pub bound: Option<ScanBound<D>>,
@@ -423,7 +427,16 @@ impl<const D: usize> Propagators<D> {
             }
         }
         let bound = ScanBound::new(&phi[LEVELS - 1], &watched, &scan, scan_points);
-        Propagators { a, phi, watched, scan_level, scan_points, scan, bound }
+        let w = watched.len();
+        let groups = scan_points.div_ceil(4);
+        let mut scan_lanes = vec![0.0; groups * w * D * 4];
+        for (p, row) in scan.iter().enumerate() {
+            let (k, o) = (p / w, p % w);
+            for i in 0..D {
+                scan_lanes[(((k / 4) * w + o) * D + i) * 4 + k % 4] = row[i];
+            }
+        }
+        Propagators { a, phi, watched, scan_level, scan_points, scan, scan_lanes, bound }
     }
 
     /// Splits `z` for [`Self::range`]; `None` if this table has no bound.
@@ -499,6 +512,71 @@ impl<const D: usize> Propagators<D> {
     #[inline(always)]
     pub fn scanned(&self, k: usize, o: usize, z: &SVector<f64, D>) -> f64 {
         self.scan[(k - 1) * self.watched.len() + o].dot(z)
+    }
+
+    /// `scanned(k, o, z)` for the four points `k = 4g + 1 … 4g + 4`, bit for bit: with `AVX`
+    /// (only in a caller that runs with AVX) each lane makes the multiplications and additions
+    /// of nalgebra's `dot` for these sizes in its order, four points at once. Points past
+    /// `scan_points` give 0.
+    #[inline(always)]
+    pub fn scanned4<const AVX: bool>(&self, g: usize, o: usize, z: &SVector<f64, D>) -> [f64; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if AVX && (D == 4 || D >= 8) {
+            let w = self.watched.len();
+            let rows = &self.scan_lanes[(g * w + o) * D * 4..(g * w + o + 1) * D * 4];
+            // SAFETY: `AVX` callers run with AVX.
+            return unsafe { dot4_avx::<D>(rows, z) };
+        }
+        std::array::from_fn(|l| {
+            let k = 4 * g + l + 1;
+            if k <= self.scan_points {
+                self.scanned(k, o, z)
+            } else {
+                0.0
+            }
+        })
+    }
+}
+
+/// nalgebra's `dot` of four rows with `z` (rows point-minor, see `scan_lanes`), one row per
+/// lane: for 4 components `(p₀ + p₂) + (p₁ + p₃)`; from 8 on, eight accumulators
+/// `accₘ = 0 + p_m (+ p_{m+8} …)`, `res = 0 + (acc₀ + acc₄)`, `+ (acc₁ + acc₅)`, …, then the
+/// remaining products one by one.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn dot4_avx<const D: usize>(rows: &[f64], z: &SVector<f64, D>) -> [f64; 4] {
+    use std::arch::x86_64::*;
+    assert!(rows.len() == 4 * D && (D == 4 || D >= 8));
+    // SAFETY: every load is inside `rows` (4·D) and every index of `z` below D.
+    unsafe {
+        let p = |i: usize| {
+            _mm256_mul_pd(_mm256_loadu_pd(rows.as_ptr().add(4 * i)), _mm256_set1_pd(z[i]))
+        };
+        let res = if D == 4 {
+            _mm256_add_pd(_mm256_add_pd(p(0), p(2)), _mm256_add_pd(p(1), p(3)))
+        } else {
+            let zero = _mm256_setzero_pd();
+            let mut acc = [zero; 8];
+            let mut i = 0;
+            while D - i >= 8 {
+                for (m, a) in acc.iter_mut().enumerate() {
+                    *a = _mm256_add_pd(*a, p(i + m));
+                }
+                i += 8;
+            }
+            let mut res = zero;
+            for m in 0..4 {
+                res = _mm256_add_pd(res, _mm256_add_pd(acc[m], acc[m + 4]));
+            }
+            for k in i..D {
+                res = _mm256_add_pd(res, p(k));
+            }
+            res
+        };
+        let mut out = [0.0; 4];
+        _mm256_storeu_pd(out.as_mut_ptr(), res);
+        out
     }
 }
 
