@@ -20,118 +20,28 @@
 //! per source and dropped, so no stray datagram can lock the real controller out
 //! (docs/hil-protocol.md, "Sessions").
 
+mod admission;
+mod config;
+mod run;
+mod sessions;
+
 use std::collections::BTreeMap;
 use std::io;
-use std::net::{IpAddr, SocketAddr};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
 
 use inchworm_hil_protocol::{
     decode, encode, session_refused, status, BoardState, DacSample, EncoderSample, Fault,
-    FaultReason, Frame, Hello, Packet, Role, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME,
-    SAFE_CODES, VERSION,
+    FaultReason, Frame, Packet, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
 };
 
-use crate::realtime::{now_ns, Pacer};
+pub use admission::{SourceCounts, MAX_SOURCES};
+pub use config::{Allow, BoardConfig};
+pub use run::run_board;
+pub use sessions::SessionInfo;
+
+use crate::realtime::now_ns;
 use crate::runlog::{BoardSample, LogWriter, Record};
 use crate::transport::{Source, Transport};
 use crate::{describe_fault, LinkCounters, Mechanism, OverrunPolicy};
-
-#[derive(Clone, Copy, Debug)]
-pub struct BoardConfig {
-    pub period: Duration,
-    pub watchdog_periods: u32,
-    pub lockstep: bool,
-    /// Lock-step: wall-clock periods without any valid frame before the link counts as
-    /// dead. Both modes: how long an armed session's controller must have been silent
-    /// before a HELLO from another address may replace it.
-    pub dead_link_periods: u32,
-    pub overrun: OverrunPolicy,
-    /// Re-initialise the mechanism when a new session opens (test rigs only: hardware
-    /// keeps its state from one controller to the next).
-    pub fresh_plant_per_session: bool,
-}
-
-impl Default for BoardConfig {
-    fn default() -> Self {
-        BoardConfig {
-            period: crate::PERIOD,
-            watchdog_periods: inchworm_hil_protocol::DEFAULT_WATCHDOG_PERIODS,
-            lockstep: false,
-            dead_link_periods: inchworm_hil_protocol::LOCKSTEP_DEAD_LINK_PERIODS,
-            overrun: OverrunPolicy::Soft,
-            fresh_plant_per_session: false,
-        }
-    }
-}
-
-/// Distinct senders counted one by one; beyond this many they share one count, so a flood
-/// from many addresses cannot grow the board's memory without bound.
-pub const MAX_SOURCES: usize = 64;
-
-/// What one sender sent that the board did not take as session traffic.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SourceCounts {
-    /// Datagrams that failed to decode (from any sender, the session's own included).
-    pub malformed: u64,
-    /// Valid frames other than HELLO from a sender that holds no session.
-    pub foreign: u64,
-    /// HELLOs refused: another controller's session was armed, or the parameters differ.
-    pub refused: u64,
-    /// Datagrams from an address outside the allow list, whatever they held.
-    pub not_allowed: u64,
-}
-
-impl std::fmt::Display for SourceCounts {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} malformed, {} foreign, {} HELLO refused, {} not allowed",
-            self.malformed, self.foreign, self.refused, self.not_allowed
-        )
-    }
-}
-
-/// One session: from the HELLO that opened it to the HELLO that replaced it, or the stop.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct SessionInfo {
-    /// 1, 2, … in order.
-    pub id: u32,
-    pub peer: Source,
-    pub start_tick: u32,
-    /// ARMs received in it.
-    pub arms: u32,
-    /// How it ended; `None` while it is the current one.
-    pub end: Option<String>,
-}
-
-/// One `--allow` entry: an exact address, or a host with any port.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Allow {
-    Addr(SocketAddr),
-    Host(IpAddr),
-}
-
-impl std::str::FromStr for Allow {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Allow, String> {
-        if let Ok(a) = s.parse::<SocketAddr>() {
-            return Ok(Allow::Addr(a));
-        }
-        s.parse::<IpAddr>().map(Allow::Host).map_err(|_| {
-            format!("--allow {s}: expected an IP address (any port) or IP:PORT, e.g. 127.0.0.1 or 192.168.1.5:40000")
-        })
-    }
-}
-
-impl Allow {
-    pub fn admits(&self, a: &SocketAddr) -> bool {
-        match self {
-            Allow::Addr(x) => x == a,
-            Allow::Host(ip) => *ip == a.ip(),
-        }
-    }
-}
 
 /// Frames received and what became of them, and the board's own counts.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -256,72 +166,6 @@ impl<M: Mechanism> Board<M> {
         self.peer
     }
 
-    fn allowed(&self, from: Source) -> bool {
-        match from {
-            Source::Line => true,
-            Source::Udp(a) => self.allow.is_empty() || self.allow.iter().any(|r| r.admits(&a)),
-        }
-    }
-
-    fn counts_of(&mut self, from: Source) -> &mut SourceCounts {
-        if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&from) {
-            return &mut self.other_sources;
-        }
-        self.sources.entry(from).or_default()
-    }
-
-    fn dead_link_ns(&self) -> u64 {
-        u64::from(self.cfg.dead_link_periods.max(1)) * self.cfg.period.as_nanos() as u64
-    }
-
-    /// Bytes that are not a frame, from `from`: counted, and reported at 1, 2, 4, … per
-    /// sender so a flood cannot flood the log.
-    pub fn refuse_malformed(&mut self, from: Source, why: &str) {
-        self.counters.link.malformed += 1;
-        let c = self.counts_of(from);
-        c.malformed += 1;
-        let n = c.malformed;
-        if n.is_power_of_two() {
-            self.event(format!(
-                "malformed datagram from {from} refused ({why}); {n} from it so far"
-            ));
-        }
-    }
-
-    /// The sessions and the foreign traffic, as the summary and the log give them.
-    pub fn summary_lines(&self) -> Vec<String> {
-        let mut out = vec![format!("sessions: {}", self.sessions.len())];
-        for s in &self.sessions {
-            out.push(format!(
-                "session {}: controller {} from tick {}, {} ARM; {}",
-                s.id,
-                s.peer,
-                s.start_tick,
-                s.arms,
-                s.end.as_deref().map_or_else(
-                    || format!("open at the board's stop ({})", state_name(self.wd.state())),
-                    |e| format!("ended: {e}")
-                )
-            ));
-        }
-        for (src, c) in &self.sources {
-            out.push(format!("source {src}: {c}"));
-        }
-        if self.other_sources != SourceCounts::default() {
-            out.push(format!("sources beyond the first {MAX_SOURCES}: {}", self.other_sources));
-        }
-        out
-    }
-
-    /// The end of the board's run: the summary into the log, closed by an end record.
-    fn close_log(&mut self, outcome: &str) {
-        for line in self.summary_lines() {
-            self.write_log(Record::Event { tick: self.tick, text: line });
-        }
-        let text = format!("board stopped: {outcome}");
-        self.write_log(Record::End { tick: self.tick, text });
-    }
-
     pub fn tick(&self) -> u32 {
         self.tick
     }
@@ -366,11 +210,6 @@ impl<M: Mechanism> Board<M> {
             Some(to) => tx.send_to(&buf[..n], to),
             None => tx.send(&buf[..n]),
         }
-    }
-
-    fn refuse(&mut self, to: Source, detail: u32, tx: &mut dyn Transport) -> io::Result<()> {
-        let f = Fault { reason: FaultReason::SessionRefused, detail };
-        self.send_frame(Frame::Fault(f), Some(to), tx)
     }
 
     fn send(&mut self, frame: Frame, tx: &mut dyn Transport) -> io::Result<()> {
@@ -542,119 +381,6 @@ impl<M: Mechanism> Board<M> {
         }
     }
 
-    fn hello(&mut self, from: Source, h: Hello, tx: &mut dyn Transport) -> io::Result<()> {
-        let period_us = self.cfg.period.as_micros() as u32;
-        let mismatch = if h.version != VERSION {
-            Some((
-                format!("protocol version {} (board speaks {VERSION})", h.version),
-                u32::from(h.version),
-            ))
-        } else if h.role != Role::Controller {
-            Some(("the peer says it is a board".to_string(), h.role as u32))
-        } else if h.lockstep != self.cfg.lockstep {
-            Some((
-                format!("lock-step {} (board: {})", h.lockstep, self.cfg.lockstep),
-                u32::from(h.lockstep),
-            ))
-        } else if h.period_us != period_us {
-            Some((format!("period {} µs (board: {period_us} µs)", h.period_us), h.period_us))
-        } else {
-            None
-        };
-        if let Some((why, detail)) = mismatch {
-            if self.peer != Some(from) {
-                self.counts_of(from).refused += 1;
-            }
-            self.event(format!("HELLO from {from} refused: {why}"));
-            let f = Fault { reason: FaultReason::ProtocolMismatch, detail };
-            return self.send_frame(Frame::Fault(f), Some(from), tx);
-        }
-        let reply = Hello {
-            version: VERSION,
-            role: Role::Board,
-            period_us,
-            watchdog_periods: self.cfg.watchdog_periods.min(255) as u8,
-            lockstep: self.cfg.lockstep,
-        };
-        let armed = self.wd.state() == BoardState::Armed;
-        if self.peer == Some(from) && (armed || !self.session_armed) {
-            // The controller repeats HELLO until it hears the board's: the same session.
-            return self.send_frame(Frame::Hello(reply), Some(from), tx);
-        }
-        if let Some(peer) = self.peer.filter(|&p| p != from) {
-            let silent_ns = now_ns().saturating_sub(self.peer_heard_ns);
-            if armed && silent_ns < self.dead_link_ns() {
-                let c = self.counts_of(from);
-                c.refused += 1;
-                let n = c.refused;
-                if n.is_power_of_two() {
-                    let id = self.sessions.len();
-                    self.event(format!(
-                        "HELLO from {from} refused: session {id} with {peer} is armed (heard {:.1} ms ago); {n} refused from it so far",
-                        silent_ns as f64 / 1e6
-                    ));
-                }
-                return self.refuse(from, session_refused::BUSY, tx);
-            }
-        }
-        self.open_session(from, tx)?;
-        self.event(format!(
-            "session {}: HELLO from a controller at {from} (protocol {VERSION}, {period_us} µs, lock-step {})",
-            self.sessions.len(),
-            h.lockstep
-        ));
-        self.send_frame(Frame::Hello(reply), Some(from), tx)
-    }
-
-    /// Closes the current session, if any, and opens one with `from`. The mechanism keeps
-    /// its state (as hardware does) unless the rig asks for a fresh one.
-    fn open_session(&mut self, from: Source, tx: &mut dyn Transport) -> io::Result<()> {
-        let now = now_ns();
-        if let Some(prev) = self.peer {
-            let why = match self.wd.state() {
-                BoardState::Armed => {
-                    // Only reached after the dead-link time: the old controller is gone,
-                    // and the new one must ARM for itself.
-                    self.wd.disarm();
-                    format!(
-                        "armed but silent for {:.0} ms, disarmed (safe codes)",
-                        now.saturating_sub(self.peer_heard_ns) as f64 / 1e6
-                    )
-                }
-                other => state_name(other),
-            };
-            let id = self.sessions.len();
-            if let Some(s) = self.sessions.last_mut() {
-                s.end = Some(why.clone());
-            }
-            self.event(format!("session {id} with {prev} ends ({why}): {from} opens a new one"));
-        }
-        if self.cfg.fresh_plant_per_session && !self.sessions.is_empty() {
-            self.mech.reinitialise().map_err(|e| {
-                io::Error::other(format!(
-                    "--fresh-plant-per-session: the mechanism could not be re-initialised: {e}"
-                ))
-            })?;
-            self.counts = self.mech.counts().map_err(io::Error::other)?;
-            self.event("mechanism re-initialised for the new session".into());
-        }
-        if self.peer != Some(from) {
-            self.counters.link.frames += 1;
-        }
-        self.peer = Some(from);
-        tx.set_peer(from);
-        self.peer_heard_ns = now;
-        self.session_armed = false;
-        self.sessions.push(SessionInfo {
-            id: self.sessions.len() as u32 + 1,
-            peer: from,
-            start_tick: self.tick,
-            arms: 0,
-            end: None,
-        });
-        Ok(())
-    }
-
     fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {
         let verdict = self.dac_seq.accept(seq);
         if !self.counters.link.sequence(verdict) {
@@ -743,89 +469,6 @@ impl<M: Mechanism> Board<M> {
         if let Some(log) = &mut self.log {
             let _ = log.sync();
         }
-    }
-}
-
-/// Runs the board until `stop` is set. Real time: one step per period. Lock-step: one step
-/// per DAC frame, wall-clock periods of silence counting towards the dead-link bound.
-/// `lateness_us` receives the wake-up lateness of every real-time period.
-pub fn run_board<M: Mechanism>(
-    board: &mut Board<M>,
-    tx: &mut dyn Transport,
-    stop: &AtomicBool,
-    lateness_us: &mut Vec<f64>,
-) -> io::Result<()> {
-    // Room for the largest UDP datagram, so an oversized one is refused for its real size
-    // and not for whatever part of it fitted.
-    let mut buf = vec![0u8; 65536];
-    let period_ns = board.cfg.period.as_nanos() as u64;
-    // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
-    let drain = |board: &mut Board<M>, tx: &mut dyn Transport, buf: &mut [u8]| -> io::Result<()> {
-        loop {
-            match tx.recv(buf, Duration::ZERO) {
-                Ok(Some(n)) => board.handle(&buf[..n], tx)?,
-                Ok(None) => return Ok(()),
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => {
-                    board.refuse_malformed(tx.source(), &e.to_string())
-                }
-                Err(e) => return Err(e),
-            }
-        }
-    };
-    let result = if board.cfg.lockstep {
-        let mut boundary = now_ns() + period_ns;
-        loop {
-            if stop.load(Ordering::Relaxed) {
-                break drain(board, tx, &mut buf);
-            }
-            let now = now_ns();
-            if now >= boundary {
-                board.silent_period(tx)?;
-                boundary += period_ns;
-                continue;
-            }
-            match tx.recv(&mut buf, Duration::from_nanos(boundary - now)) {
-                Ok(Some(n)) => {
-                    let before = board.counters.steps + board.counters.repeats;
-                    board.handle(&buf[..n], tx)?;
-                    if board.counters.steps + board.counters.repeats != before {
-                        boundary = now_ns() + period_ns;
-                    }
-                }
-                Ok(None) => {}
-                Err(e) if e.kind() == io::ErrorKind::InvalidData => {
-                    board.refuse_malformed(tx.source(), &e.to_string())
-                }
-                Err(e) => break Err(e),
-            }
-        }
-    } else {
-        let mut pacer = Pacer::new(board.cfg.period);
-        loop {
-            if stop.load(Ordering::Relaxed) {
-                break drain(board, tx, &mut buf);
-            }
-            let wake = pacer.wait();
-            lateness_us.push(wake.lateness_ns as f64 / 1e3);
-            drain(board, tx, &mut buf)?;
-            let overrun =
-                wake.overrun.then(|| (wake.lateness_ns + wake.skipped * period_ns) / 1000);
-            board.period(overrun, tx)?;
-        }
-    };
-    match &result {
-        Ok(()) => board.close_log("stopped on request"),
-        Err(e) => board.close_log(&format!("error: {e}")),
-    }
-    board.sync_log();
-    result
-}
-
-fn state_name(s: BoardState) -> String {
-    match s {
-        BoardState::Disarmed => "disarmed".into(),
-        BoardState::Armed => "armed".into(),
-        BoardState::Safe(f) => format!("safe state latched: {}", describe_fault(&f)),
     }
 }
 

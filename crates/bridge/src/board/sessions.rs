@@ -1,0 +1,118 @@
+//! Sessions: the one controller the board serves at a time, the record of every session
+//! and the summary the board prints and logs at its stop.
+
+use std::io;
+
+use inchworm_hil_protocol::BoardState;
+
+use super::{Board, SourceCounts, MAX_SOURCES};
+use crate::realtime::now_ns;
+use crate::runlog::Record;
+use crate::transport::{Source, Transport};
+use crate::{describe_fault, Mechanism};
+
+/// One session: from the HELLO that opened it to the HELLO that replaced it, or the stop.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SessionInfo {
+    /// 1, 2, … in order.
+    pub id: u32,
+    pub peer: Source,
+    pub start_tick: u32,
+    /// ARMs received in it.
+    pub arms: u32,
+    /// How it ended; `None` while it is the current one.
+    pub end: Option<String>,
+}
+
+impl<M: Mechanism> Board<M> {
+    /// The sessions and the foreign traffic, as the summary and the log give them.
+    pub fn summary_lines(&self) -> Vec<String> {
+        let mut out = vec![format!("sessions: {}", self.sessions.len())];
+        for s in &self.sessions {
+            out.push(format!(
+                "session {}: controller {} from tick {}, {} ARM; {}",
+                s.id,
+                s.peer,
+                s.start_tick,
+                s.arms,
+                s.end.as_deref().map_or_else(
+                    || format!("open at the board's stop ({})", state_name(self.wd.state())),
+                    |e| format!("ended: {e}")
+                )
+            ));
+        }
+        for (src, c) in &self.sources {
+            out.push(format!("source {src}: {c}"));
+        }
+        if self.other_sources != SourceCounts::default() {
+            out.push(format!("sources beyond the first {MAX_SOURCES}: {}", self.other_sources));
+        }
+        out
+    }
+
+    /// The end of the board's run: the summary into the log, closed by an end record.
+    pub(super) fn close_log(&mut self, outcome: &str) {
+        for line in self.summary_lines() {
+            self.write_log(Record::Event { tick: self.tick, text: line });
+        }
+        let text = format!("board stopped: {outcome}");
+        self.write_log(Record::End { tick: self.tick, text });
+    }
+
+    /// Closes the current session, if any, and opens one with `from`. The mechanism keeps
+    /// its state (as hardware does) unless the rig asks for a fresh one.
+    pub(super) fn open_session(&mut self, from: Source, tx: &mut dyn Transport) -> io::Result<()> {
+        let now = now_ns();
+        if let Some(prev) = self.peer {
+            let why = match self.wd.state() {
+                BoardState::Armed => {
+                    // Only reached after the dead-link time: the old controller is gone,
+                    // and the new one must ARM for itself.
+                    self.wd.disarm();
+                    format!(
+                        "armed but silent for {:.0} ms, disarmed (safe codes)",
+                        now.saturating_sub(self.peer_heard_ns) as f64 / 1e6
+                    )
+                }
+                other => state_name(other),
+            };
+            let id = self.sessions.len();
+            if let Some(s) = self.sessions.last_mut() {
+                s.end = Some(why.clone());
+            }
+            self.event(format!("session {id} with {prev} ends ({why}): {from} opens a new one"));
+        }
+        if self.cfg.fresh_plant_per_session && !self.sessions.is_empty() {
+            self.mech.reinitialise().map_err(|e| {
+                io::Error::other(format!(
+                    "--fresh-plant-per-session: the mechanism could not be re-initialised: {e}"
+                ))
+            })?;
+            self.counts = self.mech.counts().map_err(io::Error::other)?;
+            self.event("mechanism re-initialised for the new session".into());
+        }
+        if self.peer != Some(from) {
+            self.counters.link.frames += 1;
+        }
+        self.peer = Some(from);
+        tx.set_peer(from);
+        self.peer_heard_ns = now;
+        self.session_armed = false;
+        self.sessions.push(SessionInfo {
+            id: self.sessions.len() as u32 + 1,
+            peer: from,
+            start_tick: self.tick,
+            arms: 0,
+            end: None,
+        });
+        Ok(())
+    }
+}
+
+pub(super) fn state_name(s: BoardState) -> String {
+    match s {
+        BoardState::Disarmed => "disarmed".into(),
+        BoardState::Armed => "armed".into(),
+        BoardState::Safe(f) => format!("safe state latched: {}", describe_fault(&f)),
+    }
+}
