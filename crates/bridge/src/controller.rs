@@ -237,23 +237,24 @@ fn handshake(
 }
 
 /// ARM until an encoder frame says armed: it carries the tick and count to start from.
-/// `deadline` is the handshake's: one limit for HELLO and ARM together.
+/// `deadline` is the handshake's: one limit for HELLO and ARM together. `Ok(Err(f))`: the
+/// board refused this ARM (another controller completed its handshake first, or this
+/// one's HELLO is no longer remembered), so the handshake starts over.
 fn arm(
     link: &mut Link,
     cfg: &ControllerConfig,
     stop: &AtomicBool,
     deadline: u64,
-) -> Result<EncoderSample, String> {
+) -> Result<Result<EncoderSample, Fault>, String> {
     link.enc.reset();
     loop {
         link.send(Frame::Arm).map_err(link_error)?;
         let retry = now_ns() + 100_000_000;
         while now_ns() < retry {
             match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
-                Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(e),
-                // Another controller's HELLO replaced this session before its ARM.
+                Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(Ok(e)),
                 Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
-                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
+                    return Ok(Err(f));
                 }
                 _ => {}
             }
@@ -505,8 +506,16 @@ pub fn run_controller<C: Compensator>(
         counters: ControllerCounters::default(),
     };
     let deadline = now_ns() + cfg.handshake_timeout.as_nanos() as u64;
-    handshake(&mut link, cfg, stop, deadline)?;
-    let start = arm(&mut link, cfg, stop, deadline)?;
+    let start = loop {
+        handshake(&mut link, cfg, stop, deadline)?;
+        match arm(&mut link, cfg, stop, deadline)? {
+            Ok(start) => break start,
+            Err(f) if now_ns() > deadline || stop.load(Ordering::Relaxed) => {
+                return Err(format!("the board refused the session: {}", describe_fault(&f)));
+            }
+            Err(_) => {}
+        }
+    };
     let mut report = ControllerReport { first_tick: start.tick, ..ControllerReport::default() };
     report
         .events

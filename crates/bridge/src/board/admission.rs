@@ -16,6 +16,11 @@ use crate::Mechanism;
 /// from many addresses cannot grow the board's memory without bound.
 pub const MAX_SOURCES: usize = 64;
 
+/// Senders whose HELLO was answered and whose ARM is awaited, at most. A controller ARMs
+/// one round trip after its HELLO is answered, so a flood would need this many HELLOs in
+/// that round trip to push its entry out (and then it HELLOs again).
+pub const MAX_HANDSHAKES: usize = 64;
+
 /// What one sender sent that the board did not take as session traffic.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SourceCounts {
@@ -54,6 +59,24 @@ impl<M: Mechanism> Board<M> {
         self.sources.entry(from).or_default()
     }
 
+    /// Adds one to the count `field` picks for `from`; the new count and whom it counts
+    /// ("it", or the senders beyond the first [`MAX_SOURCES`] together), for the log line.
+    pub(super) fn count(
+        &mut self,
+        from: Source,
+        field: impl FnOnce(&mut SourceCounts) -> &mut u64,
+    ) -> (u64, String) {
+        let shared = self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&from);
+        let c = field(self.counts_of(from));
+        *c += 1;
+        let who = if shared {
+            format!("the senders beyond the first {MAX_SOURCES}")
+        } else {
+            "it".to_string()
+        };
+        (*c, who)
+    }
+
     pub(super) fn dead_link_ns(&self) -> u64 {
         u64::from(self.cfg.dead_link_periods.max(1)) * self.cfg.period.as_nanos() as u64
     }
@@ -62,12 +85,10 @@ impl<M: Mechanism> Board<M> {
     /// sender so a flood cannot flood the log.
     pub fn refuse_malformed(&mut self, from: Source, why: &str) {
         self.counters.link.malformed += 1;
-        let c = self.counts_of(from);
-        c.malformed += 1;
-        let n = c.malformed;
+        let (n, who) = self.count(from, |c| &mut c.malformed);
         if n.is_power_of_two() {
             self.event(format!(
-                "malformed datagram from {from} refused ({why}); {n} from it so far"
+                "malformed datagram from {from} refused ({why}); {n} from {who} so far"
             ));
         }
     }
@@ -107,10 +128,18 @@ impl<M: Mechanism> Board<M> {
             None
         };
         if let Some((why, detail)) = mismatch {
-            if self.peer != Some(from) {
-                self.counts_of(from).refused += 1;
+            // The session's own controller is not counted as foreign traffic; anyone else
+            // is logged at its 1st, 2nd, 4th, … refusal.
+            let (n, who) = if self.peer == Some(from) {
+                (1, "it".to_string())
+            } else {
+                self.count(from, |c| &mut c.refused)
+            };
+            if n.is_power_of_two() {
+                self.event(format!(
+                    "HELLO from {from} refused: {why}; {n} refused from {who} so far"
+                ));
             }
-            self.event(format!("HELLO from {from} refused: {why}"));
             let f = Fault { reason: FaultReason::ProtocolMismatch, detail };
             return self.send_frame(Frame::Fault(f), Some(from), tx);
         }
@@ -122,32 +151,87 @@ impl<M: Mechanism> Board<M> {
             lockstep: self.cfg.lockstep,
         };
         let armed = self.wd.state() == BoardState::Armed;
-        if self.peer == Some(from) && (armed || !self.session_armed) {
-            // The controller repeats HELLO until it hears the board's: the same session.
+        if self.peer == Some(from) && armed {
+            // The armed controller repeating HELLO (it lost the board's): the same session.
             return self.send_frame(Frame::Hello(reply), Some(from), tx);
         }
-        if let Some(peer) = self.peer.filter(|&p| p != from) {
-            let silent_ns = now_ns().saturating_sub(self.peer_heard_ns);
-            if armed && silent_ns < self.dead_link_ns() {
-                let c = self.counts_of(from);
-                c.refused += 1;
-                let n = c.refused;
-                if n.is_power_of_two() {
-                    let id = self.sessions.len();
-                    self.event(format!(
-                        "HELLO from {from} refused: session {id} with {peer} is armed (heard {:.1} ms ago); {n} refused from it so far",
-                        silent_ns as f64 / 1e6
-                    ));
-                }
-                return self.refuse(from, session_refused::BUSY, tx);
-            }
+        if let Some(busy) = self.held_from(from) {
+            return self.refuse_busy(from, "HELLO", busy, tx);
+        }
+        // Answered, and remembered for its ARM; nothing is bound yet, so a HELLO can never
+        // take the board from a controller whose own handshake is under way.
+        self.remember_handshake(from);
+        self.send_frame(Frame::Hello(reply), Some(from), tx)
+    }
+
+    /// The live armed session of another controller that keeps `from` out, if there is
+    /// one: its peer and how long ago it was heard (ns). An armed session whose controller
+    /// has been silent for the dead-link time is gone and keeps nobody out.
+    fn held_from(&self, from: Source) -> Option<(Source, u64)> {
+        let peer = self.peer.filter(|&p| p != from)?;
+        let silent_ns = now_ns().saturating_sub(self.peer_heard_ns);
+        (self.wd.state() == BoardState::Armed && silent_ns < self.dead_link_ns())
+            .then_some((peer, silent_ns))
+    }
+
+    /// BUSY to `from`, counted per sender and logged at its 1st, 2nd, 4th, … refusal.
+    fn refuse_busy(
+        &mut self,
+        from: Source,
+        what: &str,
+        (peer, silent_ns): (Source, u64),
+        tx: &mut dyn Transport,
+    ) -> io::Result<()> {
+        let (n, who) = self.count(from, |c| &mut c.refused);
+        if n.is_power_of_two() {
+            let id = self.sessions_opened;
+            self.event(format!(
+                "{what} from {from} refused: session {id} with {peer} is armed (heard {:.1} ms ago); {n} refused from {who} so far",
+                silent_ns as f64 / 1e6
+            ));
+        }
+        self.refuse(from, session_refused::BUSY, tx)
+    }
+
+    /// Notes that `from`'s HELLO was answered. The table holds [`MAX_HANDSHAKES`] senders;
+    /// a newer HELLO displaces the oldest entry, never a session.
+    fn remember_handshake(&mut self, from: Source) {
+        let now = now_ns();
+        let window = self.dead_link_ns();
+        self.handshakes.retain(|&(s, at)| s != from && now.saturating_sub(at) < window);
+        if self.handshakes.len() >= MAX_HANDSHAKES {
+            self.handshakes.remove(0);
+        }
+        self.handshakes.push((from, now));
+    }
+
+    /// Whether `from` had its HELLO answered within the handshake window (the dead-link
+    /// time): its ARM completes the handshake.
+    pub(super) fn in_handshake(&self, from: Source) -> bool {
+        let now = now_ns();
+        self.handshakes
+            .iter()
+            .any(|&(s, at)| s == from && now.saturating_sub(at) < self.dead_link_ns())
+    }
+
+    /// The ARM that completes `from`'s handshake: the session is bound to it here, unless
+    /// another controller completed its own first and is armed and alive.
+    pub(super) fn complete_handshake(
+        &mut self,
+        from: Source,
+        tx: &mut dyn Transport,
+    ) -> io::Result<()> {
+        self.handshakes.retain(|&(s, _)| s != from);
+        if let Some(busy) = self.held_from(from) {
+            return self.refuse_busy(from, "ARM", busy, tx);
         }
         self.open_session(from, tx)?;
         self.event(format!(
-            "session {}: HELLO from a controller at {from} (protocol {VERSION}, {period_us} µs, lock-step {})",
-            self.sessions.len(),
-            h.lockstep
+            "session {}: a controller at {from} completed its handshake (protocol {VERSION}, {} µs, lock-step {})",
+            self.sessions_opened,
+            self.cfg.period.as_micros(),
+            self.cfg.lockstep
         ));
-        self.send_frame(Frame::Hello(reply), Some(from), tx)
+        self.arm(tx)
     }
 }

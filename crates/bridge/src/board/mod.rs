@@ -33,10 +33,13 @@ use inchworm_hil_protocol::{
     FaultReason, Frame, Packet, SeqTracker, SeqVerdict, Watchdog, MAX_FRAME, SAFE_CODES, VERSION,
 };
 
-pub use admission::{SourceCounts, MAX_SOURCES};
+pub use admission::{SourceCounts, MAX_HANDSHAKES, MAX_SOURCES};
 pub use config::{Allow, BoardConfig};
 pub use run::run_board;
-pub use sessions::SessionInfo;
+pub use sessions::{SessionInfo, MAX_SESSION_RECORDS};
+
+/// Events kept in memory (see [`Board::events`]).
+pub const MAX_EVENTS: usize = 1024;
 
 use crate::realtime::now_ns;
 use crate::runlog::{BoardSample, LogWriter, Record};
@@ -86,10 +89,13 @@ pub struct Board<M> {
     peer: Option<Source>,
     /// When the peer's last valid frame arrived (`now_ns`), for the takeover rule.
     peer_heard_ns: u64,
-    /// The current session has had an ARM: a HELLO from its own peer after that starts a
-    /// new run, while one before it is the handshake being repeated.
-    session_armed: bool,
+    /// Senders whose HELLO was answered, with when (`now_ns`): an ARM from one of them
+    /// completes its handshake (at most [`MAX_HANDSHAKES`], oldest first).
+    handshakes: Vec<(Source, u64)>,
+    /// Sessions opened so far; [`Board::sessions`] keeps the last [`MAX_SESSION_RECORDS`].
+    sessions_opened: u32,
     allow: Vec<Allow>,
+    /// The last [`MAX_SESSION_RECORDS`] sessions, oldest first.
     pub sessions: Vec<SessionInfo>,
     /// Traffic not taken as session traffic, per sender (the first [`MAX_SOURCES`]).
     pub sources: BTreeMap<Source, SourceCounts>,
@@ -97,7 +103,8 @@ pub struct Board<M> {
     pub other_sources: SourceCounts,
     pub counters: BoardCounters,
     pub latches: Vec<SafeLatch>,
-    /// (tick, text) of everything notable, in order.
+    /// (tick, text) of everything notable, in order: the last [`MAX_EVENTS`] to
+    /// 2 × [`MAX_EVENTS`] of them (the log has them all, each rate-limited at its source).
     pub events: Vec<(u32, String)>,
     log: Option<LogWriter>,
 }
@@ -126,7 +133,8 @@ impl<M: Mechanism> Board<M> {
             overrun_flag: false,
             peer: None,
             peer_heard_ns: 0,
-            session_armed: false,
+            handshakes: Vec::new(),
+            sessions_opened: 0,
             allow: Vec::new(),
             sessions: Vec::new(),
             sources: BTreeMap::new(),
@@ -192,6 +200,9 @@ impl<M: Mechanism> Board<M> {
     fn event(&mut self, text: String) {
         log::info!(target: "board", "tick {}: {text}", self.tick);
         self.write_log(Record::Event { tick: self.tick, text: text.clone() });
+        if self.events.len() >= 2 * MAX_EVENTS {
+            self.events.drain(..MAX_EVENTS);
+        }
         self.events.push((self.tick, text));
     }
 
@@ -292,12 +303,10 @@ impl<M: Mechanism> Board<M> {
     pub fn handle(&mut self, bytes: &[u8], tx: &mut dyn Transport) -> io::Result<()> {
         let from = tx.source();
         if !self.allowed(from) {
-            let c = self.counts_of(from);
-            c.not_allowed += 1;
-            let n = c.not_allowed;
+            let (n, who) = self.count(from, |c| &mut c.not_allowed);
             if n.is_power_of_two() {
                 self.event(format!(
-                    "datagram from {from} ignored: not an allowed peer (--allow); {n} from it so far"
+                    "datagram from {from} ignored: not an allowed peer (--allow); {n} from {who} so far"
                 ));
                 // A controller that is kept out learns why instead of timing out.
                 if matches!(decode(bytes), Ok(Packet { frame: Frame::Hello(_), .. })) {
@@ -314,14 +323,15 @@ impl<M: Mechanism> Board<M> {
             }
         };
         let from_peer = self.peer == Some(from);
-        if !from_peer && !matches!(packet.frame, Frame::Hello(_)) {
-            let c = self.counts_of(from);
-            c.foreign += 1;
-            let n = c.foreign;
+        // An ARM after an answered HELLO completes a handshake (a new session, or the
+        // peer's next run after its DISARM); any other ARM from the peer re-arms.
+        let completes_handshake = matches!(packet.frame, Frame::Arm) && self.in_handshake(from);
+        if !from_peer && !completes_handshake && !matches!(packet.frame, Frame::Hello(_)) {
+            let (n, who) = self.count(from, |c| &mut c.foreign);
             if n.is_power_of_two() {
                 let holder = self.peer.map_or_else(|| "nobody".to_string(), |p| p.to_string());
                 self.event(format!(
-                    "{} frame from {from} dropped: it holds no session (the session is {holder}'s); {n} from it so far",
+                    "{} frame from {from} dropped: it holds no session (the session is {holder}'s); {n} from {who} so far",
                     frame_name(&packet.frame)
                 ));
                 self.refuse(from, session_refused::NO_SESSION, tx)?;
@@ -334,22 +344,8 @@ impl<M: Mechanism> Board<M> {
         }
         match packet.frame {
             Frame::Hello(h) => self.hello(from, h, tx),
-            Frame::Arm => {
-                let was = self.wd.state();
-                self.wd.arm();
-                // The ARM is the first valid frame of the session: silence counts from it.
-                self.wd.frame_received();
-                self.requested = SAFE_CODES;
-                self.dac_seq.reset();
-                self.last_valid_tick = self.tick;
-                self.session_armed = true;
-                if let Some(s) = self.sessions.last_mut() {
-                    s.arms += 1;
-                }
-                self.event(format!("armed (was {was:?})"));
-                // The controller learns the tick and count it starts from.
-                self.send_encoder(tx)
-            }
+            Frame::Arm if completes_handshake => self.complete_handshake(from, tx),
+            Frame::Arm => self.arm(tx),
             Frame::Disarm if self.wd.state() == BoardState::Disarmed => Ok(()),
             Frame::Disarm => {
                 self.wd.disarm();
@@ -379,6 +375,23 @@ impl<M: Mechanism> Board<M> {
                 Ok(())
             }
         }
+    }
+
+    /// ARM from the session's controller.
+    fn arm(&mut self, tx: &mut dyn Transport) -> io::Result<()> {
+        let was = self.wd.state();
+        self.wd.arm();
+        // The ARM is the first valid frame of the session: silence counts from it.
+        self.wd.frame_received();
+        self.requested = SAFE_CODES;
+        self.dac_seq.reset();
+        self.last_valid_tick = self.tick;
+        if let Some(s) = self.sessions.last_mut() {
+            s.arms += 1;
+        }
+        self.event(format!("armed (was {was:?})"));
+        // The controller learns the tick and count it starts from.
+        self.send_encoder(tx)
     }
 
     fn dac(&mut self, seq: u16, d: DacSample, tx: &mut dyn Transport) -> io::Result<()> {

@@ -6,12 +6,17 @@ use std::io;
 use inchworm_hil_protocol::BoardState;
 
 use super::{Board, SourceCounts, MAX_SOURCES};
+
+/// Session records kept: the summary lists the last this many and counts the rest, so a
+/// long rig day (or a peer that opens session after session) cannot grow it without bound.
+pub const MAX_SESSION_RECORDS: usize = 32;
 use crate::realtime::now_ns;
 use crate::runlog::Record;
 use crate::transport::{Source, Transport};
 use crate::{describe_fault, Mechanism};
 
-/// One session: from the HELLO that opened it to the HELLO that replaced it, or the stop.
+/// One session: from the ARM that completed its controller's handshake to the one that
+/// completed the next controller's, or the stop.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SessionInfo {
     /// 1, 2, … in order.
@@ -27,7 +32,13 @@ pub struct SessionInfo {
 impl<M: Mechanism> Board<M> {
     /// The sessions and the foreign traffic, as the summary and the log give them.
     pub fn summary_lines(&self) -> Vec<String> {
-        let mut out = vec![format!("sessions: {}", self.sessions.len())];
+        let mut out = vec![format!("sessions: {}", self.sessions_opened)];
+        let dropped = self.sessions_opened as usize - self.sessions.len();
+        if dropped > 0 {
+            out.push(format!(
+                "sessions 1 to {dropped}: not listed (the board keeps the last {MAX_SESSION_RECORDS} session records; the log has every session's events)"
+            ));
+        }
         for s in &self.sessions {
             out.push(format!(
                 "session {}: controller {} from tick {}, {} ARM; {}",
@@ -76,13 +87,13 @@ impl<M: Mechanism> Board<M> {
                 }
                 other => state_name(other),
             };
-            let id = self.sessions.len();
+            let id = self.sessions_opened;
             if let Some(s) = self.sessions.last_mut() {
                 s.end = Some(why.clone());
             }
             self.event(format!("session {id} with {prev} ends ({why}): {from} opens a new one"));
         }
-        if self.cfg.fresh_plant_per_session && !self.sessions.is_empty() {
+        if self.cfg.fresh_plant_per_session && self.sessions_opened > 0 {
             self.mech.reinitialise().map_err(|e| {
                 io::Error::other(format!(
                     "--fresh-plant-per-session: the mechanism could not be re-initialised: {e}"
@@ -97,9 +108,12 @@ impl<M: Mechanism> Board<M> {
         self.peer = Some(from);
         tx.set_peer(from);
         self.peer_heard_ns = now;
-        self.session_armed = false;
+        self.sessions_opened += 1;
+        if self.sessions.len() >= MAX_SESSION_RECORDS {
+            self.sessions.remove(0);
+        }
         self.sessions.push(SessionInfo {
-            id: self.sessions.len() as u32 + 1,
+            id: self.sessions_opened,
             peer: from,
             start_tick: self.tick,
             arms: 0,

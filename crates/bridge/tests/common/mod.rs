@@ -18,10 +18,28 @@ pub const H: f64 = 0.002;
 
 /// Every bridge test runs against the wall clock (real-time periods, or the board's
 /// watchdog in lock-step) and takes this, so two of them never compete for the machine's
-/// cores and miss deadlines the bridge would meet on its own.
-pub fn real_time_slot() -> std::sync::MutexGuard<'static, ()> {
+/// cores and miss deadlines the bridge would meet on its own. It also puts the test's
+/// thread under SCHED_FIFO, as `inchworm bridge` puts itself: the board and controller
+/// threads the test starts, and the processes it spawns, inherit it, so other work on
+/// the machine (a CPU-bound process on every core) cannot stall them past a watchdog.
+/// Without the privilege the test runs under the default scheduler, as the bridge does.
+pub fn real_time_slot() -> RealTimeSlot {
     static SLOT: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    SLOT.lock().unwrap_or_else(|e| e.into_inner())
+    let lock = SLOT.lock().unwrap_or_else(|e| e.into_inner());
+    RealTimeSlot { _lock: lock, before: inchworm_bridge::realtime::fifo_thread(50).ok() }
+}
+
+pub struct RealTimeSlot {
+    _lock: std::sync::MutexGuard<'static, ()>,
+    before: Option<(i32, i32)>,
+}
+
+impl Drop for RealTimeSlot {
+    fn drop(&mut self) {
+        if let Some(b) = self.before {
+            inchworm_bridge::realtime::restore_scheduling(b);
+        }
+    }
 }
 
 pub struct DirectPlant(pub Plant);
