@@ -48,7 +48,10 @@ impl std::str::FromStr for Allow {
             return Ok(Allow::Addr(a));
         }
         s.parse::<IpAddr>().map(Allow::Host).map_err(|_| {
-            format!("--allow {s}: expected an IP address (any port) or IP:PORT, e.g. 127.0.0.1 or 192.168.1.5:40000")
+            format!(
+                "--allow {}: expected an IP address (any port) or IP:PORT, e.g. 127.0.0.1 or 192.168.1.5:40000",
+                crate::quoted(s)
+            )
         })
     }
 }
