@@ -19,7 +19,7 @@ pub const MAX_SOURCES: usize = 64;
 /// Senders whose HELLO was answered and whose ARM is awaited, at most. A controller ARMs
 /// one round trip after its HELLO is answered, so a flood would need this many HELLOs in
 /// that round trip to push its entry out (and then it HELLOs again).
-pub const MAX_HANDSHAKES: usize = 64;
+pub const MAX_HANDSHAKES: usize = 256;
 
 /// What one sender sent that the board did not take as session traffic.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -87,7 +87,7 @@ impl<M: Mechanism> Board<M> {
         self.counters.link.malformed += 1;
         let (n, who) = self.count(from, |c| &mut c.malformed);
         if n.is_power_of_two() {
-            self.event(format!(
+            self.refusal(format!(
                 "malformed datagram from {from} refused ({why}); {n} from {who} so far"
             ));
         }
@@ -136,7 +136,7 @@ impl<M: Mechanism> Board<M> {
                 self.count(from, |c| &mut c.refused)
             };
             if n.is_power_of_two() {
-                self.event(format!(
+                self.refusal(format!(
                     "HELLO from {from} refused: {why}; {n} refused from {who} so far"
                 ));
             }
@@ -185,7 +185,7 @@ impl<M: Mechanism> Board<M> {
         let (n, who) = self.count(from, |c| &mut c.refused);
         if n.is_power_of_two() {
             let id = self.sessions_opened;
-            self.event(format!(
+            self.refusal(format!(
                 "{what} from {from} refused: session {id} with {peer} is armed (heard {:.1} ms ago); {n} refused from {who} so far",
                 silent_ns as f64 / 1e6
             ));

@@ -41,6 +41,11 @@ pub use sessions::{SessionInfo, MAX_SESSION_RECORDS};
 /// Events kept in memory (see [`Board::events`]).
 pub const MAX_EVENTS: usize = 1024;
 
+/// The log lines for refused datagrams a board writes at once, before the rate applies.
+pub const REFUSAL_BURST: f64 = 32.0;
+/// The log lines for refused datagrams a board writes per second after its burst.
+pub const REFUSALS_PER_S: f64 = 8.0;
+
 use crate::realtime::now_ns;
 use crate::runlog::{BoardSample, LogWriter, Record};
 use crate::transport::{Source, Transport};
@@ -94,6 +99,10 @@ pub struct Board<M> {
     handshakes: Vec<(Source, u64)>,
     /// Sessions opened so far; [`Board::sessions`] keeps the last [`MAX_SESSION_RECORDS`].
     sessions_opened: u32,
+    /// Refusal log lines the budget allows now, and when it was last topped up (`now_ns`).
+    refusal_budget: (f64, u64),
+    /// Refusal log lines held back by the budget.
+    refusals_unlogged: u64,
     allow: Vec<Allow>,
     /// The last [`MAX_SESSION_RECORDS`] sessions, oldest first.
     pub sessions: Vec<SessionInfo>,
@@ -135,6 +144,8 @@ impl<M: Mechanism> Board<M> {
             peer_heard_ns: 0,
             handshakes: Vec::new(),
             sessions_opened: 0,
+            refusal_budget: (REFUSAL_BURST, 0),
+            refusals_unlogged: 0,
             allow: Vec::new(),
             sessions: Vec::new(),
             sources: BTreeMap::new(),
@@ -194,6 +205,21 @@ impl<M: Mechanism> Board<M> {
                 self.events.push((self.tick, format!("log write failed, logging stopped: {e}")));
                 self.log = None;
             }
+        }
+    }
+
+    /// A refused datagram's log line, under the board-wide budget: a burst of
+    /// [`REFUSAL_BURST`] lines, then [`REFUSALS_PER_S`] a second; the rest are counted
+    /// and the count is in the summary. Session events are never held back.
+    fn refusal(&mut self, text: String) {
+        let now = now_ns();
+        let refill = now.saturating_sub(self.refusal_budget.1) as f64 * 1e-9 * REFUSALS_PER_S;
+        self.refusal_budget = ((self.refusal_budget.0 + refill).min(REFUSAL_BURST), now);
+        if self.refusal_budget.0 >= 1.0 {
+            self.refusal_budget.0 -= 1.0;
+            self.event(text);
+        } else {
+            self.refusals_unlogged += 1;
         }
     }
 
@@ -305,7 +331,7 @@ impl<M: Mechanism> Board<M> {
         if !self.allowed(from) {
             let (n, who) = self.count(from, |c| &mut c.not_allowed);
             if n.is_power_of_two() {
-                self.event(format!(
+                self.refusal(format!(
                     "datagram from {from} ignored: not an allowed peer (--allow); {n} from {who} so far"
                 ));
                 // A controller that is kept out learns why instead of timing out.
@@ -330,7 +356,7 @@ impl<M: Mechanism> Board<M> {
             let (n, who) = self.count(from, |c| &mut c.foreign);
             if n.is_power_of_two() {
                 let holder = self.peer.map_or_else(|| "nobody".to_string(), |p| p.to_string());
-                self.event(format!(
+                self.refusal(format!(
                     "{} frame from {from} dropped: it holds no session (the session is {holder}'s); {n} from {who} so far",
                     frame_name(&packet.frame)
                 ));

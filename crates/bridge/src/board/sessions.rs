@@ -58,6 +58,14 @@ impl<M: Mechanism> Board<M> {
         if self.other_sources != SourceCounts::default() {
             out.push(format!("sources beyond the first {MAX_SOURCES}: {}", self.other_sources));
         }
+        if self.refusals_unlogged > 0 {
+            out.push(format!(
+                "refusal log lines held back by the rate limit ({} at once, then {}/s): {}",
+                super::REFUSAL_BURST,
+                super::REFUSALS_PER_S,
+                self.refusals_unlogged
+            ));
+        }
         out
     }
 
