@@ -91,21 +91,6 @@ fn refused(detail: u32) -> Frame {
     Frame::Fault(Fault { reason: FaultReason::SessionRefused, detail })
 }
 
-/// A controller that says when it starts ticking, which is after its ARM was answered.
-struct Announcing(DirectController, Option<mpsc::Sender<()>>);
-
-impl inchworm_bridge::Compensator for Announcing {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
-        self.0.codes()
-    }
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
-        if let Some(t) = self.1.take() {
-            let _ = t.send(());
-        }
-        self.0.step(counts, reference)
-    }
-}
-
 #[test]
 fn a_stray_datagram_first_does_not_lock_the_controller_out() {
     let _slot = real_time_slot();
@@ -235,11 +220,11 @@ fn a_hello_from_another_address_during_an_armed_session_is_refused_and_logged() 
         |ticks| ControllerConfig { ticks, dead_after: 25, ..ControllerConfig::default() };
     let ticks = 1500;
     let addr = rig.addr;
-    let (armed_tx, armed_rx) = mpsc::channel();
+    let (mut announcing, armed_rx) = Announcing::new(0);
     let owner = std::thread::spawn(move || {
         let mut udp = UdpTransport::connect(addr).unwrap();
         let r = run_controller(
-            &mut Announcing(DirectController::new(), Some(armed_tx)),
+            &mut announcing,
             &mut udp,
             &reference,
             &realtime(ticks),

@@ -94,6 +94,38 @@ impl Compensator for DirectController {
     }
 }
 
+/// [`DirectController`] that says (once) when it reaches tick `at`: an event a test can
+/// wait on instead of guessing how long start-up takes (its first tick comes after its
+/// ARM was answered).
+pub struct Announcing {
+    pub ctrl: DirectController,
+    pub at: u64,
+    ticks: u64,
+    tell: Option<mpsc::Sender<()>>,
+}
+
+impl Announcing {
+    pub fn new(at: u64) -> (Announcing, mpsc::Receiver<()>) {
+        let (tx, rx) = mpsc::channel();
+        (Announcing { ctrl: DirectController::new(), at, ticks: 0, tell: Some(tx) }, rx)
+    }
+}
+
+impl Compensator for Announcing {
+    fn codes(&mut self) -> Result<[u16; 3], String> {
+        self.ctrl.codes()
+    }
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        if self.ticks == self.at {
+            if let Some(t) = self.tell.take() {
+                let _ = t.send(());
+            }
+        }
+        self.ticks += 1;
+        self.ctrl.step(counts, reference)
+    }
+}
+
 /// A step to 30 µm at 0.1 s, then back to 10 µm at 1 s: moves, settles, parks.
 pub fn reference(t: f64) -> f64 {
     if t < 0.1 {
