@@ -54,6 +54,24 @@ fn lockstep(ticks: u64) -> ControllerConfig {
     ControllerConfig { lockstep: true, ticks, ..ControllerConfig::default() }
 }
 
+/// A whole lock-step controller run of `ticks` that must get the board and finish.
+fn lockstep_run(
+    udp: &mut UdpTransport,
+    ticks: u64,
+) -> inchworm_bridge::controller::ControllerReport {
+    let r = run_controller(
+        &mut DirectController::new(),
+        udp,
+        &reference,
+        &lockstep(ticks),
+        None,
+        &AtomicBool::new(false),
+    )
+    .expect("the controller gets the board");
+    assert!(r.fault.is_none(), "{:?}", r.fault);
+    r
+}
+
 /// How the board sees a controller socket that was bound to 0.0.0.0.
 fn seen_as(udp: &UdpTransport) -> Source {
     Source::Udp(SocketAddr::from(([127, 0, 0, 1], udp.local_addr().unwrap().port())))
@@ -409,16 +427,7 @@ fn a_hello_that_is_never_completed_holds_nothing_and_lapses() {
     assert!(matches!(answer(&idle).frame, Frame::Hello(_)));
     // A whole controller gets the board at once: the unfinished handshake binds nothing.
     let mut udp = UdpTransport::connect(rig.addr).unwrap();
-    let r = run_controller(
-        &mut DirectController::new(),
-        &mut udp,
-        &reference,
-        &lockstep(50),
-        None,
-        &AtomicBool::new(false),
-    )
-    .expect("the controller gets the board");
-    assert_eq!(r.ticks, 50);
+    assert_eq!(lockstep_run(&mut udp, 50).ticks, 50);
     // Past the window the old HELLO no longer counts: its ARM is a stranger's. (A sleep is
     // a lower bound here: a stalled test only waits longer, past the window all the same.)
     std::thread::sleep(Duration::from_millis(40));
@@ -446,16 +455,7 @@ fn a_flood_of_hellos_from_many_ports_grows_nothing_and_a_controller_still_gets_i
         if round == 1 {
             // The real controller in the middle of the flood.
             let mut udp = UdpTransport::connect(rig.addr).unwrap();
-            let r = run_controller(
-                &mut DirectController::new(),
-                &mut udp,
-                &reference,
-                &lockstep(100),
-                None,
-                &AtomicBool::new(false),
-            )
-            .expect("the controller gets the board through the flood");
-            assert_eq!(r.ticks, 100);
+            assert_eq!(lockstep_run(&mut udp, 100).ticks, 100);
         }
     }
     let board = rig.finish();
