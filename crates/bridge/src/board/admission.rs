@@ -164,14 +164,14 @@ impl<M: Mechanism> Board<M> {
         self.send_frame(Frame::Hello(reply), Some(from), tx)
     }
 
-    /// The live armed session of another controller that keeps `from` out, if there is
-    /// one: its peer and how long ago it was heard (ns). An armed session whose controller
-    /// has been silent for the dead-link time is gone and keeps nobody out.
+    /// The armed session of another controller that keeps `from` out, if there is one:
+    /// its peer and how long ago it was heard (ns). The watchdog alone decides when an
+    /// armed session is gone (it latches after its silent periods in real time, and after
+    /// the dead-link time in lock-step), so a takeover never races the latch.
     fn held_from(&self, from: Source) -> Option<(Source, u64)> {
         let peer = self.peer.filter(|&p| p != from)?;
         let silent_ns = now_ns().saturating_sub(self.peer_heard_ns);
-        (self.wd.state() == BoardState::Armed && silent_ns < self.dead_link_ns())
-            .then_some((peer, silent_ns))
+        (self.wd.state() == BoardState::Armed).then_some((peer, silent_ns))
     }
 
     /// BUSY to `from`, counted per sender and logged at its 1st, 2nd, 4th, … refusal.

@@ -12,8 +12,8 @@ pub struct BoardConfig {
     pub watchdog_periods: u32,
     pub lockstep: bool,
     /// Lock-step: wall-clock periods without any valid frame before the link counts as
-    /// dead. Both modes: how long an armed session's controller must have been silent
-    /// before a HELLO from another address may replace it.
+    /// dead. Both modes: how long a controller's answered HELLO waits for its ARM (the
+    /// handshake window).
     pub dead_link_periods: u32,
     pub overrun: OverrunPolicy,
     /// Re-initialise the mechanism when a new session opens (test rigs only: hardware

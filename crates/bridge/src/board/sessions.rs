@@ -85,8 +85,9 @@ impl<M: Mechanism> Board<M> {
         if let Some(prev) = self.peer {
             let why = match self.wd.state() {
                 BoardState::Armed => {
-                    // Only reached after the dead-link time: the old controller is gone,
-                    // and the new one must ARM for itself.
+                    // Not reached while the admission rules hold (an armed session is
+                    // taken over only once latched); if it were, the new controller must
+                    // still ARM for itself.
                     self.wd.disarm();
                     format!(
                         "armed but silent for {:.0} ms, disarmed (safe codes)",
