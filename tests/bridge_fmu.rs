@@ -396,7 +396,7 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
         .unwrap();
     let log = dir.join("controller.log");
     let mut controller = controller_process(&addr, "30", &[], Some(&log)).spawn().unwrap();
-    wait_for_samples(&log, 250);
+    wait_for_samples(&log, 250, &mut controller);
     controller.kill().unwrap();
     controller.wait().unwrap();
     let restart = controller_process(&addr, "0.5", &[], None).output().unwrap();
@@ -462,14 +462,25 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Waits (bounded) until the run log at `path` holds `n` controller samples.
-fn wait_for_samples(path: &Path, n: usize) {
+/// Waits (bounded) until the run log at `path` of the running `controller` holds `n`
+/// controller samples; fails with the controller's output if it exits first.
+fn wait_for_samples(path: &Path, n: usize, controller: &mut std::process::Child) {
     let t0 = std::time::Instant::now();
     loop {
         let got = read_log(path)
             .map_or(0, |c| c.records.iter().filter(|r| matches!(r, Record::Controller(_))).count());
         if got >= n {
             return;
+        }
+        if let Some(status) = controller.try_wait().unwrap() {
+            let mut text = String::new();
+            if let Some(mut out) = controller.stdout.take() {
+                let _ = std::io::Read::read_to_string(&mut out, &mut text);
+            }
+            if let Some(mut err) = controller.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut err, &mut text);
+            }
+            panic!("the controller exited ({status}) after {got} of {n} samples:\n{text}");
         }
         assert!(t0.elapsed() < std::time::Duration::from_secs(30), "{got} of {n} samples in 30 s");
         std::thread::sleep(std::time::Duration::from_millis(10));
@@ -556,7 +567,7 @@ fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
     let killed_log = dir.join("killed.log");
     let mut killed = controller_process(&addr, "30", &[], Some(&killed_log)).spawn().unwrap();
     // Killed once it is well into its run: 100 samples logged (bounded wait).
-    wait_for_samples(&killed_log, 100);
+    wait_for_samples(&killed_log, 100, &mut killed);
     killed.kill().unwrap();
     killed.wait().unwrap();
     let out = wait_bounded(controller_process(&addr, "0.5", &[], None).spawn().unwrap(), limit);

@@ -575,6 +575,8 @@ def test_a_megabyte_token_is_cut_in_the_message(flag):
 def log_records(path):
     """(kind, payload) of every whole record of a run log."""
     data = path.read_bytes()
+    if len(data) < 8:
+        return []  # created, its header not written yet
     assert data[:8] == b"IWLOG\x00\x01\x00"
     at, out = 8, []
     while at + 3 <= len(data):
