@@ -49,6 +49,26 @@ fn reference(t: f64) -> f64 {
     }
 }
 
+/// SCHED_FIFO for the test's thread while it lives, so the board thread and the processes
+/// it starts inherit it and other work on the machine (a CPU-bound process on every core)
+/// cannot stall them past a watchdog, as `inchworm bridge` does for itself in real time.
+/// Without the privilege the test runs under the default scheduler.
+struct RealTime(Option<(i32, i32)>);
+
+impl RealTime {
+    fn enter() -> RealTime {
+        RealTime(inchworm_bridge::realtime::fifo_thread(50).ok())
+    }
+}
+
+impl Drop for RealTime {
+    fn drop(&mut self) {
+        if let Some(b) = self.0 {
+            inchworm_bridge::realtime::restore_scheduling(b);
+        }
+    }
+}
+
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("iw-bridge-fmu-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -57,6 +77,7 @@ fn scratch(name: &str) -> PathBuf {
 
 #[test]
 fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
+    let _rt = RealTime::enter();
     let seconds = 4.0;
     let cosim = cosimulation(&[(0.0, 100e-6), (2.0, 40e-6)], seconds);
 
@@ -203,6 +224,7 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
 
 #[test]
 fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
+    let _rt = RealTime::enter();
     let seconds = 3.0;
     // The reference from a CSV, as an operator gives it: 100 µm, then 40 µm from 1.5 s.
     let cosim = cosimulation(&[(0.0, 100e-6), (1.5, 40e-6)], seconds);
@@ -345,10 +367,13 @@ fn bad_bridge_arguments_are_refused_clearly() {
 
 #[test]
 fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_in() {
+    let _rt = RealTime::enter();
     // Real time, two processes. The controller is killed (SIGKILL: no clean-up at all)
-    // after about a second: its log must read back whole up to the kill and replay without
-    // divergence, the board must latch its safe state within 3 periods of silence, and a
-    // controller started again at once must get a new session from the same board.
+    // once its log holds 250 samples (an event, not a guess at how long start-up takes):
+    // its log must read back whole up to the kill, lack at most the one DAC frame that was
+    // on the wire (docs/hil-protocol.md, "Run log"), and replay without divergence; the
+    // board must latch its safe state within 3 periods of silence, and a controller
+    // started again at once must get a new session from the same board.
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("killed");
@@ -360,17 +385,18 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
             "--addr",
             &addr,
             "--duration",
-            "4",
+            "30",
             "--fmu",
             fmu("InchwormPlant.fmu").to_str().unwrap(),
         ])
+        .args(["--log", dir.join("board.log").to_str().unwrap()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     let log = dir.join("controller.log");
     let mut controller = controller_process(&addr, "30", &[], Some(&log)).spawn().unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1200));
+    wait_for_samples(&log, 250, &mut controller);
     controller.kill().unwrap();
     controller.wait().unwrap();
     let restart = controller_process(&addr, "0.5", &[], None).output().unwrap();
@@ -378,7 +404,8 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
         + &String::from_utf8_lossy(&restart.stderr);
     assert!(restart.status.success(), "{restart_text}");
     assert!(restart_text.contains("250 ticks in"), "{restart_text}");
-    let board_out = board.wait_with_output().unwrap();
+    unsafe { libc::kill(board.id() as i32, libc::SIGTERM) };
+    let board_out = wait_bounded(board, std::time::Duration::from_secs(30));
     let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
         + &String::from_utf8_lossy(&board_out.stderr);
     assert!(board_out.status.success(), "{board_text}");
@@ -396,9 +423,28 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
     );
 
     let contents = read_log(&log).unwrap();
-    let samples = contents.records.iter().filter(|r| matches!(r, Record::Controller(_))).count();
-    assert!(samples > 200, "{samples} samples logged before the kill");
+    let seqs: Vec<u16> = contents
+        .records
+        .iter()
+        .filter_map(|r| if let Record::Controller(c) = r { Some(c.seq) } else { None })
+        .collect();
+    assert!(seqs.len() >= 250, "{} samples logged before the kill", seqs.len());
     assert!(!contents.complete());
+    // The newest DAC frame the board took in session 1 is at most one past the newest
+    // sample in the controller's log: the kill lost at most the frame in flight.
+    let board_log = read_log(&dir.join("board.log")).unwrap();
+    let board_seq = board_log
+        .records
+        .iter()
+        .take_while(|r| !matches!(r, Record::Event { text, .. } if text.starts_with("session 2:")))
+        .filter_map(|r| if let Record::Board(b) = r { Some(b.dac_seq) } else { None })
+        .max()
+        .unwrap();
+    let logged = *seqs.last().unwrap();
+    assert!(
+        board_seq == logged || board_seq == logged.wrapping_add(1),
+        "the board took DAC frame {board_seq}, the controller's log ends at {logged}"
+    );
     let out = Command::new(BIN)
         .args([
             "replay",
@@ -414,6 +460,31 @@ fn a_killed_controller_leaves_a_readable_log_the_board_safe_and_a_restart_gets_i
     assert!(text.contains("no end record: the run did not finish cleanly"), "{text}");
     assert!(text.contains("no divergence in the samples there are"), "{text}");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Waits (bounded) until the run log at `path` of the running `controller` holds `n`
+/// controller samples; fails with the controller's output if it exits first.
+fn wait_for_samples(path: &Path, n: usize, controller: &mut std::process::Child) {
+    let t0 = std::time::Instant::now();
+    loop {
+        let got = read_log(path)
+            .map_or(0, |c| c.records.iter().filter(|r| matches!(r, Record::Controller(_))).count());
+        if got >= n {
+            return;
+        }
+        if let Some(status) = controller.try_wait().unwrap() {
+            let mut text = String::new();
+            if let Some(mut out) = controller.stdout.take() {
+                let _ = std::io::Read::read_to_string(&mut out, &mut text);
+            }
+            if let Some(mut err) = controller.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut err, &mut text);
+            }
+            panic!("the controller exited ({status}) after {got} of {n} samples:\n{text}");
+        }
+        assert!(t0.elapsed() < std::time::Duration::from_secs(30), "{got} of {n} samples in 30 s");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
 }
 
 /// `inchworm bridge --role controller` in real time against `addr`, with room in the
@@ -454,6 +525,7 @@ fn wait_bounded(
 
 #[test]
 fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
+    let _rt = RealTime::enter();
     // The acceptance case of issue 13 item 1: a board started once, in real time, serves
     // a stray datagram, three controller runs in a row, a controller killed with SIGKILL
     // and its immediate restart. Each of these used to lock every later controller out.
@@ -495,16 +567,7 @@ fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
     let killed_log = dir.join("killed.log");
     let mut killed = controller_process(&addr, "30", &[], Some(&killed_log)).spawn().unwrap();
     // Killed once it is well into its run: 100 samples logged (bounded wait).
-    let t0 = std::time::Instant::now();
-    loop {
-        let n = read_log(&killed_log)
-            .map_or(0, |c| c.records.iter().filter(|r| matches!(r, Record::Controller(_))).count());
-        if n >= 100 {
-            break;
-        }
-        assert!(t0.elapsed() < limit, "the fourth controller never got going");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    wait_for_samples(&killed_log, 100, &mut killed);
     killed.kill().unwrap();
     killed.wait().unwrap();
     let out = wait_bounded(controller_process(&addr, "0.5", &[], None).spawn().unwrap(), limit);

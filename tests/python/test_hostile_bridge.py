@@ -5,6 +5,7 @@ its own subprocess with a time limit, so a crash or a hang fails the case. Only
 import os
 import pathlib
 import random
+import re
 import select
 import signal
 import socket
@@ -18,7 +19,9 @@ import pytest
 
 from conftest import ROOT, built_fmu
 
-BIN = ROOT / "target" / "release" / "inchworm"
+# INCHWORM_BIN runs the cases against another build (an older binary, to see which of them
+# it fails).
+BIN = pathlib.Path(os.environ.get("INCHWORM_BIN", ROOT / "target" / "release" / "inchworm"))
 LIMIT = 30  # s: far above what any case needs; reaching it is a hang.
 
 SESSION_REFUSED = 8
@@ -43,8 +46,8 @@ def frame(ftype, stream, payload, seq=1, version=1):
     return body + struct.pack("<I", zlib.crc32(body))
 
 
-def hello(lockstep=False, seq=1):
-    return frame(0x01, 0, struct.pack("<BBIBB", 1, 1, 2000, 3, int(lockstep)), seq)
+def hello(lockstep=False, seq=1, period_us=2000):
+    return frame(0x01, 0, struct.pack("<BBIBB", 1, 1, period_us, 3, int(lockstep)), seq)
 
 
 def arm(seq=2):
@@ -349,3 +352,274 @@ def test_replay_says_what_a_cut_or_damaged_log_holds(board_factory, tmp_path):
         assert rc == code, (name, text)
         for s in says:
             assert s in text, (name, s, text)
+
+
+# ---------------------------------------------------------------------------------------
+# Issue 22: sessions that cannot be stolen, floods that grow nothing, outside text cut,
+# and what a killed process's log may lose (docs/hil-protocol.md, "Sessions", "Run log").
+
+MODES = [pytest.param(False, id="real-time"), pytest.param(True, id="lock-step")]
+ENCODER, FAULT, HELLO = 0x11, 0x04, 0x01
+
+
+def next_frame(sock, wanted, limit=2.0):
+    """The next frame of a type in `wanted` the board sends `sock` (the real-time board
+    streams ENCODER frames to its session's peer, which are skipped unless wanted)."""
+    sock.settimeout(limit)
+    deadline = time.monotonic() + limit
+    while True:
+        ftype, stream, payload = parse(sock.recv(256))
+        if ftype in wanted:
+            return ftype, payload
+        assert time.monotonic() < deadline, f"no frame of type {wanted} within {limit} s"
+
+
+def armed(payload):
+    return struct.unpack("<H", payload[8:10])[0] & 1 == 1
+
+
+def handshake_half(sock, port, lockstep):
+    """HELLO, and the board's answer: the first half of a handshake, no ARM yet."""
+    sock.sendto(hello(lockstep), ("127.0.0.1", port))
+    ftype, payload = next_frame(sock, {HELLO, FAULT})
+    assert ftype == HELLO and payload[1] == 2, payload.hex()  # the board's HELLO
+
+
+def summary(out):
+    return [l for l in out.splitlines() if l.startswith("session")]
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_a_hello_between_a_controllers_hello_and_arm_takes_nothing(board_factory, lockstep):
+    # The real controller had its HELLO answered; a second sender HELLOs before its ARM.
+    # It used to take the session, and the real controller's ARM was refused.
+    board = board_factory(lockstep=lockstep, watchdog=250)
+    owner, rogue = sender(), sender()
+    handshake_half(owner, board.port, lockstep)
+    handshake_half(rogue, board.port, lockstep)
+    owner.sendto(arm(), ("127.0.0.1", board.port))
+    ftype, payload = next_frame(owner, {ENCODER, FAULT})
+    assert ftype == ENCODER and armed(payload), payload.hex()
+    # The rogue completes second: refused, with the reason.
+    rogue.sendto(arm(), ("127.0.0.1", board.port))
+    expect_refusal(rogue, BUSY)
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    lines = summary(out)
+    assert lines[0] == "sessions: 1", out
+    assert lines[1].startswith(f"session 1: controller 127.0.0.1:{owner.getsockname()[1]} "), out
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_fifty_hellos_during_a_handshake_leave_it_whole(board_factory, lockstep):
+    board = board_factory(lockstep=lockstep, watchdog=250)
+    owner = sender()
+    rogues = [sender() for _ in range(50)]
+    handshake_half(owner, board.port, lockstep)
+    for r in rogues:
+        r.sendto(hello(lockstep), ("127.0.0.1", board.port))
+    owner.sendto(arm(), ("127.0.0.1", board.port))
+    ftype, payload = next_frame(owner, {ENCODER, FAULT})
+    assert ftype == ENCODER and armed(payload), payload.hex()
+    for r in rogues:
+        r.sendto(arm(), ("127.0.0.1", board.port))
+    for r in rogues:
+        ftype, payload = next_frame(r, {FAULT})  # after the board's HELLO to it
+        assert payload == struct.pack("<B3xI", SESSION_REFUSED, BUSY), payload.hex()
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    assert summary(out)[0] == "sessions: 1", out
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_a_hello_that_never_arms_holds_nothing(board_factory, lockstep):
+    board = board_factory(lockstep=lockstep)
+    idle = sender()
+    handshake_half(idle, board.port, lockstep)
+    rc, text = controller(board.addr, *(["--lockstep"] if lockstep else []))
+    assert rc == 0, text
+    assert "150 ticks in" in text, text
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    lines = summary(out)
+    # One session, the controller's; the unanswered half-handshake is no session at all.
+    assert lines[0] == "sessions: 1", out
+    assert f"127.0.0.1:{idle.getsockname()[1]}" not in lines[1], out
+
+
+def flood(port, stop, lockstep, ports=200):
+    socks = [sender() for _ in range(ports)]
+    datagram = hello(lockstep)
+    sent = 0
+    while not stop.is_set():
+        for s in socks:
+            s.sendto(datagram, ("127.0.0.1", port))
+        sent += len(socks)
+    return sent
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_a_controller_gets_in_through_a_hello_flood_from_many_ports(board_factory, lockstep):
+    board = board_factory(lockstep=lockstep)
+    stop = threading.Event()
+    result = {}
+    t = threading.Thread(target=lambda: result.update(sent=flood(board.port, stop, lockstep)))
+    t.start()
+    try:
+        time.sleep(0.1)  # the flood is under way before the controller starts
+        rc, text = controller(board.addr, *(["--lockstep"] if lockstep else []))
+    finally:
+        stop.set()
+        t.join(timeout=LIMIT)
+    assert rc == 0, text
+    assert "150 ticks in" in text, text
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    assert result["sent"] > 1000, result
+    lines = summary(out)
+    assert lines[0] == "sessions: 1", out[:3000]
+    # The summary and the log stay small whatever the flood's size: at most one line per
+    # counted sender, a burst of 32 refusal lines then 8 a second, the session's events.
+    assert len(out.splitlines()) < 100, len(out.splitlines())
+    assert len(err.splitlines()) < 32 + 8 * 10 + 10, err[-3000:]
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_many_sessions_leave_a_bounded_summary_that_counts_them_all(board_factory, lockstep):
+    board = board_factory(lockstep=lockstep, watchdog=250)
+    n = 40
+    for i in range(n):
+        s = sender()
+        handshake_half(s, board.port, lockstep)
+        s.sendto(arm(), ("127.0.0.1", board.port))
+        ftype, payload = next_frame(s, {ENCODER, FAULT})
+        assert ftype == ENCODER and armed(payload), (i, payload.hex())
+        s.sendto(disarm(), ("127.0.0.1", board.port))
+        s.close()
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    lines = summary(out)
+    assert lines[0] == f"sessions: {n}", out
+    assert lines[1].startswith("sessions 1 to 8: not listed (the board keeps the last 32 "), out
+    listed = [l for l in lines if l.startswith("session ") and ": controller " in l]
+    assert len(listed) == 32 and listed[0].startswith("session 9: "), out
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_a_hello_flood_on_an_idle_board_writes_a_bounded_log(board_factory, lockstep):
+    board = board_factory(lockstep=lockstep)
+    socks = [sender() for _ in range(500)]
+    for _ in range(4):
+        for s in socks:
+            s.sendto(hello(lockstep), ("127.0.0.1", board.port))
+    # The last HELLO answered: every one before it was handled.
+    ftype, _ = next_frame(socks[-1], {HELLO})
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    assert summary(out)[0] == "sessions: 0", out[:3000]
+    assert len(err.splitlines()) < 20, err[:3000]
+    assert len(out.splitlines()) < 20, out[:3000]
+
+
+def refusal_lines(err, why):
+    return [l for l in err.splitlines() if why in l]
+
+
+def test_mismatched_hellos_from_many_ports_are_logged_within_a_budget(board_factory):
+    board = board_factory()
+    socks = [sender() for _ in range(200)]
+    # In batches, each answered before the next, so no datagram is lost to a full socket
+    # buffer and every count below is exact.
+    for batch in range(0, 200, 25):
+        for s in socks[batch:batch + 25]:
+            s.sendto(hello(period_us=1000), ("127.0.0.1", board.port))
+        for s in socks[batch:batch + 25]:
+            next_frame(s, {FAULT})
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    logged = refusal_lines(err, "refused: period 1000 µs (board: 2000 µs)")
+    # A burst of 32 lines, then 8 a second; the rest are counted in the summary.
+    assert 32 <= len(logged) < 32 + 8 * 10, len(logged)
+    held = re.search(r"refusal log lines held back by the rate limit \(32 at once, then 8/s\): (\d+)", out)
+    assert held and len(logged) + int(held.group(1)) == 64 + 8, (len(logged), out[-1500:])
+    assert "sources beyond the first 64: 0 malformed, 0 foreign, 136 HELLO refused, 0 not allowed" in out, out[-1500:]
+
+
+def test_a_mismatched_hello_flood_from_one_port_is_logged_at_powers_of_two(board_factory):
+    board = board_factory()
+    s = sender()
+    for _ in range(300):
+        s.sendto(hello(lockstep=True), ("127.0.0.1", board.port))
+        next_frame(s, {FAULT})
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    logged = refusal_lines(err, "refused: lock-step true (board: false)")
+    assert [l.split("; ")[-1] for l in logged] == [
+        f"{n} refused from it so far" for n in (1, 2, 4, 8, 16, 32, 64, 128, 256)], logged
+    assert source_line(s, refused=300) + "\n" in out, out
+
+
+@pytest.mark.parametrize("flag", ["--allow", "--overrun"])
+def test_a_megabyte_token_is_cut_in_the_message(flag):
+    token = "x" * 100_000
+    r = subprocess.run(
+        [binary(), "bridge", "--role", "board", "--addr", f"127.0.0.1:{free_port()}",
+         flag, token, "--fmu", built_fmu("InchwormPlant")],
+        cwd=ROOT, capture_output=True, text=True, timeout=LIMIT)
+    assert r.returncode == 2, r.stdout + r.stderr[:2000]
+    # clap quotes the value it could not parse once; the bridge's own explanation cuts it.
+    assert r.stderr.count(token) == 1, len(r.stderr)
+    assert f"{'x' * 64}… (100000 bytes in all)" in r.stderr, r.stderr[-500:]
+
+
+def log_records(path):
+    """(kind, payload) of every whole record of a run log."""
+    data = path.read_bytes()
+    if len(data) < 8:
+        return []  # created, its header not written yet
+    assert data[:8] == b"IWLOG\x00\x01\x00"
+    at, out = 8, []
+    while at + 3 <= len(data):
+        n = struct.unpack("<H", data[at:at + 2])[0]
+        if at + 3 + n + 4 > len(data):
+            break
+        out.append((data[at + 2], data[at + 3:at + 3 + n]))
+        at += 3 + n + 4
+    return out
+
+
+def wait_for_samples(path, n, kind=2):
+    deadline = time.monotonic() + LIMIT
+    while True:
+        if path.exists() and sum(k == kind for k, _ in log_records(path)) >= n:
+            return
+        assert time.monotonic() < deadline, f"fewer than {n} samples in {path} within {LIMIT} s"
+        time.sleep(0.01)
+
+
+@pytest.mark.parametrize("lockstep", MODES)
+def test_a_killed_controllers_log_lacks_at_most_the_frame_in_flight(board_factory, tmp_path, lockstep):
+    board_log = tmp_path / "board.log"
+    board = board_factory("--log", str(board_log), lockstep=lockstep)
+    log = tmp_path / "controller.log"
+    proc = subprocess.Popen(
+        [binary(), "bridge", "--role", "controller", "--addr", board.addr, "--duration", "30",
+         "--dead-after", "25", "--fmu", built_fmu("InchwormController"), "--log", str(log),
+         *(["--lockstep"] if lockstep else [])],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        wait_for_samples(log, 200)
+    finally:
+        proc.kill()
+        proc.communicate(timeout=LIMIT)
+    rc, out, err = board.stop()
+    assert rc == 0, out + err
+    # Controller samples: tick u32, time, reference, counts, 3 codes, status, then seq u16.
+    seqs = [struct.unpack("<H", p[32:34])[0] for k, p in log_records(log) if k == 2]
+    # Board samples: tick, 3 codes, counts, status, then the DAC seq it took.
+    board_seqs = [struct.unpack("<H", p[16:18])[0] for k, p in log_records(board_log) if k == 3]
+    assert len(seqs) >= 200, len(seqs)
+    assert max(board_seqs) - seqs[-1] in (0, 1), (max(board_seqs), seqs[-1])
+    rc, text = replay(log)
+    assert rc == 3, text
+    assert "no end record: the run did not finish cleanly" in text, text

@@ -236,35 +236,24 @@ fn handshake(
     }
 }
 
-/// ARM until an encoder frame says armed: it carries the tick and count to start from.
-/// `deadline` is the handshake's: one limit for HELLO and ARM together.
-fn arm(
-    link: &mut Link,
-    cfg: &ControllerConfig,
-    stop: &AtomicBool,
-    deadline: u64,
-) -> Result<EncoderSample, String> {
+/// One ARM, and up to 100 ms for the encoder frame that says armed: it carries the tick
+/// and count to start from. `Ok(Err(_))`: not armed, so the handshake starts over (HELLO
+/// again, then ARM): the board refused this ARM (the fault: another controller completed
+/// its handshake first, or this one's HELLO is no longer remembered), or said nothing.
+fn arm(link: &mut Link) -> Result<Result<EncoderSample, Option<Fault>>, String> {
     link.enc.reset();
-    loop {
-        link.send(Frame::Arm).map_err(link_error)?;
-        let retry = now_ns() + 100_000_000;
-        while now_ns() < retry {
-            match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
-                Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(e),
-                // Another controller's HELLO replaced this session before its ARM.
-                Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
-                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
-                }
-                _ => {}
+    link.send(Frame::Arm).map_err(link_error)?;
+    let retry = now_ns() + 100_000_000;
+    while now_ns() < retry {
+        match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
+            Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(Ok(e)),
+            Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
+                return Ok(Err(Some(f)));
             }
-        }
-        if now_ns() > deadline || stop.load(Ordering::Relaxed) {
-            return Err(format!(
-                "the board did not arm within {:.1} s",
-                cfg.handshake_timeout.as_secs_f64()
-            ));
+            _ => {}
         }
     }
+    Ok(Err(None))
 }
 
 /// What paces the ticks.
@@ -505,8 +494,23 @@ pub fn run_controller<C: Compensator>(
         counters: ControllerCounters::default(),
     };
     let deadline = now_ns() + cfg.handshake_timeout.as_nanos() as u64;
-    handshake(&mut link, cfg, stop, deadline)?;
-    let start = arm(&mut link, cfg, stop, deadline)?;
+    // HELLO and ARM share one deadline.
+    let start = loop {
+        handshake(&mut link, cfg, stop, deadline)?;
+        match arm(&mut link)? {
+            Ok(start) => break start,
+            Err(_) if now_ns() <= deadline && !stop.load(Ordering::Relaxed) => {}
+            Err(Some(f)) => {
+                return Err(format!("the board refused the session: {}", describe_fault(&f)));
+            }
+            Err(None) => {
+                return Err(format!(
+                    "the board did not arm within {:.1} s",
+                    cfg.handshake_timeout.as_secs_f64()
+                ));
+            }
+        }
+    };
     let mut report = ControllerReport { first_tick: start.tick, ..ControllerReport::default() };
     report
         .events

@@ -101,8 +101,24 @@ impl std::str::FromStr for OverrunPolicy {
         match s {
             "soft" => Ok(OverrunPolicy::Soft),
             "hard" => Ok(OverrunPolicy::Hard),
-            other => Err(format!("overrun policy `{other}`: use soft (log and continue) or hard (fault to the safe state)")),
+            other => Err(format!(
+                "overrun policy `{}`: use soft (log and continue) or hard (fault to the safe state)",
+                quoted(other)
+            )),
         }
+    }
+}
+
+/// The longest piece of outside text (a token from the command line, a name from a peer or
+/// a log) that goes into a message whole, in characters.
+pub const MAX_QUOTED: usize = 64;
+
+/// `text` for a message: whole if short, else its first [`MAX_QUOTED`] characters and its
+/// length, so a hostile or mistaken megabyte does not become a megabyte of log.
+pub fn quoted(text: &str) -> String {
+    match text.char_indices().nth(MAX_QUOTED) {
+        None => text.to_string(),
+        Some((at, _)) => format!("{}… ({} bytes in all)", &text[..at], text.len()),
     }
 }
 
@@ -132,4 +148,19 @@ pub fn describe_fault(f: &protocol::Fault) -> String {
         },
     };
     format!("{:?}: {what}", f.reason)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outside_text_is_cut_in_messages() {
+        assert_eq!(quoted("soft-ish"), "soft-ish");
+        let long = "é".repeat(100_000);
+        let q = quoted(&long);
+        assert_eq!(q, format!("{}… (200000 bytes in all)", "é".repeat(MAX_QUOTED)));
+        let e = "x".repeat(1 << 20).parse::<OverrunPolicy>().unwrap_err();
+        assert!(e.len() < 200 && e.contains("(1048576 bytes in all)"), "{e}");
+    }
 }

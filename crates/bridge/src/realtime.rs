@@ -123,6 +123,34 @@ pub fn enter_real_time(priority: i32) -> RealTimeSetup {
     setup
 }
 
+/// Switches the calling thread to SCHED_FIFO at `priority` (threads and processes it
+/// starts afterwards inherit it) and gives back the policy and priority it had, for
+/// [`restore_scheduling`]. Tests take it so the bridge's deadlines hold on a machine whose
+/// cores are busy with other work, as they do for the bridge itself on a rig.
+pub fn fifo_thread(priority: i32) -> Result<(i32, i32), String> {
+    // SAFETY: plain system calls on the calling thread with valid arguments.
+    unsafe {
+        let mut policy = 0;
+        let mut was = libc::sched_param { sched_priority: 0 };
+        libc::pthread_getschedparam(libc::pthread_self(), &mut policy, &mut was);
+        let param = libc::sched_param { sched_priority: priority };
+        match libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) {
+            0 => Ok((policy, was.sched_priority)),
+            e => Err(format!(
+                "SCHED_FIFO priority {priority} refused ({})",
+                std::io::Error::from_raw_os_error(e)
+            )),
+        }
+    }
+}
+
+/// Puts the calling thread back to what [`fifo_thread`] returned.
+pub fn restore_scheduling((policy, priority): (i32, i32)) {
+    let param = libc::sched_param { sched_priority: priority };
+    // SAFETY: the policy and priority this thread had before.
+    unsafe { libc::pthread_setschedparam(libc::pthread_self(), policy, &param) };
+}
+
 /// Percentiles of a sample set (nearest rank), in the samples' unit.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Percentiles {

@@ -54,6 +54,24 @@ fn lockstep(ticks: u64) -> ControllerConfig {
     ControllerConfig { lockstep: true, ticks, ..ControllerConfig::default() }
 }
 
+/// A whole lock-step controller run of `ticks` that must get the board and finish.
+fn lockstep_run(
+    udp: &mut UdpTransport,
+    ticks: u64,
+) -> inchworm_bridge::controller::ControllerReport {
+    let r = run_controller(
+        &mut DirectController::new(),
+        udp,
+        &reference,
+        &lockstep(ticks),
+        None,
+        &AtomicBool::new(false),
+    )
+    .expect("the controller gets the board");
+    assert!(r.fault.is_none(), "{:?}", r.fault);
+    r
+}
+
 /// How the board sees a controller socket that was bound to 0.0.0.0.
 fn seen_as(udp: &UdpTransport) -> Source {
     Source::Udp(SocketAddr::from(([127, 0, 0, 1], udp.local_addr().unwrap().port())))
@@ -220,10 +238,11 @@ fn a_hello_from_another_address_during_an_armed_session_is_refused_and_logged() 
         |ticks| ControllerConfig { ticks, dead_after: 25, ..ControllerConfig::default() };
     let ticks = 1500;
     let addr = rig.addr;
+    let (mut announcing, armed_rx) = Announcing::new(0);
     let owner = std::thread::spawn(move || {
         let mut udp = UdpTransport::connect(addr).unwrap();
         let r = run_controller(
-            &mut DirectController::new(),
+            &mut announcing,
             &mut udp,
             &reference,
             &realtime(ticks),
@@ -232,7 +251,8 @@ fn a_hello_from_another_address_during_an_armed_session_is_refused_and_logged() 
         );
         (r, seen_as(&udp))
     });
-    std::thread::sleep(Duration::from_millis(600));
+    // The owner's first tick: it is armed (an event, not a guess at how long start-up takes).
+    armed_rx.recv_timeout(Duration::from_secs(30)).expect("the owner armed");
     let rogue = UdpSocket::bind("127.0.0.1:0").unwrap();
     rogue.connect(addr).unwrap();
     rogue.send(&frame(1, controller_hello(false))).unwrap();
@@ -355,8 +375,12 @@ fn allow_keeps_other_addresses_out_with_the_reason() {
 }
 
 #[test]
-fn a_hello_while_disarmed_replaces_the_session_and_the_old_peer_is_told() {
+fn a_hello_during_another_controllers_handshake_takes_nothing() {
     let _slot = real_time_slot();
+    // Issue 22: a HELLO used to bind the board, so a second sender's HELLO between a
+    // controller's HELLO and its ARM took the session and the real controller exited.
+    // Now a HELLO only answers; the session is bound by the ARM that completes a
+    // handshake, and the first complete one holds it.
     let rig = Rig::start(lockstep_cfg(), vec![]);
     let (a, b) = (UdpSocket::bind("127.0.0.1:0").unwrap(), UdpSocket::bind("127.0.0.1:0").unwrap());
     for s in [&a, &b] {
@@ -364,24 +388,105 @@ fn a_hello_while_disarmed_replaces_the_session_and_the_old_peer_is_told() {
         s.send(&frame(1, controller_hello(true))).unwrap();
         assert!(matches!(answer(s).frame, Frame::Hello(h) if h.role == Role::Board));
     }
-    // A repeated HELLO before the ARM is the same handshake, not a new session.
+    // A repeated HELLO is the same handshake.
     b.send(&frame(2, controller_hello(true))).unwrap();
     assert!(matches!(answer(&b).frame, Frame::Hello(_)));
     a.send(&frame(2, Frame::Arm)).unwrap();
-    assert_eq!(answer(&a).frame, refused(session_refused::NO_SESSION));
-    b.send(&frame(3, Frame::Arm)).unwrap();
     assert!(
-        matches!(answer(&b).frame, Frame::Encoder(e) if e.status & protocol::status::ARMED != 0)
+        matches!(answer(&a).frame, Frame::Encoder(e) if e.status & protocol::status::ARMED != 0)
     );
+    // b completes second: the board is armed with a, alive, so b is refused, with the reason.
+    b.send(&frame(3, Frame::Arm)).unwrap();
+    assert_eq!(answer(&b).frame, refused(session_refused::BUSY));
+    b.send(&frame(4, controller_hello(true))).unwrap();
+    assert_eq!(answer(&b).frame, refused(session_refused::BUSY));
     let board = rig.finish();
     let sessions: Vec<_> = board.sessions.iter().map(|s| (s.peer, s.arms, s.end.clone())).collect();
+    assert_eq!(sessions, vec![(seen_as_raw(&a), 1, None)]);
     assert_eq!(
-        sessions,
-        vec![(seen_as_raw(&a), 0, Some("disarmed".to_string())), (seen_as_raw(&b), 1, None)]
-    );
-    assert_eq!(
-        board.sources.get(&seen_as_raw(&a)),
-        Some(&SourceCounts { malformed: 0, foreign: 1, refused: 0, not_allowed: 0 })
+        board.sources.get(&seen_as_raw(&b)),
+        Some(&SourceCounts { malformed: 0, foreign: 0, refused: 2, not_allowed: 0 })
     );
     assert_eq!(board.state(), BoardState::Armed);
+    let logged = format!(
+        "ARM from {} refused: session 1 with {} is armed",
+        seen_as_raw(&b),
+        seen_as_raw(&a)
+    );
+    assert!(board.events.iter().any(|(_, e)| e.starts_with(&logged)), "{:?}", board.events);
+}
+
+#[test]
+fn a_hello_that_is_never_completed_holds_nothing_and_lapses() {
+    let _slot = real_time_slot();
+    // A 20 ms handshake window (the dead-link time), so the lapse is quick to see.
+    let rig = Rig::start(BoardConfig { dead_link_periods: 10, ..lockstep_cfg() }, vec![]);
+    let idle = UdpSocket::bind("127.0.0.1:0").unwrap();
+    idle.connect(rig.addr).unwrap();
+    idle.send(&frame(1, controller_hello(true))).unwrap();
+    assert!(matches!(answer(&idle).frame, Frame::Hello(_)));
+    // A whole controller gets the board at once: the unfinished handshake binds nothing.
+    let mut udp = UdpTransport::connect(rig.addr).unwrap();
+    assert_eq!(lockstep_run(&mut udp, 50).ticks, 50);
+    // Past the window the old HELLO no longer counts: its ARM is a stranger's. (A sleep is
+    // a lower bound here: a stalled test only waits longer, past the window all the same.)
+    std::thread::sleep(Duration::from_millis(40));
+    idle.send(&frame(2, Frame::Arm)).unwrap();
+    assert_eq!(answer(&idle).frame, refused(session_refused::NO_SESSION));
+    let board = rig.finish();
+    assert_eq!(board.sessions.len(), 1);
+    assert_eq!(board.sessions[0].peer, seen_as(&udp));
+    assert_eq!(
+        board.sources.get(&seen_as_raw(&idle)),
+        Some(&SourceCounts { malformed: 0, foreign: 1, refused: 0, not_allowed: 0 })
+    );
+}
+
+#[test]
+fn a_flood_of_hellos_from_many_ports_grows_nothing_and_a_controller_still_gets_in() {
+    let _slot = real_time_slot();
+    let rig = Rig::start(lockstep_cfg(), vec![]);
+    let flood: Vec<UdpSocket> = (0..300).map(|_| UdpSocket::bind("127.0.0.1:0").unwrap()).collect();
+    let hello = frame(1, controller_hello(true));
+    for round in 0..4 {
+        for s in &flood {
+            s.send_to(&hello, rig.addr).unwrap();
+        }
+        if round == 1 {
+            // The real controller in the middle of the flood.
+            let mut udp = UdpTransport::connect(rig.addr).unwrap();
+            assert_eq!(lockstep_run(&mut udp, 100).ticks, 100);
+        }
+    }
+    let board = rig.finish();
+    // One session, and no per-sender state for the flood: its HELLOs were answered (or,
+    // during the armed session, refused and counted within the bounded table).
+    assert_eq!(board.summary_lines()[0], "sessions: 1");
+    assert!(board.sources.len() <= inchworm_bridge::board::MAX_SOURCES);
+    assert!(board.events.len() < 200, "{} events", board.events.len());
+}
+
+#[test]
+fn session_records_are_bounded_and_the_summary_says_how_many_there_were() {
+    let _slot = real_time_slot();
+    let rig = Rig::start(lockstep_cfg(), vec![]);
+    let n = inchworm_bridge::board::MAX_SESSION_RECORDS + 8;
+    let peers: Vec<UdpSocket> = (0..n).map(|_| UdpSocket::bind("127.0.0.1:0").unwrap()).collect();
+    for s in &peers {
+        s.connect(rig.addr).unwrap();
+        s.send(&frame(1, controller_hello(true))).unwrap();
+        assert!(matches!(answer(s).frame, Frame::Hello(_)));
+        s.send(&frame(2, Frame::Arm)).unwrap();
+        assert!(matches!(answer(s).frame, Frame::Encoder(_)));
+        s.send(&frame(3, Frame::Disarm)).unwrap();
+    }
+    // The last DISARM is taken before the stop (the board drains what arrived).
+    let board = rig.finish();
+    assert_eq!(board.sessions.len(), inchworm_bridge::board::MAX_SESSION_RECORDS);
+    assert_eq!(board.sessions[0].id, 9);
+    assert_eq!(board.sessions.last().unwrap().peer, seen_as_raw(&peers[n - 1]));
+    let lines = board.summary_lines();
+    assert_eq!(lines[0], format!("sessions: {n}"));
+    assert!(lines[1].starts_with("sessions 1 to 8: not listed"), "{lines:?}");
+    assert_eq!(lines.len(), 2 + inchworm_bridge::board::MAX_SESSION_RECORDS, "{lines:?}");
 }

@@ -18,10 +18,28 @@ pub const H: f64 = 0.002;
 
 /// Every bridge test runs against the wall clock (real-time periods, or the board's
 /// watchdog in lock-step) and takes this, so two of them never compete for the machine's
-/// cores and miss deadlines the bridge would meet on its own.
-pub fn real_time_slot() -> std::sync::MutexGuard<'static, ()> {
+/// cores and miss deadlines the bridge would meet on its own. It also puts the test's
+/// thread under SCHED_FIFO, as `inchworm bridge` puts itself: the board and controller
+/// threads the test starts, and the processes it spawns, inherit it, so other work on
+/// the machine (a CPU-bound process on every core) cannot stall them past a watchdog.
+/// Without the privilege the test runs under the default scheduler, as the bridge does.
+pub fn real_time_slot() -> RealTimeSlot {
     static SLOT: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    SLOT.lock().unwrap_or_else(|e| e.into_inner())
+    let lock = SLOT.lock().unwrap_or_else(|e| e.into_inner());
+    RealTimeSlot { _lock: lock, before: inchworm_bridge::realtime::fifo_thread(50).ok() }
+}
+
+pub struct RealTimeSlot {
+    _lock: std::sync::MutexGuard<'static, ()>,
+    before: Option<(i32, i32)>,
+}
+
+impl Drop for RealTimeSlot {
+    fn drop(&mut self) {
+        if let Some(b) = self.before {
+            inchworm_bridge::realtime::restore_scheduling(b);
+        }
+    }
 }
 
 pub struct DirectPlant(pub Plant);
@@ -73,6 +91,38 @@ impl Compensator for DirectController {
     fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
         self.codes = self.ctrl.tick(i64::from(counts), reference).codes;
         Ok(())
+    }
+}
+
+/// [`DirectController`] that says (once) when it reaches tick `at`: an event a test can
+/// wait on instead of guessing how long start-up takes (its first tick comes after its
+/// ARM was answered).
+pub struct Announcing {
+    pub ctrl: DirectController,
+    pub at: u64,
+    ticks: u64,
+    tell: Option<mpsc::Sender<()>>,
+}
+
+impl Announcing {
+    pub fn new(at: u64) -> (Announcing, mpsc::Receiver<()>) {
+        let (tx, rx) = mpsc::channel();
+        (Announcing { ctrl: DirectController::new(), at, ticks: 0, tell: Some(tx) }, rx)
+    }
+}
+
+impl Compensator for Announcing {
+    fn codes(&mut self) -> Result<[u16; 3], String> {
+        self.ctrl.codes()
+    }
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        if self.ticks == self.at {
+            if let Some(t) = self.tell.take() {
+                let _ = t.send(());
+            }
+        }
+        self.ticks += 1;
+        self.ctrl.step(counts, reference)
     }
 }
 

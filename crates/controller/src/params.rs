@@ -1,0 +1,252 @@
+//! The controller's parameters, their defaults (the calibrated estimates among them) and
+//! their validation: everything a caller can get wrong is refused here, by name, before
+//! a [`Controller`](crate::Controller) is built.
+
+use crate::analog::AnalogParams;
+use crate::basis::{self, Basis};
+use crate::compensator::Gains;
+use crate::estimator::Noise;
+
+/// Estimates the estimator converges to on the fia20 plant in regulation (weights of the
+/// inverse scale factor at the default basis peaks, and the brake disturbance in m). See
+/// docs/controller-design.md for the run that produced them and how to redo it.
+pub const CALIBRATED_WEIGHTS: [f64; 10] = [
+    -1.172492, -0.833551, -0.444175, -0.174458, -0.054124, 0.052323, 0.176492, 0.436781, 0.872245,
+    1.105740,
+];
+pub const CALIBRATED_DISTURBANCE: f64 = 4.7012e-6;
+
+/// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
+pub const NOMINAL_WEIGHTS: [f64; 10] = [-1.2, -0.8, -0.4, -0.15, -0.05, 0.05, 0.15, 0.4, 0.8, 1.2];
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    pub feedforward: bool,
+    pub prefilter: bool,
+    pub use_scale_factor_estimate: bool,
+    pub use_disturbance_estimate: bool,
+    /// No step while |reference − position| is below this (m); 0 = always step.
+    pub deadband: f64,
+    pub samples_per_step: u32,
+    pub gains: Gains,
+    pub noise: Noise,
+    pub basis_peaks: [f64; 10],
+    pub scale_weights_start: [f64; 10],
+    pub disturbance_start: f64,
+    /// Encoder resolution (m per count).
+    pub q_enc: f64,
+    /// Analog mode near the target ([`analog`], docs/model.md §4.2); default off.
+    pub analog: bool,
+    pub analog_params: AnalogParams,
+    /// Estimate the brake-disturbance map over the extension command ([`bdmap`]).
+    pub disturbance_map: bool,
+    /// Plan with the map's prediction for the coming step instead of the latest estimate
+    /// (needs `disturbance_map` and `use_disturbance_estimate`).
+    pub use_disturbance_map: bool,
+    /// The single-integrator compensator `C(z) = single_integrator_gain` instead of
+    /// `K (z − a)/(z − 1)` (needs `use_disturbance_map`).
+    pub single_integrator: bool,
+    pub single_integrator_gain: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            feedforward: true,
+            prefilter: false,
+            use_scale_factor_estimate: true,
+            use_disturbance_estimate: true,
+            deadband: 0.0,
+            samples_per_step: 100,
+            gains: Gains::default(),
+            noise: Noise::default(),
+            basis_peaks: basis::FIA20_PEAKS,
+            scale_weights_start: CALIBRATED_WEIGHTS,
+            disturbance_start: CALIBRATED_DISTURBANCE,
+            q_enc: 1.2e-9,
+            analog: false,
+            analog_params: AnalogParams::default(),
+            disturbance_map: false,
+            use_disturbance_map: false,
+            single_integrator: false,
+            single_integrator_gain: 0.6,
+        }
+    }
+}
+
+impl Params {
+    /// Checks every value; the error names the parameter.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |name: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{name} must be finite, got {v}"))
+            }
+        };
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be > 0, got {v}"))
+            }
+        };
+        if !(self.deadband.is_finite() && self.deadband >= 0.0) {
+            return Err(format!("deadband must be >= 0, got {}", self.deadband));
+        }
+        if !(7..=10_000).contains(&self.samples_per_step) {
+            return Err(format!(
+                "samples_per_step must be within 7..10000, got {}",
+                self.samples_per_step
+            ));
+        }
+        positive("compensator_gain", self.gains.k)?;
+        if !(0.0..1.0).contains(&self.gains.a) {
+            return Err(format!("compensator_zero must be in [0, 1), got {}", self.gains.a));
+        }
+        if !(0.0..1.0).contains(&self.gains.prefilter_pole) {
+            return Err(format!(
+                "prefilter_pole must be in [0, 1), got {}",
+                self.gains.prefilter_pole
+            ));
+        }
+        let n = &self.noise;
+        for (name, v) in [
+            ("weight_prior", n.weight_prior),
+            ("disturbance_prior", n.disturbance_prior),
+            ("weight_process_noise", n.weight_process),
+            ("disturbance_process_noise", n.disturbance_process),
+            ("ext_cmd_noise", n.ext_cmd_measurement),
+            ("bd_noise", n.bd_measurement),
+        ] {
+            positive(name, v)?;
+        }
+        Basis::new(self.basis_peaks).map_err(|e| format!("basis_peak: {e}"))?;
+        for (i, w) in self.scale_weights_start.iter().enumerate() {
+            finite(&format!("scale_weights_start[{}]", i + 1), *w)?;
+        }
+        finite("disturbance_start", self.disturbance_start)?;
+        positive("q_enc", self.q_enc)?;
+        if self.use_disturbance_map && !(self.disturbance_map && self.use_disturbance_estimate) {
+            return Err(
+                "use_disturbance_map needs disturbance_map and use_disturbance_estimate on".into(),
+            );
+        }
+        if self.single_integrator {
+            if !self.use_disturbance_map {
+                return Err("single_integrator needs use_disturbance_map on (the map's prediction replaces the second integrator)".into());
+            }
+            let k = self.single_integrator_gain;
+            if !(k > 0.0 && k < 2.0) {
+                return Err(format!("single_integrator_gain must be in (0, 2), got {k}"));
+            }
+        }
+        if self.analog {
+            self.analog_params.validate()?;
+            if self.deadband > 0.0 {
+                return Err(format!(
+                    "deadband must be 0 with analog on (analog mode holds the target instead of parking), got {}",
+                    self.deadband
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Controller;
+
+    #[test]
+    fn validate_names_the_field() {
+        assert_eq!(Params::default().validate(), Ok(()));
+        let d = Params::default;
+        let mut peaks = basis::FIA20_PEAKS;
+        peaks.swap(1, 2);
+        let mut weights = NOMINAL_WEIGHTS;
+        weights[3] = f64::NAN;
+        let cases: [(&str, Params); 11] = [
+            ("deadband", Params { deadband: -1e-9, ..d() }),
+            ("samples_per_step", Params { samples_per_step: 6, ..d() }),
+            ("compensator_gain", Params { gains: Gains { k: 0.0, ..Gains::default() }, ..d() }),
+            ("compensator_zero", Params { gains: Gains { a: 1.0, ..Gains::default() }, ..d() }),
+            (
+                "prefilter_pole",
+                Params { gains: Gains { prefilter_pole: -0.1, ..Gains::default() }, ..d() },
+            ),
+            (
+                "weight_process_noise",
+                Params {
+                    noise: Noise { weight_process: f64::INFINITY, ..Noise::default() },
+                    ..d()
+                },
+            ),
+            (
+                "bd_noise",
+                Params { noise: Noise { bd_measurement: 0.0, ..Noise::default() }, ..d() },
+            ),
+            ("basis_peak", Params { basis_peaks: peaks, ..d() }),
+            ("scale_weights_start[4]", Params { scale_weights_start: weights, ..d() }),
+            ("disturbance_start", Params { disturbance_start: f64::NAN, ..d() }),
+            ("q_enc", Params { q_enc: 0.0, ..d() }),
+        ];
+        for (field, p) in cases {
+            let e = p.validate().expect_err(field);
+            assert!(e.starts_with(field), "error for {field}: {e:?}");
+            assert!(Controller::new(p).is_err());
+        }
+    }
+
+    #[test]
+    fn analog_options_are_checked_together() {
+        let on = || Params { analog: true, ..Params::default() };
+        assert_eq!(on().validate(), Ok(()));
+        let a = AnalogParams::default;
+        let cases: [(&str, Params); 5] = [
+            ("deadband", Params { deadband: 1e-9, ..on() }),
+            ("analog_range", Params { analog_params: AnalogParams { range: 3e-6, ..a() }, ..on() }),
+            ("analog_gain", Params { analog_params: AnalogParams { gain: 0.0, ..a() }, ..on() }),
+            (
+                "analog_loop_gain",
+                Params { analog_params: AnalogParams { loop_gain: 1.0, ..a() }, ..on() },
+            ),
+            (
+                "analog_recentre_band",
+                Params { analog_params: AnalogParams { recentre_band: 4.0, ..a() }, ..on() },
+            ),
+        ];
+        for (field, p) in cases {
+            let e = p.validate().expect_err(field);
+            assert!(e.starts_with(field), "error for {field}: {e:?}");
+            // Off, the analog values are not looked at.
+            assert_eq!(Params { analog: false, deadband: 0.0, ..p }.validate(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn the_disturbance_map_flag_needs_the_map_and_the_estimate() {
+        let e = Params { use_disturbance_map: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("use_disturbance_map"), "{e}");
+        let p = Params {
+            use_disturbance_map: true,
+            disturbance_map: true,
+            use_disturbance_estimate: false,
+            ..Params::default()
+        };
+        assert!(p.validate().is_err());
+        assert_eq!(Params { use_disturbance_map: false, ..p }.validate(), Ok(()));
+        let e = Params { single_integrator: true, ..Params::default() }.validate().unwrap_err();
+        assert!(e.starts_with("single_integrator"), "{e}");
+        let p = Params {
+            single_integrator: true,
+            single_integrator_gain: 2.0,
+            disturbance_map: true,
+            use_disturbance_map: true,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().starts_with("single_integrator_gain"));
+        assert_eq!(Params { single_integrator_gain: 0.6, ..p }.validate(), Ok(()));
+    }
+}
