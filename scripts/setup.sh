@@ -43,3 +43,18 @@ if ! .venv/bin/python -c "import dask, distributed, pandas" 2>/dev/null; then
     .venv/bin/pip install -q --disable-pip-version-check $DASK_REQS
 fi
 .venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_dask
+
+# The optical instrument model (python/inchworm_optics): poppy 1.1.2 (1.2.0 needs Python
+# 3.12; Debian's is 3.11) and what it needs, pinned, then the local package itself
+# (reinstalled every time, so the venv has this tree's version).
+OPTICS_REQS="poppy==1.1.2 astropy==8.0.2 scipy==1.17.1 numexpr==2.14.2 matplotlib==3.11.2 numpy==2.4.6"
+optics_missing=()
+for req in $OPTICS_REQS; do
+    have=$(.venv/bin/python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "${req%%==*}" 2>/dev/null || true)
+    [ "$have" = "${req##*==}" ] || optics_missing+=("$req")
+done
+if [ ${#optics_missing[@]} -gt 0 ]; then
+    echo "setup: installing into .venv: ${optics_missing[*]}"
+    .venv/bin/pip install -q --disable-pip-version-check "${optics_missing[@]}"
+fi
+.venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_optics
