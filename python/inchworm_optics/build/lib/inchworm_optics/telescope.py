@@ -141,25 +141,27 @@ class Prescription:
 
     def opd_m(self, X, Y, piston_m, tip_rad, tilt_rad):
         """The optical path difference (m) that the secondary's pose adds at entrance-pupil
-        points (X, Y) (m from the axis), from the exact path change of a reflecting surface
-        moved along its normal, z (cos u_in + cos u_out), with the piston taken relative to
-        the in-focus position (`focus_piston_m`) and the constant path removed (u_in, u_out
-        the ray's angles to the axis before and after the secondary).
+        points (X, Y) (m from the axis), to first order in the ray angles: the path change
+        −z (cos u_in + cos u_out) of a surface moved by z along the axis (u_in, u_out the
+        ray's angles to the axis before and after the secondary), with cos u ≈ 1 − u²/2,
+        the constant removed and the piston taken relative to the in-focus position
+        (`focus_piston_m`):
+
+            OPD = −2 (tip y2 + tilt x2) + despace (u_in² + u_out²) / 2,
+
+        u_in = r / f1, u_out = r / f at pupil radius r. The tilt's u² terms (a coma of
+        about 1 % of the tilt's path at f/2) and the spherical terms of a despace are the
+        next order and are left out: the model is the secondary's first-order sensitivity,
+        the same one the docs' closed forms state.
 
         Positive OPD is a longer path (poppy's convention: it lags). Broadcasts over a
         leading axis of samples when the pose values are arrays of shape (n, 1, 1).
         """
         k = self.footprint_ratio
-        x2, y2 = k * X, k * Y
         despace = piston_m - self.focus_piston_m
-        r_pupil = np.hypot(X, Y)
-        u_in = np.arctan(r_pupil / self.primary_focal_length_m)
-        u_out = np.arctan(r_pupil / self.focal_length_m)
-        # z is the displacement of the surface toward the incoming light: a longer path for
-        # no ray, a shorter one by z(cos u_in + cos u_out); the tilt part is 2 z on axis.
-        cosines = np.cos(u_in) + np.cos(u_out)
-        z = despace + tip_rad * y2 + tilt_rad * x2
-        return -(z * cosines - despace * 2.0)
+        r2 = X**2 + Y**2
+        u2 = r2 / self.primary_focal_length_m**2 + r2 / self.focal_length_m**2
+        return -2.0 * k * (tip_rad * Y + tilt_rad * X) + despace * u2 / 2.0
 
     def summary(self):
         """The first-order numbers the docs quote."""
