@@ -22,9 +22,10 @@ from poppy.matrixDFT import matrix_dft
 
 from .telescope import MAS_PER_RAD
 
-# The per-call numexpr path of matrix_dft starts threads per call; on small grids plain
-# numpy is faster and gives the same numbers.
+# matrix_dft's numexpr path compiles and validates its expressions on every call, which
+# on these small grids costs more than the transform; plain numpy gives the same numbers.
 poppy.conf.use_numexpr = False
+poppy.accel_math.update_math_settings()
 
 
 class Instrument:
@@ -128,14 +129,18 @@ def centroid_px(image, xx, yy, box_px=8.0, iterations=6):
     box of ±`box_px` around the last estimate, `iterations` times (the box keeps the
     detector's edges and noise far from the star out of the estimate). The box's edge
     pixels count by the fraction of them inside it, so the box is symmetric about the
-    estimate at any sub-pixel position and the estimate has no pull toward pixel centres."""
+    estimate at any sub-pixel position and the estimate has no pull toward pixel centres.
+    `xx`, `yy` are the pixel-centre grids of `Instrument.pixel_coordinates`."""
     w = np.clip(image, 0.0, None)
-    cx = float(np.sum(w * xx) / np.sum(w))
-    cy = float(np.sum(w * yy) / np.sum(w))
+    x, y = xx[0], yy[:, 0]
+    total = w.sum()
+    cx, cy = float(w.sum(axis=0) @ x / total), float(w.sum(axis=1) @ y / total)
     for _ in range(iterations):
-        inside = np.clip(box_px + 0.5 - np.abs(xx - cx), 0, 1) * np.clip(box_px + 0.5 - np.abs(yy - cy), 0, 1)
-        s = np.sum(w * inside)
-        cx, cy = float(np.sum(w * inside * xx) / s), float(np.sum(w * inside * yy) / s)
+        bx = np.clip(box_px + 0.5 - np.abs(x - cx), 0, 1)
+        by = np.clip(box_px + 0.5 - np.abs(y - cy), 0, 1)
+        row = by @ w  # the box's column sums
+        s = row @ bx
+        cx, cy = float(row @ (bx * x) / s), float(by * y @ w @ bx / s)
     return cx, cy
 
 
