@@ -104,7 +104,7 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
     """A strip of detector frames (log stretch) at `times_s`, one row per run; the CSV has
     every pixel of every frame shown."""
     names = [n for n in names if n in results]
-    fig, axes = plt.subplots(len(names), len(times_s), figsize=(1.9 * len(times_s), 2.2 * len(names)), squeeze=False)
+    fig, axes = plt.subplots(len(names), len(times_s), figsize=(1.9 * len(times_s), 2.5 * len(names)), squeeze=False)
     rows = []
     for j, name in enumerate(names):
         r = results[name]
@@ -120,7 +120,7 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
                 for x in range(img.shape[1]):
                     rows.append([name, i, f"{f.t_start_s:.3f}", f"{f.t_end_s:.3f}", y, x, img[y, x]])
     fig.suptitle("Detector frames (log10 of the frame's peak-normalised intensity, 4 decades)", fontsize=9)
-    fig.tight_layout()
+    fig.tight_layout(h_pad=1.5)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     with open(csv_path, "w", newline="") as f:

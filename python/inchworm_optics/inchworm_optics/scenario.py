@@ -42,6 +42,9 @@ class RunConfig:
     guide_gain: float = 0.4
     guide_photons: float = 2e5
     guide_read_noise_e: float = 5.0
+    #: The guider does not integrate for this long after the mount's command changes (a
+    #: commanded move is an offset the guider is told about, not an error to correct).
+    guide_pause_s: float = 0.4
     seed: int = 2026
     #: Extra `component.variable` values for the SSP (as `inchworm run --param`).
     params: dict = field(default_factory=dict)
@@ -107,6 +110,7 @@ def run(ssp_path, instrument, cfg, progress=None):
     images = []  # the current frame's sample images
     fields, opds = [], []
     guide_images = []
+    last_move_s = -math.inf
     try:
         for k in range(n):
             tk = k * h
@@ -134,11 +138,12 @@ def run(ssp_path, instrument, cfg, progress=None):
                 images, fields, opds = [], [], []
                 if progress:
                     progress(cfg.name, tk + h, cfg.duration_s)
-            if guider is not None and len(guide_images) == per_guide:
-                off = guider.update(tk + h, np.mean(guide_images, axis=0), np.mean(tgt[-per_guide:], axis=0))
-                cosim.set_tip_tilt_offset(off[0], off[1])
-                guide_images = []
-            elif guider is None and len(guide_images) == per_guide:
+            if c != cmd[-2 if len(cmd) > 1 else -1]:
+                last_move_s = tk
+            if len(guide_images) == per_guide:
+                if guider is not None and tk + h - last_move_s > cfg.guide_pause_s:
+                    off = guider.update(tk + h, np.mean(guide_images, axis=0), np.mean(tgt[-per_guide:], axis=0))
+                    cosim.set_tip_tilt_offset(off[0], off[1])
                 guide_images = []
             cosim.step()
     finally:

@@ -14,7 +14,7 @@ from .optics import Instrument
 from .scenario import REGULATION_S, RunConfig, figures as run_figures, held, run
 from .telescope import Prescription
 
-RUNS = ("stepping", "analog", "drift", "guided")
+RUNS = ("stepping", "analog", "drift", "guided", "guided-analog")
 
 
 def parse_args(argv):
@@ -28,28 +28,51 @@ def parse_args(argv):
     p.add_argument("--fov", type=int, default=48, help="detector pixels across (default 48)")
     p.add_argument("--runs", default=",".join(RUNS), help=f"comma-separated subset of {','.join(RUNS)}")
     p.add_argument("--drift", default="20,10", help="line-of-sight drift x,y in mas/s for the drift and guided runs")
+    p.add_argument("--offset", default="0,0", help="constant line-of-sight offset x,y in mas for the drift and guided runs")
     p.add_argument("--guide-rate", type=float, default=10.0, help="guide frames per second (default 10)")
-    p.add_argument("--guide-gain", type=float, default=0.4)
+    p.add_argument("--guide-gain", type=float, default=0.2,
+                   help="guider integrator gain with the stepping controller (default 0.2: it moves every 0.2 s)")
+    p.add_argument("--guide-gain-analog", type=float, default=0.5,
+                   help="guider integrator gain with analog mode (default 0.5)")
     p.add_argument("--guide-photons", type=float, default=2e5, help="photo-electrons per guide frame (0: noiseless)")
     p.add_argument("--read-noise", type=float, default=5.0, help="read noise per pixel, electrons")
     p.add_argument("--seed", type=int, default=2026)
     p.add_argument("--held-from", type=float, default=5.0, help="measure how well the image is held from this time")
     p.add_argument("--bound", type=float, default=15.0, help="stated bound on the guided image error, mas")
     p.add_argument("--regulation", type=float, default=REGULATION_S, help="regulation from this time (s)")
+    p.add_argument("--param", action="append", default=[], metavar="COMPONENT.VARIABLE=VALUE",
+                   help="set an SSP parameter in every run, as `inchworm run --param` (repeatable)")
     return p.parse_args(argv)
+
+
+def _value(text):
+    if text in ("true", "false"):
+        return text == "true"
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
 
 
 def configs(a):
     drift = tuple(float(v) for v in a.drift.split(","))
+    offset = tuple(float(v) for v in a.offset.split(","))
+    params = {}
+    for p in a.param:
+        name, _, text = p.partition("=")
+        params[name.strip()] = _value(text.strip())
     frame_s = 1.0 / a.frame_rate
-    guide = dict(guide_period_s=1.0 / a.guide_rate, guide_gain=a.guide_gain,
+    common = dict(duration_s=a.duration, frame_s=frame_s, params=params)
+    guide = dict(guide_period_s=1.0 / a.guide_rate,
                  guide_photons=a.guide_photons or None, guide_read_noise_e=a.read_noise, seed=a.seed)
     all_runs = {
-        "stepping": RunConfig("stepping", duration_s=a.duration, frame_s=frame_s),
-        "analog": RunConfig("analog", analog=True, duration_s=a.duration, frame_s=frame_s),
-        "drift": RunConfig("drift", duration_s=a.duration, frame_s=frame_s, drift_mas_per_s=drift),
-        "guided": RunConfig("guided", duration_s=a.duration, frame_s=frame_s, drift_mas_per_s=drift, guide=True,
-                            **guide),
+        "stepping": RunConfig("stepping", **common),
+        "analog": RunConfig("analog", analog=True, **common),
+        "drift": RunConfig("drift", drift_mas_per_s=drift, offset_mas=offset, **common),
+        "guided": RunConfig("guided", drift_mas_per_s=drift, offset_mas=offset, guide=True, guide_gain=a.guide_gain,
+                            **common, **guide),
+        "guided-analog": RunConfig("guided-analog", analog=True, drift_mas_per_s=drift, offset_mas=offset, guide=True,
+                                   guide_gain=a.guide_gain_analog, **common, **guide),
     }
     names = [n.strip() for n in a.runs.split(",") if n.strip()]
     bad = [n for n in names if n not in all_runs]
@@ -101,7 +124,7 @@ def main(argv=None):
               f"{f['frame_wfe_max_nm']:.1f} nm); Strehl mean {f['frame_strehl_mean']:.4f}, min "
               f"{f['frame_strehl_min']:.4f}; EE(1.22 λ/D) {f['frame_ee_mean']:.4f}")
     held_numbers = {}
-    for name in ("drift", "guided"):
+    for name in ("drift", "guided", "guided-analog"):
         if name in results:
             mx, r = held(results[name], inst, a.held_from)
             held_numbers[name] = (mx, r)
@@ -115,7 +138,7 @@ def main(argv=None):
         figures.timeseries_png(out / "optics-timeseries.png", results, inst)
         figures.psf_strip_png(out / "optics-psf-strip.png", out / "optics-psf-strip.csv", results, inst,
                               [t for t in (0.0, 1.0, 2.0, 3.0, 4.0, 4.1, 6.0, 9.0) if t < a.duration])
-    if {"drift", "guided"} & set(results):
+    if {"drift", "guided", "guided-analog"} & set(results):
         figures.guidance_png(out / "optics-guidance.png", out / "optics-guidance.csv", results, inst, a.bound,
                              a.held_from, a.guide_rate)
     with open(out / "optics-summary.csv", "w", newline="") as f:

@@ -129,7 +129,8 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
         w.writerows(rows)
 
 
-def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_rate_hz, names=("drift", "guided")):
+def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_rate_hz,
+                 names=("drift", "guided", "guided-analog")):
     """Image error (x, y) of the unguided and guided runs under the line-of-sight drift,
     with the bound; and the guider's tip/tilt offset."""
     names = [n for n in names if n in results]
@@ -144,11 +145,11 @@ def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_r
     axes[0].set_ylabel("image error (mas)")
     axes[0].legend(fontsize=8)
     axes[0].grid(True, which="both", alpha=0.3)
-    g = results.get("guided")
-    if g is not None and g.guide_log:
-        log = np.array(g.guide_log, dtype=float)
-        axes[1].plot(log[:, 0], log[:, 5] * 1e9, ".-", ms=3, label="guider tip offset")
-        axes[1].plot(log[:, 0], log[:, 6] * 1e9, ".-", ms=3, label="guider tilt offset")
+    for name in names:
+        log = np.array(results[name].guide_log, dtype=float)
+        if log.size:
+            axes[1].plot(log[:, 0], log[:, 5] * 1e9, ".-", ms=3, label=f"{name}: guider tip offset")
+            axes[1].plot(log[:, 0], log[:, 6] * 1e9, ".-", ms=3, label=f"{name}: guider tilt offset")
     axes[1].set_ylabel("offset (nrad)")
     axes[1].set_xlabel("time (s)")
     axes[1].legend(fontsize=8)
@@ -162,8 +163,9 @@ def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_r
         w.writerow(FRAME_HEADER)
         for name in names:
             w.writerows(_frame_rows(name, results[name], instrument))
-        if g is not None:
-            w.writerow([])
-            w.writerow(["guide_t_s", "measured_x_px", "measured_y_px", "error_x_px", "error_y_px",
-                        "offset_tip_rad", "offset_tilt_rad"])
-            w.writerows(g.guide_log)
+        for name in names:
+            if results[name].guide_log:
+                w.writerow([])
+                w.writerow(["guide_run", "guide_t_s", "measured_x_px", "measured_y_px", "error_x_px", "error_y_px",
+                            "offset_tip_rad", "offset_tilt_rad"])
+                w.writerows([name, *row] for row in results[name].guide_log)
