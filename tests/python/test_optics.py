@@ -18,6 +18,7 @@ from scipy import integrate, special
 
 import ssp_masters as m
 from conftest import DIST, ROOT
+from test_mirror_mount import mirror_ssp  # noqa: F401  (the fixture: dist/MirrorMount.ssp)
 
 sys.path.insert(0, str(ROOT / "python" / "inchworm_optics"))
 from inchworm_optics.cosim import CHAINS, MountCosim  # noqa: E402
@@ -31,14 +32,6 @@ RX_CLEAR = Prescription(obscuration_m=0.0)
 @pytest.fixture(scope="module")
 def inst():
     return Instrument(RX, npix_pupil=32, fov_pixels=32)
-
-
-@pytest.fixture(scope="module")
-def mirror_ssp():
-    path = DIST / "MirrorMount.ssp"
-    if not path.exists():
-        pytest.fail(f"{path} is missing: run `cargo run --release -p fmu-build` first")
-    return str(path)
 
 
 def frame_of(inst, piston, tip, tilt):

@@ -38,7 +38,7 @@ def parse_args(argv):
     p.add_argument("--read-noise", type=float, default=5.0, help="read noise per pixel, electrons")
     p.add_argument("--seed", type=int, default=2026)
     p.add_argument("--held-from", type=float, default=5.0, help="measure how well the image is held from this time")
-    p.add_argument("--bound", type=float, default=15.0, help="stated bound on the guided image error, mas")
+    p.add_argument("--bound", type=float, default=20.0, help="stated bound on the guided image error, mas")
     p.add_argument("--regulation", type=float, default=REGULATION_S, help="regulation from this time (s)")
     p.add_argument("--param", action="append", default=[], metavar="COMPONENT.VARIABLE=VALUE",
                    help="set an SSP parameter in every run, as `inchworm run --param` (repeatable)")
@@ -115,7 +115,10 @@ def main(argv=None):
               f"{1e3 / a.frame_rate:.0f} ms; {f['wall_s']:.0f} s wall):")
         print(f"  mount: pointing RMS {f['pointing_rms_parked_nrad']:.2f} nrad parked, "
               f"{f['pointing_rms_every_nrad']:.2f} nrad every sample; piston RMS {f['piston_rms_parked_nm']:.2f} nm "
-              f"parked, {f['piston_rms_every_nm']:.0f} nm every sample (peak {f['piston_peak_every_nm']:.0f} nm)")
+              f"parked, {f['piston_rms_every_nm']:.2f} nm every sample (peak {f['piston_peak_every_nm']:.2f} nm)")
+        if f["n_parked_samples"] == 0:
+            print("  (no parked samples: in analog mode the extension moves every sample, so the encoders never "
+                  "stand still for 8)")
         print(f"  image: RMS {f['image_rms_parked_nm']:.2f} nm parked = {f['image_over_lever_pointing_parked']:.4f} x "
               f"lever x pointing; {f['image_rms_every_nm']:.2f} nm every sample = "
               f"{f['image_over_lever_pointing_every']:.4f} x lever x pointing")
