@@ -117,8 +117,8 @@ def main(argv=None):
               f"{f['pointing_rms_every_nrad']:.2f} nrad every sample; piston RMS {f['piston_rms_parked_nm']:.2f} nm "
               f"parked, {f['piston_rms_every_nm']:.2f} nm every sample (peak {f['piston_peak_every_nm']:.2f} nm)")
         if f["n_parked_samples"] == 0:
-            print("  (no parked samples: in analog mode the extension moves every sample, so the encoders never "
-                  "stand still for 8)")
+            print("  (no parked samples: the analog loop dithers each encoder between two adjacent counts, so "
+                  "none stands still for 8 samples)")
         print(f"  image: RMS {f['image_rms_parked_nm']:.2f} nm parked = {f['image_over_lever_pointing_parked']:.4f} x "
               f"lever x pointing; {f['image_rms_every_nm']:.2f} nm every sample = "
               f"{f['image_over_lever_pointing_every']:.4f} x lever x pointing")
