@@ -3,7 +3,8 @@
 # toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
 # fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), libtbb12
 # (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the two other SSP
-# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy).
+# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy);
+# dask for python/inchworm_dask and poppy for python/inchworm_optics.
 # Idempotent: it only reaches the package registries for what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -34,6 +34,8 @@ def parse_args(argv):
                    help="guider integrator gain with the stepping controller (default 0.2: it moves every 0.2 s)")
     p.add_argument("--guide-gain-analog", type=float, default=0.5,
                    help="guider integrator gain with analog mode (default 0.5)")
+    p.add_argument("--guide-pause", type=float, default=0.4,
+                   help="seconds the guider holds its offset after a commanded move (default 0.4)")
     p.add_argument("--guide-photons", type=float, default=2e5, help="photo-electrons per guide frame (0: noiseless)")
     p.add_argument("--read-noise", type=float, default=5.0, help="read noise per pixel, electrons")
     p.add_argument("--seed", type=int, default=2026)
@@ -63,7 +65,7 @@ def configs(a):
         params[name.strip()] = _value(text.strip())
     frame_s = 1.0 / a.frame_rate
     common = dict(duration_s=a.duration, frame_s=frame_s, params=params)
-    guide = dict(guide_period_s=1.0 / a.guide_rate,
+    guide = dict(guide_period_s=1.0 / a.guide_rate, guide_pause_s=a.guide_pause,
                  guide_photons=a.guide_photons or None, guide_read_noise_e=a.read_noise, seed=a.seed)
     all_runs = {
         "stepping": RunConfig("stepping", **common),

@@ -37,7 +37,7 @@ class FineGuider:
     noise (`photons` per guide frame) and Gaussian read noise (`read_noise_e` per pixel),
     seeded. `update` returns the new tip/tilt offset for the mount's reference (rad)."""
 
-    def __init__(self, instrument, period_s=0.1, gain=0.4, photons=2e5, read_noise_e=5.0, seed=2026):
+    def __init__(self, instrument, period_s=0.1, gain=0.2, photons=2e5, read_noise_e=5.0, seed=2026):
         self.instrument = instrument
         self.period_s = period_s
         self.gain = gain

@@ -39,7 +39,7 @@ class RunConfig:
     offset_mas: tuple = (0.0, 0.0)
     guide: bool = False
     guide_period_s: float = 0.1
-    guide_gain: float = 0.4
+    guide_gain: float = 0.2
     guide_photons: float = 2e5
     guide_read_noise_e: float = 5.0
     #: The guider does not integrate for this long after the mount's command changes (a
