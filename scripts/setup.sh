@@ -3,7 +3,8 @@
 # toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
 # fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), libtbb12
 # (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the two other SSP
-# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy).
+# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy);
+# dask for python/inchworm_dask and poppy for python/inchworm_optics.
 # Idempotent: it only reaches the package registries for what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -24,15 +25,18 @@ PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0
 [ -x .venv/bin/python ] || python3 -m venv .venv
 # Each pin checked on its installed version, so a venv made before a pin was added (or
 # with another version) gets exactly the pinned one, and a complete venv is left alone.
-missing=()
-for req in $PY_REQS; do
-    have=$(.venv/bin/python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "${req%%==*}" 2>/dev/null || true)
-    [ "$have" = "${req##*==}" ] || missing+=("$req")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-    echo "setup: installing into .venv: ${missing[*]}"
-    .venv/bin/pip install -q --disable-pip-version-check "${missing[@]}"
-fi
+install_pins() {
+    local missing=() req have
+    for req in "$@"; do
+        have=$(.venv/bin/python -c "import importlib.metadata as m, sys; print(m.version(sys.argv[1]))" "${req%%==*}" 2>/dev/null || true)
+        [ "$have" = "${req##*==}" ] || missing+=("$req")
+    done
+    if [ ${#missing[@]} -gt 0 ]; then
+        echo "setup: installing into .venv: ${missing[*]}"
+        .venv/bin/pip install -q --disable-pip-version-check "${missing[@]}"
+    fi
+}
+install_pins $PY_REQS
 
 # Sweeps on a dask.distributed cluster (python/inchworm_dask): dask, distributed and
 # pandas pinned, then the local package itself (reinstalled every time, so the venv has
@@ -43,3 +47,10 @@ if ! .venv/bin/python -c "import dask, distributed, pandas" 2>/dev/null; then
     .venv/bin/pip install -q --disable-pip-version-check $DASK_REQS
 fi
 .venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_dask
+
+# The optical instrument model (python/inchworm_optics): poppy 1.1.2 (1.2.0 needs Python
+# 3.12, the venv's is 3.11) and what it needs, pinned, then the local package itself
+# (reinstalled every time, so the venv has this tree's version).
+OPTICS_REQS="poppy==1.1.2 astropy==8.0.2 scipy==1.17.1 numexpr==2.14.2 matplotlib==3.11.2 numpy==2.4.6"
+install_pins $OPTICS_REQS
+.venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_optics
