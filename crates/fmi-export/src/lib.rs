@@ -13,18 +13,21 @@
 //! equations file.
 
 pub mod api;
+pub mod entry;
 mod export;
 pub mod ffi;
 pub mod fmi3;
-mod instance;
+pub mod instance;
 pub mod model_description;
 mod state_blob;
 mod table;
 pub mod testing;
 
 pub use inchworm_state_bytes::{Reader, Writer};
-pub use instance::LogCategory;
-pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording};
+pub use instance::{Clip, LogCategory, Standard, State};
+pub use table::{
+    Admission, Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording,
+};
 
 /// Something a step has to tell the master.
 #[derive(Clone, Debug, PartialEq)]
