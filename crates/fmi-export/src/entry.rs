@@ -616,8 +616,11 @@ pub unsafe fn do_step<S: Standard, M: Model>(
         if let Err(why) = inst.model.check_step(t, h) {
             return inst.refuse(func, format_args!("{why}"));
         }
-        match inst.model.do_step(t, h) {
-            Ok(messages) => {
+        let mut log = std::mem::take(&mut inst.step_log);
+        log.reset(inst.wants(LogCategory::Events));
+        let result = inst.model.do_step(t, h, &mut log);
+        let status = match result {
+            Ok(()) => {
                 // The master's clock is the reference: following it keeps t and the FMU
                 // time equal however the master accumulates it.
                 inst.time = t + h;
@@ -625,7 +628,7 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                     o.report(false, inst.time);
                 }
                 let mut status = OK;
-                for m in messages {
+                for m in log.drain() {
                     match m {
                         Message::Event(text) => {
                             inst.log(OK, LogCategory::Events, format_args!("{text}"))
@@ -651,7 +654,9 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                 }
                 inst.refuse(func, format_args!("{why}"))
             }
-        }
+        };
+        inst.step_log = log;
+        status
     })
 }
 

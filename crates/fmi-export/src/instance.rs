@@ -8,7 +8,7 @@ use std::fmt::{self, Write as _};
 use std::os::raw::c_int;
 
 use crate::table::{Kind, Variable};
-use crate::Model;
+use crate::{Model, StepLog};
 
 /// A status as both standards' C enums code it (`fmi2Status` and `fmi3Status` agree on
 /// every value the layer returns, checked below at compile time).
@@ -145,14 +145,17 @@ impl LogCategory {
         LogCategory::ALL.into_iter().find(|c| c.c_name().to_bytes() == name)
     }
 
-    /// The description in `modelDescription.xml`: what counts as an event is the model's
-    /// to say; the other categories are the layer's own.
-    pub fn description<M: Model>(self) -> &'static str {
+    /// The description in `modelDescription.xml` of the standard with function-name
+    /// `prefix`: what counts as an event is the model's to say; the other categories are
+    /// the layer's own.
+    pub fn description<M: Model>(self, prefix: &str) -> String {
         match self {
-            LogCategory::Events => M::info().log_events,
-            LogCategory::StatusWarning => "Calls that returned fmi2Warning",
-            LogCategory::StatusError => "Calls that returned fmi2Error or fmi2Fatal",
-            LogCategory::All => "Everything, including each call",
+            LogCategory::Events => M::info().log_events.to_string(),
+            LogCategory::StatusWarning => format!("Calls that returned {prefix}Warning"),
+            LogCategory::StatusError => {
+                format!("Calls that returned {prefix}Error or {prefix}Fatal")
+            }
+            LogCategory::All => "Everything, including each call".to_string(),
         }
     }
 
@@ -247,6 +250,8 @@ pub struct Instance<S: Standard, M: Model> {
     /// Snapshots handed out by `Get*FMUState`, so `Set*FMUState` can refuse a pointer
     /// that is not one of them instead of dereferencing it.
     pub snapshots: Vec<*mut Snapshot<M>>,
+    /// Reused by every step, so reporting nothing allocates nothing.
+    pub step_log: StepLog,
     /// The table's positions sorted by value reference: a lookup per value without a
     /// scan of the table.
     index: Box<[(u32, u32)]>,
@@ -269,6 +274,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             stop_time: None,
             last_step_status: OK,
             snapshots: Vec::new(),
+            step_log: StepLog::default(),
             index: index.into_boxed_slice(),
         }
     }
@@ -278,12 +284,14 @@ impl<S: Standard, M: Model> Instance<S, M> {
     /// report why a call failed); debug messages only in an enabled category, or with
     /// `logAll` enabled. Nothing is formatted for a message nobody wants.
     pub fn log(&self, status: Status, category: LogCategory, message: fmt::Arguments) {
-        let wanted = status >= WARNING
-            || self.categories.contains(category)
-            || self.categories.contains(LogCategory::All);
-        if wanted {
+        if status >= WARNING || self.wants(category) {
             emit::<S>(&self.callbacks, Some(&self.name), status, category, message);
         }
+    }
+
+    /// Whether debug messages of `category` reach the logger.
+    pub fn wants(&self, category: LogCategory) -> bool {
+        self.categories.contains(category) || self.categories.contains(LogCategory::All)
     }
 
     /// Logs why `func` was refused and returns the error.

@@ -38,6 +38,47 @@ pub enum Message {
     Warning(String),
 }
 
+/// Where [`Model::do_step`] reports. The layer keeps one per instance, so a step that
+/// reports nothing costs nothing, and an event's text is formatted only when the master
+/// has `logEvents` (or `logAll`) on: the hot path stays free of formatting and allocation.
+#[derive(Debug, Default)]
+pub struct StepLog {
+    events_wanted: bool,
+    messages: Vec<Message>,
+}
+
+impl StepLog {
+    pub fn new(events_wanted: bool) -> Self {
+        StepLog { events_wanted, messages: Vec::new() }
+    }
+    /// Whether an event would be logged; a model may skip work that only feeds one.
+    pub fn events_wanted(&self) -> bool {
+        self.events_wanted
+    }
+    /// An event, logged under `logEvents` when that category is on; dropped unformatted
+    /// when it is not.
+    pub fn event(&mut self, text: std::fmt::Arguments) {
+        if self.events_wanted {
+            self.messages.push(Message::Event(text.to_string()));
+        }
+    }
+    /// A warning: always logged, and the step returns Warning.
+    pub fn warning(&mut self, text: std::fmt::Arguments) {
+        self.messages.push(Message::Warning(text.to_string()));
+    }
+    /// What was reported since the last [`StepLog::drain`].
+    pub fn messages(&self) -> &[Message] {
+        &self.messages
+    }
+    pub(crate) fn reset(&mut self, events_wanted: bool) {
+        self.events_wanted = events_wanted;
+        self.messages.clear();
+    }
+    pub(crate) fn drain(&mut self) -> std::vec::Drain<'_, Message> {
+        self.messages.drain(..)
+    }
+}
+
 /// A simulation model exported as an FMI 2.0 Co-Simulation FMU.
 ///
 /// The export layer has already checked every value reference against [`Model::variables`]
@@ -72,10 +113,10 @@ pub trait Model: Clone + Send + 'static {
     }
 
     /// One communication step from `t` of length `h` (both checked by the layer). An `Err`
-    /// is a failure of the model and moves the instance to the Error state.
-    /// `Ok` carries what to log: events (debug logging, category logEvents) and warnings
-    /// (the step succeeded, with status fmi2Warning).
-    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String>;
+    /// is a failure of the model and moves the instance to the Error state. What to log
+    /// goes to `log`: events (debug logging, category logEvents, formatted only when
+    /// wanted) and warnings (the step succeeded, with status Warning).
+    fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String>;
 
     /// Appends everything beyond the parameters needed to continue bit for bit: inputs
     /// and dynamic state. The layer saves the parameters before it, from the table.

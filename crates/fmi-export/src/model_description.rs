@@ -52,7 +52,7 @@ pub(crate) fn initial(i: Initial) -> &'static str {
     }
 }
 
-fn start_attr(s: Start) -> String {
+pub(crate) fn start_attr(s: Start) -> String {
     match s {
         Start::None => String::new(),
         Start::Real(v) => format!(" start=\"{}\"", real(v)),
@@ -67,6 +67,61 @@ fn type_name(k: Kind) -> &'static str {
         Kind::Integer => "Integer",
         Kind::Boolean => "Boolean",
     }
+}
+
+/// What both standards' descriptions say alike after `<CoSimulation>`: units, log
+/// categories (each standard words the status ones), the default experiment.
+pub(crate) fn shared_head<M: Model>(w: &mut String, prefix: &str) {
+    let info = M::info();
+    if !info.units.is_empty() {
+        let _ = writeln!(w, "  <UnitDefinitions>");
+        for u in info.units {
+            let mut base = String::new();
+            for (name, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("A", u.a)] {
+                if e != 0 {
+                    let _ = write!(base, " {name}=\"{e}\"");
+                }
+            }
+            let _ = writeln!(w, "    <Unit name=\"{}\"><BaseUnit{base}/></Unit>", escape(u.name));
+        }
+        let _ = writeln!(w, "  </UnitDefinitions>");
+    }
+    let _ = writeln!(w, "  <LogCategories>");
+    for cat in LogCategory::ALL {
+        let (name, desc) = (cat.name(), cat.description::<M>(prefix));
+        let _ = writeln!(w, "    <Category name=\"{name}\" description=\"{}\"/>", escape(&desc));
+    }
+    let _ = writeln!(w, "  </LogCategories>");
+    let _ = writeln!(
+        w,
+        r#"  <DefaultExperiment startTime="{}" stopTime="{}" tolerance="{}" stepSize="{}"/>"#,
+        real(info.default_start_time),
+        real(info.default_stop_time),
+        real(info.default_tolerance),
+        real(info.default_step_size)
+    );
+}
+
+/// The unit, min and max attributes of a variable.
+pub(crate) fn unit_and_range(v: &Variable) -> String {
+    let mut attrs = String::new();
+    if let Some(u) = v.unit {
+        let _ = write!(attrs, " unit=\"{}\"", escape(u));
+    }
+    if let Some(m) = v.min {
+        let _ = write!(attrs, " min=\"{}\"", real(m));
+    }
+    if let Some(m) = v.max {
+        let _ = write!(attrs, " max=\"{}\"", real(m));
+    }
+    attrs
+}
+
+/// Whether the variable is an initial unknown of the ModelStructure.
+pub(crate) fn is_initial_unknown(v: &Variable) -> bool {
+    (v.causality == Causality::Output
+        && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
+        || v.causality == Causality::CalculatedParameter
 }
 
 fn xml_with_guid<M: Model>(guid: &str) -> String {
@@ -93,33 +148,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
         r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#,
         escape(info.model_identifier)
     );
-    if !info.units.is_empty() {
-        let _ = writeln!(w, "  <UnitDefinitions>");
-        for u in info.units {
-            let mut base = String::new();
-            for (name, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("A", u.a)] {
-                if e != 0 {
-                    let _ = write!(base, " {name}=\"{e}\"");
-                }
-            }
-            let _ = writeln!(w, "    <Unit name=\"{}\"><BaseUnit{base}/></Unit>", escape(u.name));
-        }
-        let _ = writeln!(w, "  </UnitDefinitions>");
-    }
-    let _ = writeln!(w, "  <LogCategories>");
-    for cat in LogCategory::ALL {
-        let (name, desc) = (cat.name(), cat.description::<M>());
-        let _ = writeln!(w, "    <Category name=\"{name}\" description=\"{}\"/>", escape(desc));
-    }
-    let _ = writeln!(w, "  </LogCategories>");
-    let _ = writeln!(
-        w,
-        r#"  <DefaultExperiment startTime="{}" stopTime="{}" tolerance="{}" stepSize="{}"/>"#,
-        real(info.default_start_time),
-        real(info.default_stop_time),
-        real(info.default_tolerance),
-        real(info.default_step_size)
-    );
+    shared_head::<M>(w, "fmi2");
     let _ = writeln!(w, "  <ModelVariables>");
     for (i, v) in M::variables().iter().enumerate() {
         let _ = writeln!(w, "    <!-- index {} -->", i + 1);
@@ -133,16 +162,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
             causality(v.causality),
             variability(v.variability)
         );
-        let mut attrs = String::new();
-        if let Some(u) = v.unit {
-            let _ = write!(attrs, " unit=\"{}\"", escape(u));
-        }
-        if let Some(m) = v.min {
-            let _ = write!(attrs, " min=\"{}\"", real(m));
-        }
-        if let Some(m) = v.max {
-            let _ = write!(attrs, " max=\"{}\"", real(m));
-        }
+        let attrs = unit_and_range(v);
         let _ = writeln!(w, "      <{}{attrs}{}/>", type_name(v.kind), start_attr(v.start));
         let _ = writeln!(w, "    </ScalarVariable>");
     }
@@ -152,11 +172,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
         M::variables().iter().enumerate().filter(|(_, v)| pred(v)).map(|(i, _)| i + 1).collect()
     };
     let outputs = indices(&|v| v.causality == Causality::Output);
-    let initial_unknowns = indices(&|v| {
-        (v.causality == Causality::Output
-            && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
-            || v.causality == Causality::CalculatedParameter
-    });
+    let initial_unknowns = indices(&is_initial_unknown);
     for (tag, list) in [("Outputs", outputs), ("InitialUnknowns", initial_unknowns)] {
         if list.is_empty() {
             continue;

@@ -138,212 +138,140 @@ const fn b2(b: bool) -> fmi2Boolean {
     }
 }
 
-impl Master for Fmi2 {
-    type Keep = Box<fmi2CallbackFunctions>;
-    const SET_REAL: &'static str = "fmi2SetReal";
-    const GET_REAL: &'static str = "fmi2GetReal";
-    const DO_STEP: &'static str = "fmi2DoStep";
-    const DESERIALIZE: &'static str = "fmi2DeSerializeFMUstate";
-    const SET_DEBUG_LOGGING: &'static str = "fmi2SetDebugLogging";
-    const INSTANTIATE: &'static str = "fmi2Instantiate";
-
-    unsafe fn instantiate<M: Model>(
-        name: &CStr,
-        token: &CStr,
-        log: &Log,
-        on: bool,
-    ) -> (C, Self::Keep) {
-        let f = Box::new(callbacks(log));
-        let c = api::fmi2Instantiate::<M>(
-            name.as_ptr(),
-            fmi2CoSimulation,
-            token.as_ptr(),
-            std::ptr::null(),
-            &*f,
-            fmi2False,
-            b2(on),
-        );
-        (c, f)
-    }
-    unsafe fn free<M: Model>(c: C) {
-        api::fmi2FreeInstance::<M>(c)
-    }
-    unsafe fn setup<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
-        api::fmi2SetupExperiment::<M>(
-            c,
-            fmi2False,
-            0.0,
-            start,
-            b2(stop.is_some()),
-            stop.unwrap_or(0.0),
-        )
-    }
-    unsafe fn enter<M: Model>(c: C, _: f64, _: Option<f64>) -> Status {
-        api::fmi2EnterInitializationMode::<M>(c)
-    }
-    unsafe fn exit<M: Model>(c: C) -> Status {
-        api::fmi2ExitInitializationMode::<M>(c)
-    }
-    unsafe fn terminate<M: Model>(c: C) -> Status {
-        api::fmi2Terminate::<M>(c)
-    }
-    unsafe fn reset<M: Model>(c: C) -> Status {
-        api::fmi2Reset::<M>(c)
-    }
-    unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
-        api::fmi2GetReal::<M>(c, vr, n, v)
-    }
-    unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
-        api::fmi2SetReal::<M>(c, vr, n, v)
-    }
-    unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
-        let mut v = i32::MIN;
-        (api::fmi2GetInteger::<M>(c, &vr, 1, &mut v), v)
-    }
-    unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
-        api::fmi2SetInteger::<M>(c, &vr, 1, &v)
-    }
-    unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
-        let mut v = -1;
-        (api::fmi2GetBoolean::<M>(c, &vr, 1, &mut v), v != fmi2False)
-    }
-    unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
-        api::fmi2SetBoolean::<M>(c, &vr, 1, &b2(v))
-    }
-    unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
-        api::fmi2DoStep::<M>(c, t, h, fmi2True)
-    }
-    unsafe fn set_debug_logging<M: Model>(
-        c: C,
-        on: bool,
-        n: usize,
-        cats: *const *const c_char,
-    ) -> Status {
-        api::fmi2SetDebugLogging::<M>(c, b2(on), n, cats)
-    }
-    unsafe fn get_state<M: Model>(c: C, s: *mut C) -> Status {
-        api::fmi2GetFMUstate::<M>(c, s)
-    }
-    unsafe fn set_state<M: Model>(c: C, s: C) -> Status {
-        api::fmi2SetFMUstate::<M>(c, s)
-    }
-    unsafe fn free_state<M: Model>(c: C, s: *mut C) -> Status {
-        api::fmi2FreeFMUstate::<M>(c, s)
-    }
-    unsafe fn state_size<M: Model>(c: C, s: C, size: *mut usize) -> Status {
-        api::fmi2SerializedFMUstateSize::<M>(c, s, size)
-    }
-    unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
-        api::fmi2SerializeFMUstate::<M>(c, s, b as *mut fmi2Byte, size)
-    }
-    unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
-        api::fmi2DeSerializeFMUstate::<M>(c, b as *const fmi2Byte, size, s)
-    }
+/// Both `Master` impls: each standard's own methods, then the ones that pass their
+/// arguments straight to a function of each standard, one line for both.
+macro_rules! masters {
+    ($s2:ident($m2:ident) { $($own2:tt)* } $s3:ident($m3:ident) { $($own3:tt)* }
+     $($method:ident($($a:ident: $t:ty),*) -> $r:ty = $f2:ident | $f3:ident;)*) => {
+        impl Master for $s2 {
+            $($own2)*
+            $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m2::$f2::<M>($($a),*) } )*
+        }
+        impl Master for $s3 {
+            $($own3)*
+            $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m3::$f3::<M>($($a),*) } )*
+        }
+    };
 }
 
-impl Master for Fmi3 {
-    type Keep = ();
-    const SET_REAL: &'static str = "fmi3SetFloat64";
-    const GET_REAL: &'static str = "fmi3GetFloat64";
-    const DO_STEP: &'static str = "fmi3DoStep";
-    const DESERIALIZE: &'static str = "fmi3DeserializeFMUState";
-    const SET_DEBUG_LOGGING: &'static str = "fmi3SetDebugLogging";
-    const INSTANTIATE: &'static str = "fmi3InstantiateCoSimulation";
+masters! {
+    Fmi2(api) {
+        type Keep = Box<fmi2CallbackFunctions>;
+        const SET_REAL: &'static str = "fmi2SetReal";
+        const GET_REAL: &'static str = "fmi2GetReal";
+        const DO_STEP: &'static str = "fmi2DoStep";
+        const DESERIALIZE: &'static str = "fmi2DeSerializeFMUstate";
+        const SET_DEBUG_LOGGING: &'static str = "fmi2SetDebugLogging";
+        const INSTANTIATE: &'static str = "fmi2Instantiate";
 
-    unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
-        let (env, logger) = crate::fmi3::testing::log_callback(log);
-        let (res, required) = (std::ptr::null(), std::ptr::null());
-        let c = api3::fmi3InstantiateCoSimulation::<M>(
-            name.as_ptr(),
-            token.as_ptr(),
-            res,
-            false,
-            on,
-            false,
-            false,
-            required,
-            0,
-            env,
-            logger,
-            None,
-        );
-        (c, ())
+        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, Self::Keep) {
+            let f = Box::new(callbacks(log));
+            let c = api::fmi2Instantiate::<M>(name.as_ptr(), fmi2CoSimulation, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
+            (c, f)
+        }
+        unsafe fn setup<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
+            api::fmi2SetupExperiment::<M>(c, fmi2False, 0.0, start, b2(stop.is_some()), stop.unwrap_or(0.0))
+        }
+        unsafe fn enter<M: Model>(c: C, _: f64, _: Option<f64>) -> Status {
+            api::fmi2EnterInitializationMode::<M>(c)
+        }
+        unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
+            let mut v = i32::MIN;
+            (api::fmi2GetInteger::<M>(c, &vr, 1, &mut v), v)
+        }
+        unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
+            api::fmi2SetInteger::<M>(c, &vr, 1, &v)
+        }
+        unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
+            let mut v = -1;
+            (api::fmi2GetBoolean::<M>(c, &vr, 1, &mut v), v != fmi2False)
+        }
+        unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
+            api::fmi2SetBoolean::<M>(c, &vr, 1, &b2(v))
+        }
+        unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
+            api::fmi2GetReal::<M>(c, vr, n, v)
+        }
+        unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
+            api::fmi2SetReal::<M>(c, vr, n, v)
+        }
+        unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
+            api::fmi2DoStep::<M>(c, t, h, fmi2True)
+        }
+        unsafe fn set_debug_logging<M: Model>(c: C, on: bool, n: usize, cats: *const *const c_char) -> Status {
+            api::fmi2SetDebugLogging::<M>(c, b2(on), n, cats)
+        }
+        unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
+            api::fmi2SerializeFMUstate::<M>(c, s, b as *mut fmi2Byte, size)
+        }
+        unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
+            api::fmi2DeSerializeFMUstate::<M>(c, b as *const fmi2Byte, size, s)
+        }
     }
-    unsafe fn free<M: Model>(c: C) {
-        api3::fmi3FreeInstance::<M>(c)
+    Fmi3(api3) {
+        type Keep = ();
+        const SET_REAL: &'static str = "fmi3SetFloat64";
+        const GET_REAL: &'static str = "fmi3GetFloat64";
+        const DO_STEP: &'static str = "fmi3DoStep";
+        const DESERIALIZE: &'static str = "fmi3DeserializeFMUState";
+        const SET_DEBUG_LOGGING: &'static str = "fmi3SetDebugLogging";
+        const INSTANTIATE: &'static str = "fmi3InstantiateCoSimulation";
+
+        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
+            let (env, logger) = crate::fmi3::testing::log_callback(log);
+            let (res, required) = (std::ptr::null(), std::ptr::null());
+            let c = api3::fmi3InstantiateCoSimulation::<M>(name.as_ptr(), token.as_ptr(), res, false, on, false, false, required, 0, env, logger, None);
+            (c, ())
+        }
+        // FMI 3.0 takes the experiment at `enter`.
+        unsafe fn setup<M: Model>(_: C, _: f64, _: Option<f64>) -> Status {
+            crate::instance::OK
+        }
+        unsafe fn enter<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
+            api3::fmi3EnterInitializationMode::<M>(c, false, 0.0, start, stop.is_some(), stop.unwrap_or(0.0))
+        }
+        unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
+            let mut v = i32::MIN;
+            (api3::fmi3GetInt32::<M>(c, &vr, 1, &mut v, 1), v)
+        }
+        unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
+            api3::fmi3SetInt32::<M>(c, &vr, 1, &v, 1)
+        }
+        unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
+            let mut v = false;
+            (api3::fmi3GetBoolean::<M>(c, &vr, 1, &mut v, 1), v)
+        }
+        unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
+            api3::fmi3SetBoolean::<M>(c, &vr, 1, &v, 1)
+        }
+        unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
+            api3::fmi3GetFloat64::<M>(c, vr, n, v, n)
+        }
+        unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
+            api3::fmi3SetFloat64::<M>(c, vr, n, v, n)
+        }
+        unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
+            let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
+            api3::fmi3DoStep::<M>(c, t, h, true, &mut ev, &mut term, &mut early, &mut last)
+        }
+        unsafe fn set_debug_logging<M: Model>(c: C, on: bool, n: usize, cats: *const *const c_char) -> Status {
+            api3::fmi3SetDebugLogging::<M>(c, on, n, cats)
+        }
+        unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
+            api3::fmi3SerializeFMUState::<M>(c, s, b, size)
+        }
+        unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
+            api3::fmi3DeserializeFMUState::<M>(c, b, size, s)
+        }
     }
-    unsafe fn setup<M: Model>(_: C, _: f64, _: Option<f64>) -> Status {
-        crate::instance::OK
-    }
-    unsafe fn enter<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
-        api3::fmi3EnterInitializationMode::<M>(
-            c,
-            false,
-            0.0,
-            start,
-            stop.is_some(),
-            stop.unwrap_or(0.0),
-        )
-    }
-    unsafe fn exit<M: Model>(c: C) -> Status {
-        api3::fmi3ExitInitializationMode::<M>(c)
-    }
-    unsafe fn terminate<M: Model>(c: C) -> Status {
-        api3::fmi3Terminate::<M>(c)
-    }
-    unsafe fn reset<M: Model>(c: C) -> Status {
-        api3::fmi3Reset::<M>(c)
-    }
-    unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
-        api3::fmi3GetFloat64::<M>(c, vr, n, v, n)
-    }
-    unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
-        api3::fmi3SetFloat64::<M>(c, vr, n, v, n)
-    }
-    unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
-        let mut v = i32::MIN;
-        (api3::fmi3GetInt32::<M>(c, &vr, 1, &mut v, 1), v)
-    }
-    unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
-        api3::fmi3SetInt32::<M>(c, &vr, 1, &v, 1)
-    }
-    unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
-        let mut v = false;
-        (api3::fmi3GetBoolean::<M>(c, &vr, 1, &mut v, 1), v)
-    }
-    unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
-        api3::fmi3SetBoolean::<M>(c, &vr, 1, &v, 1)
-    }
-    unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
-        let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
-        api3::fmi3DoStep::<M>(c, t, h, true, &mut ev, &mut term, &mut early, &mut last)
-    }
-    unsafe fn set_debug_logging<M: Model>(
-        c: C,
-        on: bool,
-        n: usize,
-        cats: *const *const c_char,
-    ) -> Status {
-        api3::fmi3SetDebugLogging::<M>(c, on, n, cats)
-    }
-    unsafe fn get_state<M: Model>(c: C, s: *mut C) -> Status {
-        api3::fmi3GetFMUState::<M>(c, s)
-    }
-    unsafe fn set_state<M: Model>(c: C, s: C) -> Status {
-        api3::fmi3SetFMUState::<M>(c, s)
-    }
-    unsafe fn free_state<M: Model>(c: C, s: *mut C) -> Status {
-        api3::fmi3FreeFMUState::<M>(c, s)
-    }
-    unsafe fn state_size<M: Model>(c: C, s: C, size: *mut usize) -> Status {
-        api3::fmi3SerializedFMUStateSize::<M>(c, s, size)
-    }
-    unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
-        api3::fmi3SerializeFMUState::<M>(c, s, b, size)
-    }
-    unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
-        api3::fmi3DeserializeFMUState::<M>(c, b, size, s)
-    }
+    free(c: C) -> () = fmi2FreeInstance | fmi3FreeInstance;
+    exit(c: C) -> Status = fmi2ExitInitializationMode | fmi3ExitInitializationMode;
+    terminate(c: C) -> Status = fmi2Terminate | fmi3Terminate;
+    reset(c: C) -> Status = fmi2Reset | fmi3Reset;
+    get_state(c: C, s: *mut C) -> Status = fmi2GetFMUstate | fmi3GetFMUState;
+    set_state(c: C, s: C) -> Status = fmi2SetFMUstate | fmi3SetFMUState;
+    free_state(c: C, s: *mut C) -> Status = fmi2FreeFMUstate | fmi3FreeFMUState;
+    state_size(c: C, s: C, size: *mut usize) -> Status = fmi2SerializedFMUstateSize | fmi3SerializedFMUStateSize;
 }
 
 /// One instance of `M` under standard `S` (FMI 2.0 unless named).

@@ -7,28 +7,12 @@ use std::fmt::Write;
 
 use super::api::type_name;
 use super::TIME_VR;
-use crate::instance::LogCategory;
-use crate::model_description::{causality, escape, guid, initial, real, variability};
-use crate::table::{Causality, Initial, Start, Variable};
+use crate::model_description::{
+    causality, escape, guid, initial, is_initial_unknown, shared_head, start_attr, unit_and_range,
+    variability,
+};
+use crate::table::{Causality, Variable};
 use crate::Model;
-
-fn start_attr(s: Start) -> String {
-    match s {
-        Start::None => String::new(),
-        Start::Real(v) => format!(" start=\"{}\"", real(v)),
-        Start::Integer(v) => format!(" start=\"{v}\""),
-        Start::Boolean(v) => format!(" start=\"{v}\""),
-    }
-}
-
-fn category_description<M: Model>(c: LogCategory) -> &'static str {
-    match c {
-        LogCategory::Events => M::info().log_events,
-        LogCategory::StatusWarning => "Calls that returned fmi3Warning",
-        LogCategory::StatusError => "Calls that returned fmi3Error or fmi3Fatal",
-        LogCategory::All => "Everything, including each call",
-    }
-}
 
 /// The complete FMI 3.0 `modelDescription.xml`.
 pub fn model_description<M: Model>() -> String {
@@ -59,34 +43,7 @@ pub fn model_description<M: Model>() -> String {
         r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
         escape(info.model_identifier)
     );
-    if !info.units.is_empty() {
-        let _ = writeln!(w, "  <UnitDefinitions>");
-        for u in info.units {
-            let mut base = String::new();
-            for (name, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("A", u.a)] {
-                if e != 0 {
-                    let _ = write!(base, " {name}=\"{e}\"");
-                }
-            }
-            let _ = writeln!(w, "    <Unit name=\"{}\"><BaseUnit{base}/></Unit>", escape(u.name));
-        }
-        let _ = writeln!(w, "  </UnitDefinitions>");
-    }
-    let _ = writeln!(w, "  <LogCategories>");
-    for cat in LogCategory::ALL {
-        let desc = category_description::<M>(cat);
-        let _ =
-            writeln!(w, "    <Category name=\"{}\" description=\"{}\"/>", cat.name(), escape(desc));
-    }
-    let _ = writeln!(w, "  </LogCategories>");
-    let _ = writeln!(
-        w,
-        r#"  <DefaultExperiment startTime="{}" stopTime="{}" tolerance="{}" stepSize="{}"/>"#,
-        real(info.default_start_time),
-        real(info.default_stop_time),
-        real(info.default_tolerance),
-        real(info.default_step_size)
-    );
+    shared_head::<M>(w, "fmi3");
     let _ = writeln!(w, "  <ModelVariables>");
     let _ = writeln!(
         w,
@@ -94,16 +51,7 @@ pub fn model_description<M: Model>() -> String {
     );
     for v in M::variables() {
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
-        let mut attrs = String::new();
-        if let Some(u) = v.unit {
-            let _ = write!(attrs, " unit=\"{}\"", escape(u));
-        }
-        if let Some(m) = v.min {
-            let _ = write!(attrs, " min=\"{}\"", real(m));
-        }
-        if let Some(m) = v.max {
-            let _ = write!(attrs, " max=\"{}\"", real(m));
-        }
+        let attrs = unit_and_range(v);
         let _ = writeln!(
             w,
             r#"    <{} name="{}" valueReference="{}" description="{}" causality="{}" variability="{}"{init}{attrs}{}/>"#,
@@ -122,11 +70,7 @@ pub fn model_description<M: Model>() -> String {
         M::variables().iter().filter(|v| pred(v)).map(|v| v.vr).collect()
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
-    let initial_unknowns = vrs(&|v| {
-        (v.causality == Causality::Output
-            && matches!(v.initial, Some(Initial::Calculated) | Some(Initial::Approx)))
-            || v.causality == Causality::CalculatedParameter
-    });
+    let initial_unknowns = vrs(&is_initial_unknown);
     for vr in outputs {
         let _ = writeln!(w, "    <Output valueReference=\"{vr}\"/>");
     }

@@ -3,7 +3,7 @@
 //! every type and role the layer handles, and deliberate failures on chosen inputs (a
 //! step refusal, a model failure, a panic) so that every path of the layer is reachable.
 
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
 
 pub const U: u32 = 1;
 pub const GAIN: u32 = 2;
@@ -142,7 +142,7 @@ impl Model for Toy {
             false => Err(format!("step {h} s is longer than {MAX_STEP} s")),
         }
     }
-    fn do_step(&mut self, _t: f64, h: f64) -> Result<Vec<Message>, String> {
+    fn do_step(&mut self, _t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
         if self.u == PANIC {
             panic!("the toy panics on u = {PANIC}");
         }
@@ -156,14 +156,13 @@ impl Model for Toy {
             self.x = self.x.clamp(-100.0, 100.0);
         }
         self.steps += 1;
-        let mut out = Vec::new();
         if self.steps % self.event_every == 0 {
-            out.push(Message::Event(format!("step {}", self.steps)));
+            log.event(format_args!("step {}", self.steps));
         }
         if self.x > 9.5 {
-            out.push(Message::Warning(format!("x = {} is close to its limit", self.x)));
+            log.warning(format_args!("x = {} is close to its limit", self.x));
         }
-        Ok(out)
+        Ok(())
     }
     fn save_state(&self, w: &mut Writer) {
         w.f64(self.u);
