@@ -21,17 +21,6 @@ use crate::Kind;
 pub struct Fmi2;
 
 impl Standard for Fmi2 {
-    const VERSION: &'static str = "FMI 2.0";
-    const PREFIX: &'static str = "fmi2";
-    const MAGIC: u64 = 0x4957_464d_4932_0001;
-    const STATES: u16 = entry::ALL_STATES;
-    const GET_STATE_IN_ERROR: bool = true;
-    const TIME_VR: Option<u32> = None;
-    const NAME_IN_MESSAGE: bool = false;
-    const EXPERIMENT_FN: &'static str = "fmi2SetupExperiment";
-    const VALUE_ARGS: &'static str = "vr or value";
-    const TOKEN_ARG: &'static str = "fmuGUID";
-    const FMU_STATE: &'static str = "FMUstate";
     type Callbacks = fmi2CallbackFunctions;
 
     fn state_name(s: State) -> &'static str {

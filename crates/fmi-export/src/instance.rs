@@ -7,6 +7,7 @@ use std::ffi::{CStr, CString};
 use std::fmt::{self, Write as _};
 use std::os::raw::c_int;
 
+pub use crate::standards::Facts;
 use crate::table::{Kind, Variable};
 use crate::{Model, StepLog};
 
@@ -63,33 +64,10 @@ impl State {
     }
 }
 
-/// One FMI standard's ABI as the core sees it. Every item is a fact of the standard, not
-/// a policy: the policy (checks, masks, status) is the core's, once.
-pub trait Standard: Sized + 'static {
-    /// "FMI 2.0", for messages.
-    const VERSION: &'static str;
-    /// Function-name prefix, "fmi2".
-    const PREFIX: &'static str;
-    /// Distinct per standard, so an instance of one handed to the other is refused.
-    const MAGIC: u64;
-    /// The core states this standard has.
-    const STATES: u16;
-    /// FMI 2.0 allows `fmi2GetFMUstate` in Error (the table of section 4.2.4); FMI 3.0
-    /// (section 2.2.3) leaves Error only by `fmi3SetFMUState`, `fmi3Reset` or freeing, so
-    /// there is no state in Error worth saving. The one rule in which they differ here.
-    const GET_STATE_IN_ERROR: bool;
-    /// The independent variable `time` FMI 3.0 requires, owned by the layer.
-    const TIME_VR: Option<u32>;
-    /// FMI 3.0's logger has no instance-name argument, so the name leads the message.
-    const NAME_IN_MESSAGE: bool;
-    /// Where the master sets the stop time, for the message of a step past it.
-    const EXPERIMENT_FN: &'static str;
-    /// How the standard calls the value-reference and value arguments.
-    const VALUE_ARGS: &'static str;
-    /// How it calls the token checked at instantiation.
-    const TOKEN_ARG: &'static str;
-    /// How it spells an FMU state ("FMUstate", "FMUState").
-    const FMU_STATE: &'static str;
+/// One FMI standard's ABI as the core sees it: its facts ([`Facts`], side by side with
+/// the other standard's in [`crate::standards`]) and what takes code. Every item is a
+/// fact of the standard, not a policy: the policy (checks, masks, status) is the core's.
+pub trait Standard: Facts + Sized + 'static {
     /// The logger and its environment.
     type Callbacks: Copy;
 

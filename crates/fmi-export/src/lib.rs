@@ -19,12 +19,13 @@ pub mod ffi;
 pub mod fmi3;
 pub mod instance;
 pub mod model_description;
+mod standards;
 mod state_blob;
 mod table;
 pub mod testing;
 
 pub use inchworm_state_bytes::{Reader, Writer};
-pub use instance::{Clip, LogCategory, Standard, State};
+pub use instance::{Clip, Facts, LogCategory, Standard, State};
 pub use table::{
     Admission, Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording,
 };

@@ -141,13 +141,16 @@ const fn b2(b: bool) -> fmi2Boolean {
 /// Both `Master` impls: each standard's own methods, then the ones that pass their
 /// arguments straight to a function of each standard, one line for both.
 macro_rules! masters {
-    ($s2:ident($m2:ident) { $($own2:tt)* } $s3:ident($m3:ident) { $($own3:tt)* }
+    (names { $($c:ident = $c2:literal | $c3:literal;)* }
+     $s2:ident($m2:ident) { $($own2:tt)* } $s3:ident($m3:ident) { $($own3:tt)* }
      $($method:ident($($a:ident: $t:ty),*) -> $r:ty = $f2:ident | $f3:ident;)*) => {
         impl Master for $s2 {
+            $(const $c: &'static str = $c2;)*
             $($own2)*
             $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m2::$f2::<M>($($a),*) } )*
         }
         impl Master for $s3 {
+            $(const $c: &'static str = $c3;)*
             $($own3)*
             $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m3::$f3::<M>($($a),*) } )*
         }
@@ -155,14 +158,16 @@ macro_rules! masters {
 }
 
 masters! {
+    names {
+        SET_REAL = "fmi2SetReal" | "fmi3SetFloat64";
+        GET_REAL = "fmi2GetReal" | "fmi3GetFloat64";
+        DO_STEP = "fmi2DoStep" | "fmi3DoStep";
+        DESERIALIZE = "fmi2DeSerializeFMUstate" | "fmi3DeserializeFMUState";
+        SET_DEBUG_LOGGING = "fmi2SetDebugLogging" | "fmi3SetDebugLogging";
+        INSTANTIATE = "fmi2Instantiate" | "fmi3InstantiateCoSimulation";
+    }
     Fmi2(api) {
         type Keep = Box<fmi2CallbackFunctions>;
-        const SET_REAL: &'static str = "fmi2SetReal";
-        const GET_REAL: &'static str = "fmi2GetReal";
-        const DO_STEP: &'static str = "fmi2DoStep";
-        const DESERIALIZE: &'static str = "fmi2DeSerializeFMUstate";
-        const SET_DEBUG_LOGGING: &'static str = "fmi2SetDebugLogging";
-        const INSTANTIATE: &'static str = "fmi2Instantiate";
 
         unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, Self::Keep) {
             let f = Box::new(callbacks(log));
@@ -210,12 +215,6 @@ masters! {
     }
     Fmi3(api3) {
         type Keep = ();
-        const SET_REAL: &'static str = "fmi3SetFloat64";
-        const GET_REAL: &'static str = "fmi3GetFloat64";
-        const DO_STEP: &'static str = "fmi3DoStep";
-        const DESERIALIZE: &'static str = "fmi3DeserializeFMUState";
-        const SET_DEBUG_LOGGING: &'static str = "fmi3SetDebugLogging";
-        const INSTANTIATE: &'static str = "fmi3InstantiateCoSimulation";
 
         unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
             let (env, logger) = crate::fmi3::testing::log_callback(log);

@@ -1,6 +1,7 @@
 //! The hot path allocates nothing with logging off: `Set*`, `Get*` and `DoStep` of the
-//! plant FMU, through FMI 2.0 and FMI 3.0, in a steady loop that moves the runner (brake
-//! switches and all), counted per call on this thread.
+//! plant and the controller FMU, through FMI 2.0 and FMI 3.0, counted per call on this
+//! thread: the plant in a steady loop of gaits (brake switches and all), the controller
+//! in a closed loop against a synthetic encoder that makes it move and iterate.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -8,7 +9,7 @@ use std::cell::Cell;
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
-use inchworm_fmu_models::PlantFmu;
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
 struct Counting;
 
@@ -38,13 +39,13 @@ fn allocations() -> u64 {
     ALLOCATIONS.with(Cell::get)
 }
 
-const DAC: [u32; 3] = [1, 2, 3];
+const PLANT_DAC: [u32; 3] = [1, 2, 3];
 const OUTPUTS: [u32; 6] = [11, 12, 13, 14, 15, 16];
-const ENCODER_COUNTS: u32 = 10;
+const PLANT_COUNTS: u32 = 10;
 const H: f64 = 0.002;
 
 /// Forward gaits, sample by sample: the allocations counted in each kind of call.
-fn count<S: Master>() -> [u64; 3] {
+fn plant<S: Master>() -> [u64; 3] {
     let h = Harness::<PlantFmu, S>::init("alloc");
     let mut counted = [0u64; 3];
     for k in 0..2000usize {
@@ -59,14 +60,14 @@ fn count<S: Master>() -> [u64; 3] {
         };
         let warm = k >= 200;
         let before = allocations();
-        assert_eq!(h.set_reals(&DAC, &v), 0);
+        assert_eq!(h.set_reals(&PLANT_DAC, &v), 0);
         let set = allocations();
         assert_eq!(h.step(k as f64 * H, H), 0);
         let step = allocations();
         for vr in OUTPUTS {
             assert_eq!(h.real(vr).0, 0);
         }
-        assert_eq!(h.integer(ENCODER_COUNTS).0, 0);
+        assert_eq!(h.integer(PLANT_COUNTS).0, 0);
         let get = allocations();
         if warm {
             counted[0] += set - before;
@@ -74,17 +75,79 @@ fn count<S: Master>() -> [u64; 3] {
             counted[2] += get - step;
         }
     }
-    assert_ne!(h.integer(ENCODER_COUNTS).1, 0, "the runner moved");
+    assert_ne!(h.integer(PLANT_COUNTS).1, 0, "the runner moved");
+    assert!(h.logged().is_empty());
+    counted
+}
+
+const ENCODER_COUNTS: u32 = 1;
+const REFERENCE: u32 = 2;
+const DAC: [u32; 3] = [10, 11, 12];
+const CODES: [u32; 3] = [13, 14, 15];
+const N_STEPS: u32 = 20;
+
+/// A synthetic encoder moving 2 nm per powered extension sample: the allocations counted
+/// in each kind of call.
+fn controller<S: Master>() -> [u64; 3] {
+    let h = Harness::<ControllerFmu, S>::init("alloc");
+    let mut counted = [0u64; 3];
+    let (mut counts, mut moves) = (0, 0);
+    for k in 0..3000usize {
+        let reference = if k < 1500 { 60e-6 } else { -20e-6 };
+        let warm = k >= 200;
+        let before = allocations();
+        assert_eq!(h.set_real(REFERENCE, reference), 0);
+        assert_eq!(h.set_integer(ENCODER_COUNTS, counts), 0);
+        let set = allocations();
+        assert_eq!(h.step(k as f64 * H, H), 0);
+        let step = allocations();
+        let mut dac = [0.0; 3];
+        for (vr, v) in DAC.iter().zip(&mut dac) {
+            let (status, value) = h.real(*vr);
+            assert_eq!(status, 0);
+            *v = value;
+        }
+        for vr in CODES {
+            assert_eq!(h.integer(vr).0, 0);
+        }
+        moves = moves.max(h.integer(N_STEPS).1);
+        let get = allocations();
+        counts += if dac[2] > 5.0 { 2 } else { -1 } * i32::from(dac[1] > 5.0);
+        if warm {
+            counted[0] += set - before;
+            counted[1] += step - set;
+            counted[2] += get - step;
+        }
+    }
+    assert!(moves > 0, "the controller moved");
     assert!(h.logged().is_empty());
     counted
 }
 
 #[test]
-fn set_step_and_get_allocate_nothing_through_fmi2() {
-    assert_eq!(count::<Fmi2>(), [0, 0, 0], "allocations in Set, DoStep, Get over 1800 samples");
+fn plant_set_step_and_get_allocate_nothing_through_fmi2() {
+    assert_eq!(plant::<Fmi2>(), [0, 0, 0], "allocations in Set, DoStep, Get over 1800 samples");
 }
 
 #[test]
-fn set_step_and_get_allocate_nothing_through_fmi3() {
-    assert_eq!(count::<Fmi3>(), [0, 0, 0], "allocations in Set, DoStep, Get over 1800 samples");
+fn plant_set_step_and_get_allocate_nothing_through_fmi3() {
+    assert_eq!(plant::<Fmi3>(), [0, 0, 0], "allocations in Set, DoStep, Get over 1800 samples");
+}
+
+#[test]
+fn controller_set_step_and_get_allocate_nothing_through_fmi2() {
+    assert_eq!(
+        controller::<Fmi2>(),
+        [0, 0, 0],
+        "allocations in Set, DoStep, Get over 2800 samples"
+    );
+}
+
+#[test]
+fn controller_set_step_and_get_allocate_nothing_through_fmi3() {
+    assert_eq!(
+        controller::<Fmi3>(),
+        [0, 0, 0],
+        "allocations in Set, DoStep, Get over 2800 samples"
+    );
 }

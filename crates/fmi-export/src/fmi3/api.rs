@@ -13,7 +13,6 @@ use std::ffi::CStr;
 use std::os::raw::c_char;
 
 use super::ffi::*;
-use super::TIME_VR;
 use crate::entry::{self, StepOutputs, Value, GETTABLE, LIVE, SETTABLE};
 use crate::instance::{Standard, State, Status};
 use crate::Kind;
@@ -22,22 +21,6 @@ use crate::Kind;
 pub struct Fmi3;
 
 impl Standard for Fmi3 {
-    const VERSION: &'static str = "FMI 3.0";
-    const PREFIX: &'static str = "fmi3";
-    const MAGIC: u64 = 0x4957_464d_4933_0001;
-    const STATES: u16 = State::Instantiated as u16
-        | State::InitializationMode as u16
-        | State::StepComplete as u16
-        | State::Terminated as u16
-        | State::Error as u16
-        | State::Fatal as u16;
-    const GET_STATE_IN_ERROR: bool = false;
-    const TIME_VR: Option<u32> = Some(TIME_VR);
-    const NAME_IN_MESSAGE: bool = true;
-    const EXPERIMENT_FN: &'static str = "fmi3EnterInitializationMode";
-    const VALUE_ARGS: &'static str = "valueReferences or values";
-    const TOKEN_ARG: &'static str = "instantiationToken";
-    const FMU_STATE: &'static str = "FMUState";
     type Callbacks = (fmi3InstanceEnvironment, fmi3LogMessageCallback);
 
     fn state_name(s: State) -> &'static str {
