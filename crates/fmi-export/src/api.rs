@@ -9,12 +9,11 @@
     clippy::too_many_arguments
 )]
 
-use std::ffi::CStr;
 use std::os::raw::c_char;
 
 use crate::entry::{self, Value, AFTER_STEP, GETTABLE, LIVE, SETTABLE};
 use crate::ffi::*;
-use crate::instance::{Standard, State, Status};
+use crate::instance::{Line, Standard, State};
 use crate::Kind;
 
 /// FMI 2.0 as the core sees it.
@@ -36,24 +35,12 @@ impl Standard for Fmi2 {
     fn has_logger(cb: &Self::Callbacks) -> bool {
         cb.logger.is_some()
     }
-    unsafe fn emit(
-        cb: &Self::Callbacks,
-        name: Option<&CStr>,
-        status: Status,
-        category: &CStr,
-        message: &CStr,
-    ) {
+    unsafe fn emit(cb: &Self::Callbacks, line: Line) {
         if let Some(logger) = cb.logger {
-            let name = name.unwrap_or(c"?");
+            let name = line.name.unwrap_or(c"?").as_ptr();
+            let (env, cat) = (cb.componentEnvironment, line.category.as_ptr());
             // The message is passed as the argument of "%s", never as the format.
-            logger(
-                cb.componentEnvironment,
-                name.as_ptr(),
-                status,
-                category.as_ptr(),
-                c"%s".as_ptr(),
-                message.as_ptr(),
-            );
+            logger(env, name, line.status, cat, c"%s".as_ptr(), line.message.as_ptr());
         }
     }
 }

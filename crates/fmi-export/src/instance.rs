@@ -74,17 +74,20 @@ pub trait Standard: Facts + Sized + 'static {
     fn state_name(s: State) -> &'static str;
     fn type_name(k: Kind) -> &'static str;
     fn has_logger(cb: &Self::Callbacks) -> bool;
-    /// Calls the master's logger.
+    /// Calls the master's logger with one message.
     ///
     /// # Safety
     /// `cb` holds what the master passed at instantiation.
-    unsafe fn emit(
-        cb: &Self::Callbacks,
-        name: Option<&CStr>,
-        status: Status,
-        category: &CStr,
-        message: &CStr,
-    );
+    unsafe fn emit(cb: &Self::Callbacks, line: Line);
+}
+
+/// One message for [`Standard::emit`], built: the instance name (none before an instance
+/// exists), the status, the category and the text.
+pub struct Line<'a> {
+    pub name: Option<&'a CStr>,
+    pub status: Status,
+    pub category: &'a CStr,
+    pub message: &'a CStr,
 }
 
 /// The log categories of `modelDescription.xml`, in the order declared there. Names
@@ -197,7 +200,8 @@ pub(crate) fn emit<S: Standard>(
     // Interior NULs would truncate the message; replace them rather than drop it.
     let msg = CString::new(text.replace('\0', " ")).unwrap_or_default();
     // SAFETY: the callbacks are the master's, as `Standard::emit` requires.
-    unsafe { S::emit(cb, name, status, category.c_name(), &msg) };
+    let line = Line { name, status, category: category.c_name(), message: &msg };
+    unsafe { S::emit(cb, line) };
 }
 
 /// What `Get*FMUState` saves.

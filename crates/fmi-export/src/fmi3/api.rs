@@ -9,12 +9,11 @@
     clippy::too_many_arguments
 )]
 
-use std::ffi::CStr;
 use std::os::raw::c_char;
 
 use super::ffi::*;
 use crate::entry::{self, StepOutputs, Value, GETTABLE, LIVE, SETTABLE};
-use crate::instance::{Standard, State, Status};
+use crate::instance::{Line, Standard, State};
 use crate::Kind;
 
 /// FMI 3.0 Co-Simulation without event mode, as the core sees it.
@@ -35,15 +34,10 @@ impl Standard for Fmi3 {
     fn has_logger(cb: &Self::Callbacks) -> bool {
         cb.1.is_some()
     }
-    unsafe fn emit(
-        cb: &Self::Callbacks,
-        _: Option<&CStr>,
-        status: Status,
-        category: &CStr,
-        message: &CStr,
-    ) {
+    /// The name is already in the message ([`crate::Facts::NAME_IN_MESSAGE`]).
+    unsafe fn emit(cb: &Self::Callbacks, line: Line) {
         if let Some(logger) = cb.1 {
-            logger(cb.0, status, category.as_ptr(), message.as_ptr());
+            logger(cb.0, line.status, line.category.as_ptr(), line.message.as_ptr());
         }
     }
 }
