@@ -1,16 +1,16 @@
-//! Generic FMI 2.0 Co-Simulation export, and FMI 3.0 Co-Simulation export from the same
-//! model ([`fmi3`], [`export_fmi3!`]).
+//! Generic FMI 2.0 and FMI 3.0 Co-Simulation export of one model, over one core.
 //!
 //! A model implements [`Model`]: its variable table, start values, get/set by value
 //! reference, initialization, one communication step, and its dynamic state as bytes.
-//! This crate owns everything else, once for every FMU: the C ABI ([`ffi`]), the instance
-//! state machine with the standard's allowed-call table, argument checks (types, states,
-//! finite values, the declared ranges of inputs), `catch_unwind` on every entry point,
-//! logging through the master's callback, FMU state snapshots and their versioned
-//! serialized form with the parameters saved from the table, and `modelDescription.xml`.
-//! An FMU crate is its model plus one [`export_fmi2!`] line, as in the Modelica
-//! Association's Reference-FMUs, where all FMI glue is shared and each model is a small
-//! equations file.
+//! This crate owns everything else, once for every FMU and for both standards: the
+//! instance and its state machine with the allowed-call masks ([`instance`]), every entry
+//! point's body ([`entry`]: argument checks, finite values, the declared ranges of inputs,
+//! `catch_unwind`, logging, FMU state snapshots and their versioned serialized form, the
+//! status policy), and `modelDescription.xml`. Each standard adds only its facts
+//! ([`Facts`], side by side in one table) and its C functions, one line each ([`api`],
+//! [`fmi3::api`]). An FMU crate is its model plus one [`export_fmi2!`] or
+//! [`export_fmi3!`] line, as in the Modelica Association's Reference-FMUs, where all FMI
+//! glue is shared and each model is a small equations file.
 
 pub mod api;
 pub mod entry;
@@ -80,7 +80,9 @@ impl StepLog {
     }
 }
 
-/// A simulation model exported as an FMI 2.0 Co-Simulation FMU.
+/// A simulation model exported as an FMI 2.0 or 3.0 Co-Simulation FMU. (Model Exchange,
+/// when it comes, adds defaulted methods here: continuous states, their derivatives,
+/// event indicators.)
 ///
 /// The export layer has already checked every value reference against [`Model::variables`]
 /// (it exists, has the right type, may be set in the current state) before a getter or
