@@ -1,5 +1,7 @@
-//! FMI 2.0 Co-Simulation: the standard's facts for the core ([`Fmi2`]) and its C
-//! functions, each one line from its C signature to the generic body in [`crate::core`].
+//! FMI 2.0 Co-Simulation: what the core needs from the standard beyond its facts
+//! ([`crate::Facts`]): the logger call and the names of states and types ([`Fmi2`]); and
+//! its C functions, each one line from its C signature to the generic body in
+//! [`crate::entry`].
 //! [`crate::export_fmi2!`] exports them for one model; the functions are also callable
 //! here, generic over the model, as `api::fmi2DoStep::<M>(…)`.
 #![allow(

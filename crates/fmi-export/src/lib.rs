@@ -19,7 +19,7 @@ pub mod ffi;
 pub mod fmi3;
 pub mod instance;
 pub mod model_description;
-mod standards;
+pub mod standards;
 mod state_blob;
 mod table;
 pub mod testing;

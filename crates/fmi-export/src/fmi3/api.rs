@@ -1,5 +1,6 @@
-//! FMI 3.0: the standard's facts for the core ([`Fmi3`]) and its C functions, each one
-//! line from its C signature to the generic body in [`crate::entry`].
+//! FMI 3.0: what the core needs from the standard beyond its facts ([`crate::Facts`]):
+//! the logger call and the names of states and types ([`Fmi3`]); and its C functions,
+//! each one line from its C signature to the generic body in [`crate::entry`].
 //! [`crate::export_fmi3!`] exports them for one model; they are also callable here,
 //! generic over the model, as `api::fmi3DoStep::<M>(…)`.
 #![allow(
