@@ -231,21 +231,6 @@ fn parameters_a_master_could_not_have_set_are_refused_in_a_state() {
 }
 
 #[test]
-fn eight_instances_on_eight_threads_match_eight_serial_runs() {
-    let refs = [10e-6, 20e-6, 35e-6, 50e-6, -10e-6, -30e-6, 70e-6, 5e-6];
-    let go = |r: f64| {
-        let h = H::init("t");
-        assert_eq!(h.set_real(REFERENCE, r), fmi2OK);
-        drive(&h, 0, 600)
-    };
-    let serial: Vec<_> = refs.iter().map(|&r| go(r)).collect();
-    let threads: Vec<_> = refs.iter().map(|&r| std::thread::spawn(move || go(r))).collect();
-    let parallel: Vec<_> = threads.into_iter().map(|t| t.join().unwrap()).collect();
-    assert_eq!(serial, parallel);
-    assert_ne!(serial[0], serial[5]);
-}
-
-#[test]
 fn committed_model_description_matches_the_variable_table() {
     let path =
         concat!(env!("CARGO_MANIFEST_DIR"), "/../../modelDescription/InchwormController.xml");

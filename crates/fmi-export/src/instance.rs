@@ -1,13 +1,38 @@
-//! One FMU instance: the model, its FMI state, its time and its link to the master.
+//! One FMU instance for every standard: the model, its state in the one core state
+//! machine, its time, its log categories and its link to the master. What a standard
+//! adds is its [`Standard`] impl: the logger call, the names it gives states, types and
+//! arguments, and the few rules where FMI 2.0 and FMI 3.0 truly differ.
 
-use std::ffi::CString;
-use std::os::raw::c_char;
+use std::ffi::{CStr, CString};
+use std::fmt::{self, Write as _};
+use std::os::raw::c_int;
 
-use crate::ffi::*;
-use crate::Model;
+pub use crate::standards::Facts;
+use crate::table::{Kind, Variable};
+use crate::{Model, StepLog};
 
-/// The states of FMI 2.0 Co-Simulation (section 4.2.4), one bit each so that every
-/// entry point can name the states it is allowed in as a mask.
+/// A status as both standards' C enums code it (`fmi2Status` and `fmi3Status` agree on
+/// every value the layer returns, checked below at compile time).
+pub type Status = c_int;
+pub const OK: Status = 0;
+pub const WARNING: Status = 1;
+pub const ERROR: Status = 3;
+pub const FATAL: Status = 4;
+
+const _: () = {
+    use inchworm_fmi_abi::{fmi2, fmi3};
+    assert!(fmi2::fmi2OK == OK && fmi3::fmi3OK == OK);
+    assert!(fmi2::fmi2Warning == WARNING && fmi3::fmi3Warning == WARNING);
+    assert!(fmi2::fmi2Error == ERROR && fmi3::fmi3Error == ERROR);
+    assert!(fmi2::fmi2Fatal == FATAL && fmi3::fmi3Fatal == FATAL);
+};
+
+/// The core state machine: the states of FMI 2.0 Co-Simulation (section 4.2.4), one bit
+/// each so that every entry point names the states it is allowed in as a mask. FMI 3.0
+/// Co-Simulation without event mode (section 4.2) is the same machine with fewer states:
+/// its Step Mode is StepComplete, and it never enters StepInProgress, StepFailed or
+/// StepCanceled ([`Standard::STATES`]). The codes are also those of the serialized-state
+/// frame, so a blob saved through one standard restores through the other.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
 pub enum State {
@@ -23,6 +48,7 @@ pub enum State {
 }
 
 impl State {
+    /// The FMI 2.0 name; [`Standard::state_name`] gives each standard's own.
     pub fn name(self) -> &'static str {
         match self {
             State::Instantiated => "Instantiated",
@@ -36,6 +62,32 @@ impl State {
             State::Fatal => "Fatal",
         }
     }
+}
+
+/// One FMI standard's ABI as the core sees it: its facts ([`Facts`], side by side with
+/// the other standard's in [`crate::standards`]) and what takes code. Every item is a
+/// fact of the standard, not a policy: the policy (checks, masks, status) is the core's.
+pub trait Standard: Facts + Sized + 'static {
+    /// The logger and its environment.
+    type Callbacks: Copy;
+
+    fn state_name(s: State) -> &'static str;
+    fn type_name(k: Kind) -> &'static str;
+    fn has_logger(cb: &Self::Callbacks) -> bool;
+    /// Calls the master's logger with one message.
+    ///
+    /// # Safety
+    /// `cb` holds what the master passed at instantiation.
+    unsafe fn emit(cb: &Self::Callbacks, line: Line);
+}
+
+/// One message for [`Standard::emit`], built: the instance name (none before an instance
+/// exists), the status, the category and the text.
+pub struct Line<'a> {
+    pub name: Option<&'a CStr>,
+    pub status: Status,
+    pub category: &'a CStr,
+    pub message: &'a CStr,
 }
 
 /// The log categories of `modelDescription.xml`, in the order declared there. Names
@@ -58,26 +110,33 @@ impl LogCategory {
     ];
 
     pub fn name(self) -> &'static str {
+        self.c_name().to_str().unwrap_or_default()
+    }
+
+    fn c_name(self) -> &'static CStr {
         match self {
-            LogCategory::Events => "logEvents",
-            LogCategory::StatusWarning => "logStatusWarning",
-            LogCategory::StatusError => "logStatusError",
-            LogCategory::All => "logAll",
+            LogCategory::Events => c"logEvents",
+            LogCategory::StatusWarning => c"logStatusWarning",
+            LogCategory::StatusError => c"logStatusError",
+            LogCategory::All => c"logAll",
         }
     }
 
-    pub fn from_name(name: &str) -> Option<LogCategory> {
-        LogCategory::ALL.into_iter().find(|c| c.name() == name)
+    pub fn from_name(name: &[u8]) -> Option<LogCategory> {
+        LogCategory::ALL.into_iter().find(|c| c.c_name().to_bytes() == name)
     }
 
-    /// The description in `modelDescription.xml`: what counts as an event is the model's
-    /// to say; the other categories are the layer's own.
-    pub fn description<M: Model>(self) -> &'static str {
+    /// The description in `modelDescription.xml` of the standard with function-name
+    /// `prefix`: what counts as an event is the model's to say; the other categories are
+    /// the layer's own.
+    pub fn description<M: Model>(self, prefix: &str) -> String {
         match self {
-            LogCategory::Events => M::info().log_events,
-            LogCategory::StatusWarning => "Calls that returned fmi2Warning",
-            LogCategory::StatusError => "Calls that returned fmi2Error or fmi2Fatal",
-            LogCategory::All => "Everything, including each call",
+            LogCategory::Events => M::info().log_events.to_string(),
+            LogCategory::StatusWarning => format!("Calls that returned {prefix}Warning"),
+            LogCategory::StatusError => {
+                format!("Calls that returned {prefix}Error or {prefix}Fatal")
+            }
+            LogCategory::All => "Everything, including each call".to_string(),
         }
     }
 
@@ -94,8 +153,8 @@ impl Categories {
     pub const NONE: Categories = Categories(0);
     pub const ALL: Categories = Categories((1 << LogCategory::ALL.len()) - 1);
 
-    pub fn of(cats: &[LogCategory]) -> Categories {
-        Categories(cats.iter().fold(0, |b, c| b | c.bit()))
+    pub fn with(self, c: LogCategory) -> Categories {
+        Categories(self.0 | c.bit())
     }
     pub fn without(self, other: Categories) -> Categories {
         Categories(self.0 & !other.0)
@@ -105,28 +164,47 @@ impl Categories {
     }
 }
 
-/// Guards against a master passing a pointer that is not one of our instances (or a
-/// freed one): checked before anything else is read.
-pub const INSTANCE_MAGIC: u64 = 0x4957_464d_4932_0001;
+/// A string from outside (a name, a token, a category) as it goes into a message: cut
+/// after [`Clip::MAX`] characters, so a master's runaway string cannot flood the log.
+pub struct Clip<'a>(pub &'a str);
 
-pub struct Instance<M: Model> {
-    pub magic: u64,
-    pub name: CString,
-    pub callbacks: fmi2CallbackFunctions,
-    /// Categories whose debug messages (status fmi2OK) reach the logger.
-    pub categories: Categories,
-    pub state: State,
-    pub model: M,
-    pub time: f64,
-    pub start_time: f64,
-    pub stop_time: Option<f64>,
-    pub last_step_status: fmi2Status,
-    /// Snapshots handed out by `fmi2GetFMUstate`, so `fmi2SetFMUstate` can refuse a
-    /// pointer that is not one of them instead of dereferencing it.
-    pub snapshots: Vec<*mut Snapshot<M>>,
+impl Clip<'_> {
+    pub const MAX: usize = 80;
 }
 
-/// What `fmi2GetFMUstate` saves.
+impl fmt::Display for Clip<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0.char_indices().nth(Clip::MAX) {
+            None => f.write_str(self.0),
+            Some((cut, _)) => write!(f, "{}… ({} bytes)", &self.0[..cut], self.0.len()),
+        }
+    }
+}
+
+/// Builds and sends one message; only called once it is known to be wanted.
+pub(crate) fn emit<S: Standard>(
+    cb: &S::Callbacks,
+    name: Option<&CStr>,
+    status: Status,
+    category: LogCategory,
+    message: fmt::Arguments,
+) {
+    if !S::has_logger(cb) {
+        return;
+    }
+    let mut text = String::new();
+    if let (true, Some(name)) = (S::NAME_IN_MESSAGE, name) {
+        let _ = write!(text, "{}: ", Clip(&name.to_string_lossy()));
+    }
+    let _ = text.write_fmt(message);
+    // Interior NULs would truncate the message; replace them rather than drop it.
+    let msg = CString::new(text.replace('\0', " ")).unwrap_or_default();
+    // SAFETY: the callbacks are the master's, as `Standard::emit` requires.
+    let line = Line { name, status, category: category.c_name(), message: &msg };
+    unsafe { S::emit(cb, line) };
+}
+
+/// What `Get*FMUState` saves.
 #[derive(Clone)]
 pub struct Snapshot<M> {
     pub model: M,
@@ -136,10 +214,38 @@ pub struct Snapshot<M> {
     pub stop_time: Option<f64>,
 }
 
-impl<M: Model> Instance<M> {
-    pub fn new(name: CString, callbacks: fmi2CallbackFunctions, logging_on: bool) -> Self {
+/// `repr(C)`: the magic number is the first field of every instance, whatever the
+/// standard and the model, so a foreign pointer is read at the same place.
+#[repr(C)]
+pub struct Instance<S: Standard, M: Model> {
+    pub magic: u64,
+    pub name: CString,
+    pub callbacks: S::Callbacks,
+    /// Categories whose debug messages (status OK) reach the logger.
+    pub categories: Categories,
+    pub state: State,
+    pub model: M,
+    pub time: f64,
+    pub start_time: f64,
+    pub stop_time: Option<f64>,
+    pub last_step_status: Status,
+    /// Snapshots handed out by `Get*FMUState`, so `Set*FMUState` can refuse a pointer
+    /// that is not one of them instead of dereferencing it.
+    pub snapshots: Vec<*mut Snapshot<M>>,
+    /// Reused by every step, so reporting nothing allocates nothing.
+    pub step_log: StepLog,
+    /// The table's positions sorted by value reference: a lookup per value without a
+    /// scan of the table.
+    index: Box<[(u32, u32)]>,
+}
+
+impl<S: Standard, M: Model> Instance<S, M> {
+    pub fn new(name: CString, callbacks: S::Callbacks, logging_on: bool) -> Self {
+        let mut index: Vec<(u32, u32)> =
+            M::variables().iter().enumerate().map(|(i, v)| (v.vr, i as u32)).collect();
+        index.sort_unstable();
         Instance {
-            magic: INSTANCE_MAGIC,
+            magic: S::MAGIC,
             name,
             callbacks,
             categories: if logging_on { Categories::ALL } else { Categories::NONE },
@@ -148,39 +254,37 @@ impl<M: Model> Instance<M> {
             time: 0.0,
             start_time: 0.0,
             stop_time: None,
-            last_step_status: fmi2OK,
+            last_step_status: OK,
             snapshots: Vec::new(),
+            step_log: StepLog::default(),
+            index: index.into_boxed_slice(),
         }
     }
 
     /// Sends a message to the master's logger. Errors and warnings always go out (the
     /// master needs them to understand a status, and FMI 2.0 section 2.1.5 has the FMU
     /// report why a call failed); debug messages only in an enabled category, or with
-    /// `logAll` enabled.
-    pub fn log(&self, status: fmi2Status, category: LogCategory, message: &str) {
-        let Some(logger) = self.callbacks.logger else { return };
-        let wanted = status >= fmi2Warning
-            || self.categories.contains(category)
-            || self.categories.contains(LogCategory::All);
-        if !wanted {
-            return;
+    /// `logAll` enabled. Nothing is formatted for a message nobody wants.
+    pub fn log(&self, status: Status, category: LogCategory, message: fmt::Arguments) {
+        if status >= WARNING || self.wants(category) {
+            emit::<S>(&self.callbacks, Some(&self.name), status, category, message);
         }
-        let cat = CString::new(category.name()).unwrap_or_default();
-        // Interior NULs would truncate the message; replace them rather than drop it.
-        let msg = CString::new(message.replace('\0', " ")).unwrap_or_default();
-        let fmt = b"%s\0";
-        // SAFETY: the master promised a logger with the fmi2CallbackLogger signature; the
-        // message is passed as an argument of "%s", never as the format.
-        unsafe {
-            logger(
-                self.callbacks.componentEnvironment,
-                self.name.as_ptr(),
-                status,
-                cat.as_ptr(),
-                fmt.as_ptr() as *const c_char,
-                msg.as_ptr(),
-            );
-        }
+    }
+
+    /// Whether debug messages of `category` reach the logger.
+    pub fn wants(&self, category: LogCategory) -> bool {
+        self.categories.contains(category) || self.categories.contains(LogCategory::All)
+    }
+
+    /// Logs why `func` was refused and returns the error.
+    pub fn refuse(&self, func: &str, why: fmt::Arguments) -> Status {
+        self.log(ERROR, LogCategory::StatusError, format_args!("{func}: {why}"));
+        ERROR
+    }
+
+    pub fn variable(&self, vr: u32) -> Option<&'static Variable> {
+        let i = self.index.binary_search_by_key(&vr, |e| e.0).ok()?;
+        M::variables().get(self.index[i].1 as usize)
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {
@@ -202,7 +306,7 @@ impl<M: Model> Instance<M> {
     }
 }
 
-impl<M: Model> Drop for Instance<M> {
+impl<S: Standard, M: Model> Drop for Instance<S, M> {
     fn drop(&mut self) {
         self.magic = 0;
         for s in self.snapshots.drain(..) {
@@ -213,10 +317,23 @@ impl<M: Model> Drop for Instance<M> {
 }
 
 /// What a caught panic says, for the log line that ends the instance.
-pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> String {
+pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> &str {
     panic
         .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| panic.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
+        .copied()
+        .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("unknown panic")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Clip;
+
+    #[test]
+    fn long_strings_from_outside_are_cut() {
+        assert_eq!(Clip("short").to_string(), "short");
+        let long = "é".repeat(200);
+        let cut = Clip(&long).to_string();
+        assert_eq!(cut, format!("{}… (400 bytes)", "é".repeat(Clip::MAX)));
+    }
 }

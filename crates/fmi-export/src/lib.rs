@@ -1,30 +1,34 @@
-//! Generic FMI 2.0 Co-Simulation export, and FMI 3.0 Co-Simulation export from the same
-//! model ([`fmi3`], [`export_fmi3!`]).
+//! Generic FMI 2.0 and FMI 3.0 Co-Simulation export of one model, over one core.
 //!
 //! A model implements [`Model`]: its variable table, start values, get/set by value
 //! reference, initialization, one communication step, and its dynamic state as bytes.
-//! This crate owns everything else, once for every FMU: the C ABI ([`ffi`]), the instance
-//! state machine with the standard's allowed-call table, argument checks (types, states,
-//! finite values, the declared ranges of inputs), `catch_unwind` on every entry point,
-//! logging through the master's callback, FMU state snapshots and their versioned
-//! serialized form with the parameters saved from the table, and `modelDescription.xml`.
-//! An FMU crate is its model plus one [`export_fmi2!`] line, as in the Modelica
-//! Association's Reference-FMUs, where all FMI glue is shared and each model is a small
-//! equations file.
+//! This crate owns everything else, once for every FMU and for both standards: the
+//! instance and its state machine with the allowed-call masks ([`instance`]), every entry
+//! point's body ([`entry`]: argument checks, finite values, the declared ranges of inputs,
+//! `catch_unwind`, logging, FMU state snapshots and their versioned serialized form, the
+//! status policy), and `modelDescription.xml`. Each standard adds only its facts
+//! ([`Facts`], side by side in one table) and its C functions, one line each ([`api`],
+//! [`fmi3::api`]). An FMU crate is its model plus one [`export_fmi2!`] or
+//! [`export_fmi3!`] line, as in the Modelica Association's Reference-FMUs, where all FMI
+//! glue is shared and each model is a small equations file.
 
 pub mod api;
+pub mod entry;
 mod export;
 pub mod ffi;
 pub mod fmi3;
-mod instance;
+pub mod instance;
 pub mod model_description;
+pub mod standards;
 mod state_blob;
 mod table;
 pub mod testing;
 
 pub use inchworm_state_bytes::{Reader, Writer};
-pub use instance::LogCategory;
-pub use table::{Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording};
+pub use instance::{Clip, Facts, LogCategory, Standard, State};
+pub use table::{
+    Admission, Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording,
+};
 
 /// Something a step has to tell the master.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,7 +39,50 @@ pub enum Message {
     Warning(String),
 }
 
-/// A simulation model exported as an FMI 2.0 Co-Simulation FMU.
+/// Where [`Model::do_step`] reports. The layer keeps one per instance, so a step that
+/// reports nothing costs nothing, and an event's text is formatted only when the master
+/// has `logEvents` (or `logAll`) on: the hot path stays free of formatting and allocation.
+#[derive(Debug, Default)]
+pub struct StepLog {
+    events_wanted: bool,
+    messages: Vec<Message>,
+}
+
+impl StepLog {
+    pub fn new(events_wanted: bool) -> Self {
+        StepLog { events_wanted, messages: Vec::new() }
+    }
+    /// Whether an event would be logged; a model may skip work that only feeds one.
+    pub fn events_wanted(&self) -> bool {
+        self.events_wanted
+    }
+    /// An event, logged under `logEvents` when that category is on; dropped unformatted
+    /// when it is not.
+    pub fn event(&mut self, text: std::fmt::Arguments) {
+        if self.events_wanted {
+            self.messages.push(Message::Event(text.to_string()));
+        }
+    }
+    /// A warning: always logged, and the step returns Warning.
+    pub fn warning(&mut self, text: std::fmt::Arguments) {
+        self.messages.push(Message::Warning(text.to_string()));
+    }
+    /// What was reported since the last [`StepLog::drain`].
+    pub fn messages(&self) -> &[Message] {
+        &self.messages
+    }
+    pub(crate) fn reset(&mut self, events_wanted: bool) {
+        self.events_wanted = events_wanted;
+        self.messages.clear();
+    }
+    pub(crate) fn drain(&mut self) -> std::vec::Drain<'_, Message> {
+        self.messages.drain(..)
+    }
+}
+
+/// A simulation model exported as an FMI 2.0 or 3.0 Co-Simulation FMU. (Model Exchange,
+/// when it comes, adds defaulted methods here: continuous states, their derivatives,
+/// event indicators.)
 ///
 /// The export layer has already checked every value reference against [`Model::variables`]
 /// (it exists, has the right type, may be set in the current state) before a getter or
@@ -69,10 +116,10 @@ pub trait Model: Clone + Send + 'static {
     }
 
     /// One communication step from `t` of length `h` (both checked by the layer). An `Err`
-    /// is a failure of the model and moves the instance to the Error state.
-    /// `Ok` carries what to log: events (debug logging, category logEvents) and warnings
-    /// (the step succeeded, with status fmi2Warning).
-    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String>;
+    /// is a failure of the model and moves the instance to the Error state. What to log
+    /// goes to `log`: events (debug logging, category logEvents, formatted only when
+    /// wanted) and warnings (the step succeeded, with status Warning).
+    fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String>;
 
     /// Appends everything beyond the parameters needed to continue bit for bit: inputs
     /// and dynamic state. The layer saves the parameters before it, from the table.

@@ -11,7 +11,7 @@
 use inchworm_state_bytes::{Reader, Writer};
 
 use crate::instance::State;
-use crate::table::{Causality, Kind, Variable};
+use crate::table::{Admission, Causality, Kind, Variable};
 use crate::Model;
 
 const MAGIC: &[u8; 4] = b"IWFS";
@@ -144,7 +144,30 @@ pub fn load_model<M: Model>(payload: &[u8]) -> Result<M, String> {
     }
     r.finish()?;
     model.load_state(rest)?;
+    check_restored(&model)?;
     Ok(model)
+}
+
+/// A restored model is held to what a master could have set: a checksum proves the bytes
+/// arrived as written, not that a writer wrote sense. Every Real must be finite (a NaN
+/// there would poison every later step), and every input inside its declared range.
+fn check_restored<M: Model>(model: &M) -> Result<(), String> {
+    for v in M::variables().iter().filter(|v| v.kind == Kind::Real) {
+        let x = model.get_real(v.vr)?;
+        let ok = match v.admit(x) {
+            Admission::Accept(_) => true,
+            Admission::Clamp(_) | Admission::NonFinite => false,
+        };
+        if !ok {
+            let what = if v.causality == Causality::Input {
+                "must be finite and inside its declared range"
+            } else {
+                "must be finite"
+            };
+            return Err(format!("{} restored as {x}: {what}", v.name));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! The variable table a model declares once; XML, documentation and the layer's checks
 //! all read it.
 
+use std::fmt;
+
 /// FMI 2.0 scalar types used by the models.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
@@ -217,39 +219,42 @@ impl Variable {
         self
     }
 
-    /// What a model gets when a master sets this Real to `value` while it holds
-    /// `current`: a non-finite value is refused (the model keeps `current`); an input
-    /// outside its declared range is clamped into it, with the warning to log.
-    pub fn admit_real(&self, value: f64, current: f64) -> Result<(f64, Option<String>), String> {
-        let name = self.name;
-        let unit = self.unit.map(|u| format!(" {u}")).unwrap_or_default();
+    /// What a model gets when a master sets this Real to `value`, decided without
+    /// formatting anything: the hot path of every `Set*` call.
+    pub fn admit(&self, value: f64) -> Admission {
         if !value.is_finite() {
-            let what = self.wording.quantity.map(|q| format!("{q} ")).unwrap_or_default();
-            return Err(format!(
-                "{name} = {value} refused: {what}must be finite; keeping {current}{unit}"
-            ));
+            return Admission::NonFinite;
         }
         if self.causality != Causality::Input {
-            return Ok((value, None));
+            return Admission::Accept(value);
         }
         // Not f64::clamp: it panics on a table whose min exceeds its max.
-        let clamped = match (self.min, self.max) {
-            (Some(min), _) if value < min => min,
-            (_, Some(max)) if value > max => max,
-            _ => return Ok((value, None)),
-        };
-        let range = match (self.min, self.max) {
-            (Some(min), Some(max)) => format!("{min}-{max}"),
-            (Some(min), None) => format!("from {min}"),
-            (None, _) => format!("up to {}", clamped),
-        };
-        Ok((
-            clamped,
-            Some(format!(
-                "{name} = {value}{unit} is outside the {} {range}{unit}, clamped to {clamped}{unit}",
-                self.wording.range
-            )),
-        ))
+        match (self.min, self.max) {
+            (Some(min), _) if value < min => Admission::Clamp(min),
+            (_, Some(max)) if value > max => Admission::Clamp(max),
+            _ => Admission::Accept(value),
+        }
+    }
+
+    /// Why `value` was refused while the model holds `current`, built when logged.
+    pub fn refusal(&self, value: f64, current: f64) -> impl fmt::Display + '_ {
+        Refusal { v: self, value, current }
+    }
+
+    /// The warning for `value` clamped to `clamped`, built when logged.
+    pub fn clamping(&self, value: f64, clamped: f64) -> impl fmt::Display + '_ {
+        Clamping { v: self, value, clamped }
+    }
+
+    /// [`Variable::admit`] with its messages, for callers that want them as strings: a
+    /// non-finite value is refused (the model keeps `current`); an input outside its
+    /// declared range is clamped into it, with the warning to log.
+    pub fn admit_real(&self, value: f64, current: f64) -> Result<(f64, Option<String>), String> {
+        match self.admit(value) {
+            Admission::Accept(x) => Ok((x, None)),
+            Admission::Clamp(x) => Ok((x, Some(self.clamping(value, x).to_string()))),
+            Admission::NonFinite => Err(self.refusal(value, current).to_string()),
+        }
     }
 
     /// Whether a master may set it in a state (FMI 2.0 CS, section 4.2.4).
@@ -262,6 +267,65 @@ impl Variable {
     pub(crate) fn settable_after_init(&self) -> bool {
         self.causality == Causality::Input
             || (self.causality == Causality::Parameter && self.variability == Variability::Tunable)
+    }
+}
+
+/// What [`Variable::admit`] decided.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Admission {
+    /// Stored as given.
+    Accept(f64),
+    /// An input outside its declared range, stored clamped with a warning.
+    Clamp(f64),
+    /// Refused: the model keeps its value.
+    NonFinite,
+}
+
+struct Unit_<'a>(Option<&'a str>);
+
+impl fmt::Display for Unit_<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            Some(u) => write!(f, " {u}"),
+            None => Ok(()),
+        }
+    }
+}
+
+struct Refusal<'a> {
+    v: &'a Variable,
+    value: f64,
+    current: f64,
+}
+
+impl fmt::Display for Refusal<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (name, value, current, unit) =
+            (self.v.name, self.value, self.current, Unit_(self.v.unit));
+        write!(f, "{name} = {value} refused: ")?;
+        if let Some(q) = self.v.wording.quantity {
+            write!(f, "{q} ")?;
+        }
+        write!(f, "must be finite; keeping {current}{unit}")
+    }
+}
+
+struct Clamping<'a> {
+    v: &'a Variable,
+    value: f64,
+    clamped: f64,
+}
+
+impl fmt::Display for Clamping<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (v, clamped, unit) = (self.v, self.clamped, Unit_(self.v.unit));
+        write!(f, "{} = {}{unit} is outside the {} ", v.name, self.value, v.wording.range)?;
+        match (v.min, v.max) {
+            (Some(min), Some(max)) => write!(f, "{min}-{max}")?,
+            (Some(min), None) => write!(f, "from {min}")?,
+            (None, _) => write!(f, "up to {clamped}")?,
+        }
+        write!(f, "{unit}, clamped to {clamped}{unit}")
     }
 }
 

@@ -1,15 +1,21 @@
 //! A master in miniature for tests: drives one instance of any [`Model`] through the
-//! generic entry points of [`crate::api`] (the code every exported `fmi2*` symbol calls)
-//! and records what the instance logs.
+//! generic entry points of either standard ([`crate::api`], [`crate::fmi3::api`]: the code
+//! every exported symbol calls) and records what the instance logs. One harness,
+//! [`Harness<M, S>`], for both: a test written once over `S: Master` runs for each.
 // The FMU-state handles passed back in are the ones this harness got from the layer.
-#![allow(clippy::not_unsafe_ptr_arg_deref)]
+// The `Master` functions are the C functions themselves, unsafe on the same terms: an
+// instance pointer from `instantiate`, and pointers valid for the counts given.
+#![allow(clippy::not_unsafe_ptr_arg_deref, clippy::missing_safety_doc)]
 
+use std::cell::Cell;
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::sync::Mutex;
 
-use crate::api;
+use crate::api::{self, Fmi2};
 use crate::ffi::*;
+use crate::fmi3::api::{self as api3, Fmi3};
+use crate::instance::{Standard, Status};
 use crate::model_description::guid;
 use crate::{state_blob, Model};
 
@@ -47,7 +53,7 @@ unsafe extern "C" fn logger(
     log.0.lock().unwrap().push(format!("{status}|{cat}|{msg}"));
 }
 
-/// Callback functions whose logger appends to `log`.
+/// FMI 2.0 callback functions whose logger appends to `log`.
 pub fn callbacks(log: &Log) -> fmi2CallbackFunctions {
     fmi2CallbackFunctions {
         // SAFETY: see `logger`.
@@ -73,17 +79,215 @@ pub fn with_payload<M: Model>(blob: &[u8], payload: &[u8]) -> Vec<u8> {
     state_blob::encode(guid::<M>(), &header, payload)
 }
 
-pub struct Harness<M: Model> {
-    pub c: fmi2Component,
+type C = *mut c_void;
+
+/// A standard as a master calls it: each call of the harness in that standard's C
+/// functions. Both standards' functions return the same status codes.
+pub trait Master: Standard {
+    /// What must outlive the instance for its logger.
+    type Keep;
+    /// The functions named in messages.
+    const SET_REAL: &'static str;
+    const GET_REAL: &'static str;
+    const DO_STEP: &'static str;
+    const DESERIALIZE: &'static str;
+    const SET_DEBUG_LOGGING: &'static str;
+    const INSTANTIATE: &'static str;
+
+    /// Instantiates, or NULL.
+    unsafe fn instantiate<M: Model>(
+        name: &CStr,
+        token: &CStr,
+        log: &Log,
+        on: bool,
+    ) -> (C, Self::Keep);
+    unsafe fn free<M: Model>(c: C);
+    /// FMI 2.0's `fmi2SetupExperiment`; FMI 3.0 passes the experiment to `enter`, so the
+    /// harness keeps it until then.
+    unsafe fn setup<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status;
+    unsafe fn enter<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status;
+    unsafe fn exit<M: Model>(c: C) -> Status;
+    unsafe fn terminate<M: Model>(c: C) -> Status;
+    unsafe fn reset<M: Model>(c: C) -> Status;
+    unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status;
+    unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status;
+    unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32);
+    unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status;
+    unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool);
+    unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status;
+    unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status;
+    unsafe fn set_debug_logging<M: Model>(
+        c: C,
+        on: bool,
+        n: usize,
+        cats: *const *const c_char,
+    ) -> Status;
+    unsafe fn get_state<M: Model>(c: C, s: *mut C) -> Status;
+    unsafe fn set_state<M: Model>(c: C, s: C) -> Status;
+    unsafe fn free_state<M: Model>(c: C, s: *mut C) -> Status;
+    unsafe fn state_size<M: Model>(c: C, s: C, size: *mut usize) -> Status;
+    unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status;
+    unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status;
+}
+
+const fn b2(b: bool) -> fmi2Boolean {
+    if b {
+        fmi2True
+    } else {
+        fmi2False
+    }
+}
+
+/// Both `Master` impls: each standard's own methods, then the ones that pass their
+/// arguments straight to a function of each standard, one line for both.
+macro_rules! masters {
+    (names { $($c:ident = $c2:literal | $c3:literal;)* }
+     $s2:ident($m2:ident) { $($own2:tt)* } $s3:ident($m3:ident) { $($own3:tt)* }
+     $($method:ident($($a:ident: $t:ty),*) -> $r:ty = $f2:ident | $f3:ident;)*) => {
+        impl Master for $s2 {
+            $(const $c: &'static str = $c2;)*
+            $($own2)*
+            $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m2::$f2::<M>($($a),*) } )*
+        }
+        impl Master for $s3 {
+            $(const $c: &'static str = $c3;)*
+            $($own3)*
+            $( unsafe fn $method<M: Model>($($a: $t),*) -> $r { $m3::$f3::<M>($($a),*) } )*
+        }
+    };
+}
+
+masters! {
+    names {
+        SET_REAL = "fmi2SetReal" | "fmi3SetFloat64";
+        GET_REAL = "fmi2GetReal" | "fmi3GetFloat64";
+        DO_STEP = "fmi2DoStep" | "fmi3DoStep";
+        DESERIALIZE = "fmi2DeSerializeFMUstate" | "fmi3DeserializeFMUState";
+        SET_DEBUG_LOGGING = "fmi2SetDebugLogging" | "fmi3SetDebugLogging";
+        INSTANTIATE = "fmi2Instantiate" | "fmi3InstantiateCoSimulation";
+    }
+    Fmi2(api) {
+        type Keep = Box<fmi2CallbackFunctions>;
+
+        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, Self::Keep) {
+            let f = Box::new(callbacks(log));
+            let c = api::fmi2Instantiate::<M>(name.as_ptr(), fmi2CoSimulation, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
+            (c, f)
+        }
+        unsafe fn setup<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
+            api::fmi2SetupExperiment::<M>(c, fmi2False, 0.0, start, b2(stop.is_some()), stop.unwrap_or(0.0))
+        }
+        unsafe fn enter<M: Model>(c: C, _: f64, _: Option<f64>) -> Status {
+            api::fmi2EnterInitializationMode::<M>(c)
+        }
+        unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
+            let mut v = i32::MIN;
+            (api::fmi2GetInteger::<M>(c, &vr, 1, &mut v), v)
+        }
+        unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
+            api::fmi2SetInteger::<M>(c, &vr, 1, &v)
+        }
+        unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
+            let mut v = -1;
+            (api::fmi2GetBoolean::<M>(c, &vr, 1, &mut v), v != fmi2False)
+        }
+        unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
+            api::fmi2SetBoolean::<M>(c, &vr, 1, &b2(v))
+        }
+        unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
+            api::fmi2GetReal::<M>(c, vr, n, v)
+        }
+        unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
+            api::fmi2SetReal::<M>(c, vr, n, v)
+        }
+        unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
+            api::fmi2DoStep::<M>(c, t, h, fmi2True)
+        }
+        unsafe fn set_debug_logging<M: Model>(c: C, on: bool, n: usize, cats: *const *const c_char) -> Status {
+            api::fmi2SetDebugLogging::<M>(c, b2(on), n, cats)
+        }
+        unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
+            api::fmi2SerializeFMUstate::<M>(c, s, b as *mut fmi2Byte, size)
+        }
+        unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
+            api::fmi2DeSerializeFMUstate::<M>(c, b as *const fmi2Byte, size, s)
+        }
+    }
+    Fmi3(api3) {
+        type Keep = ();
+
+        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
+            let (env, logger) = crate::fmi3::testing::log_callback(log);
+            let (res, required) = (std::ptr::null(), std::ptr::null());
+            let c = api3::fmi3InstantiateCoSimulation::<M>(name.as_ptr(), token.as_ptr(), res, false, on, false, false, required, 0, env, logger, None);
+            (c, ())
+        }
+        // FMI 3.0 takes the experiment at `enter`.
+        unsafe fn setup<M: Model>(_: C, _: f64, _: Option<f64>) -> Status {
+            crate::instance::OK
+        }
+        unsafe fn enter<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
+            api3::fmi3EnterInitializationMode::<M>(c, false, 0.0, start, stop.is_some(), stop.unwrap_or(0.0))
+        }
+        unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32) {
+            let mut v = i32::MIN;
+            (api3::fmi3GetInt32::<M>(c, &vr, 1, &mut v, 1), v)
+        }
+        unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status {
+            api3::fmi3SetInt32::<M>(c, &vr, 1, &v, 1)
+        }
+        unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool) {
+            let mut v = false;
+            (api3::fmi3GetBoolean::<M>(c, &vr, 1, &mut v, 1), v)
+        }
+        unsafe fn set_boolean<M: Model>(c: C, vr: u32, v: bool) -> Status {
+            api3::fmi3SetBoolean::<M>(c, &vr, 1, &v, 1)
+        }
+        unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status {
+            api3::fmi3GetFloat64::<M>(c, vr, n, v, n)
+        }
+        unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
+            api3::fmi3SetFloat64::<M>(c, vr, n, v, n)
+        }
+        unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
+            let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
+            api3::fmi3DoStep::<M>(c, t, h, true, &mut ev, &mut term, &mut early, &mut last)
+        }
+        unsafe fn set_debug_logging<M: Model>(c: C, on: bool, n: usize, cats: *const *const c_char) -> Status {
+            api3::fmi3SetDebugLogging::<M>(c, on, n, cats)
+        }
+        unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status {
+            api3::fmi3SerializeFMUState::<M>(c, s, b, size)
+        }
+        unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status {
+            api3::fmi3DeserializeFMUState::<M>(c, b, size, s)
+        }
+    }
+    free(c: C) -> () = fmi2FreeInstance | fmi3FreeInstance;
+    exit(c: C) -> Status = fmi2ExitInitializationMode | fmi3ExitInitializationMode;
+    terminate(c: C) -> Status = fmi2Terminate | fmi3Terminate;
+    reset(c: C) -> Status = fmi2Reset | fmi3Reset;
+    get_state(c: C, s: *mut C) -> Status = fmi2GetFMUstate | fmi3GetFMUState;
+    set_state(c: C, s: C) -> Status = fmi2SetFMUstate | fmi3SetFMUState;
+    free_state(c: C, s: *mut C) -> Status = fmi2FreeFMUstate | fmi3FreeFMUState;
+    state_size(c: C, s: C, size: *mut usize) -> Status = fmi2SerializedFMUstateSize | fmi3SerializedFMUStateSize;
+}
+
+/// One instance of `M` under standard `S` (FMI 2.0 unless named).
+pub struct Harness<M: Model, S: Master = Fmi2> {
+    pub c: C,
+    pub name: String,
     log: Box<Log>,
-    _functions: Box<fmi2CallbackFunctions>,
+    _keep: S::Keep,
+    /// The experiment FMI 3.0 passes at `enter`.
+    experiment: Cell<(f64, Option<f64>)>,
     _model: PhantomData<M>,
 }
 
 // The layer promises independent instances usable from any thread.
-unsafe impl<M: Model> Send for Harness<M> {}
+unsafe impl<M: Model, S: Master> Send for Harness<M, S> {}
 
-impl<M: Model> Harness<M> {
+impl<M: Model, S: Master> Harness<M, S> {
     /// An instance in state Instantiated.
     pub fn new(name: &str) -> Self {
         Self::with_logging(name, false)
@@ -91,73 +295,79 @@ impl<M: Model> Harness<M> {
 
     /// An instance in state Instantiated, with `loggingOn` as given.
     pub fn with_logging(name: &str, logging_on: bool) -> Self {
-        let log = Box::new(Log(Mutex::new(Vec::new())));
-        let functions = Box::new(callbacks(&log));
-        let name = CString::new(name).unwrap();
-        let guid = CString::new(guid::<M>()).unwrap();
-        let c = unsafe {
-            api::fmi2Instantiate::<M>(
-                name.as_ptr(),
-                fmi2CoSimulation,
-                guid.as_ptr(),
-                std::ptr::null(),
-                &*functions,
-                fmi2False,
-                if logging_on { fmi2True } else { fmi2False },
-            )
-        };
-        assert!(!c.is_null(), "fmi2Instantiate failed: {:?}", log.0.lock().unwrap());
-        Harness { c, log, _functions: functions, _model: PhantomData }
+        let token = CString::new(guid::<M>()).unwrap();
+        Self::try_with_token(name, &token, logging_on)
+            .unwrap_or_else(|log| panic!("instantiation failed: {log:?}"))
     }
 
-    /// An instance in state StepComplete at t = 0.
+    /// Instantiates with `token`: the harness, or what was logged instead.
+    pub fn try_with_token(name: &str, token: &CStr, logging_on: bool) -> Result<Self, Vec<String>> {
+        let log = Box::new(Log(Mutex::new(Vec::new())));
+        let cname = CString::new(name).unwrap();
+        let (c, keep) = unsafe { S::instantiate::<M>(&cname, token, &log, logging_on) };
+        if c.is_null() {
+            return Err(log.0.lock().unwrap().clone());
+        }
+        let experiment = Cell::new((0.0, None));
+        Ok(Harness { c, name: name.into(), log, _keep: keep, experiment, _model: PhantomData })
+    }
+
+    /// An instance in state StepComplete (Step Mode) at t = 0.
     pub fn init(name: &str) -> Self {
         let h = Self::new(name);
-        assert_eq!(h.setup(), fmi2OK);
-        assert_eq!(h.enter(), fmi2OK);
-        assert_eq!(h.exit(), fmi2OK, "{:?}", h.logged());
+        assert_eq!(h.setup(), 0);
+        assert_eq!(h.enter(), 0);
+        assert_eq!(h.exit(), 0, "{:?}", h.logged());
         h
     }
 
-    pub fn setup(&self) -> fmi2Status {
-        unsafe { api::fmi2SetupExperiment::<M>(self.c, fmi2False, 0.0, 0.0, fmi2False, 0.0) }
+    pub fn setup(&self) -> Status {
+        self.experiment(0.0, None)
     }
-    pub fn enter(&self) -> fmi2Status {
-        unsafe { api::fmi2EnterInitializationMode::<M>(self.c) }
+    /// The experiment: FMI 2.0's `fmi2SetupExperiment`; for FMI 3.0, kept for `enter`.
+    pub fn experiment(&self, start: f64, stop: Option<f64>) -> Status {
+        self.experiment.set((start, stop));
+        unsafe { S::setup::<M>(self.c, start, stop) }
     }
-    pub fn exit(&self) -> fmi2Status {
-        unsafe { api::fmi2ExitInitializationMode::<M>(self.c) }
+    pub fn enter(&self) -> Status {
+        let (start, stop) = self.experiment.get();
+        unsafe { S::enter::<M>(self.c, start, stop) }
     }
-    pub fn reset(&self) -> fmi2Status {
-        unsafe { api::fmi2Reset::<M>(self.c) }
+    pub fn exit(&self) -> Status {
+        unsafe { S::exit::<M>(self.c) }
     }
-    pub fn set_real(&self, vr: u32, v: f64) -> fmi2Status {
-        unsafe { api::fmi2SetReal::<M>(self.c, &vr, 1, &v) }
+    pub fn terminate(&self) -> Status {
+        unsafe { S::terminate::<M>(self.c) }
     }
-    pub fn set_integer(&self, vr: u32, v: i32) -> fmi2Status {
-        unsafe { api::fmi2SetInteger::<M>(self.c, &vr, 1, &v) }
+    pub fn reset(&self) -> Status {
+        unsafe { S::reset::<M>(self.c) }
     }
-    pub fn set_boolean(&self, vr: u32, v: bool) -> fmi2Status {
-        let v = if v { fmi2True } else { fmi2False };
-        unsafe { api::fmi2SetBoolean::<M>(self.c, &vr, 1, &v) }
+    pub fn set_real(&self, vr: u32, v: f64) -> Status {
+        self.set_reals(&[vr], &[v])
     }
-    pub fn real(&self, vr: u32) -> (fmi2Status, f64) {
+    pub fn set_reals(&self, vrs: &[u32], vs: &[f64]) -> Status {
+        assert_eq!(vrs.len(), vs.len());
+        unsafe { S::set_reals::<M>(self.c, vrs.as_ptr(), vrs.len(), vs.as_ptr()) }
+    }
+    pub fn set_integer(&self, vr: u32, v: i32) -> Status {
+        unsafe { S::set_integer::<M>(self.c, vr, v) }
+    }
+    pub fn set_boolean(&self, vr: u32, v: bool) -> Status {
+        unsafe { S::set_boolean::<M>(self.c, vr, v) }
+    }
+    pub fn real(&self, vr: u32) -> (Status, f64) {
         let mut v = f64::NAN;
-        let s = unsafe { api::fmi2GetReal::<M>(self.c, &vr, 1, &mut v) };
+        let s = unsafe { S::get_reals::<M>(self.c, &vr, 1, &mut v) };
         (s, v)
     }
-    pub fn integer(&self, vr: u32) -> (fmi2Status, i32) {
-        let mut v = i32::MIN;
-        let s = unsafe { api::fmi2GetInteger::<M>(self.c, &vr, 1, &mut v) };
-        (s, v)
+    pub fn integer(&self, vr: u32) -> (Status, i32) {
+        unsafe { S::get_integer::<M>(self.c, vr) }
     }
-    pub fn boolean(&self, vr: u32) -> (fmi2Status, bool) {
-        let mut v = -1;
-        let s = unsafe { api::fmi2GetBoolean::<M>(self.c, &vr, 1, &mut v) };
-        (s, v != fmi2False)
+    pub fn boolean(&self, vr: u32) -> (Status, bool) {
+        unsafe { S::get_boolean::<M>(self.c, vr) }
     }
-    pub fn step(&self, t: f64, h: f64) -> fmi2Status {
-        unsafe { api::fmi2DoStep::<M>(self.c, t, h, fmi2True) }
+    pub fn step(&self, t: f64, h: f64) -> Status {
+        unsafe { S::step::<M>(self.c, t, h) }
     }
 
     pub fn logged(&self) -> Vec<String> {
@@ -169,67 +379,74 @@ impl<M: Model> Harness<M> {
         std::mem::take(&mut *self.log.0.lock().unwrap())
     }
 
-    /// `fmi2SetDebugLogging` with these category names.
-    pub fn set_debug_logging(&self, on: bool, categories: &[&str]) -> fmi2Status {
+    /// A logged line as this standard writes it: FMI 3.0 leads with the instance name.
+    pub fn line(&self, status: Status, category: &str, message: &str) -> String {
+        match S::NAME_IN_MESSAGE {
+            true => format!("{status}|{category}|{}: {message}", self.name),
+            false => format!("{status}|{category}|{message}"),
+        }
+    }
+
+    /// `Set*DebugLogging` with these category names.
+    pub fn set_debug_logging(&self, on: bool, categories: &[&str]) -> Status {
         let names: Vec<CString> = categories.iter().map(|c| CString::new(*c).unwrap()).collect();
-        let ptrs: Vec<fmi2String> = names.iter().map(|c| c.as_ptr()).collect();
-        let on = if on { fmi2True } else { fmi2False };
-        unsafe { api::fmi2SetDebugLogging::<M>(self.c, on, ptrs.len(), ptrs.as_ptr()) }
+        let ptrs: Vec<*const c_char> = names.iter().map(|c| c.as_ptr()).collect();
+        self.set_debug_logging_raw(on, &ptrs)
+    }
+
+    pub fn set_debug_logging_raw(&self, on: bool, ptrs: &[*const c_char]) -> Status {
+        unsafe { S::set_debug_logging::<M>(self.c, on, ptrs.len(), ptrs.as_ptr()) }
     }
 
     /// Whether a message with this status containing every part was logged.
-    pub fn saw(&self, status: fmi2Status, parts: &[&str]) -> bool {
+    pub fn saw(&self, status: Status, parts: &[&str]) -> bool {
         self.logged()
             .iter()
             .any(|m| m.starts_with(&format!("{status}|")) && parts.iter().all(|p| m.contains(p)))
     }
 
-    /// `fmi2GetFMUstate`; the caller frees it with [`Harness::free_state`].
-    pub fn get_state(&self) -> fmi2FMUstate {
-        let mut s: fmi2FMUstate = std::ptr::null_mut();
-        assert_eq!(unsafe { api::fmi2GetFMUstate::<M>(self.c, &mut s) }, fmi2OK);
+    /// `Get*FMUState`; the caller frees it with [`Harness::free_state`].
+    pub fn get_state(&self) -> C {
+        let (status, s) = self.try_get_state();
+        assert_eq!(status, 0, "{:?}", self.logged());
         s
     }
-    pub fn set_state(&self, s: fmi2FMUstate) -> fmi2Status {
-        unsafe { api::fmi2SetFMUstate::<M>(self.c, s) }
+    pub fn try_get_state(&self) -> (Status, C) {
+        let mut s: C = std::ptr::null_mut();
+        (unsafe { S::get_state::<M>(self.c, &mut s) }, s)
     }
-    pub fn free_state(&self, mut s: fmi2FMUstate) -> fmi2Status {
-        unsafe { api::fmi2FreeFMUstate::<M>(self.c, &mut s) }
+    pub fn set_state(&self, s: C) -> Status {
+        unsafe { S::set_state::<M>(self.c, s) }
+    }
+    pub fn free_state(&self, mut s: C) -> Status {
+        unsafe { S::free_state::<M>(self.c, &mut s) }
     }
 
     /// The current state, serialized.
     pub fn serialize(&self) -> Vec<u8> {
         let s = self.get_state();
-        let mut size = 0usize;
-        assert_eq!(unsafe { api::fmi2SerializedFMUstateSize::<M>(self.c, s, &mut size) }, fmi2OK);
+        let size = self.state_size(s);
         let mut bytes = vec![0u8; size];
-        assert_eq!(
-            unsafe {
-                api::fmi2SerializeFMUstate::<M>(
-                    self.c,
-                    s,
-                    bytes.as_mut_ptr() as *mut fmi2Byte,
-                    size,
-                )
-            },
-            fmi2OK
-        );
-        assert_eq!(self.free_state(s), fmi2OK);
+        assert_eq!(self.serialize_into(s, &mut bytes), 0);
+        assert_eq!(self.free_state(s), 0);
         bytes
     }
 
+    pub fn state_size(&self, s: C) -> usize {
+        let mut size = 0usize;
+        assert_eq!(unsafe { S::state_size::<M>(self.c, s, &mut size) }, 0);
+        size
+    }
+
+    pub fn serialize_into(&self, s: C, out: &mut [u8]) -> Status {
+        unsafe { S::serialize::<M>(self.c, s, out.as_mut_ptr(), out.len()) }
+    }
+
     /// Deserializes `bytes` and sets the instance to it.
-    pub fn deserialize(&self, bytes: &[u8]) -> fmi2Status {
-        let mut s: fmi2FMUstate = std::ptr::null_mut();
-        let st = unsafe {
-            api::fmi2DeSerializeFMUstate::<M>(
-                self.c,
-                bytes.as_ptr() as *const fmi2Byte,
-                bytes.len(),
-                &mut s,
-            )
-        };
-        if st != fmi2OK {
+    pub fn deserialize(&self, bytes: &[u8]) -> Status {
+        let mut s: C = std::ptr::null_mut();
+        let st = unsafe { S::deserialize::<M>(self.c, bytes.as_ptr(), bytes.len(), &mut s) };
+        if st != 0 {
             return st;
         }
         let st = self.set_state(s);
@@ -238,8 +455,8 @@ impl<M: Model> Harness<M> {
     }
 }
 
-impl<M: Model> Drop for Harness<M> {
+impl<M: Model, S: Master> Drop for Harness<M, S> {
     fn drop(&mut self) {
-        unsafe { api::fmi2FreeInstance::<M>(self.c) };
+        unsafe { S::free::<M>(self.c) };
     }
 }

@@ -10,7 +10,7 @@
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
 };
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
 
 mod vr {
     pub const ENCODER_COUNTS: u32 = 1;
@@ -346,28 +346,27 @@ impl Model for ControllerFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String> {
+    fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
         let samples = (h / SAMPLE_PERIOD).round();
         let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
-        let mut messages = Vec::new();
         for _ in 0..samples as u64 {
             let s = c.tick(i64::from(self.encoder_counts), self.reference);
             if s.no_root {
-                messages.push(Message::Warning(format!(
+                log.warning(format_args!(
                     "at t = {t} s the estimated inverse scale factor has no root for a full step in its bracket (non-monotone map): no full steps this move"
-                )));
+                ));
             }
             if s.iterated {
-                messages.push(Message::Event(format!(
+                log.event(format_args!(
                     "control iteration near t = {t} s: {} full step(s) and fraction {:.4}, disturbance estimate {:.4} um",
                     s.n_steps,
                     s.fraction,
                     s.disturbance_estimate * 1e6
-                )));
+                ));
             }
             self.last = Some(s);
         }
-        Ok(messages)
+        Ok(())
     }
 
     fn save_state(&self, w: &mut Writer) {

@@ -15,7 +15,7 @@
 //! Ecos and libcosim after): the pose of the runners one step (2 ms) earlier.
 //! [`actuator_positions`] is the inverse, for commands.
 
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
 
 mod vr {
     pub const POSITION_A: u32 = 1;
@@ -162,9 +162,9 @@ impl Model for MountFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, _t: f64, _h: f64) -> Result<Vec<Message>, String> {
+    fn do_step(&mut self, _t: f64, _h: f64, _log: &mut StepLog) -> Result<(), String> {
         self.held = pose(self.z, self.radius, self.angle_a);
-        Ok(Vec::new())
+        Ok(())
     }
 
     fn save_state(&self, w: &mut Writer) {

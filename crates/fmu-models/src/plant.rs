@@ -2,7 +2,7 @@
 //! interface of docs/model.md §5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, N_PLAYS};
 
 /// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
@@ -273,33 +273,32 @@ impl Model for PlantFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, _t: f64, h: f64) -> Result<Vec<Message>, String> {
+    fn do_step(&mut self, _t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
         let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
         let before = plant.mode();
         let report = plant.step(self.dac, h).map_err(|e| e.to_string())?;
-        let mut messages = Vec::new();
         if report.brake_events > 0 {
-            messages.push(Message::Event(format!(
+            log.event(format_args!(
                 "{} brake switch(es) in the step ending at t = {} s, first at {:?} s; mode {:?} -> {:?}",
                 report.brake_events,
                 plant.time(),
                 report.first_brake_event,
                 before,
                 plant.mode()
-            )));
+            ));
         }
         if report.slips > 0 {
-            messages.push(Message::Warning(format!(
+            log.warning(format_args!(
                 "both brakes open: the runner slipped (FREE entered {} time(s), {} in all) before t = {} s",
                 report.slips,
                 plant.outputs().slip_events,
                 plant.time()
-            )));
+            ));
         }
         if report.event_budget_exhausted {
-            messages.push(Message::Warning(format!("event detection suspended in the step ending at t = {} s: too many events (chattering at a threshold)", plant.time())));
+            log.warning(format_args!("event detection suspended in the step ending at t = {} s: too many events (chattering at a threshold)", plant.time()));
         }
-        Ok(messages)
+        Ok(())
     }
 
     fn save_state(&self, w: &mut Writer) {

@@ -9,7 +9,7 @@
 //! initialization hands the controller the reference of each communication point at that
 //! point (the inchworm master, Ecos and libcosim do; FMPy's starts every connector at 0).
 
-use inchworm_fmi_export::{Kind, Message, Model, ModelInfo, Reader, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
 
 /// Points the table holds.
 pub const MAX_POINTS: usize = 16;
@@ -263,19 +263,14 @@ impl Model for ReferenceFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, t: f64, h: f64) -> Result<Vec<Message>, String> {
+    fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
         let before = self.value(t);
         self.time = t + h;
         let after = self.value(self.time);
-        let mut messages = Vec::new();
         if after != before {
-            messages.push(Message::Event(format!(
-                "reference {:.4} um at t = {} s",
-                after * 1e6,
-                self.time
-            )));
+            log.event(format_args!("reference {:.4} um at t = {} s", after * 1e6, self.time));
         }
-        Ok(messages)
+        Ok(())
     }
 
     fn save_state(&self, w: &mut Writer) {

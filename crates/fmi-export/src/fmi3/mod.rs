@@ -1,9 +1,9 @@
-//! FMI 3.0 Co-Simulation export: the sibling of the FMI 2.0 entry points in
-//! [`crate::api`], over the same [`crate::Model`] trait, variable table, allowed-state
-//! masks, `catch_unwind` policy, log categories and serialized-state frame (a blob saved
-//! by one version restores in the other). [`crate::export_fmi3!`] exports every `fmi3*`
-//! function of the standard for one model; the ones this FMU does not support log why
-//! and return `fmi3Error`.
+//! FMI 3.0 Co-Simulation export over the same core as FMI 2.0 ([`crate::entry`]): the
+//! same [`crate::Model`] trait, variable table, allowed-state masks, `catch_unwind`
+//! policy, log categories and serialized-state frame (a blob saved by one version
+//! restores in the other). [`crate::export_fmi3!`] exports every `fmi3*` function of the
+//! standard for one model; the ones this FMU does not support log why and return
+//! `fmi3Error`.
 //!
 //! Types: `Real` variables are `Float64`, `Integer` are `Int32`, `Boolean` are `Boolean`;
 //! arrays keep the scalar names of the FMI 2.0 table (`play_radius[1]` …), which FMI 3.0's
@@ -11,13 +11,9 @@
 //! (value reference [`TIME_VR`]) that FMI 3.0 requires is the layer's.
 
 pub mod api;
-mod export;
 pub mod ffi;
-mod instance;
 pub mod model_description;
 pub mod testing;
-
-pub use instance::State3;
 
 /// Value reference of the independent variable `time`; no model table may use it.
 pub const TIME_VR: u32 = 0;

@@ -1,0 +1,825 @@
+//! The entry points of every standard, written once. Each takes the C arguments already
+//! reduced to what both standards share (an instance pointer, value references and
+//! values as pointer and count, plain numbers); the per-standard files only name them.
+//!
+//! Every function follows one shape, as in the Reference-FMUs: check the instance pointer
+//! and that the call is allowed in the current state (the masks below), check the
+//! arguments, run the body inside `catch_unwind`, log every refusal with the function
+//! name and the reason, and return a defined status.
+//!
+//! Status policy: a refused call (wrong state, bad argument, a NaN input) returns Error
+//! and leaves the instance as it was, so the master can correct the call and go on; a
+//! failure of the model itself (invalid parameters at exit from initialization, a failed
+//! step) moves the instance to the Error state, from which only reset, free, getters and
+//! state restore are allowed; a Rust panic (a bug) returns Fatal and moves it to Fatal,
+//! from which only freeing the instance is allowed.
+//!
+//! A Model Exchange interface adds its entry points here, over the same instance: its
+//! states are further bits of [`State`], its calls further functions of this shape.
+#![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
+
+use std::ffi::{c_void, CStr};
+use std::fmt;
+use std::os::raw::c_char;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use crate::instance::*;
+use crate::table::{Admission, Kind, Variable};
+use crate::{model_description, state_blob, Message, Model};
+
+pub use crate::instance::{Standard, Status};
+
+const I: u16 = State::Instantiated as u16;
+const IM: u16 = State::InitializationMode as u16;
+const SC: u16 = State::StepComplete as u16;
+const SIP: u16 = State::StepInProgress as u16;
+const SF: u16 = State::StepFailed as u16;
+const SCA: u16 = State::StepCanceled as u16;
+const T: u16 = State::Terminated as u16;
+const E: u16 = State::Error as u16;
+
+/// The allowed-state masks, named for the calls that use them.
+pub const INSTANTIATED: u16 = I;
+pub const INITIALIZATION: u16 = IM;
+pub const STEPPING: u16 = SC;
+pub const STEP_ENDED: u16 = SC | SF | SCA;
+pub const LIVE: u16 = I | IM | SC | SIP | SF | SCA | T | E;
+pub const GETTABLE: u16 = IM | SC | SF | SCA | T | E;
+pub const SETTABLE: u16 = I | IM | SC;
+pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E;
+pub const STATUS_CALLS: u16 = SC | SIP | SF | SCA | T;
+pub const AFTER_STEP: u16 = SC | SF | SCA | T | E;
+/// Every state the core has; a standard has those of [`Standard::STATES`].
+pub const ALL_STATES: u16 = LIVE | State::Fatal as u16;
+
+/// A value on its way between the master and the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+}
+
+impl Value {
+    pub fn real(self) -> f64 {
+        match self {
+            Value::Real(x) => x,
+            Value::Integer(i) => f64::from(i),
+            Value::Boolean(b) => f64::from(u8::from(b)),
+        }
+    }
+    pub fn integer(self) -> i32 {
+        match self {
+            Value::Integer(i) => i,
+            Value::Boolean(b) => i32::from(b),
+            Value::Real(x) => x as i32,
+        }
+    }
+    pub fn boolean(self) -> bool {
+        match self {
+            Value::Boolean(b) => b,
+            Value::Integer(i) => i != 0,
+            Value::Real(x) => x != 0.0,
+        }
+    }
+}
+
+/// Runs `body` on the instance behind `c` if the call is allowed in its state.
+pub unsafe fn with_instance<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    body: impl FnOnce(&mut Instance<S, M>) -> Status,
+) -> Status {
+    if c.is_null() || *(c as *const u64) != S::MAGIC {
+        return ERROR;
+    }
+    let inst = &mut *(c as *mut Instance<S, M>);
+    if inst.state as u16 & allowed == 0 {
+        let state = S::state_name(inst.state);
+        let why = format_args!("illegal call sequence: not allowed in state {state}");
+        return inst.refuse(func, why);
+    }
+    inst.log(OK, LogCategory::All, format_args!("{func}"));
+    match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
+        Ok(status) => status,
+        Err(panic) => {
+            inst.state = State::Fatal;
+            let what = panic_text(panic.as_ref());
+            let why = format_args!("{func}: internal error, instance unusable: {what}");
+            inst.log(FATAL, LogCategory::StatusError, why);
+            FATAL
+        }
+    }
+}
+
+unsafe fn slice<'a, T>(ptr: *const T, n: usize) -> Option<&'a [T]> {
+    match (n, ptr.is_null()) {
+        (0, _) => Some(&[]),
+        (_, true) => None,
+        _ => Some(std::slice::from_raw_parts(ptr, n)),
+    }
+}
+
+unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize) -> Option<&'a mut [T]> {
+    match (n, ptr.is_null()) {
+        (0, _) => Some(&mut []),
+        (_, true) => None,
+        _ => Some(std::slice::from_raw_parts_mut(ptr, n)),
+    }
+}
+
+fn text(p: *const c_char) -> String {
+    // SAFETY: callers pass a non-NULL C string of the master's.
+    unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+}
+
+impl<S: Standard, M: Model> Instance<S, M> {
+    /// The variable behind `vr`, if it exists and has type `kind`.
+    fn lookup(&self, vr: u32, kind: Kind) -> Result<&'static Variable, String> {
+        match self.variable(vr) {
+            None if S::TIME_VR == Some(vr) => Err(format!(
+                "value reference {vr} is the independent variable time ({}, not settable)",
+                S::type_name(Kind::Real)
+            )),
+            None => Err(format!("unknown value reference {vr}")),
+            Some(v) if v.kind != kind => Err(format!(
+                "value reference {vr} ({}) is {}, not {}",
+                v.name,
+                S::type_name(v.kind),
+                S::type_name(kind)
+            )),
+            Some(v) => Ok(v),
+        }
+    }
+
+    fn read(&self, vr: u32, kind: Kind) -> Result<Value, String> {
+        if kind == Kind::Real && S::TIME_VR == Some(vr) && self.variable(vr).is_none() {
+            return Ok(Value::Real(self.time));
+        }
+        self.lookup(vr, kind)?;
+        match kind {
+            Kind::Real => self.model.get_real(vr).map(Value::Real),
+            Kind::Integer => self.model.get_integer(vr).map(Value::Integer),
+            Kind::Boolean => self.model.get_boolean(vr).map(Value::Boolean),
+        }
+    }
+
+    /// Sets one value: each stands alone, so a refused one keeps its previous value and
+    /// does not stop the others.
+    fn write(&mut self, func: &str, vr: u32, kind: Kind, value: Value) -> Status {
+        let var = match self.lookup(vr, kind) {
+            Ok(v) => v,
+            Err(why) => return self.refuse(func, format_args!("{why}")),
+        };
+        let settable = match self.state {
+            State::Instantiated | State::InitializationMode => var.settable_before_init(),
+            _ => var.settable_after_init(),
+        };
+        if !settable {
+            let (c, v, s) = (var.causality, var.variability, S::state_name(self.state));
+            let why = format_args!("{} ({c:?}, {v:?}) cannot be set in state {s}", var.name);
+            return self.refuse(func, why);
+        }
+        let (stored, clamped_from) = match value {
+            Value::Real(x) => match var.admit(x) {
+                Admission::Accept(y) => (self.model.set_real(vr, y), None),
+                Admission::Clamp(y) => (self.model.set_real(vr, y), Some((x, y))),
+                Admission::NonFinite => {
+                    let current = self.model.get_real(vr).unwrap_or(f64::NAN);
+                    return self.refuse(func, format_args!("{}", var.refusal(x, current)));
+                }
+            },
+            Value::Integer(i) => (self.model.set_integer(vr, i), None),
+            Value::Boolean(b) => (self.model.set_boolean(vr, b), None),
+        };
+        match (stored, clamped_from) {
+            (Err(why), _) => self.refuse(func, format_args!("{why}")),
+            (Ok(()), None) => OK,
+            (Ok(()), Some((x, y))) => {
+                let why = format_args!("{func}: {}", var.clamping(x, y));
+                self.log(WARNING, LogCategory::StatusWarning, why);
+                WARNING
+            }
+        }
+    }
+
+    /// Refuses a call whose value count is not one per scalar value reference.
+    fn check_counts(&self, func: &str, nvr: usize, nvalues: usize) -> Result<(), Status> {
+        if nvr == nvalues {
+            return Ok(());
+        }
+        Err(self.refuse(func, format_args!("nValues {nvalues} differs from nValueReferences {nvr} (every variable of this FMU is a scalar)")))
+    }
+
+    /// The snapshot behind `state` if this instance handed it out.
+    unsafe fn own_snapshot<'a>(&self, state: *mut c_void) -> Option<&'a mut Snapshot<M>> {
+        let p = state as *mut Snapshot<M>;
+        self.snapshots.contains(&p).then(|| &mut *p)
+    }
+
+    /// Stores `snap` into `*slot`: in place if it already holds one of ours, else anew.
+    unsafe fn store_snapshot(&mut self, slot: *mut *mut c_void, snap: Snapshot<M>) -> Status {
+        if let Some(existing) = self.own_snapshot(*slot) {
+            *existing = snap;
+        } else {
+            let p = Box::into_raw(Box::new(snap));
+            self.snapshots.push(p);
+            *slot = p as *mut c_void;
+        }
+        OK
+    }
+
+    fn not_ours(&self, func: &str) -> Status {
+        let (p, s) = (S::PREFIX, S::FMU_STATE);
+        self.refuse(
+            func,
+            format_args!("{s} was not created by {p}Get{s} of this instance (or was freed)"),
+        )
+    }
+}
+
+/// Logs through the master's callback before an instance exists.
+fn log_early<S: Standard>(cb: &S::Callbacks, name: *const c_char, func: &str, why: fmt::Arguments) {
+    // SAFETY: a non-NULL name is the master's C string.
+    let name = (!name.is_null()).then(|| unsafe { CStr::from_ptr(name) });
+    emit::<S>(cb, name, ERROR, LogCategory::StatusError, format_args!("{func}: {why}"));
+}
+
+/// Creates an instance after checking its name, the interface-specific `refusal` the
+/// standard's glue found, and the token, which must be this build's GUID.
+pub unsafe fn instantiate<S: Standard, M: Model>(
+    func: &str,
+    callbacks: Option<S::Callbacks>,
+    name: *const c_char,
+    token: *const c_char,
+    refusal: Option<&str>,
+    logging_on: bool,
+) -> *mut c_void {
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        let Some(cb) = callbacks else { return std::ptr::null_mut() };
+        let fail = |why: fmt::Arguments| {
+            log_early::<S>(&cb, name, func, why);
+            std::ptr::null_mut()
+        };
+        if name.is_null() || *name == 0 {
+            return fail(format_args!("instanceName is NULL or empty"));
+        }
+        if let Some(why) = refusal {
+            return fail(format_args!("{why}"));
+        }
+        let (arg, guid) = (S::TOKEN_ARG, model_description::guid::<M>());
+        if token.is_null() {
+            return fail(format_args!("{arg} is NULL"));
+        }
+        let given = text(token);
+        if given != guid {
+            let given = Clip(&given);
+            return fail(format_args!("{arg} \"{given}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"));
+        }
+        let inst = Instance::<S, M>::new(CStr::from_ptr(name).to_owned(), cb, logging_on);
+        Box::into_raw(Box::new(inst)) as *mut c_void
+    }));
+    result.unwrap_or(std::ptr::null_mut())
+}
+
+/// An instantiation function of an interface this FMU does not implement.
+pub unsafe fn refuse_instantiation<S: Standard>(
+    func: &str,
+    callbacks: S::Callbacks,
+    name: *const c_char,
+    why: &str,
+) -> *mut c_void {
+    let _ = catch_unwind(AssertUnwindSafe(|| {
+        log_early::<S>(&callbacks, name, func, format_args!("not supported: {why}"))
+    }));
+    std::ptr::null_mut()
+}
+
+pub unsafe fn free_instance<S: Standard, M: Model>(c: *mut c_void) {
+    if c.is_null() || *(c as *const u64) != S::MAGIC {
+        return;
+    }
+    // Dropping a model only frees memory; a panic there must still not unwind into C.
+    let _ = catch_unwind(AssertUnwindSafe(|| drop(Box::from_raw(c as *mut Instance<S, M>))));
+}
+
+/// FMI 2.0 section 2.1.5, kept by FMI 3.0 section 2.3.1: on with no categories enables
+/// all of them; on with categories enables exactly those; off with categories disables
+/// those; off with none disables all. A NULL or unknown name refuses the whole call and
+/// changes nothing, so a master's typo cannot leave half of its request applied.
+pub unsafe fn set_debug_logging<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    on: bool,
+    n: usize,
+    categories: *const *const c_char,
+) -> Status {
+    with_instance::<S, M>(c, func, LIVE, |inst| {
+        let Some(names) = slice(categories, n) else {
+            return inst.refuse(func, format_args!("categories is NULL"));
+        };
+        let mut named = Categories::NONE;
+        for &p in names {
+            if p.is_null() {
+                let why = format_args!("a category name is NULL; logging left unchanged");
+                return inst.refuse(func, why);
+            }
+            match LogCategory::from_name(CStr::from_ptr(p).to_bytes()) {
+                Some(cat) => named = named.with(cat),
+                None => {
+                    let (name, known) = (text(p), KnownCategories);
+                    let name = Clip(&name);
+                    return inst.refuse(func, format_args!("unknown log category \"{name}\" (this FMU has {known}); logging left unchanged"));
+                }
+            }
+        }
+        inst.categories = match (on, names.is_empty()) {
+            (true, true) => Categories::ALL,
+            (true, false) => named,
+            (false, true) => Categories::NONE,
+            (false, false) => inst.categories.without(named),
+        };
+        OK
+    })
+}
+
+struct KnownCategories;
+
+impl fmt::Display for KnownCategories {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, c) in LogCategory::ALL.iter().enumerate() {
+            write!(f, "{}{}", if i == 0 { "" } else { ", " }, c.name())?;
+        }
+        Ok(())
+    }
+}
+
+/// The experiment: a finite start, and a stop time, if any, not before it.
+fn experiment<S: Standard, M: Model>(
+    inst: &mut Instance<S, M>,
+    func: &str,
+    start: f64,
+    stop: Option<f64>,
+) -> Status {
+    if !start.is_finite() {
+        return inst.refuse(func, format_args!("startTime {start} is not finite"));
+    }
+    if let Some(stop) = stop.filter(|&s| !s.is_finite() || s < start) {
+        let why = format_args!("stopTime {stop} is not finite or before startTime {start}");
+        return inst.refuse(func, why);
+    }
+    (inst.start_time, inst.time, inst.stop_time) = (start, start, stop);
+    OK
+}
+
+pub unsafe fn setup_experiment<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    start: f64,
+    stop: Option<f64>,
+) -> Status {
+    with_instance::<S, M>(c, func, INSTANTIATED, |inst| experiment(inst, func, start, stop))
+}
+
+/// Enters initialization mode, with the experiment if the standard passes it here.
+pub unsafe fn enter_initialization<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    exp: Option<(f64, Option<f64>)>,
+) -> Status {
+    with_instance::<S, M>(c, func, INSTANTIATED, |inst| {
+        if let Some((start, stop)) = exp {
+            if experiment(inst, func, start, stop) != OK {
+                return ERROR;
+            }
+        }
+        inst.state = State::InitializationMode;
+        OK
+    })
+}
+
+/// Without event mode, FMI 3.0 Co-Simulation goes straight to Step Mode, which is the
+/// core's StepComplete.
+pub unsafe fn exit_initialization<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
+    with_instance::<S, M>(c, func, INITIALIZATION, |inst| {
+        match inst.model.exit_initialization(inst.start_time) {
+            Ok(()) => {
+                inst.state = State::StepComplete;
+                OK
+            }
+            Err(why) => {
+                inst.state = State::Error;
+                inst.refuse(func, format_args!("{why}"))
+            }
+        }
+    })
+}
+
+pub unsafe fn terminate<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
+    with_instance::<S, M>(c, func, STEP_ENDED, |inst| {
+        inst.state = State::Terminated;
+        OK
+    })
+}
+
+pub unsafe fn reset<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
+    with_instance::<S, M>(c, func, LIVE, |inst| {
+        inst.model = M::new();
+        inst.state = State::Instantiated;
+        (inst.time, inst.start_time, inst.stop_time) = (0.0, 0.0, None);
+        inst.last_step_status = OK;
+        OK
+    })
+}
+
+/// `Get*` of one type: `conv` turns the model's value into the standard's C type.
+pub unsafe fn get<S: Standard, M: Model, T>(
+    c: *mut c_void,
+    func: &str,
+    (vr, nvr): (*const u32, usize),
+    (values, nvalues): (*mut T, usize),
+    kind: Kind,
+    conv: fn(Value) -> T,
+) -> Status {
+    with_instance::<S, M>(c, func, GETTABLE, |inst| {
+        if let Err(s) = inst.check_counts(func, nvr, nvalues) {
+            return s;
+        }
+        let (Some(vrs), Some(out)) = (slice(vr, nvr), slice_mut(values, nvr)) else {
+            return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
+        };
+        for (r, out) in vrs.iter().zip(out) {
+            match inst.read(*r, kind) {
+                Ok(v) => *out = conv(v),
+                Err(why) => return inst.refuse(func, format_args!("{why}")),
+            }
+        }
+        OK
+    })
+}
+
+/// `Set*` of one type: `conv` reads the standard's C type. The call reports the worst
+/// outcome of its values.
+pub unsafe fn set<S: Standard, M: Model, T: Copy>(
+    c: *mut c_void,
+    func: &str,
+    (vr, nvr): (*const u32, usize),
+    (values, nvalues): (*const T, usize),
+    kind: Kind,
+    conv: fn(T) -> Value,
+) -> Status {
+    with_instance::<S, M>(c, func, SETTABLE, |inst| {
+        if let Err(s) = inst.check_counts(func, nvr, nvalues) {
+            return s;
+        }
+        let (Some(vrs), Some(values)) = (slice(vr, nvr), slice(values, nvr)) else {
+            return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
+        };
+        let mut status = OK;
+        for (r, v) in vrs.iter().zip(values) {
+            status = status.max(inst.write(func, *r, kind, conv(*v)));
+        }
+        status
+    })
+}
+
+/// `Get*`/`Set*` of a type the FMU has no variables of: nothing to do for no references,
+/// else the first reference named (unknown, or of which type it is).
+pub unsafe fn no_variables_of<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    ty: &str,
+    (vr, nvr): (*const u32, usize),
+    values_null: bool,
+) -> Status {
+    with_instance::<S, M>(c, func, allowed, |inst| match slice(vr, nvr) {
+        Some([]) => OK,
+        Some([r, ..]) if !values_null => {
+            let why = match inst.variable(*r) {
+                Some(v) => format!(
+                    "value reference {r} ({}) is {}, not {ty}",
+                    v.name,
+                    S::type_name(v.kind)
+                ),
+                None if S::TIME_VR == Some(*r) => {
+                    format!("value reference {r} (time) is {}, not {ty}", S::type_name(Kind::Real))
+                }
+                None => format!("unknown value reference {r}: this FMU has no {ty} variables"),
+            };
+            inst.refuse(func, format_args!("{why}"))
+        }
+        _ => inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS)),
+    })
+}
+
+/// An entry point this FMU does not support: logged with the reason, Error.
+pub unsafe fn unsupported<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    why: &str,
+) -> Status {
+    with_instance::<S, M>(c, func, allowed, |inst| {
+        inst.refuse(func, format_args!("not supported: {why}"))
+    })
+}
+
+/// A status query: `read` answers it from the instance or says why it cannot.
+pub unsafe fn status_query<S: Standard, M: Model, T>(
+    c: *mut c_void,
+    func: &str,
+    value: *mut T,
+    read: impl FnOnce(&Instance<S, M>) -> Result<T, String>,
+) -> Status {
+    with_instance::<S, M>(c, func, STATUS_CALLS, |inst| {
+        if value.is_null() {
+            return inst.refuse(func, format_args!("value is NULL"));
+        }
+        match read(inst) {
+            Ok(v) => {
+                *value = v;
+                OK
+            }
+            Err(why) => inst.refuse(func, format_args!("{why}")),
+        }
+    })
+}
+
+/// Where FMI 3.0's `fmi3DoStep` reports; FMI 2.0 has no such arguments.
+pub struct StepOutputs {
+    pub event_handling_needed: *mut bool,
+    pub terminate_simulation: *mut bool,
+    pub early_return: *mut bool,
+    pub last_successful_time: *mut f64,
+}
+
+impl StepOutputs {
+    /// The FMU has no event mode and never returns early, so those two are always false;
+    /// `lastSuccessfulTime` is the FMU time; `terminateSimulation` is true only when the
+    /// model failed (the instance is then in Error). A NULL one is skipped: the call has
+    /// already been refused for it.
+    unsafe fn report(&self, terminate: bool, time: f64) {
+        for (p, v) in [
+            (self.event_handling_needed, false),
+            (self.early_return, false),
+            (self.terminate_simulation, terminate),
+        ] {
+            if !p.is_null() {
+                *p = v;
+            }
+        }
+        if !self.last_successful_time.is_null() {
+            *self.last_successful_time = time;
+        }
+    }
+
+    fn any_null(&self) -> bool {
+        self.event_handling_needed.is_null()
+            || self.terminate_simulation.is_null()
+            || self.early_return.is_null()
+            || self.last_successful_time.is_null()
+    }
+}
+
+/// One communication step from `t` of length `h`.
+pub unsafe fn do_step<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    t: f64,
+    h: f64,
+    outputs: Option<StepOutputs>,
+) -> Status {
+    with_instance::<S, M>(c, func, STEPPING, |inst| {
+        if let Some(o) = &outputs {
+            o.report(false, inst.time);
+            if o.any_null() {
+                return inst.refuse(func, format_args!("eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime is NULL"));
+            }
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return inst
+                .refuse(func, format_args!("communicationStepSize {h} must be finite and > 0"));
+        }
+        if !t.is_finite() || !same_time(t, inst.time) {
+            let now = inst.time;
+            return inst.refuse(func, format_args!("currentCommunicationPoint {t} does not match the FMU time {now} (a step must start where the last one ended)"));
+        }
+        if let Some(stop) = inst.stop_time.filter(|&s| t + h > s && !same_time(t + h, s)) {
+            let (end, at) = (t + h, S::EXPERIMENT_FN);
+            return inst.refuse(
+                func,
+                format_args!("step to {end} passes the stop time {stop} set in {at}"),
+            );
+        }
+        if let Err(why) = inst.model.check_step(t, h) {
+            return inst.refuse(func, format_args!("{why}"));
+        }
+        let mut log = std::mem::take(&mut inst.step_log);
+        log.reset(inst.wants(LogCategory::Events));
+        let result = inst.model.do_step(t, h, &mut log);
+        let status = match result {
+            Ok(()) => {
+                // The master's clock is the reference: following it keeps t and the FMU
+                // time equal however the master accumulates it.
+                inst.time = t + h;
+                if let Some(o) = &outputs {
+                    o.report(false, inst.time);
+                }
+                let mut status = OK;
+                for m in log.drain() {
+                    match m {
+                        Message::Event(text) => {
+                            inst.log(OK, LogCategory::Events, format_args!("{text}"))
+                        }
+                        Message::Warning(text) => {
+                            inst.log(
+                                WARNING,
+                                LogCategory::StatusWarning,
+                                format_args!("{func}: {text}"),
+                            );
+                            status = WARNING;
+                        }
+                    }
+                }
+                inst.last_step_status = status;
+                status
+            }
+            Err(why) => {
+                inst.state = State::Error;
+                inst.last_step_status = ERROR;
+                if let Some(o) = &outputs {
+                    o.report(true, inst.time);
+                }
+                inst.refuse(func, format_args!("{why}"))
+            }
+        };
+        inst.step_log = log;
+        status
+    })
+}
+
+/// Communication points from `t += h` and from `k · h` differ by rounding; they are the
+/// same point when within 1e-9 of the time (and within a few ulps at t = 0).
+pub(crate) fn same_time(a: f64, b: f64) -> bool {
+    let scale = a.abs().max(b.abs());
+    (a - b).abs() <= (1e-9 * scale).max(4.0 * f64::EPSILON * scale).max(f64::MIN_POSITIVE)
+}
+
+pub unsafe fn get_fmu_state<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    slot: *mut *mut c_void,
+) -> Status {
+    with_instance::<S, M>(c, func, STATE_CALLS, |inst| {
+        if slot.is_null() {
+            return inst.refuse(func, format_args!("{} is NULL", S::FMU_STATE));
+        }
+        if inst.state == State::Error && !S::GET_STATE_IN_ERROR {
+            return inst.refuse(
+                func,
+                format_args!("an instance in Error state has no state worth saving"),
+            );
+        }
+        let snap = inst.snapshot();
+        inst.store_snapshot(slot, snap)
+    })
+}
+
+pub unsafe fn set_fmu_state<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    state: *mut c_void,
+) -> Status {
+    with_instance::<S, M>(c, func, STATE_CALLS, |inst| match inst.own_snapshot(state) {
+        Some(s) => {
+            let s = s.clone();
+            inst.restore(&s);
+            OK
+        }
+        None => inst.not_ours(func),
+    })
+}
+
+pub unsafe fn free_fmu_state<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    slot: *mut *mut c_void,
+) -> Status {
+    with_instance::<S, M>(c, func, STATE_CALLS, |inst| {
+        if slot.is_null() || (*slot).is_null() {
+            return OK;
+        }
+        let p = *slot as *mut Snapshot<M>;
+        match inst.snapshots.iter().position(|&s| s == p) {
+            Some(i) => {
+                inst.snapshots.swap_remove(i);
+                drop(Box::from_raw(p));
+                *slot = std::ptr::null_mut();
+                OK
+            }
+            None => inst.not_ours(func),
+        }
+    })
+}
+
+fn encode<M: Model>(s: &Snapshot<M>) -> Result<Vec<u8>, String> {
+    let payload = state_blob::save_model(&s.model)?;
+    let h = state_blob::Header {
+        state: s.state,
+        time: s.time,
+        start_time: s.start_time,
+        stop_time: s.stop_time,
+    };
+    Ok(state_blob::encode(model_description::guid::<M>(), &h, &payload))
+}
+
+/// Serializes the snapshot behind `state` and hands the bytes to `out`.
+unsafe fn with_blob<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    state: *mut c_void,
+    out: impl FnOnce(&Instance<S, M>, Vec<u8>) -> Status,
+) -> Status {
+    with_instance::<S, M>(c, func, STATE_CALLS, |inst| {
+        let Some(s) = inst.own_snapshot(state) else { return inst.not_ours(func) };
+        match encode(s) {
+            Ok(blob) => out(inst, blob),
+            Err(why) => inst.refuse(func, format_args!("{why}")),
+        }
+    })
+}
+
+pub unsafe fn serialized_size<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    state: *mut c_void,
+    size: *mut usize,
+) -> Status {
+    with_blob::<S, M>(c, func, state, |inst, blob| {
+        if size.is_null() {
+            return inst.refuse(func, format_args!("size is NULL"));
+        }
+        *size = blob.len();
+        OK
+    })
+}
+
+pub unsafe fn serialize<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    state: *mut c_void,
+    (bytes, size): (*mut u8, usize),
+) -> Status {
+    with_blob::<S, M>(c, func, state, |inst, blob| {
+        let Some(out) = slice_mut(bytes, size) else {
+            return inst.refuse(func, format_args!("serializedState is NULL"));
+        };
+        if out.len() < blob.len() {
+            let (have, need) = (out.len(), blob.len());
+            return inst.refuse(
+                func,
+                format_args!("buffer of {have} bytes is smaller than the state ({need} bytes)"),
+            );
+        }
+        out[..blob.len()].copy_from_slice(&blob);
+        OK
+    })
+}
+
+pub unsafe fn deserialize<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    (bytes, size): (*const u8, usize),
+    slot: *mut *mut c_void,
+) -> Status {
+    with_instance::<S, M>(c, func, STATE_CALLS, |inst| {
+        let (Some(blob), false) = (slice(bytes, size), slot.is_null()) else {
+            return inst.refuse(func, format_args!("serializedState or {} is NULL", S::FMU_STATE));
+        };
+        let (header, payload) = match state_blob::decode(model_description::guid::<M>(), blob) {
+            Ok(x) => x,
+            Err(why) => return inst.refuse(func, format_args!("{why}")),
+        };
+        if header.state as u16 & S::STATES == 0 {
+            let (s, v) = (header.state.name(), S::VERSION);
+            return inst.refuse(
+                func,
+                format_args!("serialized state was saved in FMI 2.0 state {s}, which {v} has not"),
+            );
+        }
+        let model = match state_blob::load_model::<M>(payload) {
+            Ok(m) => m,
+            Err(why) => return inst.refuse(func, format_args!("model state refused: {why}")),
+        };
+        let snap = Snapshot {
+            model,
+            state: header.state,
+            time: header.time,
+            start_time: header.start_time,
+            stop_time: header.stop_time,
+        };
+        inst.store_snapshot(slot, snap)
+    })
+}
