@@ -1,0 +1,409 @@
+//! FMI 2.0 Co-Simulation, natively: the `fmi2*` functions with their own signatures and
+//! `fmi2Status`, the C-variadic logger of `logger.c`, the `fmi2CallbackFunctions` the
+//! instance keeps pointers to.
+
+use std::ffi::CString;
+use std::path::Path;
+
+use super::{copy_strings, pointers, Backend, Calls, RawState};
+use crate::binary::Binary;
+use crate::description::ModelDescription;
+use crate::ffi::*;
+use crate::logger::{self, LogEnv};
+use crate::{FmuError, ImportError, Status};
+
+/// The FMI 2.0 functions this layer calls; all of the CS API's required ones are resolved
+/// (a binary missing one is refused up front).
+struct Api {
+    set_debug_logging: fmi2SetDebugLoggingTYPE,
+    free_instance: fmi2FreeInstanceTYPE,
+    setup_experiment: fmi2SetupExperimentTYPE,
+    enter_initialization_mode: fmi2EnterInitializationModeTYPE,
+    exit_initialization_mode: fmi2ExitInitializationModeTYPE,
+    terminate: fmi2TerminateTYPE,
+    reset: fmi2ResetTYPE,
+    get_real: fmi2GetRealTYPE,
+    get_integer: fmi2GetIntegerTYPE,
+    get_boolean: fmi2GetBooleanTYPE,
+    get_string: fmi2GetStringTYPE,
+    set_real: fmi2SetRealTYPE,
+    set_integer: fmi2SetIntegerTYPE,
+    set_boolean: fmi2SetBooleanTYPE,
+    set_string: fmi2SetStringTYPE,
+    do_step: fmi2DoStepTYPE,
+    /// `canGetAndSetFMUstate`: get, set, free.
+    state: Option<(fmi2GetFMUstateTYPE, fmi2SetFMUstateTYPE, fmi2FreeFMUstateTYPE)>,
+    /// `canSerializeFMUstate`: size, serialize, deserialize.
+    serial: Option<(
+        fmi2SerializedFMUstateSizeTYPE,
+        fmi2SerializeFMUstateTYPE,
+        fmi2DeSerializeFMUstateTYPE,
+    )>,
+}
+
+const GET_SET: &str = "canGetAndSetFMUstate";
+const SERIALIZE: &str = "canSerializeFMUstate";
+
+/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`]: resolved
+/// so that an incomplete binary is refused at load, not at its first use.
+const ALSO_REQUIRED: [&str; 6] = [
+    "fmi2Instantiate",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
+];
+
+pub(crate) struct Fmi2Backend {
+    component: fmi2Component,
+    api: Api,
+    version: String,
+    // What the FMU may hold pointers to until fmi2FreeInstance; dropped after it.
+    _callbacks: Box<fmi2CallbackFunctions>,
+    _env: Box<LogEnv>,
+    _strings: [CString; 3],
+    // Last: unloaded once nothing points into it.
+    binary: Binary,
+}
+
+fn status(raw: fmi2Status) -> Status {
+    Status::from_raw(raw)
+}
+
+impl Fmi2Backend {
+    /// Resolves the `fmi2*` functions of `binary`, checks its platform and version and
+    /// instantiates it for Co-Simulation.
+    pub fn instantiate(
+        binary: Binary,
+        md: &ModelDescription,
+        resources: &Path,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Result<Fmi2Backend, ImportError> {
+        let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
+        // SAFETY: each type is the FMI 2.0 signature of the function named.
+        let (api, instantiate, types_platform, get_version) = unsafe {
+            for name in ALSO_REQUIRED {
+                binary.required::<fmi2CancelStepTYPE>(name)?;
+            }
+            let state = match (
+                binary.capability("fmi2GetFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
+                binary.capability("fmi2SetFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
+                binary.capability("fmi2FreeFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
+            ) {
+                (Some(g), Some(s), Some(f)) => Some((g, s, f)),
+                _ => None,
+            };
+            let serial = match (
+                binary.capability(
+                    "fmi2SerializedFMUstateSize",
+                    SERIALIZE,
+                    cs.can_serialize_fmu_state,
+                )?,
+                binary.capability(
+                    "fmi2SerializeFMUstate",
+                    SERIALIZE,
+                    cs.can_serialize_fmu_state,
+                )?,
+                binary.capability(
+                    "fmi2DeSerializeFMUstate",
+                    SERIALIZE,
+                    cs.can_serialize_fmu_state,
+                )?,
+            ) {
+                (Some(z), Some(s), Some(d)) => Some((z, s, d)),
+                _ => None,
+            };
+            let api = Api {
+                set_debug_logging: binary.required("fmi2SetDebugLogging")?,
+                free_instance: binary.required("fmi2FreeInstance")?,
+                setup_experiment: binary.required("fmi2SetupExperiment")?,
+                enter_initialization_mode: binary.required("fmi2EnterInitializationMode")?,
+                exit_initialization_mode: binary.required("fmi2ExitInitializationMode")?,
+                terminate: binary.required("fmi2Terminate")?,
+                reset: binary.required("fmi2Reset")?,
+                get_real: binary.required("fmi2GetReal")?,
+                get_integer: binary.required("fmi2GetInteger")?,
+                get_boolean: binary.required("fmi2GetBoolean")?,
+                get_string: binary.required("fmi2GetString")?,
+                set_real: binary.required("fmi2SetReal")?,
+                set_integer: binary.required("fmi2SetInteger")?,
+                set_boolean: binary.required("fmi2SetBoolean")?,
+                set_string: binary.required("fmi2SetString")?,
+                do_step: binary.required("fmi2DoStep")?,
+                state,
+                serial,
+            };
+            let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
+            let types_platform: fmi2GetTypesPlatformTYPE =
+                binary.required("fmi2GetTypesPlatform")?;
+            let get_version: fmi2GetVersionTYPE = binary.required("fmi2GetVersion")?;
+            (api, instantiate, types_platform, get_version)
+        };
+        // SAFETY: both return a static NUL-terminated string.
+        let platform = crate::binary::c_text(unsafe { types_platform() });
+        if platform != "default" {
+            return Err(ImportError::TypesPlatform(platform));
+        }
+        let version = Binary::check_version("fmi2GetVersion", unsafe { get_version() }, "2.")?;
+
+        let nul = |what| ImportError::Nul { what };
+        let c_name = CString::new(instance_name).map_err(|_| nul("the instance name"))?;
+        let c_guid = CString::new(md.guid.as_str()).map_err(|_| nul("the guid"))?;
+        let c_resources =
+            CString::new(file_uri(resources)).map_err(|_| nul("the resource location"))?;
+        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
+        let callbacks = Box::new(fmi2CallbackFunctions {
+            logger: Some(logger::inchworm_fmi_import_logger),
+            allocateMemory: Some(libc::calloc),
+            freeMemory: Some(libc::free),
+            stepFinished: None,
+            componentEnvironment: &*env as *const LogEnv as *mut std::os::raw::c_void,
+        });
+        // SAFETY: the FMI 2.0 signature; every pointer passed lives in the backend, which
+        // frees the instance before dropping them.
+        let component = unsafe {
+            instantiate(
+                c_name.as_ptr(),
+                fmi2CoSimulation,
+                c_guid.as_ptr(),
+                c_resources.as_ptr(),
+                &*callbacks,
+                fmi2False,
+                fmi2Boolean::from(logging_on),
+            )
+        };
+        if component.is_null() {
+            return Err(ImportError::Instantiate {
+                function: "fmi2Instantiate",
+                instance: instance_name.to_owned(),
+            });
+        }
+        Ok(Fmi2Backend {
+            component,
+            api,
+            version,
+            _callbacks: callbacks,
+            _env: env,
+            _strings: [c_name, c_guid, c_resources],
+            binary,
+        })
+    }
+}
+
+/// `file:///…` URI of a directory (FMI 2.0 `fmuResourceLocation`).
+fn file_uri(dir: &Path) -> String {
+    let path = dir.to_string_lossy().replace('\\', "/");
+    let mut uri = String::from(if path.starts_with('/') { "file://" } else { "file:///" });
+    for b in path.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/:".contains(&b) {
+            uri.push(b as char);
+        } else {
+            uri.push_str(&format!("%{b:02X}"));
+        }
+    }
+    uri
+}
+
+// SAFETY of every call below: FMI 2.0 signatures, a live component (CsFmu calls nothing
+// after free_instance), and arrays of the lengths passed (CsFmu checks vrs and values
+// have equal lengths).
+impl Backend for Fmi2Backend {
+    fn binary_version(&self) -> &str {
+        &self.version
+    }
+
+    fn library_path(&self) -> &Path {
+        &self.binary.full_path
+    }
+
+    fn set_debug_logging(
+        &mut self,
+        cx: &mut Calls,
+        on: bool,
+        categories: &[&str],
+    ) -> Result<(), FmuError> {
+        const F: &str = "fmi2SetDebugLogging";
+        let cats = cx.c_strings(F, "a category name", categories)?;
+        let p = pointers(&cats);
+        let (c, f) = (self.component, self.api.set_debug_logging);
+        cx.call(F, || status(unsafe { f(c, fmi2Boolean::from(on), p.len(), p.as_ptr()) }))
+    }
+
+    fn enter_initialization(
+        &mut self,
+        cx: &mut Calls,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<(), FmuError> {
+        let (c, setup, enter) =
+            (self.component, self.api.setup_experiment, self.api.enter_initialization_mode);
+        cx.call("fmi2SetupExperiment", || {
+            status(unsafe {
+                setup(
+                    c,
+                    fmi2Boolean::from(tolerance.is_some()),
+                    tolerance.unwrap_or(0.0),
+                    start,
+                    fmi2Boolean::from(stop.is_some()),
+                    stop.unwrap_or(0.0),
+                )
+            })
+        })?;
+        cx.call("fmi2EnterInitializationMode", || status(unsafe { enter(c) }))
+    }
+
+    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.exit_initialization_mode);
+        cx.call("fmi2ExitInitializationMode", || status(unsafe { f(c) }))
+    }
+
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.do_step);
+        cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))
+    }
+
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.get_real);
+        cx.call("fmi2GetReal", || {
+            status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
+        })
+    }
+
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.set_real);
+        cx.call("fmi2SetReal", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) }))
+    }
+
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.get_integer);
+        cx.call("fmi2GetInteger", || {
+            status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
+        })
+    }
+
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.set_integer);
+        cx.call("fmi2SetInteger", || {
+            status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) })
+        })
+    }
+
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError> {
+        // fmi2Boolean is an int: read as such, any non-zero value is true.
+        let mut raw = vec![fmi2False; vrs.len()];
+        let (c, f) = (self.component, self.api.get_boolean);
+        cx.call("fmi2GetBoolean", || {
+            status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
+        })?;
+        for (v, r) in out.iter_mut().zip(raw) {
+            *v = r != fmi2False;
+        }
+        Ok(())
+    }
+
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
+        let raw: Vec<fmi2Boolean> = values.iter().map(|&b| fmi2Boolean::from(b)).collect();
+        let (c, f) = (self.component, self.api.set_boolean);
+        cx.call("fmi2SetBoolean", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_ptr()) }))
+    }
+
+    fn get_string(
+        &mut self,
+        cx: &mut Calls,
+        vrs: &[u32],
+        out: &mut [String],
+    ) -> Result<(), FmuError> {
+        let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
+        let (c, f) = (self.component, self.api.get_string);
+        cx.call("fmi2GetString", || {
+            status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
+        })?;
+        copy_strings(&raw, out);
+        Ok(())
+    }
+
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
+        const F: &str = "fmi2SetString";
+        let owned = cx.c_strings(F, "a string value", values)?;
+        let p = pointers(&owned);
+        let (c, f) = (self.component, self.api.set_string);
+        cx.call(F, || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), p.as_ptr()) }))
+    }
+
+    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.terminate);
+        cx.call("fmi2Terminate", || status(unsafe { f(c) }))
+    }
+
+    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (c, f) = (self.component, self.api.reset);
+        cx.call("fmi2Reset", || status(unsafe { f(c) }))
+    }
+
+    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError> {
+        const F: &str = "fmi2GetFMUstate";
+        let (get, _, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        let mut state: fmi2FMUstate = std::ptr::null_mut();
+        let c = self.component;
+        cx.call(F, || status(unsafe { get(c, &mut state) }))?;
+        if state.is_null() {
+            return Err(cx.invalid(F, "the FMU returned fmi2OK but no state (NULL)"));
+        }
+        Ok(state)
+    }
+
+    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
+        const F: &str = "fmi2SetFMUstate";
+        let (_, set, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        let c = self.component;
+        cx.call(F, || status(unsafe { set(c, state) }))
+    }
+
+    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
+        const F: &str = "fmi2FreeFMUstate";
+        let (_, _, free) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        let (c, mut state) = (self.component, state);
+        cx.call(F, || status(unsafe { free(c, &mut state) }))
+    }
+
+    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError> {
+        const F: &str = "fmi2SerializeFMUstate";
+        let (size_of, serialize, _) =
+            self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
+        let (c, mut size) = (self.component, 0usize);
+        cx.call("fmi2SerializedFMUstateSize", || status(unsafe { size_of(c, state, &mut size) }))?;
+        let mut bytes = super::state_buffer(cx, "fmi2SerializedFMUstateSize", size)?;
+        cx.call(F, || status(unsafe { serialize(c, state, bytes.as_mut_ptr().cast(), size) }))?;
+        Ok(bytes)
+    }
+
+    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError> {
+        const F: &str = "fmi2DeSerializeFMUstate";
+        let (_, _, deserialize) = self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
+        let (c, mut state) = (self.component, std::ptr::null_mut());
+        cx.call(F, || {
+            status(unsafe { deserialize(c, bytes.as_ptr().cast(), bytes.len(), &mut state) })
+        })?;
+        if state.is_null() {
+            return Err(cx.invalid(F, "the FMU returned fmi2OK but no state (NULL)"));
+        }
+        Ok(state)
+    }
+
+    fn free_instance(&mut self) {
+        if !self.component.is_null() {
+            // SAFETY: from fmi2Instantiate of this library, freed only here, once.
+            unsafe { (self.api.free_instance)(self.component) };
+            self.component = std::ptr::null_mut();
+        }
+    }
+}
+
+impl Drop for Fmi2Backend {
+    fn drop(&mut self) {
+        self.free_instance();
+    }
+}

@@ -1,0 +1,375 @@
+//! FMI 3.0 Co-Simulation, natively: the `fmi3*` functions with their own signatures
+//! (`nValues` passed, `fmi3Boolean` a C `bool`), `fmi3Status`, `fmi3InstantiateCoSimulation`
+//! with a plain-function logger, and `fmi3DoStep`'s event and early-return outputs.
+//! Instantiated without event mode and without early return, so `earlyReturn` and
+//! `eventHandlingNeeded` should stay false; if the FMU sets one (or
+//! `terminateSimulation`), the step is an error that says which.
+
+use std::ffi::CString;
+use std::os::raw::c_void;
+use std::path::Path;
+
+use inchworm_fmi_abi::fmi3::*;
+
+use super::{copy_strings, pointers, Backend, Calls, RawState};
+use crate::binary::Binary;
+use crate::description::ModelDescription;
+use crate::logger::LogEnv;
+use crate::{FmuError, ImportError, Status};
+
+/// The FMI 3.0 functions this layer calls.
+struct Api {
+    set_debug_logging: fmi3SetDebugLoggingTYPE,
+    free_instance: fmi3FreeInstanceTYPE,
+    enter_initialization_mode: fmi3EnterInitializationModeTYPE,
+    exit_initialization_mode: fmi3ExitInitializationModeTYPE,
+    terminate: fmi3TerminateTYPE,
+    reset: fmi3ResetTYPE,
+    get_float64: fmi3GetFloat64TYPE,
+    get_int32: fmi3GetInt32TYPE,
+    get_boolean: fmi3GetBooleanTYPE,
+    get_string: fmi3GetStringTYPE,
+    set_float64: fmi3SetFloat64TYPE,
+    set_int32: fmi3SetInt32TYPE,
+    set_boolean: fmi3SetBooleanTYPE,
+    set_string: fmi3SetStringTYPE,
+    do_step: fmi3DoStepTYPE,
+    /// `canGetAndSetFMUState`: get, set, free.
+    state: Option<(fmi3GetFMUStateTYPE, fmi3SetFMUStateTYPE, fmi3FreeFMUStateTYPE)>,
+    /// `canSerializeFMUState`: size, serialize, deserialize.
+    serial: Option<(
+        fmi3SerializedFMUStateSizeTYPE,
+        fmi3SerializeFMUStateTYPE,
+        fmi3DeserializeFMUStateTYPE,
+    )>,
+}
+
+const GET_SET: &str = "canGetAndSetFMUState";
+const SERIALIZE: &str = "canSerializeFMUState";
+
+pub(crate) struct Fmi3Backend {
+    instance: fmi3Instance,
+    api: Api,
+    version: String,
+    // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
+    _env: Box<LogEnv>,
+    _strings: [CString; 3],
+    // Last: unloaded once nothing points into it.
+    binary: Binary,
+}
+
+fn status(raw: fmi3Status) -> Status {
+    Status::from_fmi3(raw)
+}
+
+/// The FMI 3.0 logger: a plain C function (not variadic), fed into the same `log` records
+/// as the FMI 2.0 one.
+unsafe extern "C" fn log_message(
+    env: fmi3InstanceEnvironment,
+    status: fmi3Status,
+    category: fmi3String,
+    message: fmi3String,
+) {
+    crate::logger::inchworm_fmi_import_log(env, std::ptr::null(), status, category, message);
+}
+
+impl Fmi3Backend {
+    /// Resolves the `fmi3*` functions of `binary`, checks its version and instantiates it
+    /// for Co-Simulation.
+    pub fn instantiate(
+        binary: Binary,
+        md: &ModelDescription,
+        resources: &Path,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Result<Fmi3Backend, ImportError> {
+        let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
+        let (get_set, serialize) = (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state);
+        // SAFETY: each type is the FMI 3.0 signature of the function named.
+        let (api, instantiate, get_version) = unsafe {
+            let state = match (
+                binary.capability("fmi3GetFMUState", GET_SET, get_set)?,
+                binary.capability("fmi3SetFMUState", GET_SET, get_set)?,
+                binary.capability("fmi3FreeFMUState", GET_SET, get_set)?,
+            ) {
+                (Some(g), Some(s), Some(f)) => Some((g, s, f)),
+                _ => None,
+            };
+            let serial = match (
+                binary.capability("fmi3SerializedFMUStateSize", SERIALIZE, serialize)?,
+                binary.capability("fmi3SerializeFMUState", SERIALIZE, serialize)?,
+                binary.capability("fmi3DeserializeFMUState", SERIALIZE, serialize)?,
+            ) {
+                (Some(z), Some(s), Some(d)) => Some((z, s, d)),
+                _ => None,
+            };
+            let api = Api {
+                set_debug_logging: binary.required("fmi3SetDebugLogging")?,
+                free_instance: binary.required("fmi3FreeInstance")?,
+                enter_initialization_mode: binary.required("fmi3EnterInitializationMode")?,
+                exit_initialization_mode: binary.required("fmi3ExitInitializationMode")?,
+                terminate: binary.required("fmi3Terminate")?,
+                reset: binary.required("fmi3Reset")?,
+                get_float64: binary.required("fmi3GetFloat64")?,
+                get_int32: binary.required("fmi3GetInt32")?,
+                get_boolean: binary.required("fmi3GetBoolean")?,
+                get_string: binary.required("fmi3GetString")?,
+                set_float64: binary.required("fmi3SetFloat64")?,
+                set_int32: binary.required("fmi3SetInt32")?,
+                set_boolean: binary.required("fmi3SetBoolean")?,
+                set_string: binary.required("fmi3SetString")?,
+                do_step: binary.required("fmi3DoStep")?,
+                state,
+                serial,
+            };
+            let instantiate: fmi3InstantiateCoSimulationTYPE =
+                binary.required("fmi3InstantiateCoSimulation")?;
+            let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
+            (api, instantiate, get_version)
+        };
+        // SAFETY: returns a static NUL-terminated string.
+        let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
+
+        let nul = |what| ImportError::Nul { what };
+        let c_name = CString::new(instance_name).map_err(|_| nul("the instance name"))?;
+        let c_token = CString::new(md.guid.as_str()).map_err(|_| nul("the instantiation token"))?;
+        // FMI 3.0 resourcePath: a native path ending in a separator (not a URI).
+        let resources = format!("{}{}", resources.display(), std::path::MAIN_SEPARATOR);
+        let c_resources = CString::new(resources).map_err(|_| nul("the resource path"))?;
+        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
+        // SAFETY: the FMI 3.0 signature; every pointer passed lives in the backend, which
+        // frees the instance before dropping them.
+        let instance = unsafe {
+            instantiate(
+                c_name.as_ptr(),
+                c_token.as_ptr(),
+                c_resources.as_ptr(),
+                fmi3False, // visible
+                logging_on,
+                fmi3False, // eventModeUsed
+                fmi3False, // earlyReturnAllowed
+                std::ptr::null(),
+                0,
+                &*env as *const LogEnv as *mut c_void,
+                Some(log_message),
+                None,
+            )
+        };
+        if instance.is_null() {
+            return Err(ImportError::Instantiate {
+                function: "fmi3InstantiateCoSimulation",
+                instance: instance_name.to_owned(),
+            });
+        }
+        Ok(Fmi3Backend {
+            instance,
+            api,
+            version,
+            _env: env,
+            _strings: [c_name, c_token, c_resources],
+            binary,
+        })
+    }
+}
+
+// SAFETY of every call below: FMI 3.0 signatures, a live instance (CsFmu calls nothing
+// after free_instance), and arrays of the lengths passed as both nValueReferences and
+// nValues (every variable this layer addresses is a scalar; CsFmu checks the lengths).
+impl Backend for Fmi3Backend {
+    fn binary_version(&self) -> &str {
+        &self.version
+    }
+
+    fn library_path(&self) -> &Path {
+        &self.binary.full_path
+    }
+
+    fn set_debug_logging(
+        &mut self,
+        cx: &mut Calls,
+        on: bool,
+        categories: &[&str],
+    ) -> Result<(), FmuError> {
+        const F: &str = "fmi3SetDebugLogging";
+        let cats = cx.c_strings(F, "a category name", categories)?;
+        let p = pointers(&cats);
+        let (i, f) = (self.instance, self.api.set_debug_logging);
+        cx.call(F, || status(unsafe { f(i, on, p.len(), p.as_ptr()) }))
+    }
+
+    fn enter_initialization(
+        &mut self,
+        cx: &mut Calls,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<(), FmuError> {
+        let (i, f) = (self.instance, self.api.enter_initialization_mode);
+        cx.call("fmi3EnterInitializationMode", || {
+            let (tol, end) = (tolerance.unwrap_or(0.0), stop.unwrap_or(0.0));
+            status(unsafe { f(i, tolerance.is_some(), tol, start, stop.is_some(), end) })
+        })
+    }
+
+    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (i, f) = (self.instance, self.api.exit_initialization_mode);
+        cx.call("fmi3ExitInitializationMode", || status(unsafe { f(i) }))
+    }
+
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
+        const F: &str = "fmi3DoStep";
+        let (i, f) = (self.instance, self.api.do_step);
+        let (mut event, mut end, mut early, mut last) = (false, false, false, t);
+        cx.call(F, || {
+            status(unsafe { f(i, t, h, no_prior, &mut event, &mut end, &mut early, &mut last) })
+        })?;
+        let why = if end {
+            "the FMU asked to terminate the simulation (terminateSimulation)"
+        } else if early {
+            "the FMU returned early (earlyReturn), though instantiated without early return"
+        } else if event {
+            "the FMU needs event handling (eventHandlingNeeded), which this master does not do"
+        } else {
+            return Ok(());
+        };
+        Err(FmuError::StepEnded {
+            model: cx.model.clone(),
+            function: F,
+            time: t,
+            why,
+            last_time: last,
+        })
+    }
+
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
+        let (i, f, n) = (self.instance, self.api.get_float64, vrs.len());
+        cx.call("fmi3GetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
+    }
+
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
+        let (i, f, n) = (self.instance, self.api.set_float64, vrs.len());
+        cx.call("fmi3SetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+    }
+
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
+        let (i, f, n) = (self.instance, self.api.get_int32, vrs.len());
+        cx.call("fmi3GetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
+    }
+
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
+        let (i, f, n) = (self.instance, self.api.set_int32, vrs.len());
+        cx.call("fmi3SetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+    }
+
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError> {
+        // Read as bytes: an FMU writing another byte than 0 or 1 must not make an invalid
+        // Rust bool.
+        let mut raw = vec![0u8; vrs.len()];
+        let (i, f, n) = (self.instance, self.api.get_boolean, vrs.len());
+        cx.call("fmi3GetBoolean", || {
+            status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr().cast::<fmi3Boolean>(), n) })
+        })?;
+        for (v, r) in out.iter_mut().zip(raw) {
+            *v = r != 0;
+        }
+        Ok(())
+    }
+
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
+        let (i, f, n) = (self.instance, self.api.set_boolean, vrs.len());
+        cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+    }
+
+    fn get_string(
+        &mut self,
+        cx: &mut Calls,
+        vrs: &[u32],
+        out: &mut [String],
+    ) -> Result<(), FmuError> {
+        let mut raw: Vec<fmi3String> = vec![std::ptr::null(); vrs.len()];
+        let (i, f, n) = (self.instance, self.api.get_string, vrs.len());
+        cx.call("fmi3GetString", || status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr(), n) }))?;
+        copy_strings(&raw, out);
+        Ok(())
+    }
+
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
+        const F: &str = "fmi3SetString";
+        let owned = cx.c_strings(F, "a string value", values)?;
+        let p = pointers(&owned);
+        let (i, f, n) = (self.instance, self.api.set_string, vrs.len());
+        cx.call(F, || status(unsafe { f(i, vrs.as_ptr(), n, p.as_ptr(), n) }))
+    }
+
+    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (i, f) = (self.instance, self.api.terminate);
+        cx.call("fmi3Terminate", || status(unsafe { f(i) }))
+    }
+
+    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
+        let (i, f) = (self.instance, self.api.reset);
+        cx.call("fmi3Reset", || status(unsafe { f(i) }))
+    }
+
+    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError> {
+        const F: &str = "fmi3GetFMUState";
+        let (get, _, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        // NULL asks the FMU for a new state (non-NULL would overwrite that one).
+        let (i, mut state) = (self.instance, std::ptr::null_mut());
+        cx.call(F, || status(unsafe { get(i, &mut state) }))?;
+        if state.is_null() {
+            return Err(cx.invalid(F, "the FMU returned fmi3OK but no state (NULL)"));
+        }
+        Ok(state)
+    }
+
+    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
+        const F: &str = "fmi3SetFMUState";
+        let (_, set, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        let i = self.instance;
+        cx.call(F, || status(unsafe { set(i, state) }))
+    }
+
+    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
+        const F: &str = "fmi3FreeFMUState";
+        let (_, _, free) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
+        let (i, mut state) = (self.instance, state);
+        cx.call(F, || status(unsafe { free(i, &mut state) }))
+    }
+
+    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError> {
+        const F: &str = "fmi3SerializeFMUState";
+        let (size_of, serialize, _) =
+            self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
+        let (i, mut size) = (self.instance, 0usize);
+        cx.call("fmi3SerializedFMUStateSize", || status(unsafe { size_of(i, state, &mut size) }))?;
+        let mut bytes = super::state_buffer(cx, "fmi3SerializedFMUStateSize", size)?;
+        cx.call(F, || status(unsafe { serialize(i, state, bytes.as_mut_ptr(), size) }))?;
+        Ok(bytes)
+    }
+
+    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError> {
+        const F: &str = "fmi3DeserializeFMUState";
+        let (_, _, deserialize) = self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
+        let (i, mut state) = (self.instance, std::ptr::null_mut());
+        cx.call(F, || status(unsafe { deserialize(i, bytes.as_ptr(), bytes.len(), &mut state) }))?;
+        if state.is_null() {
+            return Err(cx.invalid(F, "the FMU returned fmi3OK but no state (NULL)"));
+        }
+        Ok(state)
+    }
+
+    fn free_instance(&mut self) {
+        if !self.instance.is_null() {
+            // SAFETY: from fmi3InstantiateCoSimulation of this library, freed only here, once.
+            unsafe { (self.api.free_instance)(self.instance) };
+            self.instance = std::ptr::null_mut();
+        }
+    }
+}
+
+impl Drop for Fmi3Backend {
+    fn drop(&mut self) {
+        self.free_instance();
+    }
+}

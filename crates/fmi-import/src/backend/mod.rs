@@ -1,0 +1,216 @@
+//! The FMU behind [`CsFmu`](crate::CsFmu): one [`Backend`] trait, implemented natively by
+//! [`fmi2::Fmi2Backend`] and [`fmi3::Fmi3Backend`]. Each holds its own standard's resolved
+//! function table and instance, calls its own functions with their own signatures and
+//! reads their own status values; neither goes through the other.
+//!
+//! What both share is [`Calls`]: the refusal after a Fatal, the status check (Warning
+//! logged and passed, Discard/Error/Fatal/Pending an error naming the real function and
+//! the time), the communication grid `start + k · h`, and the argument conversions.
+
+pub(crate) mod fmi2;
+pub(crate) mod fmi3;
+
+use std::ffi::{CStr, CString};
+use std::os::raw::{c_char, c_void};
+use std::path::Path;
+
+use crate::{logger, FmuError, Status};
+
+/// An FMU state as the FMU handed it out (`fmi2FMUstate`, `fmi3FMUState`).
+pub(crate) type RawState = *mut c_void;
+
+/// The calls of one FMU instance, in the FMU's own standard. Every method that calls the
+/// FMU goes through [`Calls::call`] with the real function name.
+pub(crate) trait Backend {
+    /// What the binary's `fmi*GetVersion` returned.
+    fn binary_version(&self) -> &str;
+    /// The library, inside the unpacked FMU.
+    fn library_path(&self) -> &Path;
+    fn set_debug_logging(
+        &mut self,
+        cx: &mut Calls,
+        on: bool,
+        categories: &[&str],
+    ) -> Result<(), FmuError>;
+    /// Everything up to and including entering Initialization Mode.
+    fn enter_initialization(
+        &mut self,
+        cx: &mut Calls,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<(), FmuError>;
+    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
+    /// One step from `t`; `no_prior`: no state of an earlier time will be restored.
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError>;
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError>;
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError>;
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError>;
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError>;
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError>;
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError>;
+    fn get_string(
+        &mut self,
+        cx: &mut Calls,
+        vrs: &[u32],
+        out: &mut [String],
+    ) -> Result<(), FmuError>;
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError>;
+    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
+    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
+    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError>;
+    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError>;
+    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError>;
+    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError>;
+    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError>;
+    /// Frees the instance (`fmi*FreeInstance`), once; the backend is unusable after.
+    fn free_instance(&mut self);
+}
+
+/// The state of one instance's calls that is the same in both standards.
+pub(crate) struct Calls {
+    pub model: String,
+    pub instance: String,
+    pub start_time: f64,
+    pub steps_done: u64,
+    pub step_size: f64,
+    /// The function that returned Fatal, if one did.
+    pub fatal: Option<&'static str>,
+    /// Whether the FMU is FMI 3.0 (for the names of the calls [`crate::CsFmu`] checks
+    /// before reaching the backend).
+    fmi3: bool,
+}
+
+impl Calls {
+    pub fn new(model: String, instance: String, fmi3: bool) -> Calls {
+        Calls { model, instance, start_time: 0.0, steps_done: 0, step_size: 0.0, fatal: None, fmi3 }
+    }
+
+    /// The name of a call in the FMU's standard.
+    pub fn named(&self, fmi2: &'static str, fmi3: &'static str) -> &'static str {
+        if self.fmi3 {
+            fmi3
+        } else {
+            fmi2
+        }
+    }
+
+    /// The current communication point, `start + k · h` after k steps of size h.
+    pub fn time(&self) -> f64 {
+        self.start_time + self.steps_done as f64 * self.step_size
+    }
+
+    /// Refuses any call after a Fatal, as both standards demand.
+    pub fn alive(&self, function: &'static str) -> Result<(), FmuError> {
+        match self.fatal {
+            Some(fatal_in) => {
+                Err(FmuError::AfterFatal { model: self.model.clone(), function, fatal_in })
+            }
+            None => Ok(()),
+        }
+    }
+
+    /// Makes the call `function` (unless a Fatal came before) and checks its status.
+    pub fn call(
+        &mut self,
+        function: &'static str,
+        run: impl FnOnce() -> Status,
+    ) -> Result<(), FmuError> {
+        self.alive(function)?;
+        let status = run();
+        self.check(function, status)
+    }
+
+    fn check(&mut self, function: &'static str, status: Status) -> Result<(), FmuError> {
+        match status {
+            Status::Ok => Ok(()),
+            Status::Warning => {
+                logger::emit(
+                    log::Level::Warn,
+                    &self.instance,
+                    format_args!(
+                        "{function} returned {} at t = {} s",
+                        status.spelled(function),
+                        self.time()
+                    ),
+                );
+                Ok(())
+            }
+            status => {
+                if status == Status::Fatal {
+                    self.fatal = Some(function);
+                }
+                Err(FmuError::Call {
+                    model: self.model.clone(),
+                    function,
+                    time: self.time(),
+                    status,
+                })
+            }
+        }
+    }
+
+    pub fn invalid(&self, function: &'static str, message: impl Into<String>) -> FmuError {
+        FmuError::InvalidArgument { model: self.model.clone(), function, message: message.into() }
+    }
+
+    /// `function` is absent because the FMU does not declare `flag`.
+    pub fn unsupported(&self, function: &'static str, flag: &'static str) -> FmuError {
+        FmuError::Unsupported {
+            model: self.model.clone(),
+            function,
+            why: format!("the FMU's modelDescription.xml does not declare {flag}=\"true\""),
+        }
+    }
+
+    /// `values` as C strings for `function` (`what`: the values, for the error).
+    pub fn c_strings(
+        &self,
+        function: &'static str,
+        what: &str,
+        values: &[&str],
+    ) -> Result<Vec<CString>, FmuError> {
+        values
+            .iter()
+            .map(|v| CString::new(*v))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|_| self.invalid(function, format!("{what} contains a NUL byte")))
+    }
+}
+
+/// Pointers to `strings`, valid while they live.
+pub(crate) fn pointers(strings: &[CString]) -> Vec<*const c_char> {
+    strings.iter().map(|c| c.as_ptr()).collect()
+}
+
+/// Copies the FMU's strings into `out` right away: they are valid only until its next call.
+pub(crate) fn copy_strings(raw: &[*const c_char], out: &mut [String]) {
+    for (v, &p) in out.iter_mut().zip(raw) {
+        *v = if p.is_null() {
+            String::new()
+        } else {
+            // SAFETY: a non-NULL string from the FMU is NUL-terminated and alive until its
+            // next call; copied here before that.
+            unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+        };
+    }
+}
+
+/// The largest serialized FMU state accepted, bytes: the size is the FMU's own figure, and
+/// a broken one must not make the master allocate without bound.
+pub(crate) const MAX_STATE_BYTES: usize = 1 << 30;
+
+/// A zeroed buffer of the `size` that `function` (`fmi*SerializedFMUStateSize`) returned.
+pub(crate) fn state_buffer(
+    cx: &Calls,
+    function: &'static str,
+    size: usize,
+) -> Result<Vec<u8>, FmuError> {
+    if size > MAX_STATE_BYTES {
+        return Err(cx.invalid(
+            function,
+            format!("the FMU gave a serialized state of {size} bytes (limit {MAX_STATE_BYTES})"),
+        ));
+    }
+    Ok(vec![0; size])
+}
