@@ -108,7 +108,7 @@ impl Drop for CsFmu {
         }
         for (_, saved) in std::mem::take(&mut self.states) {
             // A refusal here has nowhere to go; the instance is freed next either way.
-            let _ = self.backend.free_state(&mut self.cx, saved.raw);
+            let _ = self.backend.states().free(&mut self.cx, saved.raw);
         }
         if self.cx.fatal.is_some() {
             // A free returned Fatal: the instance must not be freed either.
@@ -412,14 +412,14 @@ impl CsFmu {
     /// time. Fails with [`FmuError::Unsupported`] unless the FMU declares
     /// `canGetAndSetFMUstate` (FMI 2.0) / `canGetAndSetFMUState` (FMI 3.0).
     pub fn get_state(&mut self) -> Result<FmuState, FmuError> {
-        let raw = self.backend.get_state(&mut self.cx)?;
+        let raw = self.backend.states().get(&mut self.cx)?;
         Ok(self.hold(raw))
     }
 
     /// `fmi2SetFMUstate` / `fmi3SetFMUState`: back to `state`, time included.
     pub fn set_state(&mut self, state: &FmuState) -> Result<(), FmuError> {
-        let saved = self.saved(state, self.cx.named("fmi2SetFMUstate", "fmi3SetFMUState"))?;
-        self.backend.set_state(&mut self.cx, saved.raw)?;
+        let saved = self.saved(state, self.backend.states().names().set)?;
+        self.backend.states().set(&mut self.cx, saved.raw)?;
         self.cx.start_time = saved.start_time;
         self.cx.steps_done = saved.steps_done;
         self.cx.step_size = saved.step_size;
@@ -429,9 +429,9 @@ impl CsFmu {
     /// `fmi2FreeFMUstate` / `fmi3FreeFMUState`. Dropping the `CsFmu` frees the states
     /// still held.
     pub fn free_state(&mut self, state: FmuState) -> Result<(), FmuError> {
-        let saved = self.saved(&state, self.cx.named("fmi2FreeFMUstate", "fmi3FreeFMUState"))?;
+        let saved = self.saved(&state, self.backend.states().names().free)?;
         self.states.remove(&state.id);
-        self.backend.free_state(&mut self.cx, saved.raw)
+        self.backend.states().free(&mut self.cx, saved.raw)
     }
 
     /// `fmi2SerializeFMUstate` / `fmi3SerializeFMUState` (with the size call first): the
@@ -439,9 +439,8 @@ impl CsFmu {
     /// the same FMU. The bytes are a short header (the communication grid) and the FMU's
     /// own serialization.
     pub fn serialize_state(&mut self, state: &FmuState) -> Result<Vec<u8>, FmuError> {
-        let f = self.cx.named("fmi2SerializeFMUstate", "fmi3SerializeFMUState");
-        let saved = self.saved(state, f)?;
-        let fmu = self.backend.serialize_state(&mut self.cx, saved.raw)?;
+        let saved = self.saved(state, self.backend.states().names().serialize)?;
+        let fmu = self.backend.states().serialize(&mut self.cx, saved.raw)?;
         let mut out = Vec::with_capacity(STATE_HEADER + fmu.len());
         out.extend_from_slice(STATE_MAGIC);
         out.extend_from_slice(&saved.start_time.to_le_bytes());
@@ -454,7 +453,7 @@ impl CsFmu {
     /// `fmi2DeSerializeFMUstate` / `fmi3DeserializeFMUState`: a new state from bytes of
     /// [`CsFmu::serialize_state`]; [`CsFmu::set_state`] restores it.
     pub fn deserialize_state(&mut self, bytes: &[u8]) -> Result<FmuState, FmuError> {
-        let f = self.cx.named("fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState");
+        let f = self.backend.states().names().deserialize;
         self.cx.alive(f)?;
         let header = bytes.get(..STATE_HEADER).filter(|h| h.starts_with(STATE_MAGIC));
         let Some(header) = header else {
@@ -477,7 +476,7 @@ impl CsFmu {
         if !(start_time.is_finite() && step_size.is_finite() && step_size >= 0.0) {
             return Err(self.cx.invalid(f, "the serialized communication grid is damaged"));
         }
-        let raw = self.backend.deserialize_state(&mut self.cx, &bytes[STATE_HEADER..])?;
+        let raw = self.backend.states().deserialize(&mut self.cx, &bytes[STATE_HEADER..])?;
         let state = self.hold(raw);
         if let Some(s) = self.states.get_mut(&state.id) {
             (s.start_time, s.steps_done, s.step_size) = (start_time, steps_done, step_size);

@@ -5,7 +5,8 @@
 use std::ffi::CString;
 use std::path::Path;
 
-use super::{copy_strings, pointers, Backend, Calls, RawState};
+use super::state::{Names, StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::ffi::*;
@@ -31,18 +32,19 @@ struct Api {
     set_boolean: fmi2SetBooleanTYPE,
     set_string: fmi2SetStringTYPE,
     do_step: fmi2DoStepTYPE,
-    /// `canGetAndSetFMUstate`: get, set, free.
-    state: Option<(fmi2GetFMUstateTYPE, fmi2SetFMUstateTYPE, fmi2FreeFMUstateTYPE)>,
-    /// `canSerializeFMUstate`: size, serialize, deserialize.
-    serial: Option<(
-        fmi2SerializedFMUstateSizeTYPE,
-        fmi2SerializeFMUstateTYPE,
-        fmi2DeSerializeFMUstateTYPE,
-    )>,
 }
 
-const GET_SET: &str = "canGetAndSetFMUstate";
-const SERIALIZE: &str = "canSerializeFMUstate";
+/// The FMI 2.0 spelling of the state functions and flags.
+static STATE_NAMES: Names = Names {
+    get: "fmi2GetFMUstate",
+    set: "fmi2SetFMUstate",
+    free: "fmi2FreeFMUstate",
+    size: "fmi2SerializedFMUstateSize",
+    serialize: "fmi2SerializeFMUstate",
+    deserialize: "fmi2DeSerializeFMUstate",
+    get_set_flag: "canGetAndSetFMUstate",
+    serialize_flag: "canSerializeFMUstate",
+};
 
 /// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`]: resolved
 /// so that an incomplete binary is refused at load, not at its first use.
@@ -59,6 +61,7 @@ pub(crate) struct Fmi2Backend {
     component: fmi2Component,
     api: Api,
     version: String,
+    states: States<fmi2Byte>,
     // What the FMU may hold pointers to until fmi2FreeInstance; dropped after it.
     _callbacks: Box<fmi2CallbackFunctions>,
     _env: Box<LogEnv>,
@@ -83,38 +86,16 @@ impl Fmi2Backend {
     ) -> Result<Fmi2Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
         // SAFETY: each type is the FMI 2.0 signature of the function named.
-        let (api, instantiate, types_platform, get_version) = unsafe {
+        let (api, instantiate, types_platform, get_version, mut states) = unsafe {
             for name in ALSO_REQUIRED {
                 binary.required::<fmi2CancelStepTYPE>(name)?;
             }
-            let state = match (
-                binary.capability("fmi2GetFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
-                binary.capability("fmi2SetFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
-                binary.capability("fmi2FreeFMUstate", GET_SET, cs.can_get_and_set_fmu_state)?,
-            ) {
-                (Some(g), Some(s), Some(f)) => Some((g, s, f)),
-                _ => None,
-            };
-            let serial = match (
-                binary.capability(
-                    "fmi2SerializedFMUstateSize",
-                    SERIALIZE,
-                    cs.can_serialize_fmu_state,
-                )?,
-                binary.capability(
-                    "fmi2SerializeFMUstate",
-                    SERIALIZE,
-                    cs.can_serialize_fmu_state,
-                )?,
-                binary.capability(
-                    "fmi2DeSerializeFMUstate",
-                    SERIALIZE,
-                    cs.can_serialize_fmu_state,
-                )?,
-            ) {
-                (Some(z), Some(s), Some(d)) => Some((z, s, d)),
-                _ => None,
-            };
+            let states = States::<fmi2Byte>::resolve(
+                &binary,
+                &STATE_NAMES,
+                status,
+                (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
+            )?;
             let api = Api {
                 set_debug_logging: binary.required("fmi2SetDebugLogging")?,
                 free_instance: binary.required("fmi2FreeInstance")?,
@@ -132,14 +113,12 @@ impl Fmi2Backend {
                 set_boolean: binary.required("fmi2SetBoolean")?,
                 set_string: binary.required("fmi2SetString")?,
                 do_step: binary.required("fmi2DoStep")?,
-                state,
-                serial,
             };
             let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
             let types_platform: fmi2GetTypesPlatformTYPE =
                 binary.required("fmi2GetTypesPlatform")?;
             let get_version: fmi2GetVersionTYPE = binary.required("fmi2GetVersion")?;
-            (api, instantiate, types_platform, get_version)
+            (api, instantiate, types_platform, get_version, states)
         };
         // SAFETY: both return a static NUL-terminated string.
         let platform = crate::binary::c_text(unsafe { types_platform() });
@@ -180,8 +159,10 @@ impl Fmi2Backend {
                 instance: instance_name.to_owned(),
             });
         }
+        states.bind(component);
         Ok(Fmi2Backend {
             component,
+            states,
             api,
             version,
             _callbacks: callbacks,
@@ -343,54 +324,8 @@ impl Backend for Fmi2Backend {
         cx.call("fmi2Reset", || status(unsafe { f(c) }))
     }
 
-    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError> {
-        const F: &str = "fmi2GetFMUstate";
-        let (get, _, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        let mut state: fmi2FMUstate = std::ptr::null_mut();
-        let c = self.component;
-        cx.call(F, || status(unsafe { get(c, &mut state) }))?;
-        if state.is_null() {
-            return Err(cx.invalid(F, "the FMU returned fmi2OK but no state (NULL)"));
-        }
-        Ok(state)
-    }
-
-    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
-        const F: &str = "fmi2SetFMUstate";
-        let (_, set, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        let c = self.component;
-        cx.call(F, || status(unsafe { set(c, state) }))
-    }
-
-    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
-        const F: &str = "fmi2FreeFMUstate";
-        let (_, _, free) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        let (c, mut state) = (self.component, state);
-        cx.call(F, || status(unsafe { free(c, &mut state) }))
-    }
-
-    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError> {
-        const F: &str = "fmi2SerializeFMUstate";
-        let (size_of, serialize, _) =
-            self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
-        let (c, mut size) = (self.component, 0usize);
-        cx.call("fmi2SerializedFMUstateSize", || status(unsafe { size_of(c, state, &mut size) }))?;
-        let mut bytes = super::state_buffer(cx, "fmi2SerializedFMUstateSize", size)?;
-        cx.call(F, || status(unsafe { serialize(c, state, bytes.as_mut_ptr().cast(), size) }))?;
-        Ok(bytes)
-    }
-
-    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError> {
-        const F: &str = "fmi2DeSerializeFMUstate";
-        let (_, _, deserialize) = self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
-        let (c, mut state) = (self.component, std::ptr::null_mut());
-        cx.call(F, || {
-            status(unsafe { deserialize(c, bytes.as_ptr().cast(), bytes.len(), &mut state) })
-        })?;
-        if state.is_null() {
-            return Err(cx.invalid(F, "the FMU returned fmi2OK but no state (NULL)"));
-        }
-        Ok(state)
+    fn states(&self) -> &dyn StateCalls {
+        &self.states
     }
 
     fn free_instance(&mut self) {

@@ -11,7 +11,8 @@ use std::path::Path;
 
 use inchworm_fmi_abi::fmi3::*;
 
-use super::{copy_strings, pointers, Backend, Calls, RawState};
+use super::state::{Names, StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::logger::LogEnv;
@@ -34,23 +35,25 @@ struct Api {
     set_boolean: fmi3SetBooleanTYPE,
     set_string: fmi3SetStringTYPE,
     do_step: fmi3DoStepTYPE,
-    /// `canGetAndSetFMUState`: get, set, free.
-    state: Option<(fmi3GetFMUStateTYPE, fmi3SetFMUStateTYPE, fmi3FreeFMUStateTYPE)>,
-    /// `canSerializeFMUState`: size, serialize, deserialize.
-    serial: Option<(
-        fmi3SerializedFMUStateSizeTYPE,
-        fmi3SerializeFMUStateTYPE,
-        fmi3DeserializeFMUStateTYPE,
-    )>,
 }
 
-const GET_SET: &str = "canGetAndSetFMUState";
-const SERIALIZE: &str = "canSerializeFMUState";
+/// The FMI 3.0 spelling of the state functions and flags.
+static STATE_NAMES: Names = Names {
+    get: "fmi3GetFMUState",
+    set: "fmi3SetFMUState",
+    free: "fmi3FreeFMUState",
+    size: "fmi3SerializedFMUStateSize",
+    serialize: "fmi3SerializeFMUState",
+    deserialize: "fmi3DeserializeFMUState",
+    get_set_flag: "canGetAndSetFMUState",
+    serialize_flag: "canSerializeFMUState",
+};
 
 pub(crate) struct Fmi3Backend {
     instance: fmi3Instance,
     api: Api,
     version: String,
+    states: States<fmi3Byte>,
     // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
     _env: Box<LogEnv>,
     _strings: [CString; 3],
@@ -84,25 +87,14 @@ impl Fmi3Backend {
         logging_on: bool,
     ) -> Result<Fmi3Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
-        let (get_set, serialize) = (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state);
         // SAFETY: each type is the FMI 3.0 signature of the function named.
-        let (api, instantiate, get_version) = unsafe {
-            let state = match (
-                binary.capability("fmi3GetFMUState", GET_SET, get_set)?,
-                binary.capability("fmi3SetFMUState", GET_SET, get_set)?,
-                binary.capability("fmi3FreeFMUState", GET_SET, get_set)?,
-            ) {
-                (Some(g), Some(s), Some(f)) => Some((g, s, f)),
-                _ => None,
-            };
-            let serial = match (
-                binary.capability("fmi3SerializedFMUStateSize", SERIALIZE, serialize)?,
-                binary.capability("fmi3SerializeFMUState", SERIALIZE, serialize)?,
-                binary.capability("fmi3DeserializeFMUState", SERIALIZE, serialize)?,
-            ) {
-                (Some(z), Some(s), Some(d)) => Some((z, s, d)),
-                _ => None,
-            };
+        let (api, instantiate, get_version, mut states) = unsafe {
+            let states = States::<fmi3Byte>::resolve(
+                &binary,
+                &STATE_NAMES,
+                status,
+                (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
+            )?;
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
                 free_instance: binary.required("fmi3FreeInstance")?,
@@ -119,13 +111,11 @@ impl Fmi3Backend {
                 set_boolean: binary.required("fmi3SetBoolean")?,
                 set_string: binary.required("fmi3SetString")?,
                 do_step: binary.required("fmi3DoStep")?,
-                state,
-                serial,
             };
             let instantiate: fmi3InstantiateCoSimulationTYPE =
                 binary.required("fmi3InstantiateCoSimulation")?;
             let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
-            (api, instantiate, get_version)
+            (api, instantiate, get_version, states)
         };
         // SAFETY: returns a static NUL-terminated string.
         let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
@@ -161,8 +151,10 @@ impl Fmi3Backend {
                 instance: instance_name.to_owned(),
             });
         }
+        states.bind(instance);
         Ok(Fmi3Backend {
             instance,
+            states,
             api,
             version,
             _env: env,
@@ -311,52 +303,8 @@ impl Backend for Fmi3Backend {
         cx.call("fmi3Reset", || status(unsafe { f(i) }))
     }
 
-    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError> {
-        const F: &str = "fmi3GetFMUState";
-        let (get, _, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        // NULL asks the FMU for a new state (non-NULL would overwrite that one).
-        let (i, mut state) = (self.instance, std::ptr::null_mut());
-        cx.call(F, || status(unsafe { get(i, &mut state) }))?;
-        if state.is_null() {
-            return Err(cx.invalid(F, "the FMU returned fmi3OK but no state (NULL)"));
-        }
-        Ok(state)
-    }
-
-    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
-        const F: &str = "fmi3SetFMUState";
-        let (_, set, _) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        let i = self.instance;
-        cx.call(F, || status(unsafe { set(i, state) }))
-    }
-
-    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError> {
-        const F: &str = "fmi3FreeFMUState";
-        let (_, _, free) = self.api.state.ok_or_else(|| cx.unsupported(F, GET_SET))?;
-        let (i, mut state) = (self.instance, state);
-        cx.call(F, || status(unsafe { free(i, &mut state) }))
-    }
-
-    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError> {
-        const F: &str = "fmi3SerializeFMUState";
-        let (size_of, serialize, _) =
-            self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
-        let (i, mut size) = (self.instance, 0usize);
-        cx.call("fmi3SerializedFMUStateSize", || status(unsafe { size_of(i, state, &mut size) }))?;
-        let mut bytes = super::state_buffer(cx, "fmi3SerializedFMUStateSize", size)?;
-        cx.call(F, || status(unsafe { serialize(i, state, bytes.as_mut_ptr(), size) }))?;
-        Ok(bytes)
-    }
-
-    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError> {
-        const F: &str = "fmi3DeserializeFMUState";
-        let (_, _, deserialize) = self.api.serial.ok_or_else(|| cx.unsupported(F, SERIALIZE))?;
-        let (i, mut state) = (self.instance, std::ptr::null_mut());
-        cx.call(F, || status(unsafe { deserialize(i, bytes.as_ptr(), bytes.len(), &mut state) }))?;
-        if state.is_null() {
-            return Err(cx.invalid(F, "the FMU returned fmi3OK but no state (NULL)"));
-        }
-        Ok(state)
+    fn states(&self) -> &dyn StateCalls {
+        &self.states
     }
 
     fn free_instance(&mut self) {

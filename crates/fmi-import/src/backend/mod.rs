@@ -9,6 +9,7 @@
 
 pub(crate) mod fmi2;
 pub(crate) mod fmi3;
+pub(crate) mod state;
 
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_void};
@@ -58,11 +59,8 @@ pub(crate) trait Backend {
     fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError>;
     fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
     fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
-    fn get_state(&mut self, cx: &mut Calls) -> Result<RawState, FmuError>;
-    fn set_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError>;
-    fn free_state(&mut self, cx: &mut Calls, state: RawState) -> Result<(), FmuError>;
-    fn serialize_state(&mut self, cx: &mut Calls, state: RawState) -> Result<Vec<u8>, FmuError>;
-    fn deserialize_state(&mut self, cx: &mut Calls, bytes: &[u8]) -> Result<RawState, FmuError>;
+    /// The FMU-state calls of this instance.
+    fn states(&self) -> &dyn state::StateCalls;
     /// Frees the instance (`fmi*FreeInstance`), once; the backend is unusable after.
     fn free_instance(&mut self);
 }
@@ -194,23 +192,4 @@ pub(crate) fn copy_strings(raw: &[*const c_char], out: &mut [String]) {
             unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
         };
     }
-}
-
-/// The largest serialized FMU state accepted, bytes: the size is the FMU's own figure, and
-/// a broken one must not make the master allocate without bound.
-pub(crate) const MAX_STATE_BYTES: usize = 1 << 30;
-
-/// A zeroed buffer of the `size` that `function` (`fmi*SerializedFMUStateSize`) returned.
-pub(crate) fn state_buffer(
-    cx: &Calls,
-    function: &'static str,
-    size: usize,
-) -> Result<Vec<u8>, FmuError> {
-    if size > MAX_STATE_BYTES {
-        return Err(cx.invalid(
-            function,
-            format!("the FMU gave a serialized state of {size} bytes (limit {MAX_STATE_BYTES})"),
-        ));
-    }
-    Ok(vec![0; size])
 }

@@ -1,7 +1,7 @@
 //! FMI 2.0 variables: `<ScalarVariable>` with one type element (`<Real>`, `<Integer>`,
 //! `<Boolean>`, `<String>` or `<Enumeration>`) as its child.
 
-use super::{attr, is_boolean, is_double, Attrs, Doc, Standard, VarType, Variability, Variable};
+use super::{attr, is_boolean, is_double, Doc, Element, Standard, VarType, Variability, Variable};
 use crate::ImportError;
 
 /// The `<ScalarVariable>` being read (its type element comes later) and where it started.
@@ -11,23 +11,9 @@ pub(super) struct Fmi2 {
 }
 
 impl Standard for Fmi2 {
-    fn token_attribute(&self) -> &'static str {
-        "guid"
-    }
-
-    fn state_flags(&self) -> (&'static str, &'static str) {
-        ("canGetAndSetFMUstate", "canSerializeFMUstate")
-    }
-
-    fn open(
-        &mut self,
-        doc: &mut Doc<'_>,
-        depth: usize,
-        name: &str,
-        a: &Attrs,
-        pos: usize,
-    ) -> Result<(), ImportError> {
-        match (depth, name, &mut self.current) {
+    fn open(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        let (a, name, pos) = (e.attrs, e.name, e.pos);
+        match (e.depth, name, &mut self.current) {
             (2, "ScalarVariable", _) => {
                 let var_name = doc.required(a, name, "name", pos)?.to_owned();
                 let tag = format!("ScalarVariable name=\"{var_name}\"");
@@ -79,8 +65,8 @@ impl Standard for Fmi2 {
         Ok(())
     }
 
-    fn close(&mut self, doc: &mut Doc<'_>, depth: usize, name: &str) -> Result<(), ImportError> {
-        if depth != 2 || name != "ScalarVariable" {
+    fn close(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        if e.depth != 2 || e.name != "ScalarVariable" {
             return Ok(());
         }
         let Some((v, typed, start)) = self.current.take() else {

@@ -6,7 +6,7 @@
 //! variable are not added to [`ModelDescription::variables`](super::ModelDescription):
 //! the master's scalar calls cannot address them, so asking for one is "unknown variable".
 
-use super::{attr, is_boolean, is_double, Attrs, Causality, Doc, Standard, VarType};
+use super::{attr, is_boolean, is_double, Causality, Doc, Element, Standard, VarType};
 use super::{Variability, Variable};
 use crate::ImportError;
 
@@ -45,29 +45,15 @@ pub(super) struct Fmi3 {
 }
 
 impl Standard for Fmi3 {
-    fn token_attribute(&self) -> &'static str {
-        "instantiationToken"
-    }
-
-    fn state_flags(&self) -> (&'static str, &'static str) {
-        ("canGetAndSetFMUState", "canSerializeFMUState")
-    }
-
-    fn open(
-        &mut self,
-        doc: &mut Doc<'_>,
-        depth: usize,
-        name: &str,
-        a: &Attrs,
-        pos: usize,
-    ) -> Result<(), ImportError> {
-        if depth == 3 && name == "Dimension" {
+    fn open(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        let (a, name, pos) = (e.attrs, e.name, e.pos);
+        if e.depth == 3 && name == "Dimension" {
             if let Some(p) = self.current.as_mut() {
                 p.array = true;
             }
             return Ok(());
         }
-        if depth != 2 {
+        if e.depth != 2 {
             return Ok(());
         }
         // Not a variable type: a vendor's element, skipped as everywhere else.
@@ -112,8 +98,8 @@ impl Standard for Fmi3 {
         Ok(())
     }
 
-    fn close(&mut self, doc: &mut Doc<'_>, depth: usize, _name: &str) -> Result<(), ImportError> {
-        if depth != 2 {
+    fn close(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        if e.depth != 2 {
             return Ok(());
         }
         match self.current.take() {

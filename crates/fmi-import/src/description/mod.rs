@@ -230,24 +230,20 @@ pub(crate) fn attr<'s>(attrs: &'s Attrs, key: &str) -> Option<&'s str> {
     attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
 }
 
-/// How a standard spells what differs between FMI 2.0 and FMI 3.0; the rest of the
-/// description is read by [`Doc`] for both.
+/// One element under `<ModelVariables>`: `depth` 2 is a child of it.
+pub(crate) struct Element<'e> {
+    pub depth: usize,
+    pub name: &'e str,
+    pub attrs: &'e Attrs,
+    pub pos: usize,
+}
+
+/// How a standard spells its variables; the rest of the description is read by [`Doc`]
+/// for both (the other spellings are in [`Doc::root`]).
 pub(crate) trait Standard {
-    /// The root attribute holding the token `fmi*Instantiate` checks.
-    fn token_attribute(&self) -> &'static str;
-    /// The `<CoSimulation>` flags of FMU state get/set and serialization.
-    fn state_flags(&self) -> (&'static str, &'static str);
-    /// An element opened under `<ModelVariables>`; `depth` 2 is a child of it.
-    fn open(
-        &mut self,
-        doc: &mut Doc<'_>,
-        depth: usize,
-        name: &str,
-        a: &Attrs,
-        pos: usize,
-    ) -> Result<(), ImportError>;
-    /// An element closed under `<ModelVariables>` (after its children).
-    fn close(&mut self, doc: &mut Doc<'_>, depth: usize, name: &str) -> Result<(), ImportError>;
+    /// An element opened (`e.attrs` set) or closed (after its children).
+    fn open(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError>;
+    fn close(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError>;
 }
 
 /// The strict reader both standards share: the event walk, the error positions and the
@@ -262,6 +258,8 @@ pub(crate) struct Doc<'a> {
     /// Every variable's name, those the master cannot address (FMI 3.0 `Float32`, arrays,
     /// …) included: one namespace, so a duplicate is found whichever kinds the two are.
     names: std::collections::HashSet<String>,
+    /// The standard's names of the FMU-state capability flags of `<CoSimulation>`.
+    state_flags: (&'static str, &'static str),
 }
 
 impl<'a> Doc<'a> {
@@ -277,6 +275,7 @@ impl<'a> Doc<'a> {
             md: ModelDescription::default(),
             seen_root: false,
             names: Default::default(),
+            state_flags: ("", ""),
         }
     }
 
@@ -449,7 +448,7 @@ impl<'a> Doc<'a> {
                 Event::End(e) => {
                     self.stack.pop();
                     let name = e.name().as_ref().to_owned();
-                    self.close(standard.as_deref_mut(), &name)?;
+                    self.close(standard.as_deref_mut(), &name, pos)?;
                     continue;
                 }
                 Event::Eof => break,
@@ -463,7 +462,7 @@ impl<'a> Doc<'a> {
                 self.open(standard.as_deref_mut(), &name, &a, pos)?;
             }
             if empty {
-                self.close(standard.as_deref_mut(), &name)?;
+                self.close(standard.as_deref_mut(), &name, pos)?;
             } else {
                 self.stack.push(name);
             }
@@ -502,16 +501,27 @@ impl<'a> Doc<'a> {
         }
         self.seen_root = true;
         let version = self.required(a, name, "fmiVersion", pos)?.trim().to_owned();
-        let standard: Box<dyn Standard> = if version.starts_with("2.") {
-            Box::new(fmi2::Fmi2::default())
+        // What the two standards spell differently outside the variables: the token
+        // attribute and the state capability flags.
+        let (standard, token, flags): (Box<dyn Standard>, _, _) = if version.starts_with("2.") {
+            (
+                Box::new(fmi2::Fmi2::default()),
+                "guid",
+                ("canGetAndSetFMUstate", "canSerializeFMUstate"),
+            )
         } else if version.starts_with("3.") {
-            Box::new(fmi3::Fmi3::default())
+            (
+                Box::new(fmi3::Fmi3::default()),
+                "instantiationToken",
+                ("canGetAndSetFMUState", "canSerializeFMUState"),
+            )
         } else {
             return Err(ImportError::UnsupportedVersion(cut(&version, 40)));
         };
+        self.state_flags = flags;
         self.md.fmi_version = version;
         self.md.model_name = self.required(a, name, "modelName", pos)?.to_owned();
-        self.md.guid = self.required(a, name, standard.token_attribute(), pos)?.to_owned();
+        self.md.guid = self.required(a, name, token, pos)?.to_owned();
         self.md.description = attr(a, "description").map(str::to_owned);
         self.md.generation_tool = attr(a, "generationTool").map(str::to_owned);
         Ok(standard)
@@ -526,7 +536,7 @@ impl<'a> Doc<'a> {
     ) -> Result<(), ImportError> {
         let depth = self.stack.len();
         match (depth, name) {
-            (1, "CoSimulation") => self.co_simulation(standard, a, pos),
+            (1, "CoSimulation") => self.co_simulation(a, pos),
             (1, "ModelExchange") => {
                 self.md.has_model_exchange = true;
                 Ok(())
@@ -542,7 +552,7 @@ impl<'a> Doc<'a> {
                 Ok(())
             }
             (2.., _) if self.stack[1] == "ModelVariables" => match standard {
-                Some(s) => s.open(self, depth, name, a, pos),
+                Some(s) => s.open(self, &Element { depth, name, attrs: a, pos }),
                 None => Ok(()),
             },
             // Everything else: annotations, units, type definitions, log categories, model
@@ -555,23 +565,19 @@ impl<'a> Doc<'a> {
         &mut self,
         standard: Option<&mut (dyn Standard + 'static)>,
         name: &str,
+        pos: usize,
     ) -> Result<(), ImportError> {
         // `self.stack` no longer holds `name`: a child of <ModelVariables> closes at depth 2.
         let depth = self.stack.len();
         match standard {
             Some(s) if depth >= 2 && self.stack[1] == "ModelVariables" => {
-                s.close(self, depth, name)
+                s.close(self, &Element { depth, name, attrs: &Vec::new(), pos })
             }
             _ => Ok(()),
         }
     }
 
-    fn co_simulation(
-        &mut self,
-        standard: Option<&mut (dyn Standard + 'static)>,
-        a: &Attrs,
-        pos: usize,
-    ) -> Result<(), ImportError> {
+    fn co_simulation(&mut self, a: &Attrs, pos: usize) -> Result<(), ImportError> {
         const TAG: &str = "CoSimulation";
         if self.md.co_simulation.is_some() {
             return Err(self.error(pos, "a second <CoSimulation>"));
@@ -588,7 +594,7 @@ impl<'a> Doc<'a> {
                 format!("<CoSimulation> modelIdentifier=\"{}\" is not a plain file name (no `/`, `\\`, `:` or NUL; not `.` or `..`): refused", cut(&model_identifier, 200)),
             ));
         }
-        let (get_set, serialize) = standard.map_or(("", ""), |s| s.state_flags());
+        let (get_set, serialize) = self.state_flags;
         let flag = |k| self.boolean(a, TAG, k, pos);
         self.md.co_simulation = Some(CoSimulation {
             model_identifier,
