@@ -47,7 +47,7 @@ pub use error::{FmuError, ImportError, Status};
 use archive::Unpacked;
 use backend::fmi2::Fmi2Backend;
 use backend::fmi3::Fmi3Backend;
-use backend::{Backend, Calls, RawState};
+use backend::{Backend, Calls, Plain, RawState};
 use binary::Binary;
 
 /// A variable resolved against the model description.
@@ -309,7 +309,7 @@ impl CsFmu {
 
     /// `fmi*ExitInitializationMode`: the FMU is ready to step from the start time.
     pub fn exit_initialization(&mut self) -> Result<(), FmuError> {
-        self.backend.exit_initialization(&mut self.cx)
+        self.backend.instance().call(&mut self.cx, Plain::ExitInitialization)
     }
 
     /// The current communication point, `start + k · h` after k steps of size h.
@@ -396,13 +396,13 @@ impl CsFmu {
 
     /// `fmi*Terminate`. The instance is freed when `self` is dropped.
     pub fn terminate(&mut self) -> Result<(), FmuError> {
-        self.backend.terminate(&mut self.cx)
+        self.backend.instance().call(&mut self.cx, Plain::Terminate)
     }
 
     /// `fmi*Reset`: back to the state right after instantiation (the time grid restarts
     /// at the next [`CsFmu::enter_initialization`]). Saved states stay valid.
     pub fn reset(&mut self) -> Result<(), FmuError> {
-        self.backend.reset(&mut self.cx)?;
+        self.backend.instance().call(&mut self.cx, Plain::Reset)?;
         self.cx.steps_done = 0;
         self.cx.step_size = 0.0;
         Ok(())

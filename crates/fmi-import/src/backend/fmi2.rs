@@ -6,7 +6,7 @@ use std::ffi::CString;
 use std::path::Path;
 
 use super::state::{Names, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls};
+use super::{copy_strings, pointers, Backend, Calls, Instance};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::ffi::*;
@@ -17,12 +17,8 @@ use crate::{FmuError, ImportError, Status};
 /// (a binary missing one is refused up front).
 struct Api {
     set_debug_logging: fmi2SetDebugLoggingTYPE,
-    free_instance: fmi2FreeInstanceTYPE,
     setup_experiment: fmi2SetupExperimentTYPE,
     enter_initialization_mode: fmi2EnterInitializationModeTYPE,
-    exit_initialization_mode: fmi2ExitInitializationModeTYPE,
-    terminate: fmi2TerminateTYPE,
-    reset: fmi2ResetTYPE,
     get_real: fmi2GetRealTYPE,
     get_integer: fmi2GetIntegerTYPE,
     get_boolean: fmi2GetBooleanTYPE,
@@ -58,7 +54,8 @@ const ALSO_REQUIRED: [&str; 6] = [
 ];
 
 pub(crate) struct Fmi2Backend {
-    component: fmi2Component,
+    // First: freed before what it may point to.
+    instance: Instance,
     api: Api,
     version: String,
     states: States<fmi2Byte>,
@@ -86,7 +83,7 @@ impl Fmi2Backend {
     ) -> Result<Fmi2Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
         // SAFETY: each type is the FMI 2.0 signature of the function named.
-        let (api, instantiate, types_platform, get_version, mut states) = unsafe {
+        let (api, instantiate, types_platform, get_version, mut states, free, plain) = unsafe {
             for name in ALSO_REQUIRED {
                 binary.required::<fmi2CancelStepTYPE>(name)?;
             }
@@ -96,14 +93,16 @@ impl Fmi2Backend {
                 status,
                 (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
             )?;
+            let free: fmi2FreeInstanceTYPE = binary.required("fmi2FreeInstance")?;
+            let plain = [
+                ("fmi2ExitInitializationMode", binary.required("fmi2ExitInitializationMode")?),
+                ("fmi2Terminate", binary.required("fmi2Terminate")?),
+                ("fmi2Reset", binary.required("fmi2Reset")?),
+            ];
             let api = Api {
                 set_debug_logging: binary.required("fmi2SetDebugLogging")?,
-                free_instance: binary.required("fmi2FreeInstance")?,
                 setup_experiment: binary.required("fmi2SetupExperiment")?,
                 enter_initialization_mode: binary.required("fmi2EnterInitializationMode")?,
-                exit_initialization_mode: binary.required("fmi2ExitInitializationMode")?,
-                terminate: binary.required("fmi2Terminate")?,
-                reset: binary.required("fmi2Reset")?,
                 get_real: binary.required("fmi2GetReal")?,
                 get_integer: binary.required("fmi2GetInteger")?,
                 get_boolean: binary.required("fmi2GetBoolean")?,
@@ -118,7 +117,7 @@ impl Fmi2Backend {
             let types_platform: fmi2GetTypesPlatformTYPE =
                 binary.required("fmi2GetTypesPlatform")?;
             let get_version: fmi2GetVersionTYPE = binary.required("fmi2GetVersion")?;
-            (api, instantiate, types_platform, get_version, states)
+            (api, instantiate, types_platform, get_version, states, free, plain)
         };
         // SAFETY: both return a static NUL-terminated string.
         let platform = crate::binary::c_text(unsafe { types_platform() });
@@ -159,9 +158,10 @@ impl Fmi2Backend {
                 instance: instance_name.to_owned(),
             });
         }
-        states.bind(component);
+        let instance = Instance::new(component, free, status, plain);
+        states.bind(instance.ptr());
         Ok(Fmi2Backend {
-            component,
+            instance,
             states,
             api,
             version,
@@ -187,8 +187,8 @@ fn file_uri(dir: &Path) -> String {
     uri
 }
 
-// SAFETY of every call below: FMI 2.0 signatures, a live component (CsFmu calls nothing
-// after free_instance), and arrays of the lengths passed (CsFmu checks vrs and values
+// SAFETY of every call below: FMI 2.0 signatures, a live component (freed only when the backend
+// is dropped), and arrays of the lengths passed (CsFmu checks vrs and values
 // have equal lengths).
 impl Backend for Fmi2Backend {
     fn binary_version(&self) -> &str {
@@ -208,7 +208,7 @@ impl Backend for Fmi2Backend {
         const F: &str = "fmi2SetDebugLogging";
         let cats = cx.c_strings(F, "a category name", categories)?;
         let p = pointers(&cats);
-        let (c, f) = (self.component, self.api.set_debug_logging);
+        let (c, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(c, fmi2Boolean::from(on), p.len(), p.as_ptr()) }))
     }
 
@@ -220,7 +220,7 @@ impl Backend for Fmi2Backend {
         stop: Option<f64>,
     ) -> Result<(), FmuError> {
         let (c, setup, enter) =
-            (self.component, self.api.setup_experiment, self.api.enter_initialization_mode);
+            (self.instance.ptr(), self.api.setup_experiment, self.api.enter_initialization_mode);
         cx.call("fmi2SetupExperiment", || {
             status(unsafe {
                 setup(
@@ -236,37 +236,32 @@ impl Backend for Fmi2Backend {
         cx.call("fmi2EnterInitializationMode", || status(unsafe { enter(c) }))
     }
 
-    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.exit_initialization_mode);
-        cx.call("fmi2ExitInitializationMode", || status(unsafe { f(c) }))
-    }
-
     fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.do_step);
+        let (c, f) = (self.instance.ptr(), self.api.do_step);
         cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))
     }
 
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.get_real);
+        let (c, f) = (self.instance.ptr(), self.api.get_real);
         cx.call("fmi2GetReal", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
         })
     }
 
     fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.set_real);
+        let (c, f) = (self.instance.ptr(), self.api.set_real);
         cx.call("fmi2SetReal", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) }))
     }
 
     fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.get_integer);
+        let (c, f) = (self.instance.ptr(), self.api.get_integer);
         cx.call("fmi2GetInteger", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
         })
     }
 
     fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.set_integer);
+        let (c, f) = (self.instance.ptr(), self.api.set_integer);
         cx.call("fmi2SetInteger", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) })
         })
@@ -275,7 +270,7 @@ impl Backend for Fmi2Backend {
     fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError> {
         // fmi2Boolean is an int: read as such, any non-zero value is true.
         let mut raw = vec![fmi2False; vrs.len()];
-        let (c, f) = (self.component, self.api.get_boolean);
+        let (c, f) = (self.instance.ptr(), self.api.get_boolean);
         cx.call("fmi2GetBoolean", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
         })?;
@@ -287,7 +282,7 @@ impl Backend for Fmi2Backend {
 
     fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| fmi2Boolean::from(b)).collect();
-        let (c, f) = (self.component, self.api.set_boolean);
+        let (c, f) = (self.instance.ptr(), self.api.set_boolean);
         cx.call("fmi2SetBoolean", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_ptr()) }))
     }
 
@@ -298,7 +293,7 @@ impl Backend for Fmi2Backend {
         out: &mut [String],
     ) -> Result<(), FmuError> {
         let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
-        let (c, f) = (self.component, self.api.get_string);
+        let (c, f) = (self.instance.ptr(), self.api.get_string);
         cx.call("fmi2GetString", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
         })?;
@@ -310,35 +305,15 @@ impl Backend for Fmi2Backend {
         const F: &str = "fmi2SetString";
         let owned = cx.c_strings(F, "a string value", values)?;
         let p = pointers(&owned);
-        let (c, f) = (self.component, self.api.set_string);
+        let (c, f) = (self.instance.ptr(), self.api.set_string);
         cx.call(F, || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), p.as_ptr()) }))
-    }
-
-    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.terminate);
-        cx.call("fmi2Terminate", || status(unsafe { f(c) }))
-    }
-
-    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (c, f) = (self.component, self.api.reset);
-        cx.call("fmi2Reset", || status(unsafe { f(c) }))
     }
 
     fn states(&self) -> &dyn StateCalls {
         &self.states
     }
 
-    fn free_instance(&mut self) {
-        if !self.component.is_null() {
-            // SAFETY: from fmi2Instantiate of this library, freed only here, once.
-            unsafe { (self.api.free_instance)(self.component) };
-            self.component = std::ptr::null_mut();
-        }
-    }
-}
-
-impl Drop for Fmi2Backend {
-    fn drop(&mut self) {
-        self.free_instance();
+    fn instance(&self) -> &Instance {
+        &self.instance
     }
 }

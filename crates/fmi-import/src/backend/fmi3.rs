@@ -12,7 +12,7 @@ use std::path::Path;
 use inchworm_fmi_abi::fmi3::*;
 
 use super::state::{Names, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls};
+use super::{copy_strings, pointers, Backend, Calls, Instance};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::logger::LogEnv;
@@ -21,11 +21,7 @@ use crate::{FmuError, ImportError, Status};
 /// The FMI 3.0 functions this layer calls.
 struct Api {
     set_debug_logging: fmi3SetDebugLoggingTYPE,
-    free_instance: fmi3FreeInstanceTYPE,
     enter_initialization_mode: fmi3EnterInitializationModeTYPE,
-    exit_initialization_mode: fmi3ExitInitializationModeTYPE,
-    terminate: fmi3TerminateTYPE,
-    reset: fmi3ResetTYPE,
     get_float64: fmi3GetFloat64TYPE,
     get_int32: fmi3GetInt32TYPE,
     get_boolean: fmi3GetBooleanTYPE,
@@ -50,7 +46,8 @@ static STATE_NAMES: Names = Names {
 };
 
 pub(crate) struct Fmi3Backend {
-    instance: fmi3Instance,
+    // First: freed before what it may point to.
+    instance: Instance,
     api: Api,
     version: String,
     states: States<fmi3Byte>,
@@ -88,20 +85,22 @@ impl Fmi3Backend {
     ) -> Result<Fmi3Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
         // SAFETY: each type is the FMI 3.0 signature of the function named.
-        let (api, instantiate, get_version, mut states) = unsafe {
+        let (api, instantiate, get_version, mut states, free, plain) = unsafe {
             let states = States::<fmi3Byte>::resolve(
                 &binary,
                 &STATE_NAMES,
                 status,
                 (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
             )?;
+            let free: fmi3FreeInstanceTYPE = binary.required("fmi3FreeInstance")?;
+            let plain = [
+                ("fmi3ExitInitializationMode", binary.required("fmi3ExitInitializationMode")?),
+                ("fmi3Terminate", binary.required("fmi3Terminate")?),
+                ("fmi3Reset", binary.required("fmi3Reset")?),
+            ];
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
-                free_instance: binary.required("fmi3FreeInstance")?,
                 enter_initialization_mode: binary.required("fmi3EnterInitializationMode")?,
-                exit_initialization_mode: binary.required("fmi3ExitInitializationMode")?,
-                terminate: binary.required("fmi3Terminate")?,
-                reset: binary.required("fmi3Reset")?,
                 get_float64: binary.required("fmi3GetFloat64")?,
                 get_int32: binary.required("fmi3GetInt32")?,
                 get_boolean: binary.required("fmi3GetBoolean")?,
@@ -115,7 +114,7 @@ impl Fmi3Backend {
             let instantiate: fmi3InstantiateCoSimulationTYPE =
                 binary.required("fmi3InstantiateCoSimulation")?;
             let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
-            (api, instantiate, get_version, states)
+            (api, instantiate, get_version, states, free, plain)
         };
         // SAFETY: returns a static NUL-terminated string.
         let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
@@ -151,7 +150,8 @@ impl Fmi3Backend {
                 instance: instance_name.to_owned(),
             });
         }
-        states.bind(instance);
+        let instance = Instance::new(instance, free, status, plain);
+        states.bind(instance.ptr());
         Ok(Fmi3Backend {
             instance,
             states,
@@ -164,8 +164,8 @@ impl Fmi3Backend {
     }
 }
 
-// SAFETY of every call below: FMI 3.0 signatures, a live instance (CsFmu calls nothing
-// after free_instance), and arrays of the lengths passed as both nValueReferences and
+// SAFETY of every call below: FMI 3.0 signatures, a live instance (freed only when the backend
+// is dropped), and arrays of the lengths passed as both nValueReferences and
 // nValues (every variable this layer addresses is a scalar; CsFmu checks the lengths).
 impl Backend for Fmi3Backend {
     fn binary_version(&self) -> &str {
@@ -185,7 +185,7 @@ impl Backend for Fmi3Backend {
         const F: &str = "fmi3SetDebugLogging";
         let cats = cx.c_strings(F, "a category name", categories)?;
         let p = pointers(&cats);
-        let (i, f) = (self.instance, self.api.set_debug_logging);
+        let (i, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(i, on, p.len(), p.as_ptr()) }))
     }
 
@@ -196,21 +196,16 @@ impl Backend for Fmi3Backend {
         start: f64,
         stop: Option<f64>,
     ) -> Result<(), FmuError> {
-        let (i, f) = (self.instance, self.api.enter_initialization_mode);
+        let (i, f) = (self.instance.ptr(), self.api.enter_initialization_mode);
         cx.call("fmi3EnterInitializationMode", || {
             let (tol, end) = (tolerance.unwrap_or(0.0), stop.unwrap_or(0.0));
             status(unsafe { f(i, tolerance.is_some(), tol, start, stop.is_some(), end) })
         })
     }
 
-    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (i, f) = (self.instance, self.api.exit_initialization_mode);
-        cx.call("fmi3ExitInitializationMode", || status(unsafe { f(i) }))
-    }
-
     fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
         const F: &str = "fmi3DoStep";
-        let (i, f) = (self.instance, self.api.do_step);
+        let (i, f) = (self.instance.ptr(), self.api.do_step);
         let (mut event, mut end, mut early, mut last) = (false, false, false, t);
         cx.call(F, || {
             status(unsafe { f(i, t, h, no_prior, &mut event, &mut end, &mut early, &mut last) })
@@ -234,22 +229,22 @@ impl Backend for Fmi3Backend {
     }
 
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
-        let (i, f, n) = (self.instance, self.api.get_float64, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.get_float64, vrs.len());
         cx.call("fmi3GetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
     }
 
     fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
-        let (i, f, n) = (self.instance, self.api.set_float64, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.set_float64, vrs.len());
         cx.call("fmi3SetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
     fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
-        let (i, f, n) = (self.instance, self.api.get_int32, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.get_int32, vrs.len());
         cx.call("fmi3GetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
     }
 
     fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
-        let (i, f, n) = (self.instance, self.api.set_int32, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.set_int32, vrs.len());
         cx.call("fmi3SetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
@@ -257,7 +252,7 @@ impl Backend for Fmi3Backend {
         // Read as bytes: an FMU writing another byte than 0 or 1 must not make an invalid
         // Rust bool.
         let mut raw = vec![0u8; vrs.len()];
-        let (i, f, n) = (self.instance, self.api.get_boolean, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.get_boolean, vrs.len());
         cx.call("fmi3GetBoolean", || {
             status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr().cast::<fmi3Boolean>(), n) })
         })?;
@@ -268,7 +263,7 @@ impl Backend for Fmi3Backend {
     }
 
     fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
-        let (i, f, n) = (self.instance, self.api.set_boolean, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.set_boolean, vrs.len());
         cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
@@ -279,7 +274,7 @@ impl Backend for Fmi3Backend {
         out: &mut [String],
     ) -> Result<(), FmuError> {
         let mut raw: Vec<fmi3String> = vec![std::ptr::null(); vrs.len()];
-        let (i, f, n) = (self.instance, self.api.get_string, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.get_string, vrs.len());
         cx.call("fmi3GetString", || status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr(), n) }))?;
         copy_strings(&raw, out);
         Ok(())
@@ -289,35 +284,15 @@ impl Backend for Fmi3Backend {
         const F: &str = "fmi3SetString";
         let owned = cx.c_strings(F, "a string value", values)?;
         let p = pointers(&owned);
-        let (i, f, n) = (self.instance, self.api.set_string, vrs.len());
+        let (i, f, n) = (self.instance.ptr(), self.api.set_string, vrs.len());
         cx.call(F, || status(unsafe { f(i, vrs.as_ptr(), n, p.as_ptr(), n) }))
-    }
-
-    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (i, f) = (self.instance, self.api.terminate);
-        cx.call("fmi3Terminate", || status(unsafe { f(i) }))
-    }
-
-    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError> {
-        let (i, f) = (self.instance, self.api.reset);
-        cx.call("fmi3Reset", || status(unsafe { f(i) }))
     }
 
     fn states(&self) -> &dyn StateCalls {
         &self.states
     }
 
-    fn free_instance(&mut self) {
-        if !self.instance.is_null() {
-            // SAFETY: from fmi3InstantiateCoSimulation of this library, freed only here, once.
-            unsafe { (self.api.free_instance)(self.instance) };
-            self.instance = std::ptr::null_mut();
-        }
-    }
-}
-
-impl Drop for Fmi3Backend {
-    fn drop(&mut self) {
-        self.free_instance();
+    fn instance(&self) -> &Instance {
+        &self.instance
     }
 }

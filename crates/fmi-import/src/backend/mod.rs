@@ -41,7 +41,6 @@ pub(crate) trait Backend {
         start: f64,
         stop: Option<f64>,
     ) -> Result<(), FmuError>;
-    fn exit_initialization(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
     /// One step from `t`; `no_prior`: no state of an earlier time will be restored.
     fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError>;
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError>;
@@ -57,12 +56,10 @@ pub(crate) trait Backend {
         out: &mut [String],
     ) -> Result<(), FmuError>;
     fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError>;
-    fn terminate(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
-    fn reset(&mut self, cx: &mut Calls) -> Result<(), FmuError>;
     /// The FMU-state calls of this instance.
     fn states(&self) -> &dyn state::StateCalls;
-    /// Frees the instance (`fmi*FreeInstance`), once; the backend is unusable after.
-    fn free_instance(&mut self);
+    /// The instance: its instance-only calls; freed when the backend is dropped.
+    fn instance(&self) -> &Instance;
 }
 
 /// The state of one instance's calls that is the same in both standards.
@@ -191,5 +188,66 @@ pub(crate) fn copy_strings(raw: &[*const c_char], out: &mut [String]) {
             // next call; copied here before that.
             unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
         };
+    }
+}
+
+/// The calls both standards make on the instance alone.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Plain {
+    ExitInitialization,
+    Terminate,
+    Reset,
+}
+
+// The C shapes of those calls and of the free, the same in both standards (checked below).
+type InstanceOnly = unsafe extern "C" fn(*mut c_void) -> std::os::raw::c_int;
+type Free = unsafe extern "C" fn(*mut c_void);
+
+// This compiles only if both standards' signatures are exactly these shapes.
+#[allow(clippy::type_complexity)]
+const _SAME_SHAPES: [fn(
+    (crate::ffi::fmi2TerminateTYPE, crate::ffi::fmi2FreeInstanceTYPE),
+    (inchworm_fmi_abi::fmi3::fmi3TerminateTYPE, inchworm_fmi_abi::fmi3::fmi3FreeInstanceTYPE),
+) -> [(InstanceOnly, Free); 2]; 1] = [|a, b| [a, b]];
+
+/// One standard's instance: its pointer, its free function (called once, on drop) and its
+/// instance-only calls with their names.
+pub(crate) struct Instance {
+    ptr: *mut c_void,
+    free: Free,
+    status: fn(std::os::raw::c_int) -> Status,
+    /// Exit initialization, terminate, reset: the standard's name and function of each.
+    plain: [(&'static str, InstanceOnly); 3],
+}
+
+impl Instance {
+    /// Takes ownership of `ptr` (non-NULL, from the standard's instantiate function).
+    pub fn new(
+        ptr: *mut c_void,
+        free: Free,
+        status: fn(std::os::raw::c_int) -> Status,
+        plain: [(&'static str, InstanceOnly); 3],
+    ) -> Instance {
+        Instance { ptr, free, status, plain }
+    }
+
+    pub fn ptr(&self) -> *mut c_void {
+        self.ptr
+    }
+
+    /// One of the instance-only calls.
+    pub fn call(&self, cx: &mut Calls, which: Plain) -> Result<(), FmuError> {
+        let (name, f) = self.plain[which as usize];
+        let i = self.ptr;
+        // SAFETY: the standard's own function for this shape, on the live instance.
+        cx.call(name, || (self.status)(unsafe { f(i) }))
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        // SAFETY: from this library's instantiate function, freed only here, once. CsFmu
+        // leaks the backend (and so this) instead after a Fatal.
+        unsafe { (self.free)(self.ptr) };
     }
 }
