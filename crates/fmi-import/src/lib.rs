@@ -47,7 +47,7 @@ pub use error::{FmuError, ImportError, Status};
 use archive::Unpacked;
 use backend::fmi2::Fmi2Backend;
 use backend::fmi3::Fmi3Backend;
-use backend::{Backend, Calls, Plain, RawState};
+use backend::{Backend, Calls, Experiment, Plain, RawState};
 use binary::Binary;
 
 /// A variable resolved against the model description.
@@ -126,7 +126,7 @@ impl std::fmt::Debug for CsFmu {
             .field("model", &self.cx.model)
             .field("instance", &self.cx.instance)
             .field("fmi_version", &self.description.fmi_version)
-            .field("library", &self.backend.library_path())
+            .field("library", &self.backend.instance().binary.full_path)
             .field("time", &self.time())
             .finish_non_exhaustive()
     }
@@ -216,12 +216,12 @@ impl CsFmu {
 
     /// What the binary's `fmi2GetVersion` / `fmi3GetVersion` returned.
     pub fn binary_version(&self) -> &str {
-        self.backend.binary_version()
+        &self.backend.instance().version
     }
 
     /// The path of the loaded library inside the unpacked FMU.
     pub fn library_path(&self) -> &Path {
-        self.backend.library_path()
+        &self.backend.instance().binary.full_path
     }
 
     /// The directory the FMU is unpacked in (deleted on drop).
@@ -304,7 +304,8 @@ impl CsFmu {
         self.cx.alive(self.cx.named("fmi2SetupExperiment", "fmi3EnterInitializationMode"))?;
         self.cx.start_time = start_time;
         self.cx.steps_done = 0;
-        self.backend.enter_initialization(&mut self.cx, tolerance, start_time, stop_time)
+        let e = Experiment { tolerance, start: start_time, stop: stop_time };
+        self.backend.enter_initialization(&mut self.cx, e)
     }
 
     /// `fmi*ExitInitializationMode`: the FMU is ready to step from the start time.

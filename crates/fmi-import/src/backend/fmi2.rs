@@ -5,13 +5,13 @@
 use std::ffi::CString;
 use std::path::Path;
 
-use super::state::{Names, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Instance};
+use super::state::{Names as StateNames, StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Names};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::ffi::*;
 use crate::logger::{self, LogEnv};
-use crate::{FmuError, ImportError, Status};
+use crate::{ImportError, Status};
 
 /// The FMI 2.0 functions this layer calls; all of the CS API's required ones are resolved
 /// (a binary missing one is refused up front).
@@ -30,41 +30,42 @@ struct Api {
     do_step: fmi2DoStepTYPE,
 }
 
-/// The FMI 2.0 spelling of the state functions and flags.
-static STATE_NAMES: Names = Names {
-    get: "fmi2GetFMUstate",
-    set: "fmi2SetFMUstate",
-    free: "fmi2FreeFMUstate",
-    size: "fmi2SerializedFMUstateSize",
-    serialize: "fmi2SerializeFMUstate",
-    deserialize: "fmi2DeSerializeFMUstate",
-    get_set_flag: "canGetAndSetFMUstate",
-    serialize_flag: "canSerializeFMUstate",
+/// The FMI 2.0 names of what [`Common`] resolves.
+static NAMES: Names = Names {
+    free: "fmi2FreeInstance",
+    plain: ["fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset"],
+    state: StateNames {
+        get: "fmi2GetFMUstate",
+        set: "fmi2SetFMUstate",
+        free: "fmi2FreeFMUstate",
+        size: "fmi2SerializedFMUstateSize",
+        serialize: "fmi2SerializeFMUstate",
+        deserialize: "fmi2DeSerializeFMUstate",
+        get_set_flag: "canGetAndSetFMUstate",
+        serialize_flag: "canSerializeFMUstate",
+    },
 };
 
-/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`]: resolved
+/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`] and [`NAMES`]: resolved
 /// so that an incomplete binary is refused at load, not at its first use.
 const ALSO_REQUIRED: [&str; 6] = [
-    "fmi2Instantiate",
     "fmi2CancelStep",
     "fmi2GetStatus",
     "fmi2GetRealStatus",
     "fmi2GetIntegerStatus",
     "fmi2GetBooleanStatus",
+    "fmi2GetStringStatus",
 ];
 
 pub(crate) struct Fmi2Backend {
     // First: freed before what it may point to.
     instance: Instance,
     api: Api,
-    version: String,
     states: States<fmi2Byte>,
     // What the FMU may hold pointers to until fmi2FreeInstance; dropped after it.
     _callbacks: Box<fmi2CallbackFunctions>,
     _env: Box<LogEnv>,
     _strings: [CString; 3],
-    // Last: unloaded once nothing points into it.
-    binary: Binary,
 }
 
 fn status(raw: fmi2Status) -> Status {
@@ -83,22 +84,17 @@ impl Fmi2Backend {
     ) -> Result<Fmi2Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
         // SAFETY: each type is the FMI 2.0 signature of the function named.
-        let (api, instantiate, types_platform, get_version, mut states, free, plain) = unsafe {
+        let (api, instantiate, types_platform, get_version, common) = unsafe {
+            let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
             for name in ALSO_REQUIRED {
                 binary.required::<fmi2CancelStepTYPE>(name)?;
             }
-            let states = States::<fmi2Byte>::resolve(
+            let common = Common::<fmi2Byte>::resolve(
                 &binary,
-                &STATE_NAMES,
+                &NAMES,
                 status,
                 (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
             )?;
-            let free: fmi2FreeInstanceTYPE = binary.required("fmi2FreeInstance")?;
-            let plain = [
-                ("fmi2ExitInitializationMode", binary.required("fmi2ExitInitializationMode")?),
-                ("fmi2Terminate", binary.required("fmi2Terminate")?),
-                ("fmi2Reset", binary.required("fmi2Reset")?),
-            ];
             let api = Api {
                 set_debug_logging: binary.required("fmi2SetDebugLogging")?,
                 setup_experiment: binary.required("fmi2SetupExperiment")?,
@@ -113,11 +109,10 @@ impl Fmi2Backend {
                 set_string: binary.required("fmi2SetString")?,
                 do_step: binary.required("fmi2DoStep")?,
             };
-            let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
             let types_platform: fmi2GetTypesPlatformTYPE =
                 binary.required("fmi2GetTypesPlatform")?;
             let get_version: fmi2GetVersionTYPE = binary.required("fmi2GetVersion")?;
-            (api, instantiate, types_platform, get_version, states, free, plain)
+            (api, instantiate, types_platform, get_version, common)
         };
         // SAFETY: both return a static NUL-terminated string.
         let platform = crate::binary::c_text(unsafe { types_platform() });
@@ -158,17 +153,14 @@ impl Fmi2Backend {
                 instance: instance_name.to_owned(),
             });
         }
-        let instance = Instance::new(component, free, status, plain);
-        states.bind(instance.ptr());
+        let (instance, states) = common.finish(component, (binary, version), status);
         Ok(Fmi2Backend {
             instance,
             states,
             api,
-            version,
             _callbacks: callbacks,
             _env: env,
             _strings: [c_name, c_guid, c_resources],
-            binary,
         })
     }
 }
@@ -191,34 +183,16 @@ fn file_uri(dir: &Path) -> String {
 // is dropped), and arrays of the lengths passed (CsFmu checks vrs and values
 // have equal lengths).
 impl Backend for Fmi2Backend {
-    fn binary_version(&self) -> &str {
-        &self.version
-    }
-
-    fn library_path(&self) -> &Path {
-        &self.binary.full_path
-    }
-
-    fn set_debug_logging(
-        &mut self,
-        cx: &mut Calls,
-        on: bool,
-        categories: &[&str],
-    ) -> Result<(), FmuError> {
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done {
         const F: &str = "fmi2SetDebugLogging";
-        let cats = cx.c_strings(F, "a category name", categories)?;
+        let cats = cx.c_strings(F, "a category name", cats)?;
         let p = pointers(&cats);
         let (c, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(c, fmi2Boolean::from(on), p.len(), p.as_ptr()) }))
     }
 
-    fn enter_initialization(
-        &mut self,
-        cx: &mut Calls,
-        tolerance: Option<f64>,
-        start: f64,
-        stop: Option<f64>,
-    ) -> Result<(), FmuError> {
+    fn enter_initialization(&mut self, cx: &mut Calls, e: Experiment) -> Done {
+        let Experiment { tolerance, start, stop } = e;
         let (c, setup, enter) =
             (self.instance.ptr(), self.api.setup_experiment, self.api.enter_initialization_mode);
         cx.call("fmi2SetupExperiment", || {
@@ -236,38 +210,38 @@ impl Backend for Fmi2Backend {
         cx.call("fmi2EnterInitializationMode", || status(unsafe { enter(c) }))
     }
 
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.do_step);
         cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))
     }
 
-    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.get_real);
         cx.call("fmi2GetReal", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
         })
     }
 
-    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.set_real);
         cx.call("fmi2SetReal", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) }))
     }
 
-    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.get_integer);
         cx.call("fmi2GetInteger", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) })
         })
     }
 
-    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.set_integer);
         cx.call("fmi2SetInteger", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), values.as_ptr()) })
         })
     }
 
-    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError> {
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done {
         // fmi2Boolean is an int: read as such, any non-zero value is true.
         let mut raw = vec![fmi2False; vrs.len()];
         let (c, f) = (self.instance.ptr(), self.api.get_boolean);
@@ -280,18 +254,13 @@ impl Backend for Fmi2Backend {
         Ok(())
     }
 
-    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done {
         let raw: Vec<fmi2Boolean> = values.iter().map(|&b| fmi2Boolean::from(b)).collect();
         let (c, f) = (self.instance.ptr(), self.api.set_boolean);
         cx.call("fmi2SetBoolean", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_ptr()) }))
     }
 
-    fn get_string(
-        &mut self,
-        cx: &mut Calls,
-        vrs: &[u32],
-        out: &mut [String],
-    ) -> Result<(), FmuError> {
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done {
         let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
         let (c, f) = (self.instance.ptr(), self.api.get_string);
         cx.call("fmi2GetString", || {
@@ -301,7 +270,7 @@ impl Backend for Fmi2Backend {
         Ok(())
     }
 
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done {
         const F: &str = "fmi2SetString";
         let owned = cx.c_strings(F, "a string value", values)?;
         let p = pointers(&owned);

@@ -11,8 +11,8 @@ use std::path::Path;
 
 use inchworm_fmi_abi::fmi3::*;
 
-use super::state::{Names, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Instance};
+use super::state::{Names as StateNames, StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Names};
 use crate::binary::Binary;
 use crate::description::ModelDescription;
 use crate::logger::LogEnv;
@@ -33,29 +33,30 @@ struct Api {
     do_step: fmi3DoStepTYPE,
 }
 
-/// The FMI 3.0 spelling of the state functions and flags.
-static STATE_NAMES: Names = Names {
-    get: "fmi3GetFMUState",
-    set: "fmi3SetFMUState",
-    free: "fmi3FreeFMUState",
-    size: "fmi3SerializedFMUStateSize",
-    serialize: "fmi3SerializeFMUState",
-    deserialize: "fmi3DeserializeFMUState",
-    get_set_flag: "canGetAndSetFMUState",
-    serialize_flag: "canSerializeFMUState",
+/// The FMI 3.0 names of what [`Common`] resolves.
+static NAMES: Names = Names {
+    free: "fmi3FreeInstance",
+    plain: ["fmi3ExitInitializationMode", "fmi3Terminate", "fmi3Reset"],
+    state: StateNames {
+        get: "fmi3GetFMUState",
+        set: "fmi3SetFMUState",
+        free: "fmi3FreeFMUState",
+        size: "fmi3SerializedFMUStateSize",
+        serialize: "fmi3SerializeFMUState",
+        deserialize: "fmi3DeserializeFMUState",
+        get_set_flag: "canGetAndSetFMUState",
+        serialize_flag: "canSerializeFMUState",
+    },
 };
 
 pub(crate) struct Fmi3Backend {
     // First: freed before what it may point to.
     instance: Instance,
     api: Api,
-    version: String,
     states: States<fmi3Byte>,
     // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
     _env: Box<LogEnv>,
     _strings: [CString; 3],
-    // Last: unloaded once nothing points into it.
-    binary: Binary,
 }
 
 fn status(raw: fmi3Status) -> Status {
@@ -85,19 +86,15 @@ impl Fmi3Backend {
     ) -> Result<Fmi3Backend, ImportError> {
         let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
         // SAFETY: each type is the FMI 3.0 signature of the function named.
-        let (api, instantiate, get_version, mut states, free, plain) = unsafe {
-            let states = States::<fmi3Byte>::resolve(
+        let (api, instantiate, get_version, common) = unsafe {
+            let instantiate: fmi3InstantiateCoSimulationTYPE =
+                binary.required("fmi3InstantiateCoSimulation")?;
+            let common = Common::<fmi3Byte>::resolve(
                 &binary,
-                &STATE_NAMES,
+                &NAMES,
                 status,
                 (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
             )?;
-            let free: fmi3FreeInstanceTYPE = binary.required("fmi3FreeInstance")?;
-            let plain = [
-                ("fmi3ExitInitializationMode", binary.required("fmi3ExitInitializationMode")?),
-                ("fmi3Terminate", binary.required("fmi3Terminate")?),
-                ("fmi3Reset", binary.required("fmi3Reset")?),
-            ];
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
                 enter_initialization_mode: binary.required("fmi3EnterInitializationMode")?,
@@ -111,10 +108,8 @@ impl Fmi3Backend {
                 set_string: binary.required("fmi3SetString")?,
                 do_step: binary.required("fmi3DoStep")?,
             };
-            let instantiate: fmi3InstantiateCoSimulationTYPE =
-                binary.required("fmi3InstantiateCoSimulation")?;
             let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
-            (api, instantiate, get_version, states, free, plain)
+            (api, instantiate, get_version, common)
         };
         // SAFETY: returns a static NUL-terminated string.
         let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
@@ -150,16 +145,13 @@ impl Fmi3Backend {
                 instance: instance_name.to_owned(),
             });
         }
-        let instance = Instance::new(instance, free, status, plain);
-        states.bind(instance.ptr());
+        let (instance, states) = common.finish(instance, (binary, version), status);
         Ok(Fmi3Backend {
             instance,
             states,
             api,
-            version,
             _env: env,
             _strings: [c_name, c_token, c_resources],
-            binary,
         })
     }
 }
@@ -168,34 +160,16 @@ impl Fmi3Backend {
 // is dropped), and arrays of the lengths passed as both nValueReferences and
 // nValues (every variable this layer addresses is a scalar; CsFmu checks the lengths).
 impl Backend for Fmi3Backend {
-    fn binary_version(&self) -> &str {
-        &self.version
-    }
-
-    fn library_path(&self) -> &Path {
-        &self.binary.full_path
-    }
-
-    fn set_debug_logging(
-        &mut self,
-        cx: &mut Calls,
-        on: bool,
-        categories: &[&str],
-    ) -> Result<(), FmuError> {
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done {
         const F: &str = "fmi3SetDebugLogging";
-        let cats = cx.c_strings(F, "a category name", categories)?;
+        let cats = cx.c_strings(F, "a category name", cats)?;
         let p = pointers(&cats);
         let (i, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(i, on, p.len(), p.as_ptr()) }))
     }
 
-    fn enter_initialization(
-        &mut self,
-        cx: &mut Calls,
-        tolerance: Option<f64>,
-        start: f64,
-        stop: Option<f64>,
-    ) -> Result<(), FmuError> {
+    fn enter_initialization(&mut self, cx: &mut Calls, e: Experiment) -> Done {
+        let Experiment { tolerance, start, stop } = e;
         let (i, f) = (self.instance.ptr(), self.api.enter_initialization_mode);
         cx.call("fmi3EnterInitializationMode", || {
             let (tol, end) = (tolerance.unwrap_or(0.0), stop.unwrap_or(0.0));
@@ -203,7 +177,7 @@ impl Backend for Fmi3Backend {
         })
     }
 
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError> {
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
         const F: &str = "fmi3DoStep";
         let (i, f) = (self.instance.ptr(), self.api.do_step);
         let (mut event, mut end, mut early, mut last) = (false, false, false, t);
@@ -228,27 +202,27 @@ impl Backend for Fmi3Backend {
         })
     }
 
-    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError> {
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.get_float64, vrs.len());
         cx.call("fmi3GetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
     }
 
-    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.set_float64, vrs.len());
         cx.call("fmi3SetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
-    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError> {
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.get_int32, vrs.len());
         cx.call("fmi3GetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
     }
 
-    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.set_int32, vrs.len());
         cx.call("fmi3SetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
-    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError> {
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done {
         // Read as bytes: an FMU writing another byte than 0 or 1 must not make an invalid
         // Rust bool.
         let mut raw = vec![0u8; vrs.len()];
@@ -262,17 +236,12 @@ impl Backend for Fmi3Backend {
         Ok(())
     }
 
-    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.set_boolean, vrs.len());
         cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
-    fn get_string(
-        &mut self,
-        cx: &mut Calls,
-        vrs: &[u32],
-        out: &mut [String],
-    ) -> Result<(), FmuError> {
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done {
         let mut raw: Vec<fmi3String> = vec![std::ptr::null(); vrs.len()];
         let (i, f, n) = (self.instance.ptr(), self.api.get_string, vrs.len());
         cx.call("fmi3GetString", || status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr(), n) }))?;
@@ -280,7 +249,7 @@ impl Backend for Fmi3Backend {
         Ok(())
     }
 
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done {
         const F: &str = "fmi3SetString";
         let owned = cx.c_strings(F, "a string value", values)?;
         let p = pointers(&owned);

@@ -13,9 +13,20 @@ pub(crate) mod state;
 
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_void};
-use std::path::Path;
 
+use crate::binary::Binary;
 use crate::{logger, FmuError, Status};
+
+/// The experiment a backend enters initialization with.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Experiment {
+    pub tolerance: Option<f64>,
+    pub start: f64,
+    pub stop: Option<f64>,
+}
+
+/// What a call that returns nothing but its status gives.
+pub(crate) type Done = Result<(), FmuError>;
 
 /// An FMU state as the FMU handed it out (`fmi2FMUstate`, `fmi3FMUState`).
 pub(crate) type RawState = *mut c_void;
@@ -23,39 +34,19 @@ pub(crate) type RawState = *mut c_void;
 /// The calls of one FMU instance, in the FMU's own standard. Every method that calls the
 /// FMU goes through [`Calls::call`] with the real function name.
 pub(crate) trait Backend {
-    /// What the binary's `fmi*GetVersion` returned.
-    fn binary_version(&self) -> &str;
-    /// The library, inside the unpacked FMU.
-    fn library_path(&self) -> &Path;
-    fn set_debug_logging(
-        &mut self,
-        cx: &mut Calls,
-        on: bool,
-        categories: &[&str],
-    ) -> Result<(), FmuError>;
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done;
     /// Everything up to and including entering Initialization Mode.
-    fn enter_initialization(
-        &mut self,
-        cx: &mut Calls,
-        tolerance: Option<f64>,
-        start: f64,
-        stop: Option<f64>,
-    ) -> Result<(), FmuError>;
+    fn enter_initialization(&mut self, cx: &mut Calls, e: Experiment) -> Done;
     /// One step from `t`; `no_prior`: no state of an earlier time will be restored.
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Result<(), FmuError>;
-    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Result<(), FmuError>;
-    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Result<(), FmuError>;
-    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Result<(), FmuError>;
-    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Result<(), FmuError>;
-    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Result<(), FmuError>;
-    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Result<(), FmuError>;
-    fn get_string(
-        &mut self,
-        cx: &mut Calls,
-        vrs: &[u32],
-        out: &mut [String],
-    ) -> Result<(), FmuError>;
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Result<(), FmuError>;
+    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done;
+    fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done;
+    fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Done;
+    fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Done;
+    fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Done;
+    fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done;
+    fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done;
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done;
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done;
     /// The FMU-state calls of this instance.
     fn states(&self) -> &dyn state::StateCalls;
     /// The instance: its instance-only calls; freed when the backend is dropped.
@@ -96,7 +87,7 @@ impl Calls {
     }
 
     /// Refuses any call after a Fatal, as both standards demand.
-    pub fn alive(&self, function: &'static str) -> Result<(), FmuError> {
+    pub fn alive(&self, function: &'static str) -> Done {
         match self.fatal {
             Some(fatal_in) => {
                 Err(FmuError::AfterFatal { model: self.model.clone(), function, fatal_in })
@@ -106,17 +97,13 @@ impl Calls {
     }
 
     /// Makes the call `function` (unless a Fatal came before) and checks its status.
-    pub fn call(
-        &mut self,
-        function: &'static str,
-        run: impl FnOnce() -> Status,
-    ) -> Result<(), FmuError> {
+    pub fn call(&mut self, function: &'static str, run: impl FnOnce() -> Status) -> Done {
         self.alive(function)?;
         let status = run();
         self.check(function, status)
     }
 
-    fn check(&mut self, function: &'static str, status: Status) -> Result<(), FmuError> {
+    fn check(&mut self, function: &'static str, status: Status) -> Done {
         match status {
             Status::Ok => Ok(()),
             Status::Warning => {
@@ -214,6 +201,10 @@ const _SAME_SHAPES: [fn(
 /// instance-only calls with their names.
 pub(crate) struct Instance {
     ptr: *mut c_void,
+    /// What the binary's `fmi*GetVersion` returned.
+    pub version: String,
+    // After `ptr` is freed (in `drop`), the library is unloaded with this field.
+    pub binary: Binary,
     free: Free,
     status: fn(std::os::raw::c_int) -> Status,
     /// Exit initialization, terminate, reset: the standard's name and function of each.
@@ -223,12 +214,12 @@ pub(crate) struct Instance {
 impl Instance {
     /// Takes ownership of `ptr` (non-NULL, from the standard's instantiate function).
     pub fn new(
-        ptr: *mut c_void,
-        free: Free,
+        (ptr, free): (*mut c_void, Free),
+        (binary, version): (Binary, String),
         status: fn(std::os::raw::c_int) -> Status,
         plain: [(&'static str, InstanceOnly); 3],
     ) -> Instance {
-        Instance { ptr, free, status, plain }
+        Instance { ptr, version, binary, free, status, plain }
     }
 
     pub fn ptr(&self) -> *mut c_void {
@@ -236,7 +227,7 @@ impl Instance {
     }
 
     /// One of the instance-only calls.
-    pub fn call(&self, cx: &mut Calls, which: Plain) -> Result<(), FmuError> {
+    pub fn call(&self, cx: &mut Calls, which: Plain) -> Done {
         let (name, f) = self.plain[which as usize];
         let i = self.ptr;
         // SAFETY: the standard's own function for this shape, on the live instance.
@@ -249,5 +240,57 @@ impl Drop for Instance {
         // SAFETY: from this library's instantiate function, freed only here, once. CsFmu
         // leaks the backend (and so this) instead after a Fatal.
         unsafe { (self.free)(self.ptr) };
+    }
+}
+
+/// One standard's names of what [`Common`] resolves.
+pub(crate) struct Names {
+    pub free: &'static str,
+    /// Exit initialization, terminate, reset (the order of [`Plain`]).
+    pub plain: [&'static str; 3],
+    pub state: state::Names,
+}
+
+/// What both backends resolve from their library the same way: the free, the
+/// instance-only calls and the FMU-state functions, each under its standard's name.
+pub(crate) struct Common<B: 'static> {
+    names: &'static Names,
+    free: Free,
+    plain: [InstanceOnly; 3],
+    states: state::States<B>,
+}
+
+impl<B: Copy + 'static> Common<B> {
+    /// # Safety
+    /// The standard's signatures of these functions must have the shapes checked above
+    /// and in `state` (they do in FMI 2.0 and FMI 3.0).
+    pub unsafe fn resolve(
+        binary: &Binary,
+        names: &'static Names,
+        status: fn(std::os::raw::c_int) -> Status,
+        capabilities: (bool, bool),
+    ) -> Result<Self, crate::ImportError> {
+        let [exit, terminate, reset] = names.plain;
+        Ok(Common {
+            names,
+            free: binary.required(names.free)?,
+            plain: [binary.required(exit)?, binary.required(terminate)?, binary.required(reset)?],
+            states: state::States::resolve(binary, &names.state, status, capabilities)?,
+        })
+    }
+
+    /// The instance `ptr` (non-NULL, from the standard's instantiate function) and its
+    /// state calls.
+    pub fn finish(
+        self,
+        ptr: *mut c_void,
+        loaded: (Binary, String),
+        status: fn(std::os::raw::c_int) -> Status,
+    ) -> (Instance, state::States<B>) {
+        let mut states = self.states;
+        states.bind(ptr);
+        let [n0, n1, n2] = self.names.plain;
+        let [f0, f1, f2] = self.plain;
+        (Instance::new((ptr, self.free), loaded, status, [(n0, f0), (n1, f1), (n2, f2)]), states)
     }
 }
