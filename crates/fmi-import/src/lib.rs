@@ -47,7 +47,7 @@ pub use error::{FmuError, ImportError, Status};
 use archive::Unpacked;
 use backend::fmi2::Fmi2Backend;
 use backend::fmi3::Fmi3Backend;
-use backend::{Backend, Calls, Experiment, Plain, RawState};
+use backend::{Backend, Calls, Experiment, Plain, RawState, Setup};
 use binary::Binary;
 
 /// A variable resolved against the model description.
@@ -160,28 +160,11 @@ impl CsFmu {
             .map_err(import)?;
         let binary = Binary::load(unpacked.dir(), &library).map_err(import)?;
         let resources = unpacked.dir().join("resources");
+        let setup = Setup { md: &description, resources: &resources, instance_name, logging_on };
         let backend: Box<dyn Backend> = if fmi3 {
-            Box::new(
-                Fmi3Backend::instantiate(
-                    binary,
-                    &description,
-                    &resources,
-                    instance_name,
-                    logging_on,
-                )
-                .map_err(import)?,
-            )
+            Box::new(Fmi3Backend::instantiate(binary, &setup).map_err(import)?)
         } else {
-            Box::new(
-                Fmi2Backend::instantiate(
-                    binary,
-                    &description,
-                    &resources,
-                    instance_name,
-                    logging_on,
-                )
-                .map_err(import)?,
-            )
+            Box::new(Fmi2Backend::instantiate(binary, &setup).map_err(import)?)
         };
         Ok(CsFmu {
             cx: Calls::new(model, instance_name.to_owned(), fmi3),

@@ -5,10 +5,9 @@
 use std::ffi::CString;
 use std::path::Path;
 
-use super::state::{Names as StateNames, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Names};
+use super::state::{StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
-use crate::description::ModelDescription;
 use crate::ffi::*;
 use crate::logger::{self, LogEnv};
 use crate::{ImportError, Status};
@@ -30,23 +29,7 @@ struct Api {
     do_step: fmi2DoStepTYPE,
 }
 
-/// The FMI 2.0 names of what [`Common`] resolves.
-static NAMES: Names = Names {
-    free: "fmi2FreeInstance",
-    plain: ["fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset"],
-    state: StateNames {
-        get: "fmi2GetFMUstate",
-        set: "fmi2SetFMUstate",
-        free: "fmi2FreeFMUstate",
-        size: "fmi2SerializedFMUstateSize",
-        serialize: "fmi2SerializeFMUstate",
-        deserialize: "fmi2DeSerializeFMUstate",
-        get_set_flag: "canGetAndSetFMUstate",
-        serialize_flag: "canSerializeFMUstate",
-    },
-};
-
-/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`] and [`NAMES`]: resolved
+/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`] and [`super::FMI2_NAMES`]: resolved
 /// so that an incomplete binary is refused at load, not at its first use.
 const ALSO_REQUIRED: [&str; 6] = [
     "fmi2CancelStep",
@@ -75,26 +58,15 @@ fn status(raw: fmi2Status) -> Status {
 impl Fmi2Backend {
     /// Resolves the `fmi2*` functions of `binary`, checks its platform and version and
     /// instantiates it for Co-Simulation.
-    pub fn instantiate(
-        binary: Binary,
-        md: &ModelDescription,
-        resources: &Path,
-        instance_name: &str,
-        logging_on: bool,
-    ) -> Result<Fmi2Backend, ImportError> {
-        let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
+    pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi2Backend, ImportError> {
+        let Setup { md, resources, instance_name, logging_on } = *setup;
         // SAFETY: each type is the FMI 2.0 signature of the function named.
         let (api, instantiate, types_platform, get_version, common) = unsafe {
             let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
             for name in ALSO_REQUIRED {
                 binary.required::<fmi2CancelStepTYPE>(name)?;
             }
-            let common = Common::<fmi2Byte>::resolve(
-                &binary,
-                &NAMES,
-                status,
-                (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
-            )?;
+            let common = Common::<fmi2Byte>::resolve(&binary, &super::FMI2_NAMES, status, setup)?;
             let api = Api {
                 set_debug_logging: binary.required("fmi2SetDebugLogging")?,
                 setup_experiment: binary.required("fmi2SetupExperiment")?,

@@ -7,14 +7,12 @@
 
 use std::ffi::CString;
 use std::os::raw::c_void;
-use std::path::Path;
 
 use inchworm_fmi_abi::fmi3::*;
 
-use super::state::{Names as StateNames, StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Names};
+use super::state::{StateCalls, States};
+use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
-use crate::description::ModelDescription;
 use crate::logger::LogEnv;
 use crate::{FmuError, ImportError, Status};
 
@@ -32,22 +30,6 @@ struct Api {
     set_string: fmi3SetStringTYPE,
     do_step: fmi3DoStepTYPE,
 }
-
-/// The FMI 3.0 names of what [`Common`] resolves.
-static NAMES: Names = Names {
-    free: "fmi3FreeInstance",
-    plain: ["fmi3ExitInitializationMode", "fmi3Terminate", "fmi3Reset"],
-    state: StateNames {
-        get: "fmi3GetFMUState",
-        set: "fmi3SetFMUState",
-        free: "fmi3FreeFMUState",
-        size: "fmi3SerializedFMUStateSize",
-        serialize: "fmi3SerializeFMUState",
-        deserialize: "fmi3DeserializeFMUState",
-        get_set_flag: "canGetAndSetFMUState",
-        serialize_flag: "canSerializeFMUState",
-    },
-};
 
 pub(crate) struct Fmi3Backend {
     // First: freed before what it may point to.
@@ -77,24 +59,13 @@ unsafe extern "C" fn log_message(
 impl Fmi3Backend {
     /// Resolves the `fmi3*` functions of `binary`, checks its version and instantiates it
     /// for Co-Simulation.
-    pub fn instantiate(
-        binary: Binary,
-        md: &ModelDescription,
-        resources: &Path,
-        instance_name: &str,
-        logging_on: bool,
-    ) -> Result<Fmi3Backend, ImportError> {
-        let cs = md.co_simulation.as_ref().expect("checked by CsFmu::load");
+    pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi3Backend, ImportError> {
+        let Setup { md, resources, instance_name, logging_on } = *setup;
         // SAFETY: each type is the FMI 3.0 signature of the function named.
         let (api, instantiate, get_version, common) = unsafe {
             let instantiate: fmi3InstantiateCoSimulationTYPE =
                 binary.required("fmi3InstantiateCoSimulation")?;
-            let common = Common::<fmi3Byte>::resolve(
-                &binary,
-                &NAMES,
-                status,
-                (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state),
-            )?;
+            let common = Common::<fmi3Byte>::resolve(&binary, &super::FMI3_NAMES, status, setup)?;
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
                 enter_initialization_mode: binary.required("fmi3EnterInitializationMode")?,

@@ -17,6 +17,15 @@ use std::os::raw::{c_char, c_void};
 use crate::binary::Binary;
 use crate::{logger, FmuError, Status};
 
+/// What a backend is instantiated with.
+pub(crate) struct Setup<'a> {
+    pub md: &'a crate::ModelDescription,
+    /// The unpacked FMU's `resources` folder.
+    pub resources: &'a std::path::Path,
+    pub instance_name: &'a str,
+    pub logging_on: bool,
+}
+
 /// The experiment a backend enters initialization with.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Experiment {
@@ -243,6 +252,59 @@ impl Drop for Instance {
     }
 }
 
+/// The calls and flags both backends resolve the same way, as FMI 2.0 (0) and FMI 3.0 (1)
+/// spell them: one concordance, so that neither standard's names are written twice.
+struct Spellings {
+    free: [&'static str; 2],
+    exit: [&'static str; 2],
+    terminate: [&'static str; 2],
+    reset: [&'static str; 2],
+    get: [&'static str; 2],
+    set: [&'static str; 2],
+    free_state: [&'static str; 2],
+    size: [&'static str; 2],
+    serialize: [&'static str; 2],
+    deserialize: [&'static str; 2],
+    get_set_flag: [&'static str; 2],
+    serialize_flag: [&'static str; 2],
+}
+
+const SPELLINGS: Spellings = Spellings {
+    free: ["fmi2FreeInstance", "fmi3FreeInstance"],
+    exit: ["fmi2ExitInitializationMode", "fmi3ExitInitializationMode"],
+    terminate: ["fmi2Terminate", "fmi3Terminate"],
+    reset: ["fmi2Reset", "fmi3Reset"],
+    get: ["fmi2GetFMUstate", "fmi3GetFMUState"],
+    set: ["fmi2SetFMUstate", "fmi3SetFMUState"],
+    free_state: ["fmi2FreeFMUstate", "fmi3FreeFMUState"],
+    size: ["fmi2SerializedFMUstateSize", "fmi3SerializedFMUStateSize"],
+    serialize: ["fmi2SerializeFMUstate", "fmi3SerializeFMUState"],
+    deserialize: ["fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"],
+    get_set_flag: ["canGetAndSetFMUstate", "canGetAndSetFMUState"],
+    serialize_flag: ["canSerializeFMUstate", "canSerializeFMUState"],
+};
+
+const fn spelled(i: usize) -> Names {
+    let s = &SPELLINGS;
+    Names {
+        free: s.free[i],
+        plain: [s.exit[i], s.terminate[i], s.reset[i]],
+        state: state::Names {
+            get: s.get[i],
+            set: s.set[i],
+            free: s.free_state[i],
+            size: s.size[i],
+            serialize: s.serialize[i],
+            deserialize: s.deserialize[i],
+            get_set_flag: s.get_set_flag[i],
+            serialize_flag: s.serialize_flag[i],
+        },
+    }
+}
+
+pub(crate) static FMI2_NAMES: Names = spelled(0);
+pub(crate) static FMI3_NAMES: Names = spelled(1);
+
 /// One standard's names of what [`Common`] resolves.
 pub(crate) struct Names {
     pub free: &'static str,
@@ -268,8 +330,10 @@ impl<B: Copy + 'static> Common<B> {
         binary: &Binary,
         names: &'static Names,
         status: fn(std::os::raw::c_int) -> Status,
-        capabilities: (bool, bool),
+        setup: &Setup<'_>,
     ) -> Result<Self, crate::ImportError> {
+        let cs = setup.md.co_simulation.as_ref().expect("checked by CsFmu::load");
+        let capabilities = (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state);
         let [exit, terminate, reset] = names.plain;
         Ok(Common {
             names,
