@@ -62,7 +62,8 @@ impl Fmi2Backend {
         let Setup { md, resources, instance_name, logging_on } = *setup;
         // SAFETY: each type is the FMI 2.0 signature of the function named.
         let (api, instantiate, types_platform, get_version, common) = unsafe {
-            let instantiate: fmi2InstantiateTYPE = binary.required("fmi2Instantiate")?;
+            let instantiate: fmi2InstantiateTYPE =
+                binary.required(super::FMI2_NAMES.instantiate)?;
             for name in ALSO_REQUIRED {
                 binary.required::<fmi2CancelStepTYPE>(name)?;
             }
@@ -119,13 +120,7 @@ impl Fmi2Backend {
                 fmi2Boolean::from(logging_on),
             )
         };
-        if component.is_null() {
-            return Err(ImportError::Instantiate {
-                function: "fmi2Instantiate",
-                instance: instance_name.to_owned(),
-            });
-        }
-        let (instance, states) = common.finish(component, (binary, version), status);
+        let (instance, states) = common.finish(component, (binary, version), status, setup)?;
         Ok(Fmi2Backend {
             instance,
             states,

@@ -64,7 +64,7 @@ impl Fmi3Backend {
         // SAFETY: each type is the FMI 3.0 signature of the function named.
         let (api, instantiate, get_version, common) = unsafe {
             let instantiate: fmi3InstantiateCoSimulationTYPE =
-                binary.required("fmi3InstantiateCoSimulation")?;
+                binary.required(super::FMI3_NAMES.instantiate)?;
             let common = Common::<fmi3Byte>::resolve(&binary, &super::FMI3_NAMES, status, setup)?;
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
@@ -110,13 +110,7 @@ impl Fmi3Backend {
                 None,
             )
         };
-        if instance.is_null() {
-            return Err(ImportError::Instantiate {
-                function: "fmi3InstantiateCoSimulation",
-                instance: instance_name.to_owned(),
-            });
-        }
-        let (instance, states) = common.finish(instance, (binary, version), status);
+        let (instance, states) = common.finish(instance, (binary, version), status, setup)?;
         Ok(Fmi3Backend {
             instance,
             states,

@@ -255,6 +255,7 @@ impl Drop for Instance {
 /// The calls and flags both backends resolve the same way, as FMI 2.0 (0) and FMI 3.0 (1)
 /// spell them: one concordance, so that neither standard's names are written twice.
 struct Spellings {
+    instantiate: [&'static str; 2],
     free: [&'static str; 2],
     exit: [&'static str; 2],
     terminate: [&'static str; 2],
@@ -270,6 +271,7 @@ struct Spellings {
 }
 
 const SPELLINGS: Spellings = Spellings {
+    instantiate: ["fmi2Instantiate", "fmi3InstantiateCoSimulation"],
     free: ["fmi2FreeInstance", "fmi3FreeInstance"],
     exit: ["fmi2ExitInitializationMode", "fmi3ExitInitializationMode"],
     terminate: ["fmi2Terminate", "fmi3Terminate"],
@@ -287,6 +289,7 @@ const SPELLINGS: Spellings = Spellings {
 const fn spelled(i: usize) -> Names {
     let s = &SPELLINGS;
     Names {
+        instantiate: s.instantiate[i],
         free: s.free[i],
         plain: [s.exit[i], s.terminate[i], s.reset[i]],
         state: state::Names {
@@ -307,6 +310,7 @@ pub(crate) static FMI3_NAMES: Names = spelled(1);
 
 /// One standard's names of what [`Common`] resolves.
 pub(crate) struct Names {
+    pub instantiate: &'static str,
     pub free: &'static str,
     /// Exit initialization, terminate, reset (the order of [`Plain`]).
     pub plain: [&'static str; 3],
@@ -343,18 +347,26 @@ impl<B: Copy + 'static> Common<B> {
         })
     }
 
-    /// The instance `ptr` (non-NULL, from the standard's instantiate function) and its
-    /// state calls.
+    /// The instance `ptr` (from the standard's instantiate function for `setup`) and its
+    /// state calls; NULL is the instantiation's refusal.
     pub fn finish(
         self,
         ptr: *mut c_void,
         loaded: (Binary, String),
         status: fn(std::os::raw::c_int) -> Status,
-    ) -> (Instance, state::States<B>) {
+        setup: &Setup<'_>,
+    ) -> Result<(Instance, state::States<B>), crate::ImportError> {
+        if ptr.is_null() {
+            return Err(crate::ImportError::Instantiate {
+                function: self.names.instantiate,
+                instance: setup.instance_name.to_owned(),
+            });
+        }
         let mut states = self.states;
         states.bind(ptr);
         let [n0, n1, n2] = self.names.plain;
         let [f0, f1, f2] = self.plain;
-        (Instance::new((ptr, self.free), loaded, status, [(n0, f0), (n1, f1), (n2, f2)]), states)
+        let plain = [(n0, f0), (n1, f1), (n2, f2)];
+        Ok((Instance::new((ptr, self.free), loaded, status, plain), states))
     }
 }
