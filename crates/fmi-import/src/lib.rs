@@ -272,7 +272,9 @@ impl CsFmu {
     /// `fmi*SetDebugLogging`: debug logging on or off, for the given categories (all if
     /// empty).
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<(), FmuError> {
-        self.backend.set_debug_logging(&mut self.cx, on, categories)
+        let f = self.cx.named("fmi2SetDebugLogging", "fmi3SetDebugLogging");
+        let cats = self.cx.c_strings(f, "a category name", categories)?;
+        self.backend.set_debug_logging(&mut self.cx, on, &backend::pointers(&cats))
     }
 
     /// FMI 2.0 `fmi2SetupExperiment` + `fmi2EnterInitializationMode`, FMI 3.0
@@ -361,13 +363,18 @@ impl CsFmu {
     /// `fmi2SetString` / `fmi3SetString`.
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
         same_length("set_string", vrs.len(), values.len());
-        self.backend.set_string(&mut self.cx, vrs, values)
+        let f = self.cx.named("fmi2SetString", "fmi3SetString");
+        let owned = self.cx.c_strings(f, "a string value", values)?;
+        self.backend.set_string(&mut self.cx, vrs, &backend::pointers(&owned))
     }
 
     /// `fmi2GetString` / `fmi3GetString`; the strings are copied.
     pub fn get_string(&mut self, vrs: &[u32], values: &mut [String]) -> Result<(), FmuError> {
         same_length("get_string", vrs.len(), values.len());
-        self.backend.get_string(&mut self.cx, vrs, values)
+        let mut raw = vec![std::ptr::null(); vrs.len()];
+        self.backend.get_string(&mut self.cx, vrs, &mut raw)?;
+        backend::copy_strings(&raw, values);
+        Ok(())
     }
 
     /// Reads one Real variable by name (parameters included).

@@ -3,10 +3,11 @@
 //! instance keeps pointers to.
 
 use std::ffi::CString;
+use std::os::raw::c_char;
 use std::path::Path;
 
 use super::state::{StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Setup};
+use super::{Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
 use crate::ffi::*;
 use crate::logger::{self, LogEnv};
@@ -150,10 +151,8 @@ fn file_uri(dir: &Path) -> String {
 // is dropped), and arrays of the lengths passed (CsFmu checks vrs and values
 // have equal lengths).
 impl Backend for Fmi2Backend {
-    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done {
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, p: &[*const c_char]) -> Done {
         const F: &str = "fmi2SetDebugLogging";
-        let cats = cx.c_strings(F, "a category name", cats)?;
-        let p = pointers(&cats);
         let (c, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(c, fmi2Boolean::from(on), p.len(), p.as_ptr()) }))
     }
@@ -227,20 +226,15 @@ impl Backend for Fmi2Backend {
         cx.call("fmi2SetBoolean", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_ptr()) }))
     }
 
-    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done {
-        let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], raw: &mut [*const c_char]) -> Done {
         let (c, f) = (self.instance.ptr(), self.api.get_string);
         cx.call("fmi2GetString", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
-        })?;
-        copy_strings(&raw, out);
-        Ok(())
+        })
     }
 
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done {
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], p: &[*const c_char]) -> Done {
         const F: &str = "fmi2SetString";
-        let owned = cx.c_strings(F, "a string value", values)?;
-        let p = pointers(&owned);
         let (c, f) = (self.instance.ptr(), self.api.set_string);
         cx.call(F, || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), p.as_ptr()) }))
     }

@@ -6,12 +6,13 @@
 //! `terminateSimulation`), the step is an error that says which.
 
 use std::ffi::CString;
+use std::os::raw::c_char;
 use std::os::raw::c_void;
 
 use inchworm_fmi_abi::fmi3::*;
 
 use super::state::{StateCalls, States};
-use super::{copy_strings, pointers, Backend, Calls, Common, Done, Experiment, Instance, Setup};
+use super::{Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
 use crate::logger::LogEnv;
 use crate::{FmuError, ImportError, Status};
@@ -125,10 +126,8 @@ impl Fmi3Backend {
 // is dropped), and arrays of the lengths passed as both nValueReferences and
 // nValues (every variable this layer addresses is a scalar; CsFmu checks the lengths).
 impl Backend for Fmi3Backend {
-    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done {
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, p: &[*const c_char]) -> Done {
         const F: &str = "fmi3SetDebugLogging";
-        let cats = cx.c_strings(F, "a category name", cats)?;
-        let p = pointers(&cats);
         let (i, f) = (self.instance.ptr(), self.api.set_debug_logging);
         cx.call(F, || status(unsafe { f(i, on, p.len(), p.as_ptr()) }))
     }
@@ -206,18 +205,13 @@ impl Backend for Fmi3Backend {
         cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
     }
 
-    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done {
-        let mut raw: Vec<fmi3String> = vec![std::ptr::null(); vrs.len()];
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], raw: &mut [*const c_char]) -> Done {
         let (i, f, n) = (self.instance.ptr(), self.api.get_string, vrs.len());
-        cx.call("fmi3GetString", || status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr(), n) }))?;
-        copy_strings(&raw, out);
-        Ok(())
+        cx.call("fmi3GetString", || status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr(), n) }))
     }
 
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done {
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], p: &[*const c_char]) -> Done {
         const F: &str = "fmi3SetString";
-        let owned = cx.c_strings(F, "a string value", values)?;
-        let p = pointers(&owned);
         let (i, f, n) = (self.instance.ptr(), self.api.set_string, vrs.len());
         cx.call(F, || status(unsafe { f(i, vrs.as_ptr(), n, p.as_ptr(), n) }))
     }

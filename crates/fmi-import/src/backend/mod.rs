@@ -43,7 +43,8 @@ pub(crate) type RawState = *mut c_void;
 /// The calls of one FMU instance, in the FMU's own standard. Every method that calls the
 /// FMU goes through [`Calls::call`] with the real function name.
 pub(crate) trait Backend {
-    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[&str]) -> Done;
+    /// `cats`: NUL-terminated category names, alive for the call.
+    fn set_debug_logging(&mut self, cx: &mut Calls, on: bool, cats: &[*const c_char]) -> Done;
     /// Everything up to and including entering Initialization Mode.
     fn enter_initialization(&mut self, cx: &mut Calls, e: Experiment) -> Done;
     /// One step from `t`; `no_prior`: no state of an earlier time will be restored.
@@ -54,8 +55,9 @@ pub(crate) trait Backend {
     fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Done;
     fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done;
     fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done;
-    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [String]) -> Done;
-    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[&str]) -> Done;
+    /// `out`: the FMU's own strings, valid until its next call.
+    fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [*const c_char]) -> Done;
+    fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[*const c_char]) -> Done;
     /// The FMU-state calls of this instance.
     fn states(&self) -> &dyn state::StateCalls;
     /// The instance: its instance-only calls; freed when the backend is dropped.
@@ -161,6 +163,7 @@ impl Calls {
         what: &str,
         values: &[&str],
     ) -> Result<Vec<CString>, FmuError> {
+        self.alive(function)?;
         values
             .iter()
             .map(|v| CString::new(*v))
