@@ -285,3 +285,29 @@ impl std::error::Error for FmuError {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statuses_and_fatal_refusals_are_spelled_in_the_standard_of_the_call() {
+        assert_eq!(Status::Error.spelled("fmi3DoStep"), "fmi3Error");
+        assert_eq!(Status::Ok.spelled("fmi3GetFMUState"), "fmi3OK");
+        assert_eq!(Status::Discard.spelled("fmi2DoStep"), "fmi2Discard");
+        assert_eq!(Status::from_fmi3(5), Status::Invalid(5), "FMI 3.0 has no Pending");
+        let e = FmuError::Call {
+            model: "M".into(),
+            function: "fmi3GetFloat64",
+            time: 0.5,
+            status: Status::Discard,
+        };
+        assert_eq!(e.to_string(), "M: fmi3GetFloat64 returned fmi3Discard at t = 0.5 s (the FMU's log messages above say why)");
+        let e = FmuError::AfterFatal {
+            model: "M".into(),
+            function: "fmi3SetFloat64",
+            fatal_in: "fmi3DoStep",
+        };
+        assert_eq!(e.to_string(), "M: fmi3SetFloat64 refused: fmi3DoStep returned fmi3Fatal earlier, after which FMI 3.0 allows no call");
+    }
+}
