@@ -164,15 +164,7 @@ impl ModelDescription {
     /// Parses the text of `modelDescription.xml`, FMI 2.0 or FMI 3.0 by its `fmiVersion`,
     /// within [`MAX_DESCRIPTION_BYTES`] (or [`ENV_DESCRIPTION`]).
     pub fn parse(xml: &str) -> Result<Self, ImportError> {
-        let cap = match std::env::var(ENV_DESCRIPTION) {
-            Err(_) => MAX_DESCRIPTION_BYTES,
-            Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
-                ImportError::Limit(format!(
-                    "{ENV_DESCRIPTION}=`{}` is not a positive whole number",
-                    cut(&v, 40)
-                ))
-            })?,
-        };
+        let cap = crate::archive::env_cap(ENV_DESCRIPTION, MAX_DESCRIPTION_BYTES)?;
         Self::parse_within(xml, cap)
     }
 
