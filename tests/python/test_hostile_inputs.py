@@ -454,3 +454,170 @@ def test_an_input_csv_past_its_cap_is_refused(tmp, tmp_path):
         f"error: {csv}: the input CSV is larger than 1000 bytes "
         "(raise the limit with INCHWORM_MAX_INPUT_BYTES): refused"
     )
+
+
+# 9. FMI 3.0 parity: every check of an FMI 2.0 import holds for an FMI 3.0 FMU, alone or
+# inside an SSP, and its errors name the fmi3* call.
+
+PLANT3 = DIST / "fmi3" / "InchwormPlant.fmu"
+SSP3 = DIST / "fmi3" / "InchwormSystem.ssp"
+LIB3 = "binaries/x86_64-linux/InchwormPlant.so"
+
+
+def fmu3_with_md(tmp_path, edit, name="hostile3.fmu", **kw):
+    """The FMI 3.0 plant with its modelDescription.xml passed through `edit`."""
+    md = fmu_md(PLANT3)
+    new = edit(md)
+    assert new != md, "the edit changed nothing"
+    return rezip(PLANT3, tmp_path / name, replace={"modelDescription.xml": new.encode()}, **kw)
+
+
+def ssp3_holding(tmp_path, fmu):
+    """The FMI 3.0 system with `fmu` as its plant."""
+    return rezip(SSP3, tmp_path / "hostile3.ssp", replace={"resources/InchwormPlant.fmu": fmu.read_bytes()})
+
+
+def run_fmu3(tmp, tmp_path, fmu, **kw):
+    return inchworm(tmp, "run", fmu, "--stop-time", "0.01", "--out", tmp_path / "o.csv", **kw)
+
+
+def evil_library(tmp_path):
+    """A working FMI 3.0 library outside any archive, where a climbing modelIdentifier lands
+    (from <TMPDIR>/<unpacked>/binaries/x86_64-linux/)."""
+    (tmp_path / "x").mkdir(exist_ok=True)
+    with zipfile.ZipFile(PLANT3) as z:
+        (tmp_path / "x" / "evil.so").write_bytes(z.read(LIB3))
+    return tmp_path / "x" / "evil"
+
+
+NOT_PLAIN = 'is not a plain file name (no `/`, `\\`, `:` or NUL; not `.` or `..`): refused'
+
+
+@pytest.mark.parametrize("kind", ["climbing", "absolute"])
+def test_an_fmi3_model_identifier_with_a_path_is_refused_before_dlopen(tmp, tmp_path, kind):
+    evil = {"climbing": "../../../../x/evil", "absolute": str(evil_library(tmp_path))}[kind]
+    evil_library(tmp_path)
+    fmu = fmu3_with_md(tmp_path, lambda m: m.replace('modelIdentifier="InchwormPlant"', f'modelIdentifier="{evil}"'))
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert line.startswith(f"error: {fmu}: cannot import the FMU: modelDescription.xml line 4, column 3: "), line
+    assert line.endswith(f'<CoSimulation> modelIdentifier="{evil}" {NOT_PLAIN}'), line
+
+
+def test_an_ssp_holding_an_fmi3_fmu_with_a_climbing_model_identifier_is_refused(tmp, tmp_path):
+    evil_library(tmp_path)
+    fmu = fmu3_with_md(tmp_path, lambda m: m.replace('modelIdentifier="InchwormPlant"', 'modelIdentifier="../../../../../x/evil"'))
+    ssp = ssp3_holding(tmp_path, fmu)
+    r = run_ssp(tmp, tmp_path, ssp)
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert line.startswith("error: component plant: ") and "cannot import the FMU: modelDescription.xml line 4" in line, line
+    assert line.endswith(f'<CoSimulation> modelIdentifier="../../../../../x/evil" {NOT_PLAIN}'), line
+
+
+def test_a_truncated_fmi3_model_description_is_refused_with_line_and_expected_tag(tmp, tmp_path):
+    md = fmu_md(PLANT3)
+    cut = md[: md.index("</ModelVariables>")]
+    fmu = fmu3_with_md(tmp_path, lambda m: cut)
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert f"modelDescription.xml line {line_of_end(cut)}, column " in line, line
+    assert line.endswith(
+        "the file ends inside <fmiModelDescription> <ModelVariables>: expected </ModelVariables> (a truncated file?)"
+    ), line
+
+
+def test_an_ssp_holding_a_truncated_fmi3_fmu_is_refused(tmp, tmp_path):
+    md = fmu_md(PLANT3)
+    fmu = fmu3_with_md(tmp_path, lambda m: m[: m.index("<ModelStructure>")])
+    r = run_ssp(tmp, tmp_path, ssp3_holding(tmp_path, fmu))
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert error_line(r).endswith("expected </fmiModelDescription> (a truncated file?)"), error_line(r)
+
+
+def test_an_fmi3_name_taken_by_a_variable_of_another_type_is_refused(tmp, tmp_path):
+    # A Float32 the master cannot address still shares the one namespace.
+    extra = '<Float32 name="dac_earth" valueReference="900" causality="local"/>\n  </ModelVariables>'
+    fmu = fmu3_with_md(tmp_path, lambda m: m.replace("</ModelVariables>", extra))
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert error_line(r).endswith("a second variable named `dac_earth`"), error_line(r)
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda m: m.replace('name="dac_earth" valueReference="1"', 'name="dac_earth" valueReference="one"', 1),
+     '<Float64 name="dac_earth"> valueReference="one" is not an unsigned 32-bit integer'),
+    (lambda m: m.replace('unit="V" min="0" max="10" start="0"/>', 'unit="V" min="0" max="10" start="zero"/>', 1),
+     '<Float64 name="dac_earth"> start="zero" is not a valid Float64'),
+    (lambda m: m.replace("</ModelVariables>", '<UInt8 name="u8" valueReference="901" causality="local" start="256"/>\n  </ModelVariables>'),
+     '<UInt8 name="u8"> start="256" is not a valid UInt8'),
+    (lambda m: m.replace("</ModelVariables>", '<Int64 name="big" causality="local"/>\n  </ModelVariables>'),
+     '<Int64 name="big"> lacks the required attribute valueReference'),
+    (lambda m: m.replace("</ModelVariables>", '<Binary valueReference="902" causality="local"/>\n  </ModelVariables>'),
+     "<Binary> lacks the required attribute name"),
+    (lambda m: m.replace("</ModelVariables>", '<Clock name="tick" valueReference="903" causality="whenever"/>\n  </ModelVariables>'),
+     '<Clock name="tick"> causality="whenever" is not one of'),
+], ids=["valueReference", "start", "uint8-start", "no-valueReference", "no-name", "causality"])
+def test_bad_numbers_and_missing_attributes_of_fmi3_variables_are_refused(tmp, tmp_path, edit, message):
+    fmu = fmu3_with_md(tmp_path, edit)
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert line.startswith(f"error: {fmu}: cannot import the FMU: modelDescription.xml line "), line
+    assert message in line, line
+
+
+def test_an_oversize_fmi3_model_description_is_refused(tmp, tmp_path):
+    r = run_fmu3(tmp, tmp_path, PLANT3, env={"INCHWORM_MAX_DESCRIPTION_BYTES": "4096"})
+    assert r.returncode == 1, r.stderr[-2000:]
+    size = len(fmu_md(PLANT3).encode())
+    assert error_line(r) == (
+        f"error: {PLANT3}: cannot import the FMU: modelDescription.xml has {size} bytes "
+        "(limit 4096 bytes; raise it with INCHWORM_MAX_DESCRIPTION_BYTES): refused"
+    )
+
+
+def test_an_ssp_holding_an_oversize_fmi3_model_description_is_refused(tmp, tmp_path):
+    # Past the default cap of 64 MiB: a comment that zips to almost nothing.
+    fmu = fmu3_with_md(tmp_path, lambda m: m.replace("<ModelVariables>", "<!--" + " " * (65 << 20) + "--><ModelVariables>"))
+    r = run_ssp(tmp, tmp_path, ssp3_holding(tmp_path, fmu), timeout=120)
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert line.startswith("error: component plant: ") and "cannot import the FMU: modelDescription.xml has " in line, line
+    assert line.endswith("(limit 67108864 bytes; raise it with INCHWORM_MAX_DESCRIPTION_BYTES): refused"), line
+
+
+def test_an_fmi3_library_lacking_a_declared_state_function_is_refused(tmp, tmp_path):
+    # The dynamic symbol renamed in place (same length): dlsym no longer finds it.
+    with zipfile.ZipFile(PLANT3) as z:
+        lib = z.read(LIB3)
+    assert lib.count(b"fmi3GetFMUState\0") >= 1  # .dynstr, and .strtab if not stripped
+    lib = lib.replace(b"fmi3GetFMUState\0", b"fmi3GetFMUStatX\0")
+    fmu = rezip(PLANT3, tmp_path / "nostate.fmu", replace={LIB3: lib})
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert error_line(r) == (
+        f'error: {fmu}: cannot import the FMU: modelDescription.xml declares canGetAndSetFMUState="true" '
+        f"but the FMU's binary {LIB3} does not export fmi3GetFMUState"
+    )
+
+
+def test_an_fmi3_instantiation_refused_names_fmi3_instantiate(tmp, tmp_path):
+    fmu = fmu3_with_md(tmp_path, lambda m: m.replace('instantiationToken="{', 'instantiationToken="{0', 1))
+    r = run_fmu3(tmp, tmp_path, fmu)
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert error_line(r) == (
+        f"error: {fmu}: cannot import the FMU: fmi3InstantiateCoSimulation returned NULL for instance `fmu` "
+        "(the FMU's log messages above say why)"
+    )
+
+
+def test_an_fmi3_parameter_refused_at_initialization_names_the_fmi3_call(tmp, tmp_path):
+    r = run_ssp(tmp, tmp_path, SSP3, "--param", "plant.k_p=1e100")
+    assert r.returncode == 1, r.stderr[-2000:]
+    assert error_line(r) == (
+        "error: InchwormPlant: fmi3ExitInitializationMode returned fmi3Error at t = 0 s "
+        "(the FMU's log messages above say why)"
+    )

@@ -175,3 +175,9 @@ pub type fmi3SetStringTYPE = unsafe extern "C" fn(
     *const fmi3String,
     usize,
 ) -> fmi3Status;
+pub type fmi3SerializedFMUStateSizeTYPE =
+    unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut usize) -> fmi3Status;
+pub type fmi3SerializeFMUStateTYPE =
+    unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut fmi3Byte, usize) -> fmi3Status;
+pub type fmi3DeserializeFMUStateTYPE =
+    unsafe extern "C" fn(fmi3Instance, *const fmi3Byte, usize, *mut fmi3FMUState) -> fmi3Status;

@@ -33,19 +33,23 @@ impl Limits {
 
     /// [`Limits::DEFAULT`], each figure replaced by its environment variable if set.
     pub fn from_env() -> Result<Limits, ImportError> {
-        let read = |name: &'static str, default: u64| -> Result<u64, ImportError> {
-            match std::env::var(name) {
-                Err(_) => Ok(default),
-                Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
-                    ImportError::Limit(format!("{name}=`{v}` is not a positive whole number"))
-                }),
-            }
-        };
         Ok(Limits {
-            total_bytes: read(ENV_TOTAL, Limits::DEFAULT.total_bytes)?,
-            entry_bytes: read(ENV_ENTRY, Limits::DEFAULT.entry_bytes)?,
-            entries: read(ENV_ENTRIES, Limits::DEFAULT.entries)?,
+            total_bytes: env_cap(ENV_TOTAL, Limits::DEFAULT.total_bytes)?,
+            entry_bytes: env_cap(ENV_ENTRY, Limits::DEFAULT.entry_bytes)?,
+            entries: env_cap(ENV_ENTRIES, Limits::DEFAULT.entries)?,
         })
+    }
+}
+
+/// The cap in the environment variable `name`, or `default` if it is not set; a value
+/// that is not a positive whole number is refused (not ignored).
+pub fn env_cap(name: &'static str, default: u64) -> Result<u64, ImportError> {
+    match std::env::var(name) {
+        Err(_) => Ok(default),
+        Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
+            let v = crate::description::cut(&v, 40);
+            ImportError::Limit(format!("{name}=`{v}` is not a positive whole number"))
+        }),
     }
 }
 

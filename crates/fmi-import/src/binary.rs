@@ -1,12 +1,13 @@
-//! The FMU's shared library: found under `binaries/<platform>/`, loaded, its `fmi2*`
-//! functions resolved and its platform and version checked.
+//! The FMU's shared library, for both standards: found under `binaries/<platform>/`,
+//! checked whole, loaded, and its functions resolved by name (each backend names its own
+//! standard's functions and signatures).
 
 use std::ffi::CStr;
 use std::path::{Path, PathBuf};
 
 use libloading::Library;
 
-use crate::ffi::*;
+use crate::description::cut;
 use crate::ImportError;
 
 /// The FMI 2.0 platform folder and library extension of this host, from the project's one
@@ -27,65 +28,9 @@ pub fn fmi3_platform() -> (&'static str, &'static str) {
     }
 }
 
-/// The Co-Simulation functions of one binary. The required ones are plain pointers; the
-/// optional ones (FMU state) are `None` when absent. All functions of the FMI 2.0 CS API
-/// are resolved (a binary missing one is refused up front), not all are called yet.
-#[allow(dead_code)]
-#[derive(Clone, Copy)]
-pub(crate) struct Api {
-    pub get_types_platform: fmi2GetTypesPlatformTYPE,
-    pub get_version: fmi2GetVersionTYPE,
-    pub set_debug_logging: fmi2SetDebugLoggingTYPE,
-    pub instantiate: fmi2InstantiateTYPE,
-    pub free_instance: fmi2FreeInstanceTYPE,
-    pub setup_experiment: fmi2SetupExperimentTYPE,
-    pub enter_initialization_mode: fmi2EnterInitializationModeTYPE,
-    pub exit_initialization_mode: fmi2ExitInitializationModeTYPE,
-    pub terminate: fmi2TerminateTYPE,
-    pub reset: fmi2ResetTYPE,
-    pub get_real: fmi2GetRealTYPE,
-    pub get_integer: fmi2GetIntegerTYPE,
-    pub get_boolean: fmi2GetBooleanTYPE,
-    pub get_string: fmi2GetStringTYPE,
-    pub set_real: fmi2SetRealTYPE,
-    pub set_integer: fmi2SetIntegerTYPE,
-    pub set_boolean: fmi2SetBooleanTYPE,
-    pub set_string: fmi2SetStringTYPE,
-    pub do_step: fmi2DoStepTYPE,
-    pub cancel_step: fmi2CancelStepTYPE,
-    pub get_status: fmi2GetStatusTYPE,
-    pub get_real_status: fmi2GetRealStatusTYPE,
-    pub get_integer_status: fmi2GetIntegerStatusTYPE,
-    pub get_boolean_status: fmi2GetBooleanStatusTYPE,
-    pub get_string_status: fmi2GetStringStatusTYPE,
-    pub get_fmu_state: Option<fmi2GetFMUstateTYPE>,
-    pub set_fmu_state: Option<fmi2SetFMUstateTYPE>,
-    pub free_fmu_state: Option<fmi2FreeFMUstateTYPE>,
-    pub serialized_fmu_state_size: Option<fmi2SerializedFMUstateSizeTYPE>,
-    pub serialize_fmu_state: Option<fmi2SerializeFMUstateTYPE>,
-    pub de_serialize_fmu_state: Option<fmi2DeSerializeFMUstateTYPE>,
-}
-
-/// A loaded FMU binary. The function pointers in `api` are valid while `library` lives.
-pub(crate) struct Binary {
-    pub api: Api,
-    pub path: PathBuf,
-    #[allow(dead_code)]
-    pub types_platform: String,
-    pub version: String,
-    // Held to keep the functions loaded; last, so unloaded after everything else here.
-    #[allow(dead_code)]
-    pub library: Library,
-}
-
-/// `binaries/<platform>/<model_identifier>.<ext>` (relative to `dir`, the unpacked FMU),
-/// or a clear error naming the platforms the FMU does carry.
-pub fn library_path(dir: &Path, model_identifier: &str) -> Result<PathBuf, ImportError> {
-    library_path_for(fmi2_platform(), dir, model_identifier)
-}
-
-/// [`library_path`] for a platform folder and library extension (FMI 2.0 and FMI 3.0 name
-/// their platform folders differently).
+/// `binaries/<platform>/<model_identifier>.<ext>` (relative to `dir`, the unpacked FMU)
+/// for a platform folder and library extension (FMI 2.0 and FMI 3.0 name their platform
+/// folders differently), or a clear error naming the platforms the FMU does carry.
 pub fn library_path_for(
     (platform, ext): (&'static str, &str),
     dir: &Path,
@@ -112,11 +57,12 @@ pub fn library_path_for(
     })
 }
 
-fn c_text(p: *const std::os::raw::c_char) -> String {
+/// A C string from the FMU, copied (`(NULL)` for a NULL pointer).
+pub(crate) fn c_text(p: *const std::os::raw::c_char) -> String {
     if p.is_null() {
         "(NULL)".into()
     } else {
-        // SAFETY: a non-NULL `fmi2String` from the FMU is a NUL-terminated string.
+        // SAFETY: a non-NULL string from the FMU is NUL-terminated.
         unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
     }
 }
@@ -198,9 +144,18 @@ pub(crate) fn check_elf(path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// An FMU's shared library, loaded. The functions resolved from it are valid while it lives.
+pub(crate) struct Binary {
+    /// The path inside the FMU (what errors name).
+    pub path: PathBuf,
+    /// The path on disk, inside the unpacked directory.
+    pub full_path: PathBuf,
+    library: Library,
+}
+
 impl Binary {
-    /// Loads the library at `dir/relative` and resolves its functions; errors name
-    /// `relative` (the path inside the FMU).
+    /// Loads the library at `dir/relative`, after checking that an ELF file is whole;
+    /// errors name `relative` (the path inside the FMU).
     pub fn load(dir: &Path, relative: &Path) -> Result<Binary, ImportError> {
         let path = &dir.join(relative);
         let shown = relative.to_path_buf();
@@ -209,68 +164,62 @@ impl Binary {
         // by the nature of co-simulation (the master runs it).
         let library = unsafe { Library::new(path) }
             .map_err(|e| ImportError::Load { library: shown.clone(), message: e.to_string() })?;
-        macro_rules! required {
-            ($name:literal) => {{
-                // SAFETY: the type is the FMI 2.0 signature of this function.
-                match unsafe { library.get(concat!($name, "\0").as_bytes()) } {
-                    Ok(sym) => *sym,
-                    Err(_) => {
-                        return Err(ImportError::MissingSymbol {
-                            library: shown.clone(),
-                            symbol: $name,
-                        })
-                    }
-                }
-            }};
+        Ok(Binary { path: shown, full_path: path.clone(), library })
+    }
+
+    /// The function `name`, or `None` if the library does not export it.
+    ///
+    /// # Safety
+    /// `T` must be the C signature of `name` in the standard the library implements.
+    pub unsafe fn optional<T: Copy>(&self, name: &'static str) -> Option<T> {
+        let mut symbol = Vec::with_capacity(name.len() + 1);
+        symbol.extend_from_slice(name.as_bytes());
+        symbol.push(0);
+        self.library.get::<T>(&symbol).ok().map(|sym| *sym)
+    }
+
+    /// The function `name`; a library without it is refused.
+    ///
+    /// # Safety
+    /// As for [`Binary::optional`].
+    pub unsafe fn required<T: Copy>(&self, name: &'static str) -> Result<T, ImportError> {
+        self.optional(name)
+            .ok_or_else(|| ImportError::MissingSymbol { library: self.path.clone(), symbol: name })
+    }
+
+    /// The function `name` if the FMU declares the capability `flag` (`declared`); a
+    /// library that declares it but lacks the function is refused, and one that does not
+    /// declare it gets `None` (its function is never called, present or not).
+    ///
+    /// # Safety
+    /// As for [`Binary::optional`].
+    pub unsafe fn capability<T: Copy>(
+        &self,
+        name: &'static str,
+        flag: &'static str,
+        declared: bool,
+    ) -> Result<Option<T>, ImportError> {
+        if !declared {
+            return Ok(None);
         }
-        macro_rules! optional {
-            ($name:literal) => {{
-                // SAFETY: as above.
-                unsafe { library.get(concat!($name, "\0").as_bytes()) }.ok().map(|sym| *sym)
-            }};
+        self.optional(name).map(Some).ok_or_else(|| ImportError::MissingCapability {
+            library: self.path.clone(),
+            symbol: name,
+            flag,
+        })
+    }
+
+    /// Checks what `function` (`fmi2GetVersion`, `fmi3GetVersion`) returned.
+    pub fn check_version(
+        function: &'static str,
+        p: *const std::os::raw::c_char,
+        expected: &'static str,
+    ) -> Result<String, ImportError> {
+        let version = c_text(p);
+        if version.starts_with(expected) {
+            Ok(version)
+        } else {
+            Err(ImportError::BinaryVersion { function, found: cut(&version, 100), expected })
         }
-        let api = Api {
-            get_types_platform: required!("fmi2GetTypesPlatform"),
-            get_version: required!("fmi2GetVersion"),
-            set_debug_logging: required!("fmi2SetDebugLogging"),
-            instantiate: required!("fmi2Instantiate"),
-            free_instance: required!("fmi2FreeInstance"),
-            setup_experiment: required!("fmi2SetupExperiment"),
-            enter_initialization_mode: required!("fmi2EnterInitializationMode"),
-            exit_initialization_mode: required!("fmi2ExitInitializationMode"),
-            terminate: required!("fmi2Terminate"),
-            reset: required!("fmi2Reset"),
-            get_real: required!("fmi2GetReal"),
-            get_integer: required!("fmi2GetInteger"),
-            get_boolean: required!("fmi2GetBoolean"),
-            get_string: required!("fmi2GetString"),
-            set_real: required!("fmi2SetReal"),
-            set_integer: required!("fmi2SetInteger"),
-            set_boolean: required!("fmi2SetBoolean"),
-            set_string: required!("fmi2SetString"),
-            do_step: required!("fmi2DoStep"),
-            cancel_step: required!("fmi2CancelStep"),
-            get_status: required!("fmi2GetStatus"),
-            get_real_status: required!("fmi2GetRealStatus"),
-            get_integer_status: required!("fmi2GetIntegerStatus"),
-            get_boolean_status: required!("fmi2GetBooleanStatus"),
-            get_string_status: required!("fmi2GetStringStatus"),
-            get_fmu_state: optional!("fmi2GetFMUstate"),
-            set_fmu_state: optional!("fmi2SetFMUstate"),
-            free_fmu_state: optional!("fmi2FreeFMUstate"),
-            serialized_fmu_state_size: optional!("fmi2SerializedFMUstateSize"),
-            serialize_fmu_state: optional!("fmi2SerializeFMUstate"),
-            de_serialize_fmu_state: optional!("fmi2DeSerializeFMUstate"),
-        };
-        // SAFETY: both return a static NUL-terminated string.
-        let types_platform = c_text(unsafe { (api.get_types_platform)() });
-        if types_platform != "default" {
-            return Err(ImportError::TypesPlatform(types_platform));
-        }
-        let version = c_text(unsafe { (api.get_version)() });
-        if !version.starts_with("2.") {
-            return Err(ImportError::BinaryVersion(version));
-        }
-        Ok(Binary { api, path: path.to_path_buf(), types_platform, version, library })
     }
 }

@@ -27,14 +27,16 @@ pub enum ImportError {
     NoBinary { platform: &'static str, expected: String, available: Vec<String> },
     /// `dlopen` (or `LoadLibrary`) refused the binary (`library`: its path inside the FMU).
     Load { library: PathBuf, message: String },
-    /// The binary lacks a required `fmi2*` function (`library`: its path inside the FMU).
+    /// The binary lacks a required function (`library`: its path inside the FMU).
     MissingSymbol { library: PathBuf, symbol: &'static str },
+    /// `modelDescription.xml` declares a capability (`flag`) whose function the binary lacks.
+    MissingCapability { library: PathBuf, symbol: &'static str, flag: &'static str },
     /// `fmi2GetTypesPlatform` is not "default".
     TypesPlatform(String),
-    /// `fmi2GetVersion` is not 2.x.
-    BinaryVersion(String),
-    /// `fmi2Instantiate` returned NULL.
-    Instantiate { instance: String },
+    /// `function` (`fmi2GetVersion`, `fmi3GetVersion`) returned another version.
+    BinaryVersion { function: &'static str, found: String, expected: &'static str },
+    /// `function` (`fmi2Instantiate`, `fmi3InstantiateCoSimulation`) returned NULL.
+    Instantiate { function: &'static str, instance: String },
     /// A string for the C side holds a NUL byte.
     Nul { what: &'static str },
 }
@@ -79,15 +81,20 @@ impl fmt::Display for ImportError {
             ImportError::MissingSymbol { library, symbol } => {
                 write!(f, "the FMU's binary {} does not export {symbol}", library.display())
             }
+            ImportError::MissingCapability { library, symbol, flag } => write!(
+                f,
+                "modelDescription.xml declares {flag}=\"true\" but the FMU's binary {} does not export {symbol}",
+                library.display()
+            ),
             ImportError::TypesPlatform(p) => {
                 write!(f, "fmi2GetTypesPlatform returned \"{p}\", expected \"default\"")
             }
-            ImportError::BinaryVersion(v) => {
-                write!(f, "the binary's fmi2GetVersion returned \"{v}\", expected 2.x")
+            ImportError::BinaryVersion { function, found, expected } => {
+                write!(f, "the binary's {function} returned \"{found}\", expected {expected}x")
             }
-            ImportError::Instantiate { instance } => write!(
+            ImportError::Instantiate { function, instance } => write!(
                 f,
-                "fmi2Instantiate returned NULL for instance `{instance}` (the FMU's log messages above say why)"
+                "{function} returned NULL for instance `{instance}` (the FMU's log messages above say why)"
             ),
             ImportError::Nul { what } => write!(f, "{what} contains a NUL byte"),
         }
@@ -104,7 +111,8 @@ impl std::error::Error for ImportError {
     }
 }
 
-/// The status an `fmi2*` call returned.
+/// The status an `fmi2*` or `fmi3*` call returned (FMI 3.0 has no Pending). `Display`
+/// spells it as FMI 2.0 does; [`Status::spelled`] in the standard of a given call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Status {
     Ok,
@@ -118,6 +126,7 @@ pub enum Status {
 }
 
 impl Status {
+    /// An `fmi2Status`.
     pub fn from_raw(s: i32) -> Status {
         match s {
             0 => Status::Ok,
@@ -128,6 +137,33 @@ impl Status {
             5 => Status::Pending,
             s => Status::Invalid(s),
         }
+    }
+
+    /// An `fmi3Status`: the FMI 2.0 values without `fmi2Pending`.
+    pub fn from_fmi3(s: i32) -> Status {
+        match Status::from_raw(s) {
+            Status::Pending => Status::Invalid(s),
+            status => status,
+        }
+    }
+
+    /// The status as the standard of `function` (an `fmi3*` or `fmi2*` name) spells it.
+    pub fn spelled(self, function: &str) -> String {
+        let prefix = standard_of(function);
+        match self {
+            Status::Ok => format!("{prefix}OK"),
+            Status::Invalid(_) => self.to_string(),
+            other => format!("{prefix}{}", &other.to_string()[4..]),
+        }
+    }
+}
+
+/// `fmi3` for an FMI 3.0 function name, else `fmi2`.
+fn standard_of(function: &str) -> &'static str {
+    if function.starts_with("fmi3") {
+        "fmi3"
+    } else {
+        "fmi2"
     }
 }
 
@@ -160,12 +196,23 @@ pub enum FmuError {
     UnknownVariable { model: String, name: String },
     /// The variable exists but has another type than the call needs.
     WrongType { model: String, name: String, expected: VarType, found: VarType },
-    /// An `fmi2*` call returned `fmi2Discard`, `fmi2Error`, `fmi2Fatal` or `fmi2Pending`.
+    /// A call returned Discard, Error, Fatal or (FMI 2.0) Pending.
     Call { model: String, function: &'static str, time: f64, status: Status },
-    /// A call after an earlier one returned `fmi2Fatal`: FMI 2.0 forbids any further call.
+    /// A call after an earlier one returned Fatal: both standards forbid any further call.
     AfterFatal { model: String, function: &'static str, fatal_in: &'static str },
-    /// An argument the C side cannot take (a string with a NUL byte).
+    /// An argument the C side cannot take (a string with a NUL byte, a foreign FMU state).
     InvalidArgument { model: String, function: &'static str, message: String },
+    /// A call the FMU does not offer (`why`: what in its description says so).
+    Unsupported { model: String, function: &'static str, why: String },
+    /// `fmi3DoStep` returned OK but asked the master to stop: `terminateSimulation`,
+    /// `earlyReturn` or `eventHandlingNeeded` set (`why` says which).
+    StepEnded {
+        model: String,
+        function: &'static str,
+        time: f64,
+        why: &'static str,
+        last_time: f64,
+    },
 }
 
 impl fmt::Display for FmuError {
@@ -195,15 +242,30 @@ impl fmt::Display for FmuError {
                 status,
             } => write!(
                 f,
-                "{model}: {function} returned {status} at t = {time} s (the FMU's log messages above say why)"
+                "{model}: {function} returned {} at t = {time} s (the FMU's log messages above say why)",
+                status.spelled(function)
             ),
             FmuError::AfterFatal {
                 model,
                 function,
                 fatal_in,
-            } => write!(
+            } => {
+                let (fatal, standard) = if standard_of(fatal_in) == "fmi3" {
+                    ("fmi3Fatal", "FMI 3.0")
+                } else {
+                    ("fmi2Fatal", "FMI 2.0")
+                };
+                write!(
+                    f,
+                    "{model}: {function} refused: {fatal_in} returned {fatal} earlier, after which {standard} allows no call"
+                )
+            }
+            FmuError::Unsupported { model, function, why } => {
+                write!(f, "{model}: {function} is not available: {why}")
+            }
+            FmuError::StepEnded { model, function, time, why, last_time } => write!(
                 f,
-                "{model}: {function} refused: {fatal_in} returned fmi2Fatal earlier, after which FMI 2.0 allows no call"
+                "{model}: {function} from t = {time} s: {why} (last successful time {last_time} s); this master steps on a fixed grid and cannot continue"
             ),
             FmuError::InvalidArgument {
                 model,
@@ -221,5 +283,31 @@ impl std::error::Error for FmuError {
             FmuError::Call { status, .. } => Some(status),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statuses_and_fatal_refusals_are_spelled_in_the_standard_of_the_call() {
+        assert_eq!(Status::Error.spelled("fmi3DoStep"), "fmi3Error");
+        assert_eq!(Status::Ok.spelled("fmi3GetFMUState"), "fmi3OK");
+        assert_eq!(Status::Discard.spelled("fmi2DoStep"), "fmi2Discard");
+        assert_eq!(Status::from_fmi3(5), Status::Invalid(5), "FMI 3.0 has no Pending");
+        let e = FmuError::Call {
+            model: "M".into(),
+            function: "fmi3GetFloat64",
+            time: 0.5,
+            status: Status::Discard,
+        };
+        assert_eq!(e.to_string(), "M: fmi3GetFloat64 returned fmi3Discard at t = 0.5 s (the FMU's log messages above say why)");
+        let e = FmuError::AfterFatal {
+            model: "M".into(),
+            function: "fmi3SetFloat64",
+            fatal_in: "fmi3DoStep",
+        };
+        assert_eq!(e.to_string(), "M: fmi3SetFloat64 refused: fmi3DoStep returned fmi3Fatal earlier, after which FMI 3.0 allows no call");
     }
 }

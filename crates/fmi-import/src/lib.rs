@@ -1,36 +1,41 @@
-//! A tolerant FMI 2.0 Co-Simulation import layer: loads any vendor's FMU, finds variables
-//! by name, and says what went wrong and where when a file, name or value is bad.
+//! A tolerant FMI 2.0 and FMI 3.0 Co-Simulation import layer: loads any vendor's FMU,
+//! finds variables by name, and says what went wrong and where when a file, name or
+//! value is bad. Both standards go through the same code up to the C calls:
 //!
-//! * [`archive`] unpacks the FMU into a fresh temporary directory (zip-slip-safe), removed
-//!   when the [`CsFmu`] is dropped;
-//! * [`description`] reads `modelDescription.xml` as XML events with `quick-xml`, skipping
-//!   vendor annotations, unknown elements and unknown attributes as real FMUs carry them,
-//!   and reporting a missing attribute, a bad number or a duplicate name with its line;
-//! * `binary` loads `binaries/<platform>/<modelIdentifier>.<ext>` with `libloading` and
-//!   resolves the `fmi2*` functions against the hand-written C types in `ffi`;
-//! * the FMU's C-variadic logger callback is formatted in C (`logger.c`) and arrives as a
-//!   `log` record whose target is the instance name (level by status: OK → info,
-//!   Warning → warn, Discard/Error/Fatal → error), its text prefixed by the log category.
+//! * [`archive`] unpacks the FMU into a fresh temporary directory (zip-slip-safe, capped),
+//!   removed when the [`CsFmu`] is dropped;
+//! * [`description`] reads `modelDescription.xml` of either standard into one
+//!   [`ModelDescription`] with one strict reader (line/column errors, a truncated file
+//!   refused, duplicate names, numbers, `modelIdentifier` a plain file name, a size cap);
+//! * `binary` finds `binaries/<platform>/<modelIdentifier>.<ext>` (FMI 2.0 folder or FMI
+//!   3.0 tuple), checks an ELF file whole and loads it;
+//! * `backend` calls it: `Fmi2Backend` the `fmi2*` functions, `Fmi3Backend` the `fmi3*`
+//!   ones, each natively, behind one trait;
+//! * the FMU's log messages arrive as `log` records whose target is the instance name
+//!   (level by status: OK → info, Warning → warn, Discard/Error/Fatal → error), prefixed
+//!   by the log category (FMI 2.0's C-variadic logger is formatted in `logger.c`).
 //!
 //! On top, [`CsFmu`] adds what a master needs: variables looked up by name with their
 //! type checked, value-reference/value slices that always have matching lengths (the raw
 //! calls trust the caller on that), the communication time kept as `start + k · h` so it
-//! never drifts from the FMU's own clock, and errors that name the FMU, the call and the
-//! time. `fmi2Warning` lets the call succeed (with a warning logged); `fmi2Discard`,
-//! `fmi2Error`, `fmi2Fatal` and `fmi2Pending` are errors; after `fmi2Fatal` every further
-//! call is refused, as FMI 2.0 demands.
+//! never drifts from the FMU's own clock, FMU state save/restore/serialize, and errors
+//! that name the FMU, the real C function (`fmi2DoStep`, `fmi3GetFloat64`, …) and the
+//! time. Warning lets the call succeed (with a warning logged); Discard, Error, Fatal and
+//! (FMI 2.0) Pending are errors; after Fatal every further call is refused, as both
+//! standards demand.
 
 pub mod archive;
+mod backend;
 mod binary;
 pub mod description;
 mod error;
 mod ffi;
-mod fmi3;
 mod logger;
 
-use std::ffi::{CStr, CString};
+use std::collections::HashMap;
 use std::mem::ManuallyDrop;
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 pub use binary::{fmi2_platform, fmi3_platform};
 pub use description::{
@@ -40,9 +45,10 @@ pub use description::{
 pub use error::{FmuError, ImportError, Status};
 
 use archive::Unpacked;
-use binary::{Api, Binary};
-use ffi::*;
-use logger::LogEnv;
+use backend::fmi2::Fmi2Backend;
+use backend::fmi3::Fmi3Backend;
+use backend::{Backend, Calls, Experiment, Plain, RawState, Setup};
+use binary::Binary;
 
 /// A variable resolved against the model description.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,156 +57,134 @@ pub struct Var {
     pub ty: VarType,
 }
 
-/// `file:///…` URI of a directory (FMI 2.0 `fmuResourceLocation`).
-fn file_uri(dir: &Path) -> String {
-    let path = dir.to_string_lossy().replace('\\', "/");
-    let mut uri = String::from(if path.starts_with('/') { "file://" } else { "file:///" });
-    for b in path.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~/:".contains(&b) {
-            uri.push(b as char);
-        } else {
-            uri.push_str(&format!("%{b:02X}"));
-        }
-    }
-    uri
+/// A saved FMU state, held by the [`CsFmu`] it was taken from and addressed by this handle.
+/// The FMU's memory is freed by [`CsFmu::free_state`] or, at the latest, when the `CsFmu`
+/// is dropped (before its instance is freed), so a state never outlives its instance; a
+/// handle used with another `CsFmu`, or after it was freed, is refused.
+#[derive(Debug, PartialEq, Eq, Hash)]
+pub struct FmuState {
+    owner: u64,
+    id: u64,
 }
 
-/// One instantiated Co-Simulation FMU, stepped with a fixed communication step.
-pub struct CsFmu {
-    component: fmi2Component,
-    api: Api,
-    model: String,
-    instance_name: String,
-    description: ModelDescription,
+/// What a state holds besides the FMU's own: the communication grid at the time it was
+/// taken, so that the time after a restore is the time of the state.
+#[derive(Clone, Copy)]
+struct Saved {
+    raw: RawState,
     start_time: f64,
     steps_done: u64,
     step_size: f64,
-    /// The function that returned `fmi2Fatal`, if one did.
-    fatal: Option<&'static str>,
-    // What the FMU may hold pointers to until fmi2FreeInstance: freed in `Drop` after it.
-    callbacks: ManuallyDrop<Box<fmi2CallbackFunctions>>,
-    env: ManuallyDrop<Box<LogEnv>>,
-    c_strings: ManuallyDrop<[CString; 3]>,
-    binary: ManuallyDrop<Binary>,
+}
+
+/// The first bytes of a serialized state, then version 1's grid: start time, steps done,
+/// step size (little-endian), then the FMU's own bytes.
+const STATE_MAGIC: &[u8; 8] = b"IWSTATE1";
+const STATE_HEADER: usize = 8 + 3 * 8;
+
+static NEXT_OWNER: AtomicU64 = AtomicU64::new(1);
+
+/// One instantiated Co-Simulation FMU (FMI 2.0 or 3.0), stepped with a fixed
+/// communication step.
+pub struct CsFmu {
+    cx: Calls,
+    // Dropped by hand: after a Fatal it is leaked, as neither standard allows freeing.
+    backend: ManuallyDrop<Box<dyn Backend>>,
+    description: ModelDescription,
+    owner: u64,
+    states: HashMap<u64, Saved>,
+    next_state: u64,
     // Last: the unpacked directory goes after the library is unloaded.
     unpacked: Unpacked,
 }
 
 impl Drop for CsFmu {
     fn drop(&mut self) {
-        if self.fatal.is_some() {
-            // FMI 2.0: after fmi2Fatal no function may be called, fmi2FreeInstance
-            // included. The instance, the memory it may point to and the code it may
-            // still run are left in place; only the unpacked files are removed.
+        if self.cx.fatal.is_some() {
+            // After a Fatal no function may be called, the free functions included. The
+            // instance, its states, the memory it may point to and the code it may still
+            // run are left in place; only the unpacked files are removed.
             return;
         }
-        // SAFETY: `component` came from fmi2Instantiate of this library, is freed only
-        // here, once; the callbacks, environment and strings it may use are still alive.
-        unsafe { (self.api.free_instance)(self.component) };
-        self.component = std::ptr::null_mut();
-        // SAFETY: each is dropped once, here, after the instance is gone; the library is
-        // unloaded last, once nothing points into it.
-        unsafe {
-            ManuallyDrop::drop(&mut self.callbacks);
-            ManuallyDrop::drop(&mut self.env);
-            ManuallyDrop::drop(&mut self.c_strings);
-            ManuallyDrop::drop(&mut self.binary);
+        for (_, saved) in std::mem::take(&mut self.states) {
+            // A refusal here has nowhere to go; the instance is freed next either way.
+            let _ = self.backend.states().free(&mut self.cx, saved.raw);
         }
+        if self.cx.fatal.is_some() {
+            // A free returned Fatal: the instance must not be freed either.
+            return;
+        }
+        // SAFETY: dropped once, here; frees the instance, then what it pointed to, then
+        // unloads the library.
+        unsafe { ManuallyDrop::drop(&mut self.backend) };
     }
 }
 
 impl std::fmt::Debug for CsFmu {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CsFmu")
-            .field("model", &self.model)
-            .field("instance", &self.instance_name)
-            .field("library", &self.binary.path)
+            .field("model", &self.cx.model)
+            .field("instance", &self.cx.instance)
+            .field("fmi_version", &self.description.fmi_version)
+            .field("library", &self.backend.instance().binary.full_path)
             .field("time", &self.time())
             .finish_non_exhaustive()
     }
 }
 
+/// Panics unless a value-reference slice and a value slice have the same length (the C
+/// calls trust the lengths they are given).
+fn same_length(call: &str, vrs: usize, values: usize) {
+    assert_eq!(vrs, values, "{call}: value references and values differ in length");
+}
+
 impl CsFmu {
-    /// Unpacks `path`, loads its `binaries/<platform>/` library and instantiates it for
-    /// Co-Simulation under `instance_name`. `logging_on` is the FMI `loggingOn` flag
-    /// (debug messages); warnings and errors reach the logger either way.
+    /// Unpacks `path`, loads its library (`binaries/<platform>/` of FMI 2.0 or FMI 3.0, by
+    /// the description's `fmiVersion`) and instantiates it for Co-Simulation under
+    /// `instance_name`. `logging_on` is the FMI `loggingOn` flag (debug messages);
+    /// warnings and errors reach the logger either way.
     pub fn load(path: &Path, instance_name: &str, logging_on: bool) -> Result<Self, FmuError> {
         if !path.is_file() {
             return Err(FmuError::Missing(path.to_path_buf()));
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
-        if fmi3::declares_fmi3(&unpacked.model_description) {
-            return fmi3::load(path, unpacked, instance_name, logging_on);
-        }
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
         let Some(cs) = &description.co_simulation else {
             return Err(FmuError::NotCoSimulation { model });
         };
-        let library = binary::library_path(unpacked.dir(), &cs.model_identifier).map_err(import)?;
+        let fmi3 = description.is_fmi3();
+        let platform = if fmi3 { fmi3_platform() } else { fmi2_platform() };
+        let library = binary::library_path_for(platform, unpacked.dir(), &cs.model_identifier)
+            .map_err(import)?;
         let binary = Binary::load(unpacked.dir(), &library).map_err(import)?;
-
-        let nul = |what| import(ImportError::Nul { what });
-        let c_name = CString::new(instance_name).map_err(|_| nul("the instance name"))?;
-        let c_guid = CString::new(description.guid.as_str()).map_err(|_| nul("the guid"))?;
-        let c_resources = CString::new(file_uri(&unpacked.dir().join("resources")))
-            .map_err(|_| nul("the resource location"))?;
-        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
-        let callbacks = Box::new(fmi2CallbackFunctions {
-            logger: Some(logger::inchworm_fmi_import_logger),
-            allocateMemory: Some(libc::calloc),
-            freeMemory: Some(libc::free),
-            stepFinished: None,
-            componentEnvironment: &*env as *const LogEnv as *mut std::os::raw::c_void,
-        });
-        let api = binary.api;
-        // SAFETY: the FMI 2.0 signature; every pointer passed lives until after
-        // fmi2FreeInstance (owned by the returned CsFmu, dropped after the free).
-        let component = unsafe {
-            (api.instantiate)(
-                c_name.as_ptr(),
-                fmi2CoSimulation,
-                c_guid.as_ptr(),
-                c_resources.as_ptr(),
-                &*callbacks,
-                fmi2False,
-                if logging_on { fmi2True } else { fmi2False },
-            )
+        let resources = unpacked.dir().join("resources");
+        let setup = Setup { md: &description, resources: &resources, instance_name, logging_on };
+        let backend: Box<dyn Backend> = if fmi3 {
+            Box::new(Fmi3Backend::instantiate(binary, &setup).map_err(import)?)
+        } else {
+            Box::new(Fmi2Backend::instantiate(binary, &setup).map_err(import)?)
         };
-        if component.is_null() {
-            // Nothing to free; `binary`, `callbacks`, `env` drop here, the library last.
-            drop(callbacks);
-            drop(env);
-            drop(binary);
-            return Err(import(ImportError::Instantiate { instance: instance_name.to_owned() }));
-        }
         Ok(CsFmu {
-            component,
-            api,
-            model,
-            instance_name: instance_name.to_owned(),
+            cx: Calls::new(model, instance_name.to_owned(), fmi3),
+            backend: ManuallyDrop::new(backend),
             description,
-            start_time: 0.0,
-            steps_done: 0,
-            step_size: 0.0,
-            fatal: None,
-            callbacks: ManuallyDrop::new(callbacks),
-            env: ManuallyDrop::new(env),
-            c_strings: ManuallyDrop::new([c_name, c_guid, c_resources]),
-            binary: ManuallyDrop::new(binary),
+            owner: NEXT_OWNER.fetch_add(1, Ordering::Relaxed),
+            states: HashMap::new(),
+            next_state: 0,
             unpacked,
         })
     }
 
     /// The model name from `modelDescription.xml`.
     pub fn model_name(&self) -> &str {
-        &self.model
+        &self.cx.model
     }
 
     /// The instance name given to [`CsFmu::load`] (the target of the FMU's log records).
     pub fn instance_name(&self) -> &str {
-        &self.instance_name
+        &self.cx.instance
     }
 
     /// The `guid` attribute of `modelDescription.xml`.
@@ -208,19 +192,19 @@ impl CsFmu {
         &self.description.guid
     }
 
-    /// The `fmiVersion` attribute of `modelDescription.xml` (2.x).
+    /// The `fmiVersion` attribute of `modelDescription.xml` (2.x or 3.x).
     pub fn fmi_version(&self) -> &str {
         &self.description.fmi_version
     }
 
-    /// What the binary's `fmi2GetVersion` returned.
+    /// What the binary's `fmi2GetVersion` / `fmi3GetVersion` returned.
     pub fn binary_version(&self) -> &str {
-        &self.binary.version
+        &self.backend.instance().version
     }
 
     /// The path of the loaded library inside the unpacked FMU.
     pub fn library_path(&self) -> &Path {
-        &self.binary.path
+        &self.backend.instance().binary.full_path
     }
 
     /// The directory the FMU is unpacked in (deleted on drop).
@@ -246,19 +230,19 @@ impl CsFmu {
     /// Resolves a variable by name.
     pub fn var(&self, name: &str) -> Result<Var, FmuError> {
         let v = self.description.variable(name).ok_or_else(|| FmuError::UnknownVariable {
-            model: self.model.clone(),
+            model: self.cx.model.clone(),
             name: name.to_owned(),
         })?;
         Ok(Var { vr: v.vr, ty: v.ty })
     }
 
     /// Resolves a variable by name and checks its type (an Enumeration passes for an
-    /// Integer: both go through `fmi2Get/SetInteger`).
+    /// Integer: both go through `fmi2Get/SetInteger`; FMI 3.0 Enumerations are not addressed).
     pub fn var_of(&self, name: &str, expected: VarType) -> Result<Var, FmuError> {
         let v = self.var(name)?;
         if v.ty != expected && !(expected == VarType::Integer && v.ty == VarType::Enumeration) {
             return Err(FmuError::WrongType {
-                model: self.model.clone(),
+                model: self.cx.model.clone(),
                 name: name.to_owned(),
                 expected,
                 found: v.ty,
@@ -285,257 +269,111 @@ impl CsFmu {
             .collect()
     }
 
-    fn alive(&self, function: &'static str) -> Result<(), FmuError> {
-        match self.fatal {
-            Some(fatal_in) => {
-                Err(FmuError::AfterFatal { model: self.model.clone(), function, fatal_in })
-            }
-            None => Ok(()),
-        }
-    }
-
-    fn check(&mut self, function: &'static str, raw: fmi2Status) -> Result<(), FmuError> {
-        match Status::from_raw(raw) {
-            Status::Ok => Ok(()),
-            Status::Warning => {
-                logger::emit(
-                    log::Level::Warn,
-                    &self.instance_name,
-                    format_args!("{function} returned fmi2Warning at t = {} s", self.time()),
-                );
-                Ok(())
-            }
-            status => {
-                if status == Status::Fatal {
-                    self.fatal = Some(function);
-                }
-                Err(FmuError::Call {
-                    model: self.model.clone(),
-                    function,
-                    time: self.time(),
-                    status,
-                })
-            }
-        }
-    }
-
-    /// `fmi2SetDebugLogging`: debug logging on or off, for the given categories (all if empty).
+    /// `fmi*SetDebugLogging`: debug logging on or off, for the given categories (all if
+    /// empty).
     pub fn set_debug_logging(&mut self, on: bool, categories: &[&str]) -> Result<(), FmuError> {
-        const F: &str = "fmi2SetDebugLogging";
-        self.alive(F)?;
-        let cats =
-            categories.iter().map(|c| CString::new(*c)).collect::<Result<Vec<_>, _>>().map_err(
-                |_| FmuError::InvalidArgument {
-                    model: self.model.clone(),
-                    function: F,
-                    message: "a category name contains a NUL byte".into(),
-                },
-            )?;
-        let ptrs: Vec<fmi2String> = cats.iter().map(|c| c.as_ptr()).collect();
-        // SAFETY: FMI 2.0 signature; the arrays live for the call.
-        let s = unsafe {
-            (self.api.set_debug_logging)(self.component, i32::from(on), ptrs.len(), ptrs.as_ptr())
-        };
-        self.check(F, s)
+        let f = self.cx.named("fmi2SetDebugLogging", "fmi3SetDebugLogging");
+        let cats = self.cx.c_strings(f, "a category name", categories)?;
+        self.backend.set_debug_logging(&mut self.cx, on, &backend::pointers(&cats))
     }
 
-    /// `fmi2SetupExperiment` + `fmi2EnterInitializationMode`: parameters and start values
-    /// may be set after this and before [`CsFmu::exit_initialization`].
+    /// FMI 2.0 `fmi2SetupExperiment` + `fmi2EnterInitializationMode`, FMI 3.0
+    /// `fmi3EnterInitializationMode`: parameters and start values may be set after this and
+    /// before [`CsFmu::exit_initialization`].
     pub fn enter_initialization(
         &mut self,
         tolerance: Option<f64>,
         start_time: f64,
         stop_time: Option<f64>,
     ) -> Result<(), FmuError> {
-        self.alive("fmi2SetupExperiment")?;
-        self.start_time = start_time;
-        self.steps_done = 0;
-        // SAFETY: FMI 2.0 signature, live component.
-        let s = unsafe {
-            (self.api.setup_experiment)(
-                self.component,
-                i32::from(tolerance.is_some()),
-                tolerance.unwrap_or(0.0),
-                start_time,
-                i32::from(stop_time.is_some()),
-                stop_time.unwrap_or(0.0),
-            )
-        };
-        self.check("fmi2SetupExperiment", s)?;
-        // SAFETY: as above.
-        let s = unsafe { (self.api.enter_initialization_mode)(self.component) };
-        self.check("fmi2EnterInitializationMode", s)
+        self.cx.alive(self.cx.named("fmi2SetupExperiment", "fmi3EnterInitializationMode"))?;
+        self.cx.start_time = start_time;
+        self.cx.steps_done = 0;
+        let e = Experiment { tolerance, start: start_time, stop: stop_time };
+        self.backend.enter_initialization(&mut self.cx, e)
     }
 
-    /// `fmi2ExitInitializationMode`: the FMU is ready to step from the start time.
+    /// `fmi*ExitInitializationMode`: the FMU is ready to step from the start time.
     pub fn exit_initialization(&mut self) -> Result<(), FmuError> {
-        self.alive("fmi2ExitInitializationMode")?;
-        // SAFETY: FMI 2.0 signature, live component.
-        let s = unsafe { (self.api.exit_initialization_mode)(self.component) };
-        self.check("fmi2ExitInitializationMode", s)
+        self.backend.instance().call(&mut self.cx, Plain::ExitInitialization)
     }
 
     /// The current communication point, `start + k · h` after k steps of size h.
     pub fn time(&self) -> f64 {
-        self.start_time + self.steps_done as f64 * self.step_size
+        self.cx.time()
     }
 
-    /// One `fmi2DoStep` of `h` seconds from the current communication point. The step
+    /// One `fmi*DoStep` of `h` seconds from the current communication point. The step
     /// size is fixed by the first step: the time is kept as `start + k · h` (not summed) so
     /// that it stays exactly on the grid the FMU compares it with.
     pub fn do_step(&mut self, h: f64) -> Result<(), FmuError> {
-        self.alive("fmi2DoStep")?;
-        if self.steps_done == 0 {
-            self.step_size = h;
+        self.cx.alive(self.cx.named("fmi2DoStep", "fmi3DoStep"))?;
+        if self.cx.steps_done == 0 {
+            self.cx.step_size = h;
         } else {
             assert_eq!(
-                h, self.step_size,
+                h, self.cx.step_size,
                 "CsFmu::do_step: the communication step is fixed at the first step"
             );
         }
         let t = self.time();
-        // SAFETY: FMI 2.0 signature, live component.
-        let s = unsafe { (self.api.do_step)(self.component, t, h, fmi2True) };
-        self.check("fmi2DoStep", s)?;
-        self.steps_done += 1;
+        // While a state is held, the master may go back to it: the FMU must know.
+        let no_prior = self.states.is_empty();
+        self.backend.do_step(&mut self.cx, t, h, no_prior)?;
+        self.cx.steps_done += 1;
         Ok(())
     }
 
+    /// `fmi2SetReal` / `fmi3SetFloat64`.
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "set_real: value references and values differ in length"
-        );
-        self.alive("fmi2SetReal")?;
-        // SAFETY: FMI 2.0 signature; both arrays hold vrs.len() elements.
-        let s = unsafe {
-            (self.api.set_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
-        };
-        self.check("fmi2SetReal", s)
+        same_length("set_real", vrs.len(), values.len());
+        self.backend.set_f64(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2GetReal` / `fmi3GetFloat64`.
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "get_real: value references and values differ in length"
-        );
-        self.alive("fmi2GetReal")?;
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.get_real)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
-        };
-        self.check("fmi2GetReal", s)
+        same_length("get_real", vrs.len(), values.len());
+        self.backend.get_f64(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2GetInteger` / `fmi3GetInt32`.
     pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "get_integer: value references and values differ in length"
-        );
-        self.alive("fmi2GetInteger")?;
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.get_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_mut_ptr())
-        };
-        self.check("fmi2GetInteger", s)
+        same_length("get_integer", vrs.len(), values.len());
+        self.backend.get_i32(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2SetInteger` / `fmi3SetInt32`.
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "set_integer: value references and values differ in length"
-        );
-        self.alive("fmi2SetInteger")?;
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.set_integer)(self.component, vrs.as_ptr(), vrs.len(), values.as_ptr())
-        };
-        self.check("fmi2SetInteger", s)
+        same_length("set_integer", vrs.len(), values.len());
+        self.backend.set_i32(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2SetBoolean` / `fmi3SetBoolean`.
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "set_boolean: value references and values differ in length"
-        );
-        self.alive("fmi2SetBoolean")?;
-        let raw: Vec<fmi2Boolean> = values.iter().map(|&b| i32::from(b)).collect();
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.set_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_ptr())
-        };
-        self.check("fmi2SetBoolean", s)
+        same_length("set_boolean", vrs.len(), values.len());
+        self.backend.set_bool(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2GetBoolean` / `fmi3GetBoolean`.
     pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "get_boolean: value references and values differ in length"
-        );
-        self.alive("fmi2GetBoolean")?;
-        let mut raw = vec![0 as fmi2Boolean; vrs.len()];
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.get_boolean)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr())
-        };
-        self.check("fmi2GetBoolean", s)?;
-        for (v, r) in values.iter_mut().zip(raw) {
-            *v = r != 0;
-        }
-        Ok(())
+        same_length("get_boolean", vrs.len(), values.len());
+        self.backend.get_bool(&mut self.cx, vrs, values)
     }
 
+    /// `fmi2SetString` / `fmi3SetString`.
     pub fn set_string(&mut self, vrs: &[u32], values: &[&str]) -> Result<(), FmuError> {
-        const F: &str = "fmi2SetString";
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "set_string: value references and values differ in length"
-        );
-        self.alive(F)?;
-        let owned =
-            values.iter().map(|v| CString::new(*v)).collect::<Result<Vec<_>, _>>().map_err(
-                |_| FmuError::InvalidArgument {
-                    model: self.model.clone(),
-                    function: F,
-                    message: "a string value contains a NUL byte".into(),
-                },
-            )?;
-        let ptrs: Vec<fmi2String> = owned.iter().map(|c| c.as_ptr()).collect();
-        // SAFETY: as above; the strings live for the call (the FMU copies them).
-        let s = unsafe {
-            (self.api.set_string)(self.component, vrs.as_ptr(), vrs.len(), ptrs.as_ptr())
-        };
-        self.check(F, s)
+        same_length("set_string", vrs.len(), values.len());
+        let f = self.cx.named("fmi2SetString", "fmi3SetString");
+        let owned = self.cx.c_strings(f, "a string value", values)?;
+        self.backend.set_string(&mut self.cx, vrs, &backend::pointers(&owned))
     }
 
+    /// `fmi2GetString` / `fmi3GetString`; the strings are copied.
     pub fn get_string(&mut self, vrs: &[u32], values: &mut [String]) -> Result<(), FmuError> {
-        assert_eq!(
-            vrs.len(),
-            values.len(),
-            "get_string: value references and values differ in length"
-        );
-        self.alive("fmi2GetString")?;
-        let mut raw: Vec<fmi2String> = vec![std::ptr::null(); vrs.len()];
-        // SAFETY: as above.
-        let s = unsafe {
-            (self.api.get_string)(self.component, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr())
-        };
-        self.check("fmi2GetString", s)?;
-        for (v, p) in values.iter_mut().zip(raw) {
-            // SAFETY: the FMU's strings are valid until its next call; copied right away.
-            *v = if p.is_null() {
-                String::new()
-            } else {
-                unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
-            };
-        }
+        same_length("get_string", vrs.len(), values.len());
+        let mut raw = vec![std::ptr::null(); vrs.len()];
+        self.backend.get_string(&mut self.cx, vrs, &mut raw)?;
+        backend::copy_strings(&raw, values);
         Ok(())
     }
 
@@ -547,23 +385,117 @@ impl CsFmu {
         Ok(v[0])
     }
 
-    /// `fmi2Terminate`. The instance is freed when `self` is dropped.
+    /// `fmi*Terminate`. The instance is freed when `self` is dropped.
     pub fn terminate(&mut self) -> Result<(), FmuError> {
-        self.alive("fmi2Terminate")?;
-        // SAFETY: FMI 2.0 signature, live component.
-        let s = unsafe { (self.api.terminate)(self.component) };
-        self.check("fmi2Terminate", s)
+        self.backend.instance().call(&mut self.cx, Plain::Terminate)
     }
 
-    /// `fmi2Reset`: back to the state right after instantiation (the time grid restarts
-    /// at the next [`CsFmu::enter_initialization`]).
+    /// `fmi*Reset`: back to the state right after instantiation (the time grid restarts
+    /// at the next [`CsFmu::enter_initialization`]). Saved states stay valid.
     pub fn reset(&mut self) -> Result<(), FmuError> {
-        self.alive("fmi2Reset")?;
-        // SAFETY: FMI 2.0 signature, live component.
-        let s = unsafe { (self.api.reset)(self.component) };
-        self.check("fmi2Reset", s)?;
-        self.steps_done = 0;
-        self.step_size = 0.0;
+        self.backend.instance().call(&mut self.cx, Plain::Reset)?;
+        self.cx.steps_done = 0;
+        self.cx.step_size = 0.0;
         Ok(())
+    }
+
+    /// `fmi2GetFMUstate` / `fmi3GetFMUState`: saves the FMU's state and the communication
+    /// time. Fails with [`FmuError::Unsupported`] unless the FMU declares
+    /// `canGetAndSetFMUstate` (FMI 2.0) / `canGetAndSetFMUState` (FMI 3.0).
+    pub fn get_state(&mut self) -> Result<FmuState, FmuError> {
+        let raw = self.backend.states().get(&mut self.cx)?;
+        Ok(self.hold(raw))
+    }
+
+    /// `fmi2SetFMUstate` / `fmi3SetFMUState`: back to `state`, time included.
+    pub fn set_state(&mut self, state: &FmuState) -> Result<(), FmuError> {
+        let saved = self.saved(state, self.backend.states().names().set)?;
+        self.backend.states().set(&mut self.cx, saved.raw)?;
+        self.cx.start_time = saved.start_time;
+        self.cx.steps_done = saved.steps_done;
+        self.cx.step_size = saved.step_size;
+        Ok(())
+    }
+
+    /// `fmi2FreeFMUstate` / `fmi3FreeFMUState`. Dropping the `CsFmu` frees the states
+    /// still held.
+    pub fn free_state(&mut self, state: FmuState) -> Result<(), FmuError> {
+        let saved = self.saved(&state, self.backend.states().names().free)?;
+        self.states.remove(&state.id);
+        self.backend.states().free(&mut self.cx, saved.raw)
+    }
+
+    /// `fmi2SerializeFMUstate` / `fmi3SerializeFMUState` (with the size call first): the
+    /// state as bytes, to be read back by [`CsFmu::deserialize_state`] of an instance of
+    /// the same FMU. The bytes are a short header (the communication grid) and the FMU's
+    /// own serialization.
+    pub fn serialize_state(&mut self, state: &FmuState) -> Result<Vec<u8>, FmuError> {
+        let saved = self.saved(state, self.backend.states().names().serialize)?;
+        let fmu = self.backend.states().serialize(&mut self.cx, saved.raw)?;
+        let mut out = Vec::with_capacity(STATE_HEADER + fmu.len());
+        out.extend_from_slice(STATE_MAGIC);
+        out.extend_from_slice(&saved.start_time.to_le_bytes());
+        out.extend_from_slice(&saved.steps_done.to_le_bytes());
+        out.extend_from_slice(&saved.step_size.to_le_bytes());
+        out.extend_from_slice(&fmu);
+        Ok(out)
+    }
+
+    /// `fmi2DeSerializeFMUstate` / `fmi3DeserializeFMUState`: a new state from bytes of
+    /// [`CsFmu::serialize_state`]; [`CsFmu::set_state`] restores it.
+    pub fn deserialize_state(&mut self, bytes: &[u8]) -> Result<FmuState, FmuError> {
+        let f = self.backend.states().names().deserialize;
+        self.cx.alive(f)?;
+        let header = bytes.get(..STATE_HEADER).filter(|h| h.starts_with(STATE_MAGIC));
+        let Some(header) = header else {
+            return Err(self.cx.invalid(
+                f,
+                format!(
+                    "{} bytes that are not a state serialized by this importer (no {} header)",
+                    bytes.len(),
+                    String::from_utf8_lossy(STATE_MAGIC)
+                ),
+            ));
+        };
+        let word = |i: usize| {
+            let mut w = [0u8; 8];
+            w.copy_from_slice(&header[8 + 8 * i..16 + 8 * i]);
+            w
+        };
+        let (start_time, steps_done, step_size) =
+            (f64::from_le_bytes(word(0)), u64::from_le_bytes(word(1)), f64::from_le_bytes(word(2)));
+        if !(start_time.is_finite() && step_size.is_finite() && step_size >= 0.0) {
+            return Err(self.cx.invalid(f, "the serialized communication grid is damaged"));
+        }
+        let raw = self.backend.states().deserialize(&mut self.cx, &bytes[STATE_HEADER..])?;
+        let state = self.hold(raw);
+        if let Some(s) = self.states.get_mut(&state.id) {
+            (s.start_time, s.steps_done, s.step_size) = (start_time, steps_done, step_size);
+        }
+        Ok(state)
+    }
+
+    /// How many saved states this instance holds.
+    pub fn states_held(&self) -> usize {
+        self.states.len()
+    }
+
+    fn hold(&mut self, raw: RawState) -> FmuState {
+        let id = self.next_state;
+        self.next_state += 1;
+        let (start_time, steps_done, step_size) =
+            (self.cx.start_time, self.cx.steps_done, self.cx.step_size);
+        self.states.insert(id, Saved { raw, start_time, steps_done, step_size });
+        FmuState { owner: self.owner, id }
+    }
+
+    fn saved(&self, state: &FmuState, function: &'static str) -> Result<Saved, FmuError> {
+        self.cx.alive(function)?;
+        match self.states.get(&state.id) {
+            Some(s) if state.owner == self.owner => Ok(*s),
+            _ => Err(self
+                .cx
+                .invalid(function, "the state was not taken from this instance, or was freed")),
+        }
     }
 }

@@ -283,7 +283,10 @@ fn bad_files_are_refused_clearly() {
         |n, b| Some((n.to_owned(), b)),
     );
     let e = load_err(&fmi3);
-    assert!(e.contains("<fmiModelDescription> lacks instantiationToken"), "{e}");
+    assert!(
+        e.contains("<fmiModelDescription> lacks the required attribute instantiationToken"),
+        "{e}"
+    );
     let fmi1 = plant_variant(
         &dir,
         "fmi1.fmu",
@@ -386,7 +389,15 @@ fn c_library(dir: &std::path::Path, source: &str) -> Vec<u8> {
 
 /// Every function a CS import resolves besides fmi2GetTypesPlatform and fmi2GetVersion,
 /// for the stub libraries of the tests below.
-const STUB_FUNCTIONS: [&str; 23] = [
+// The state functions too: the plant declares canGetAndSetFMUstate and canSerializeFMUstate,
+// and a binary that declares them without exporting them is refused.
+const STUB_FUNCTIONS: [&str; 29] = [
+    "fmi2GetFMUstate",
+    "fmi2SetFMUstate",
+    "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize",
+    "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate",
     "fmi2SetDebugLogging",
     "fmi2Instantiate",
     "fmi2FreeInstance",
@@ -447,6 +458,10 @@ fn incomplete_or_foreign_binaries_are_refused_clearly() {
     let null = c_library(&dir, &format!("{all}const char *fmi2GetTypesPlatform(void) {{ return \"default\"; }}\nconst char *fmi2GetVersion(void) {{ return \"2.0\"; }}\n"));
     let e = load_err(&with_binary("null.fmu", null));
     assert!(e.contains("fmi2Instantiate returned NULL for instance `bad`"), "{e}");
+    // Declared in modelDescription.xml, missing in the binary.
+    let stateless = c_library(&dir, &format!("{}const char *fmi2GetTypesPlatform(void) {{ return \"default\"; }}\nconst char *fmi2GetVersion(void) {{ return \"2.0\"; }}\n", all.replace("void *fmi2SerializeFMUstate(void) { return 0; }\n", "")));
+    let e = load_err(&with_binary("stateless.fmu", stateless));
+    assert!(e.contains("modelDescription.xml declares canSerializeFMUstate=\"true\" but the FMU's binary binaries/linux64/InchwormPlant.so does not export fmi2SerializeFMUstate"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

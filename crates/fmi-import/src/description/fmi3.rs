@@ -1,0 +1,111 @@
+//! FMI 3.0 variables: one element per variable, named by its type (`<Float64>`, `<Int32>`,
+//! …), arrays marked by `<Dimension>` children. `<Float64>` is a Real, `<Int32>` an
+//! Integer, `<Boolean>` and `<String>` as in FMI 2.0. Every variable is checked (name,
+//! valueReference, causality, variability, initial, start), but the other types (Float32,
+//! the other integer widths, Enumeration, Binary, Clock), arrays and the independent
+//! variable are not added to [`ModelDescription::variables`](super::ModelDescription):
+//! the master's scalar calls cannot address them, so asking for one is "unknown variable".
+
+use super::{attr, is_boolean, is_double, Causality, Doc, Element, Standard, VarType};
+use super::{Variability, Variable};
+use crate::ImportError;
+
+/// What a type element's `start` items must parse as.
+fn start_item(element: &str) -> Option<fn(&str) -> bool> {
+    Some(match element {
+        "Float32" | "Float64" => is_double,
+        "Int8" => |s| s.parse::<i8>().is_ok(),
+        "UInt8" => |s| s.parse::<u8>().is_ok(),
+        "Int16" => |s| s.parse::<i16>().is_ok(),
+        "UInt16" => |s| s.parse::<u16>().is_ok(),
+        "Int32" => |s| s.parse::<i32>().is_ok(),
+        "UInt32" => |s| s.parse::<u32>().is_ok(),
+        "Int64" | "Enumeration" => |s| s.parse::<i64>().is_ok(),
+        "UInt64" => |s| s.parse::<u64>().is_ok(),
+        "Boolean" => is_boolean,
+        // Binary is hexadecimal text; a Clock has no start.
+        "Binary" => |s| s.len() % 2 == 0 && s.bytes().all(|b| b.is_ascii_hexdigit()),
+        "Clock" => |_| false,
+        // String starts are <Start value="…"/> children: any text.
+        "String" => |_| true,
+        _ => return None,
+    })
+}
+
+/// The variable element being read: kept, at its end, unless it is an array.
+struct Pending {
+    var: Option<Variable>,
+    array: bool,
+    pos: usize,
+}
+
+#[derive(Default)]
+pub(super) struct Fmi3 {
+    current: Option<Pending>,
+}
+
+impl Standard for Fmi3 {
+    fn open(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        let (a, name, pos) = (e.attrs, e.name, e.pos);
+        if e.depth == 3 && name == "Dimension" {
+            if let Some(p) = self.current.as_mut() {
+                p.array = true;
+            }
+            return Ok(());
+        }
+        if e.depth != 2 {
+            return Ok(());
+        }
+        // Not a variable type: a vendor's element, skipped as everywhere else.
+        let Some(item) = start_item(name) else {
+            return Ok(());
+        };
+        let var_name = doc.required(a, name, "name", pos)?.to_owned();
+        let tag = format!("{name} name=\"{var_name}\"");
+        let vr = doc.value_reference(a, &tag, pos)?;
+        let default_variability =
+            if name.starts_with("Float") { Variability::Continuous } else { Variability::Discrete };
+        let (causality, variability, initial) = doc.kinds(
+            a,
+            &tag,
+            pos,
+            &[("structuralParameter", Causality::Parameter)],
+            default_variability,
+        )?;
+        let start = doc.check_start(a, (&tag, name), true, item, pos)?;
+        let ty = match name {
+            "Float64" => Some(VarType::Real),
+            "Int32" => Some(VarType::Integer),
+            "Boolean" => Some(VarType::Boolean),
+            "String" => Some(VarType::String),
+            _ => None,
+        };
+        let var = ty.filter(|_| causality != Causality::Independent).map(|ty| Variable {
+            name: var_name.clone(),
+            vr,
+            ty,
+            causality,
+            variability,
+            initial,
+            start,
+            description: attr(a, "description").map(str::to_owned),
+            declared_type: attr(a, "declaredType").map(str::to_owned),
+        });
+        if var.is_none() {
+            doc.claim_name(&var_name, pos)?;
+        }
+        self.current = Some(Pending { var, array: false, pos });
+        Ok(())
+    }
+
+    fn close(&mut self, doc: &mut Doc<'_>, e: &Element<'_>) -> Result<(), ImportError> {
+        if e.depth != 2 {
+            return Ok(());
+        }
+        match self.current.take() {
+            Some(Pending { var: Some(v), array: false, pos }) => doc.add_variable(v, pos),
+            Some(Pending { var: Some(v), array: true, pos }) => doc.claim_name(&v.name, pos),
+            _ => Ok(()),
+        }
+    }
+}
