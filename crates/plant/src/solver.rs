@@ -117,12 +117,14 @@ pub(crate) struct Armed {
     direction: f64,
     /// `c0` of `u_h = W ξ + c0` (`Hysteresis::offset`).
     c0: f64,
+    /// `Hysteresis::keep_interval`.
+    keep: (f64, f64),
 }
 
 impl Armed {
     pub(crate) fn of(h: &Hysteresis) -> Armed {
         let (up, down) = h.next_thresholds();
-        Armed { up, down, direction: Armed::direction(h), c0: h.offset() }
+        Armed { up, down, direction: Armed::direction(h), c0: h.offset(), keep: h.keep_interval() }
     }
 
     /// The sliding direction, 0 (of the sign of `ξ̇`) while nothing slides.
@@ -138,6 +140,12 @@ impl Armed {
 
     pub(crate) fn c0(&self) -> f64 {
         self.c0
+    }
+
+    /// Whether `Hysteresis::sync` at `xi` would keep the memories and the slipping set, from
+    /// the cached interval alone (`false` may still keep them).
+    pub(crate) fn keeps(&self, xi: f64) -> bool {
+        self.keep.0 < xi && xi < self.keep.1
     }
 }
 
