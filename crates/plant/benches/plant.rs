@@ -86,13 +86,19 @@ fn run_exact_path(rel_tol: f64, seq: &[Dac], scan_always: bool) -> Run {
             ^ o.voltage_extension.to_bits().rotate_left(31);
     }
     let total_s = start.elapsed().as_secs_f64();
+    let bits = fold_state(&plant, bits);
+    let stats = plant.scan_stats();
+    Run { counts, step_us, total_s, bits, skipped: stats.skipped, scanned: stats.scanned }
+}
+
+/// `bits` with the plant's saved state folded in.
+fn fold_state(plant: &Plant, mut bits: u64) -> u64 {
     let mut state = Vec::new();
     plant.save_state(&mut state);
     for b in state {
         bits = bits.rotate_left(3) ^ u64::from(b);
     }
-    let stats = plant.scan_stats();
-    Run { counts, step_us, total_s, bits, skipped: stats.skipped, scanned: stats.scanned }
+    bits
 }
 
 fn summary(r: &Run, sim_s: f64) -> String {
@@ -163,11 +169,7 @@ fn run_quiet(gaits: &[Dac], scan_always: bool) -> Run {
         bits = bits.rotate_left(5) ^ plant.outputs().extension.to_bits();
     }
     let total_s = start.elapsed().as_secs_f64();
-    let mut state = Vec::new();
-    plant.save_state(&mut state);
-    for b in state {
-        bits = bits.rotate_left(3) ^ u64::from(b);
-    }
+    let bits = fold_state(&plant, bits);
     let stats = plant.scan_stats();
     Run {
         counts: Vec::new(),
