@@ -118,7 +118,8 @@ pub struct Plant {
     configs: Vec<Option<ConfigTable>>,
     /// Propagators over the last sub-scan tail of a step, per configuration: a master's
     /// steps repeat, so their tails do too.
-    remainders: Vec<Option<Remainder>>,
+    /// Boxed: most are empty, and a clone (`load_state` makes one) copies only the others.
+    remainders: Vec<Option<Box<Remainder>>>,
     chain_remainder: Option<ChainRemainder>,
     /// The quiet-step plans of each mode with nothing slipping, for one step length each.
     quiet: [Option<Arc<QuietPlan>>; 4],

@@ -426,9 +426,10 @@ impl Plant {
     fn remainder(&mut self, ticks: u64) -> bool {
         let key = self.config();
         let cfg = table(&self.configs, key);
-        let fresh = |c: &Option<Remainder>| c.as_ref().is_some_and(|r| r.ticks == ticks);
+        let fresh = |c: &Option<Box<Remainder>>| c.as_ref().is_some_and(|r| r.ticks == ticks);
         if !fresh(&self.remainders[key]) {
-            self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
+            self.remainders[key] =
+                Some(Box::new(Remainder { ticks, phi: product(&cfg.phi, ticks) }));
         }
         if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
             self.chain_remainder =
