@@ -11,7 +11,12 @@
 //!   bound, kept callable as `Plant::set_scan_always`), on the gait sequence and on a
 //!   regulation sequence (each second of gaits followed by 5 s of parked, constant volts):
 //!   per-step median and p99, real-time factor, the ratio, and a check that both paths
-//!   give the same bits.
+//!   give the same bits;
+//! * the quiet 2 ms step (the plant parked at 0 V after the gaits): per-step median and p99
+//!   of the quiet step against the event loop alone, and a check that both give the same bits.
+//!
+//! Wall-clock figures mean something only on an idle machine; `docs/plant-solver.md` gives
+//! the stable measure, callgrind instruction counts (`crates/plant/examples/quiet.rs`).
 
 use std::time::Instant;
 
@@ -81,13 +86,19 @@ fn run_exact_path(rel_tol: f64, seq: &[Dac], scan_always: bool) -> Run {
             ^ o.voltage_extension.to_bits().rotate_left(31);
     }
     let total_s = start.elapsed().as_secs_f64();
+    let bits = fold_state(&plant, bits);
+    let stats = plant.scan_stats();
+    Run { counts, step_us, total_s, bits, skipped: stats.skipped, scanned: stats.scanned }
+}
+
+/// `bits` with the plant's saved state folded in.
+fn fold_state(plant: &Plant, mut bits: u64) -> u64 {
     let mut state = Vec::new();
     plant.save_state(&mut state);
     for b in state {
         bits = bits.rotate_left(3) ^ u64::from(b);
     }
-    let stats = plant.scan_stats();
-    Run { counts, step_us, total_s, bits, skipped: stats.skipped, scanned: stats.scanned }
+    bits
 }
 
 fn summary(r: &Run, sim_s: f64) -> String {
@@ -136,6 +147,62 @@ fn compare_paths(gaits: &[Dac]) {
             }
         );
     }
+}
+
+/// The quiet 2 ms step: the gait second, 1 s of settling at 0 V, then 20 s of quiet steps,
+/// each timed; with `scan_always`, on the event loop alone.
+fn run_quiet(gaits: &[Dac], scan_always: bool) -> Run {
+    let mut plant = Plant::new(PlantParams::fia20()).unwrap();
+    plant.set_scan_always(scan_always);
+    for d in gaits[..500].iter().chain(std::iter::repeat_n(&Dac::default(), 500)) {
+        plant.step(*d, H).unwrap();
+    }
+    let steps = 10_000;
+    let quiet_before = plant.scan_stats().quiet;
+    let mut step_us = Vec::with_capacity(steps);
+    let mut bits = 0u64;
+    let start = Instant::now();
+    for _ in 0..steps {
+        let t = Instant::now();
+        plant.step(Dac::default(), H).unwrap();
+        step_us.push(t.elapsed().as_secs_f64() * 1e6);
+        bits = bits.rotate_left(5) ^ plant.outputs().extension.to_bits();
+    }
+    let total_s = start.elapsed().as_secs_f64();
+    let bits = fold_state(&plant, bits);
+    let stats = plant.scan_stats();
+    Run {
+        counts: Vec::new(),
+        step_us,
+        total_s,
+        bits,
+        skipped: stats.quiet - quiet_before,
+        scanned: stats.scanned,
+    }
+}
+
+fn compare_quiet(gaits: &[Dac]) {
+    println!("quiet 2 ms step, parked at 0 V after the gaits (20 s, each step timed, best of 3 alternating runs):");
+    let (mut event_loop, mut quiet) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        event_loop.push(run_quiet(gaits, true));
+        quiet.push(run_quiet(gaits, false));
+    }
+    let pick = |v: Vec<Run>| v.into_iter().min_by(|a, b| a.total_s.total_cmp(&b.total_s)).unwrap();
+    let (event_loop, quiet) = (pick(event_loop), pick(quiet));
+    let sim_s = quiet.step_us.len() as f64 * H;
+    println!("  event loop  | {}", summary(&event_loop, sim_s));
+    println!(
+        "  quiet step  | {} | quiet steps {}/{}",
+        summary(&quiet, sim_s),
+        quiet.skipped,
+        quiet.step_us.len()
+    );
+    println!(
+        "  ratio {:.2}x faster (mean step), results {}",
+        event_loop.total_s / quiet.total_s,
+        if event_loop.bits == quiet.bits { "bit-identical" } else { "DIFFER (bug)" }
+    );
 }
 
 fn run_rk4(h: f64, seq: &[Dac]) -> Run {
@@ -200,6 +267,8 @@ fn main() {
     );
     println!();
     compare_paths(&seq);
+    println!();
+    compare_quiet(&seq);
     println!();
     println!("fixed-step RK4 of the same equations (memories updated per step, brake switches bisected to 1 ns):");
     println!("  step    | vs reference (1 s) | vs tight trace (60 s) | per 2 ms step | real time");

@@ -144,6 +144,26 @@ impl Hysteresis {
             })
     }
 
+    /// An open interval of `ξ` on which [`Self::sync_keeps`] holds whatever the direction:
+    /// inside `m_i ± (r_i − 3 tol_i)` for every element, where `(ξ ∓ r_i) ± tol_i` can't reach
+    /// `m_i` in floating point as long as every magnitude is below 1e6 V (a rounding there is
+    /// below 1e-10 V, the tolerance at least 1e-9 V). Empty if something slips or the
+    /// magnitudes are larger.
+    pub fn keep_interval(&self) -> (f64, f64) {
+        let (mut lo, mut hi) = (-1e6, 1e6);
+        for i in 0..N_PLAYS {
+            let (m, r) = (self.memory[i], self.radius[i]);
+            let small = m.abs() + r < 1e6;
+            if self.sliding != 0 || !small {
+                return (0.0, 0.0);
+            }
+            let tol = 1e-9 * (1.0 + r);
+            lo = f64::max(lo, m - r + 3.0 * tol);
+            hi = f64::min(hi, m + r - 3.0 * tol);
+        }
+        (lo, hi)
+    }
+
     /// The `ξ` at which the next stuck play starts to move upwards / downwards.
     pub fn next_thresholds(&self) -> (f64, f64) {
         let mut up = f64::INFINITY;

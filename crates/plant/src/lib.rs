@@ -118,14 +118,16 @@ pub struct Plant {
     configs: Vec<Option<ConfigTable>>,
     /// Propagators over the last sub-scan tail of a step, per configuration: a master's
     /// steps repeat, so their tails do too.
-    remainders: Vec<Option<Remainder>>,
+    /// Boxed: most are empty, and a clone (`load_state` makes one) copies only the others.
+    remainders: Vec<Option<Box<Remainder>>>,
     chain_remainder: Option<ChainRemainder>,
     /// The quiet-step plans of each mode with nothing slipping, for one step length each.
     quiet: [Option<Arc<QuietPlan>>; 4],
     /// The length of the last step (bits of `h`): a plan is built when a length repeats.
     last_h: u64,
-    /// Always scan every point (the solver before the quiet-step bound); results are
-    /// bit-identical either way. For benchmarks and tests.
+    /// Always take the event loop and scan every point (the solver before the quiet step
+    /// and the quiet-step bound); results are bit-identical either way. For benchmarks and
+    /// tests.
     scan_always: bool,
     /// Scans of `MIN_BOUND_POINTS` or more points: how many were run, how many the bound
     /// proved clear.
@@ -199,9 +201,10 @@ impl Plant {
         self.mode
     }
 
-    /// With `true`, every scan looks at every point, as the solver did before the
-    /// quiet-step bound; the results are bit-identical either way (the golden-trace test
-    /// holds both paths to the same hash). For benchmarks and tests.
+    /// With `true`, every step goes through the event loop (no quiet step) and every scan
+    /// looks at every point, as the solver did before the quiet-step bound; the results are
+    /// bit-identical either way (the golden-trace and quiet-step tests hold both paths to
+    /// the same bits). For benchmarks and tests.
     #[doc(hidden)]
     pub fn set_scan_always(&mut self, on: bool) {
         self.scan_always = on;

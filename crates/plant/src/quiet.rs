@@ -235,7 +235,9 @@ impl Plant {
         // What `sync_hysteresis` would do; a quiet step leaves the memories as they are.
         let rate = cfg.watched[1].dot(&z);
         let direction = crate::solver::rate_sign(rate);
-        if !self.hysteresis.sync_keeps(cfg.watched[0].dot(&z), direction) {
+        let xi = cfg.watched[0].dot(&z);
+        debug_assert!(!self.armed.keeps(xi) || self.hysteresis.sync_keeps(xi, direction));
+        if !self.armed.keeps(xi) && !self.hysteresis.sync_keeps(xi, direction) {
             return None;
         }
         z[ix::C0] = self.armed.c0();

@@ -3,7 +3,7 @@
 
 use crate::configs::{product, table, ChainRemainder, Remainder};
 use crate::hysteresis::Hysteresis;
-use crate::linear::{self, ix, mul_vec, Chain, Propagators, Vector, TICK};
+use crate::linear::{self, ix, mul_vec, mul_vec_inline, Chain, Propagators, Vector, TICK};
 use crate::noise::gaussian;
 use crate::Dac;
 use crate::{Mode, Plant, StepReport};
@@ -117,12 +117,14 @@ pub(crate) struct Armed {
     direction: f64,
     /// `c0` of `u_h = W ξ + c0` (`Hysteresis::offset`).
     c0: f64,
+    /// `Hysteresis::keep_interval`.
+    keep: (f64, f64),
 }
 
 impl Armed {
     pub(crate) fn of(h: &Hysteresis) -> Armed {
         let (up, down) = h.next_thresholds();
-        Armed { up, down, direction: Armed::direction(h), c0: h.offset() }
+        Armed { up, down, direction: Armed::direction(h), c0: h.offset(), keep: h.keep_interval() }
     }
 
     /// The sliding direction, 0 (of the sign of `ξ̇`) while nothing slides.
@@ -138,6 +140,12 @@ impl Armed {
 
     pub(crate) fn c0(&self) -> f64 {
         self.c0
+    }
+
+    /// Whether `Hysteresis::sync` at `xi` would keep the memories and the slipping set, from
+    /// the cached interval alone (`false` may still keep them).
+    pub(crate) fn keeps(&self, xi: f64) -> bool {
+        self.keep.0 < xi && xi < self.keep.1
     }
 }
 
@@ -332,13 +340,34 @@ impl Plant {
     /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
     /// Returns the ticks consumed and whether an event was handled.
     fn piece(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.piece_avx(level, report) };
+        }
+        self.piece_inline::<false>(level, report)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn piece_avx(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
+        self.piece_inline::<true>(level, report)
+    }
+
+    /// `piece` with its products inlined (one CPU dispatch per piece, not per product).
+    #[inline(always)]
+    fn piece_inline<const AVX: bool>(
+        &mut self,
+        level: usize,
+        report: &mut StepReport,
+    ) -> (u64, bool) {
         let key = self.config();
         let cfg = table(&self.configs, key);
         let chain = &*self.chain;
         let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
-        let z1 = mul_vec(&cfg.phi[level], &z0);
-        let e1 = mul_vec(&chain.phi[level], &e0);
-        let n1 = mul_vec(&chain.phi[level], &n0);
+        let z1 = mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[level], &z0);
+        let e1 = mul_vec_inline::<4, AVX>(&chain.phi[level], &e0);
+        let n1 = mul_vec_inline::<4, AVX>(&chain.phi[level], &n0);
         let watch = self.watch(cfg);
         let hit = watch.event(&z1, &e1, &n1);
         // With no play sliding, ξ may cross a threshold and come back inside the piece:
@@ -366,8 +395,11 @@ impl Plant {
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
         for l in (self.resolution_level()..level).rev() {
-            let (zc, ec, nc) =
-                (mul_vec(&cfg.phi[l], &z), mul_vec(&chain.phi[l], &e), mul_vec(&chain.phi[l], &n));
+            let (zc, ec, nc) = (
+                mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[l], &z),
+                mul_vec_inline::<4, AVX>(&chain.phi[l], &e),
+                mul_vec_inline::<4, AVX>(&chain.phi[l], &n),
+            );
             if !stop(&zc, &ec, &nc) {
                 (z, e, n) = (zc, ec, nc);
                 offset += 1 << l;
@@ -375,8 +407,11 @@ impl Plant {
         }
         // The first resolution interval at whose end the stop condition holds.
         let r = self.resolution_level().min(level);
-        let (z, e, n) =
-            (mul_vec(&cfg.phi[r], &z), mul_vec(&chain.phi[r], &e), mul_vec(&chain.phi[r], &n));
+        let (z, e, n) = (
+            mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[r], &z),
+            mul_vec_inline::<4, AVX>(&chain.phi[r], &e),
+            mul_vec_inline::<4, AVX>(&chain.phi[r], &n),
+        );
         (self.z, self.earth, self.nonearth) = (z, e, n);
         let event = watch.event(&z, &e, &n);
         if event {
@@ -391,9 +426,10 @@ impl Plant {
     fn remainder(&mut self, ticks: u64) -> bool {
         let key = self.config();
         let cfg = table(&self.configs, key);
-        let fresh = |c: &Option<Remainder>| c.as_ref().is_some_and(|r| r.ticks == ticks);
+        let fresh = |c: &Option<Box<Remainder>>| c.as_ref().is_some_and(|r| r.ticks == ticks);
         if !fresh(&self.remainders[key]) {
-            self.remainders[key] = Some(Remainder { ticks, phi: product(&cfg.phi, ticks) });
+            self.remainders[key] =
+                Some(Box::new(Remainder { ticks, phi: product(&cfg.phi, ticks) }));
         }
         if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
             self.chain_remainder =

@@ -16,7 +16,7 @@
 use inchworm_plant::{Dac, Plant, PlantParams, ScanStats, StepReport};
 
 mod common;
-use common::{splitmix, uniform};
+use common::{check_gaits, splitmix, uniform};
 
 const GOLDEN: u64 = 0x1f29_39a4_26c7_0e2a;
 
@@ -32,25 +32,10 @@ impl Hash {
     }
 }
 
-fn gait() -> Vec<Dac> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/plant-check-trace-fia20-passive.csv"
-    );
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            Dac { earth: f[1], nonearth: f[2], extension: f[3] }
-        })
-        .collect()
-}
-
 /// The input sequence: (DAC, step size) pairs, 100+ s of simulated time.
 pub fn sequence() -> Vec<(Dac, f64)> {
     const H: f64 = 0.002;
-    let gait = gait();
+    let gait = check_gaits();
     let mut seq = Vec::new();
     let mut rng = 0x5EED_2026_u64;
     for round in 0..12 {

@@ -5,27 +5,12 @@
 use inchworm_plant::{Dac, Plant, PlantParams};
 
 mod common;
-use common::uniform;
-
-fn gaits() -> Vec<Dac> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/plant-check-trace-fia20-passive.csv"
-    );
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            Dac { earth: f[1], nonearth: f[2], extension: f[3] }
-        })
-        .collect()
-}
+use common::{check_gaits, uniform};
 
 /// Gaits, then holds in each mode at random extension volts, each at one step length.
 fn sequence() -> Vec<(Dac, f64)> {
     let mut rng = 0x2026_1201_u64;
-    let mut seq: Vec<(Dac, f64)> = gaits().into_iter().map(|d| (d, 0.002)).collect();
+    let mut seq: Vec<(Dac, f64)> = check_gaits().into_iter().map(|d| (d, 0.002)).collect();
     for h in [0.002, 0.001, 0.0005, 0.0037, 0.0001, 0.002] {
         for (earth, nonearth) in [(0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0), (0.0, 0.0)] {
             let extension = 10.0 * uniform(&mut rng);
