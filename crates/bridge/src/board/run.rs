@@ -23,9 +23,15 @@ pub fn run_board<M: Mechanism>(
     // and not for whatever part of it fitted.
     let mut buf = vec![0u8; 65536];
     let period_ns = board.cfg.period.as_nanos() as u64;
-    // On stop, what has already arrived (a DISARM, a FAULT) is still taken.
-    let drain = |board: &mut Board<M>, tx: &mut dyn Transport, buf: &mut [u8]| -> io::Result<()> {
-        loop {
+    // What has arrived, until none is left or the clock reads `until_ns`: a flood that
+    // never lets the socket empty cannot hold back a period's step, or a stop (on which
+    // what has already arrived, a DISARM, a FAULT, is still taken).
+    let drain = |board: &mut Board<M>,
+                 tx: &mut dyn Transport,
+                 buf: &mut [u8],
+                 until_ns: u64|
+     -> io::Result<()> {
+        while now_ns() < until_ns {
             match tx.recv(buf, Duration::ZERO) {
                 Ok(Some(n)) => board.handle(&buf[..n], tx)?,
                 Ok(None) => return Ok(()),
@@ -35,12 +41,13 @@ pub fn run_board<M: Mechanism>(
                 Err(e) => return Err(e),
             }
         }
+        Ok(())
     };
     let result = if board.cfg.lockstep {
         let mut boundary = now_ns() + period_ns;
         loop {
             if stop.load(Ordering::Relaxed) {
-                break drain(board, tx, &mut buf);
+                break drain(board, tx, &mut buf, now_ns() + period_ns);
             }
             let now = now_ns();
             if now >= boundary {
@@ -67,11 +74,12 @@ pub fn run_board<M: Mechanism>(
         let mut pacer = Pacer::new(board.cfg.period);
         loop {
             if stop.load(Ordering::Relaxed) {
-                break drain(board, tx, &mut buf);
+                break drain(board, tx, &mut buf, now_ns() + period_ns);
             }
             let wake = pacer.wait();
             lateness_us.push(wake.lateness_ns as f64 / 1e3);
-            drain(board, tx, &mut buf)?;
+            // Half the period for what arrived, the rest for the step and its frame.
+            drain(board, tx, &mut buf, now_ns() + period_ns / 2)?;
             let overrun =
                 wake.overrun.then(|| (wake.lateness_ns + wake.skipped * period_ns) / 1000);
             board.period(overrun, tx)?;
