@@ -55,13 +55,19 @@ fn the_exported_symbols_drive_the_same_instance_as_the_generic_entry_points() {
             fmi3OK
         );
         assert_eq!((ev, term, early, last), (false, false, false, H));
+        // Any step size: 3 ms from 2 ms reaches the instant at 4 ms.
         assert_eq!(
             fmu::fmi3DoStep(h.c, H, 0.003, true, &mut ev, &mut term, &mut early, &mut last),
+            fmi3OK
+        );
+        assert_eq!((ev, term, early, last), (false, false, false, H + 0.003));
+        assert_eq!(
+            fmu::fmi3DoStep(h.c, H + 0.003, -1.0, true, &mut ev, &mut term, &mut early, &mut last),
             fmi3Error
         );
     }
     assert_eq!(h.integer(N_STEPS), (0, 3));
-    assert!(h.saw(fmi3Error, &["fmi3DoStep", "0.003", "2 ms"]), "{:?}", h.logged());
+    assert!(h.saw(fmi3Error, &["fmi3DoStep", "must be finite and > 0"]), "{:?}", h.logged());
 }
 
 #[test]

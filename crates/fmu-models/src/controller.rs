@@ -1,11 +1,26 @@
 //! The `InchwormController` FMU: the controller of docs/model.md §3 and §4 behind the FMI
-//! 2.0 Co-Simulation interface of docs/model.md §5.
+//! 2.0 / 3.0 Co-Simulation interface of docs/model.md §5.
 //!
-//! Timing contract: the sample period is 2 ms. `fmi2DoStep(t, h)` accepts `h = k × 2 ms`
-//! (k ≥ 1, inputs held over the k samples) and refuses other step sizes; afterwards the
-//! `dac_*` outputs are the sample to hold during `[t + h, t + h + 2 ms)`, computed from the
-//! `encoder_counts` input that held at `t`: a digital controller's one-sample delay, so a
-//! plain Jacobi master at 2 ms runs the loop correctly.
+//! Timing contract, that of a sampled controller on a board: the sample instants are
+//! `s_n = t0 + n × 2 ms` (t0 the start time, n counted, never accumulated). At each
+//! instant the board latches the inputs (`encoder_counts`, `reference`) and writes to the
+//! DAC the sample computed from the inputs latched one instant earlier: sample n + 1
+//! (held during `[s_(n+1), s_(n+2))`) comes from the inputs that held at `s_n`. That is
+//! the one-sample delay the controller is designed with (docs/model.md §4, Timing).
+//!
+//! `fmi2DoStep(t, h)` accepts any `h > 0` and runs the instants its step reaches: the
+//! latch at every `s_n` in `[t, t + h)` (the input held during the step is the value at
+//! `s_n`) and the DAC write at every `s_n` in `(t, t + h]` (so the output the master reads
+//! at `t + h` is the sample that holds from the last instant `<= t + h` on). An instant
+//! within the layer's 1e-9 relative tolerance of `t + h` counts as `t + h`. Between
+//! instants the outputs hold. At `h = k × 2 ms` this is exactly the former contract:
+//! every step latches and writes k times, all from the inputs held at `t`, and ends with
+//! the sample for `[t + h, t + h + 2 ms)`; a plain Jacobi master at 2 ms runs the loop
+//! correctly. At `h = 2 ms / m` the loop is the 2 ms loop: the latch at `s_n` reads the
+//! plant's encoder at `s_n` and the write reaches the plant at `s_(n+1)`. Other steps
+//! add the master's staleness: a latch reads the value of the last communication point
+//! `<= s_n` (< h old) and a write reaches the plant at the first one `>= s_(n+1)` (< h
+//! late). docs/model.md §5 has the table.
 
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
@@ -164,6 +179,37 @@ pub struct ControllerFmu {
     reference: f64,
     controller: Option<Controller>,
     last: Option<Sample>,
+    clock: Clock,
+}
+
+/// Where the controller is on its sample grid `s_n = origin + n × SAMPLE_PERIOD`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Clock {
+    /// `s_0`. `None` only in a state restored from format 1 (which held no clock and was
+    /// always taken at a sample instant): the next step's `t` is then `s_0`.
+    origin: Option<f64>,
+    /// Samples written so far: the outputs are those of the write at `s_ticks`.
+    ticks: u64,
+    /// The inputs latched at `s_ticks` while the write at `s_(ticks+1)` is still ahead;
+    /// `None` exactly when the communication point is a sample instant.
+    latch: Option<(i32, f64)>,
+}
+
+/// The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0)
+/// are one point, so an instant the master reaches up to rounding counts as reached.
+fn same_time(a: f64, b: f64) -> bool {
+    let scale = a.abs().max(b.abs());
+    (a - b).abs() <= (1e-9 * scale).max(4.0 * f64::EPSILON * scale).max(f64::MIN_POSITIVE)
+}
+
+/// `s` lies before `end` and is not `end` up to rounding.
+fn before(s: f64, end: f64) -> bool {
+    s < end && !same_time(s, end)
+}
+
+/// `s` lies after `end` and is not `end` up to rounding.
+fn after(s: f64, end: f64) -> bool {
+    s > end && !same_time(s, end)
 }
 
 fn real_param(p: &mut Params, r: u32) -> Option<&mut f64> {
@@ -210,12 +256,15 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
 }
 
 impl ControllerFmu {
-    /// The outputs before the first step: the parked sample, estimates at their start.
+    /// The outputs before the first write: the parked sample, estimates at their start,
+    /// the servo error of the inputs latched at s_0 once a step has passed it (so the
+    /// outputs hold until s_1), of the current inputs before.
     fn sample(&self) -> Sample {
+        let (counts, reference) = self.clock.latch.unwrap_or((self.encoder_counts, self.reference));
         self.last.unwrap_or(Sample {
             dac: [0.0; 3],
             codes: [0; 3],
-            servo_error: self.reference - f64::from(self.encoder_counts) * self.params.q_enc,
+            servo_error: reference - f64::from(counts) * self.params.q_enc,
             disturbance_estimate: self.params.disturbance_start,
             step_forward: 0.0,
             step_backward: 0.0,
@@ -245,6 +294,7 @@ impl Model for ControllerFmu {
             reference: 0.0,
             controller: None,
             last: None,
+            clock: Clock::default(),
         }
     }
 
@@ -323,7 +373,7 @@ impl Model for ControllerFmu {
         Ok(())
     }
 
-    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
         if self.params.samples_per_step == 0 || self.params.samples_per_step > i32::MAX as u32 {
             return Err(format!(
                 "invalid parameter samples_per_step: {}",
@@ -333,24 +383,34 @@ impl Model for ControllerFmu {
         let c =
             Controller::new(self.params.clone()).map_err(|e| format!("invalid parameter {e}"))?;
         self.controller = Some(c);
+        self.clock = Clock { origin: Some(start_time), ticks: 0, latch: None };
         Ok(())
     }
 
-    fn check_step(&self, _t: f64, h: f64) -> Result<(), String> {
-        let samples = (h / SAMPLE_PERIOD).round();
-        if samples < 1.0 || (samples * SAMPLE_PERIOD - h).abs() > 1e-9 * h.max(SAMPLE_PERIOD) {
-            return Err(format!(
-                "communicationStepSize {h} s is not a whole number of 2 ms samples (the controller samples every 2 ms; use h = k * 0.002)"
-            ));
-        }
-        Ok(())
-    }
+    // Any step size is accepted (the layer refuses h <= 0): no check_step.
 
     fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
-        let samples = (h / SAMPLE_PERIOD).round();
         let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
-        for _ in 0..samples as u64 {
-            let s = c.tick(i64::from(self.encoder_counts), self.reference);
+        let end = t + h;
+        let clock = &mut self.clock;
+        let origin = *clock.origin.get_or_insert(t);
+        // Counted instants: s_n is the same number whichever steps led to it.
+        let instant = |n: u64| origin + n as f64 * SAMPLE_PERIOD;
+        loop {
+            let (counts, reference) = match clock.latch {
+                Some(latched) => latched,
+                // The latch at s_ticks, if this step holds it: [t, end).
+                None if before(instant(clock.ticks), end) => (self.encoder_counts, self.reference),
+                None => break,
+            };
+            // The write at s_(ticks+1), if this step reaches it: (t, end].
+            if after(instant(clock.ticks + 1), end) {
+                clock.latch = Some((counts, reference));
+                break;
+            }
+            clock.latch = None;
+            clock.ticks += 1;
+            let s = c.tick(i64::from(counts), reference);
             if s.no_root {
                 log.warning(format_args!(
                     "at t = {t} s the estimated inverse scale factor has no root for a full step in its bracket (non-monotone map): no full steps this move"
@@ -384,16 +444,28 @@ impl Model for ControllerFmu {
             w.0.extend_from_slice(&s.n_steps.to_le_bytes());
             [s.moving, s.iterated, s.no_root].into_iter().for_each(|b| w.u8(u8::from(b)));
         }
-        w.u8(u8::from(self.controller.is_some()));
-        if let Some(c) = &self.controller {
-            c.save_state(w.0);
+        match &self.controller {
+            None => w.u8(0),
+            Some(c) => {
+                // Format 2: the marker 2 and the clock, then the controller's own bytes.
+                w.u8(2);
+                let Clock { origin, ticks, latch } = self.clock;
+                w.f64(origin.unwrap_or(f64::NAN));
+                w.u64(ticks);
+                w.u8(u8::from(latch.is_some()));
+                let (counts, reference) = latch.unwrap_or((0, 0.0));
+                w.0.extend_from_slice(&counts.to_le_bytes());
+                w.f64(reference);
+                c.save_state(w.0);
+            }
         }
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        // The last sample has a fixed size, so the controller's own bytes start at a
-        // known offset: inputs, marker, sample, marker.
-        let head = if bytes.get(16) == Some(&1) { 18 + SAMPLE_BYTES } else { 18 };
+        // The last sample and the clock have fixed sizes, so the controller's own bytes
+        // start at a known offset: inputs, marker, sample, controller marker, clock.
+        let marker_at = if bytes.get(16) == Some(&1) { 17 + SAMPLE_BYTES } else { 17 };
+        let head = marker_at + 1 + if bytes.get(marker_at) == Some(&2) { CLOCK_BYTES } else { 0 };
         let (head, own) = bytes.split_at_checked(head).ok_or("controller FMU state truncated")?;
         let mut r = Reader::new(head, "controller FMU state");
         self.encoder_counts = r.f64()? as i32;
@@ -421,7 +493,29 @@ impl Model for ControllerFmu {
                 no_root: r.bool()?,
             });
         }
-        if r.bool()? {
+        let controller = r.u8()?;
+        if controller > 2 {
+            return Err(format!("controller FMU state: unknown controller marker {controller}"));
+        }
+        // Format 1 (marker 1) held no clock: it was always taken at a sample instant
+        // (steps were whole samples), so the next step's t is s_0 and nothing is latched.
+        self.clock = Clock::default();
+        if controller == 2 {
+            let origin = r.f64()?;
+            let ticks = r.u64()?;
+            let latched = r.bool()?;
+            let counts = i32::from_le_bytes(le(&mut r)?);
+            let reference = r.f64()?;
+            if !origin.is_finite() || !reference.is_finite() {
+                return Err("controller FMU state: a non-finite sample clock".into());
+            }
+            self.clock = Clock {
+                origin: Some(origin),
+                ticks,
+                latch: latched.then_some((counts, reference)),
+            };
+        }
+        if controller != 0 {
             let mut c = Controller::new(self.params.clone())
                 .map_err(|e| format!("state holds invalid parameters: {e}"))?;
             c.load_state(own)?;
@@ -438,6 +532,10 @@ impl Model for ControllerFmu {
 /// A saved [`Sample`]: 18 f64, three u16 codes, a u32 step count and three flags.
 const SAMPLE_BYTES: usize = 18 * 8 + 3 * 2 + 4 + 3;
 
+/// The saved [`Clock`] of format 2: origin f64, ticks u64, latch flag, latched counts i32
+/// and reference f64 (zeros when nothing is latched).
+const CLOCK_BYTES: usize = 8 + 8 + 1 + 4 + 8;
+
 /// `N` little-endian bytes: the state-bytes Reader reads no u16 or u32.
 fn le<const N: usize>(r: &mut Reader) -> Result<[u8; N], String> {
     let mut b = [0; N];
@@ -445,4 +543,88 @@ fn le<const N: usize>(r: &mut Reader) -> Result<[u8; N], String> {
         *x = r.u8()?;
     }
     Ok(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What `do_step(t, k × 2 ms)` did before any step size was accepted: k ticks of the
+    /// controller, all with the inputs held at t.
+    fn former(c: &mut Controller, counts: i32, reference: f64, k: usize) -> Sample {
+        (0..k).map(|_| c.tick(i64::from(counts), reference)).last().unwrap()
+    }
+
+    /// Whole-sample steps give the former outputs bit for bit, with the master's time
+    /// accumulated as `t += h` (so the instants are met only up to rounding), and leave
+    /// nothing latched: a state saved there is at a sample instant.
+    #[test]
+    fn whole_sample_steps_are_the_former_contract_bit_for_bit() {
+        for k in [1, 2, 3, 7] {
+            let mut fmu = ControllerFmu::new();
+            fmu.reference = 60e-6;
+            fmu.exit_initialization(0.0).unwrap();
+            let mut c = Controller::new(Params::default()).unwrap();
+            let (h, mut t, mut counts, mut moved) = (k as f64 * SAMPLE_PERIOD, 0.0, 0, 0);
+            for _ in 0..1200 / k {
+                fmu.encoder_counts = counts;
+                fmu.do_step(t, h, &mut StepLog::new(false)).unwrap();
+                let s = former(&mut c, counts, 60e-6, k);
+                assert_eq!(
+                    format!("{:?}", fmu.last.unwrap()),
+                    format!("{s:?}"),
+                    "k = {k}, t = {t}"
+                );
+                assert_eq!(fmu.clock.latch, None);
+                counts += (s.dac[1] > 5.0) as i32 * 2;
+                moved += s.moving as usize;
+                t += h;
+            }
+            assert_eq!(fmu.clock.ticks, (1200 / k * k) as u64);
+            assert!(moved > 0, "the synthetic loop moved");
+        }
+    }
+
+    /// A format-1 state (controller marker 1, no clock) restores at a sample instant and
+    /// anchors the grid at the next step's t.
+    #[test]
+    fn a_format_1_state_restores_and_anchors_the_grid_at_the_next_step() {
+        let mut a = ControllerFmu::new();
+        a.reference = 30e-6;
+        a.exit_initialization(0.0).unwrap();
+        let mut log = StepLog::new(false);
+        for k in 0..40 {
+            a.do_step(k as f64 * SAMPLE_PERIOD, SAMPLE_PERIOD, &mut log).unwrap();
+        }
+        let mut bytes = Vec::new();
+        a.save_state(&mut Writer(&mut bytes));
+        // Format 1: the same bytes with marker 1 and no clock.
+        let at = 17 + SAMPLE_BYTES;
+        assert_eq!(bytes[at], 2);
+        let mut old = bytes[..at].to_vec();
+        old.push(1);
+        old.extend_from_slice(&bytes[at + 1 + CLOCK_BYTES..]);
+        let mut b = ControllerFmu::new();
+        b.load_state(&old).unwrap();
+        assert_eq!(b.clock, Clock::default());
+        let mut c = ControllerFmu::new();
+        c.load_state(&bytes).unwrap();
+        assert_eq!(c.clock, a.clock);
+        // Half-sample steps from the restored instant: writes at the same instants.
+        for k in 0..200 {
+            let t = 0.08 + k as f64 * 0.001;
+            a.do_step(t, 0.001, &mut log).unwrap();
+            b.do_step(t, 0.001, &mut log).unwrap();
+            c.do_step(t, 0.001, &mut log).unwrap();
+            let s = format!("{:?}", a.last);
+            assert_eq!((format!("{:?}", b.last), format!("{:?}", c.last)), (s.clone(), s));
+        }
+        assert_eq!(b.clock.ticks + 40, a.clock.ticks);
+        let mut bad = bytes.clone();
+        bad[at] = 3;
+        assert_eq!(
+            ControllerFmu::new().load_state(&bad),
+            Err("controller FMU state: unknown controller marker 3".into())
+        );
+    }
 }
