@@ -8,8 +8,8 @@ use inchworm_controller::{Params, NOMINAL_WEIGHTS, SAMPLE_PERIOD};
 use inchworm_plant::PlantParams;
 
 use crate::closed_loop::{self, LoopView};
-use crate::master::{self, Coupling, InputTable, Options};
-use crate::trace::Trace;
+use inchworm_cosim::master::{self, Coupling, InputTable, Options};
+use inchworm_cosim::Trace;
 
 /// What drives the plant in one variant.
 #[derive(Clone, Debug)]
@@ -76,18 +76,36 @@ fn staircase_regulation() -> Vec<(f64, f64)> {
     (0..STAIRCASE_UM.len()).map(|k| (k as f64 * 100.0 + 20.0, (k + 1) as f64 * 100.0)).collect()
 }
 
-pub const NAMES: [&str; 10] = [
-    "fig5",
-    "staircase",
-    "calibration",
-    "fia6",
-    "slew",
-    "stall",
-    "analog",
-    "fastgait",
-    "future",
-    "bdmap",
+/// Every scenario `inchworm scenario` runs, in order, and what it shows: the one list the
+/// command's help, its error for an unknown name and the README's table come from (a test
+/// holds the README to it).
+pub const SCENARIOS: [(&str, &str); 11] = [
+    ("fig5", "Fig. 5: a 100 µm step from rest, full control and feedback only"),
+    ("staircase", "Figs. 6–7: the 700 s reference staircase with the prefilter"),
+    ("calibration", "the staircase from the nominal inverse scale factor and zero disturbance"),
+    ("fia6", "the 6 µm device: a 30 µm step"),
+    ("mirror", "three actuators and the mount (dist/MirrorMount.ssp): piston, tip and tilt"),
+    ("slew", "open loop: full forward gaits over 40 mm"),
+    ("stall", "open loop, Fig. 11: 600 gaits, with and without the brake disturbance growing with the load"),
+    ("analog", "controller option: analog mode near the target"),
+    ("fastgait", "controller option: the 50 Hz gait on a 2 mm move"),
+    ("combined", "controller options: the 50 Hz gait and analog mode together, on a 2 mm move"),
+    ("bdmap", "controller option: the brake-disturbance map with the single integrator, on the staircase"),
 ];
+
+/// Earlier names still accepted, and not listed: (old name, scenario).
+pub const ALIASES: [(&str, &str); 1] = [("future", "combined")];
+
+/// The scenarios' names, in the order of [`SCENARIOS`].
+pub fn names() -> Vec<&'static str> {
+    SCENARIOS.iter().map(|(n, _)| *n).collect()
+}
+
+/// The scenario `name` means: itself if listed, the scenario an alias stands for, or `None`.
+pub fn resolve(name: &str) -> Option<&'static str> {
+    let listed = SCENARIOS.iter().map(|(n, _)| (*n, *n));
+    listed.chain(ALIASES).find(|(n, _)| *n == name).map(|(_, s)| s)
+}
 
 /// Points the reference FMU's table holds (`InchwormReference`'s `n_points` range; a test
 /// holds the two together).
@@ -109,7 +127,10 @@ fn closed(name: &str, plant: PlantParams, params: Params) -> Variant {
     Variant { name: name.into(), plant, drive: Drive::Controller(Box::new(params)) }
 }
 
+/// The scenario `name` (or an alias of it, [`resolve`]); `None` for `mirror`, which is not
+/// a loop of one actuator ([`mirror`]), and for an unknown name.
 pub fn by_name(name: &str) -> Option<Scenario> {
+    let name = resolve(name)?;
     let feedback_only = Params {
         feedforward: false,
         use_scale_factor_estimate: false,
@@ -183,7 +204,7 @@ pub fn by_name(name: &str) -> Option<Scenario> {
             variants: vec![slew("gamma = 0", 0.0), slew("gamma = 10", 10.0)],
             regulation: vec![],
         },
-        _ => return future_work(name),
+        _ => return controller_options(name),
     })
 }
 
@@ -230,33 +251,33 @@ impl Scenario {
 
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
     /// whatever `via` says.
-    pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, String> {
+    pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, crate::Error> {
         match (&v.drive, via) {
-            (Drive::OpenLoopSlew, _) => closed_loop::open_loop_slew(
+            (Drive::OpenLoopSlew, _) => Ok(closed_loop::open_loop_slew(
                 v.plant.clone(),
                 (self.duration / (SAMPLES_PER_GAIT as f64 * SAMPLE_PERIOD)).round() as usize,
-            ),
-            (Drive::Controller(p), Via::Direct) => closed_loop::run(
+            )?),
+            (Drive::Controller(p), Via::Direct) => Ok(closed_loop::run(
                 v.plant.clone(),
                 (**p).clone(),
                 |t| self.reference.value(0, t),
                 self.duration,
-            ),
+            )?),
             (Drive::Controller(p), Via::System(ssp)) => {
                 // The closed system carries its reference as a component of that name.
-                let closed = crate::ssp::Archive::open(ssp)?
+                let closed = inchworm_cosim::ssp::Archive::open(ssp)?
                     .system
                     .components
                     .iter()
                     .any(|c| c.name == "reference");
                 if !closed {
-                    return master::run(ssp, &self.options(&v.plant, p), |_| {});
+                    return Ok(master::run(ssp, &self.options(&v.plant, p), |_| {})?);
                 }
                 // A reference of more points than the reference FMU's table holds runs on
                 // the open sibling, fed from the system input.
                 if self.reference.points(0).len() > REFERENCE_TABLE_POINTS {
                     let open = ssp.with_file_name("InchwormSystemOpen.ssp");
-                    return master::run(&open, &self.options(&v.plant, p), |_| {});
+                    return Ok(master::run(&open, &self.options(&v.plant, p), |_| {})?);
                 }
                 let mut trace = master::run(ssp, &self.closed_options(&v.plant, p), |_| {})?;
                 for name in trace.names.iter_mut().filter(|n| n.as_str() == REFERENCE_OUTPUT) {
@@ -268,7 +289,7 @@ impl Scenario {
     }
 
     /// Every variant, in order.
-    pub fn run(&self, via: Via) -> Result<Vec<Trace>, String> {
+    pub fn run(&self, via: Via) -> Result<Vec<Trace>, crate::Error> {
         self.variants.iter().map(|v| self.run_variant(v, via)).collect()
     }
 
@@ -286,8 +307,8 @@ impl Scenario {
     /// One line on a variant's run: settling and regulation for a closed loop, the
     /// distance per step for a slew.
     pub fn summary(&self, v: &Variant, r: &LoopView) -> String {
-        if is_future_work(self.name) {
-            return future_work_summary(self, v, r);
+        if is_controller_option(self.name) {
+            return options_summary(self, v, r);
         }
         match v.drive {
             Drive::OpenLoopSlew => {
@@ -397,7 +418,7 @@ fn settle(
 /// Runs `MirrorMount.ssp` by the master (Jacobi, 2 ms, no input: the commands are the
 /// references' bindings) and measures it on the parked samples, as the paper's figures
 /// are measured.
-pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, String> {
+pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, crate::Error> {
     let opts = Options {
         stop_time: Some(MIRROR_DURATION),
         step_size: Some(SAMPLE_PERIOD),
@@ -486,7 +507,7 @@ impl MirrorRun {
 
 /// `inchworm scenario mirror`: runs `<dist>/MirrorMount.ssp`, prints its figures, writes
 /// `<out>/mirror.csv` (the recorded variables) and `<out>/mirror.png`.
-pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), String> {
+pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> {
     crate::plot::load_font(font)?;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let ssp = dist.join("MirrorMount.ssp");
@@ -520,13 +541,14 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), String> {
     Ok(())
 }
 
-// ---- The options of docs/model.md §4.2 (issue 14): analog mode, the 50 Hz gait, both. ----
+// ---- The controller's options of docs/model.md §4.2, beyond the paper: analog mode, the
+// 50 Hz gait, both, and the brake-disturbance map. ----
 
-/// The scenarios of the future-work options, one per feature and one combining them.
-pub const FUTURE_WORK: [&str; 4] = ["analog", "fastgait", "future", "bdmap"];
+/// The scenarios of the controller's options, one per feature and one combining two.
+pub const CONTROLLER_OPTIONS: [&str; 4] = ["analog", "fastgait", "combined", "bdmap"];
 
-pub fn is_future_work(name: &str) -> bool {
-    FUTURE_WORK.contains(&name)
+pub fn is_controller_option(name: &str) -> bool {
+    CONTROLLER_OPTIONS.contains(&name)
 }
 
 /// The 50 Hz gait: 10 samples of 2 ms per step.
@@ -549,7 +571,7 @@ fn analog_reference() -> InputTable {
     InputTable::steps("reference", &rows).expect("times increase")
 }
 
-fn future_work(name: &str) -> Option<Scenario> {
+fn controller_options(name: &str) -> Option<Scenario> {
     let fia20 = PlantParams::fia20;
     Some(match name {
         "analog" => Scenario {
@@ -574,8 +596,8 @@ fn future_work(name: &str) -> Option<Scenario> {
             ],
             regulation: vec![(30.0, 40.0)],
         },
-        "future" => Scenario {
-            name: "future",
+        "combined" => Scenario {
+            name: "combined",
             title: "A 2 mm move, then 100 nm and 1 µm changes: baseline and the 50 Hz gait with analog mode",
             duration: 30.0,
             reference: InputTable::steps(
@@ -610,10 +632,10 @@ fn future_work(name: &str) -> Option<Scenario> {
     })
 }
 
-/// What a future-work scenario adds to its traces: for `bdmap`, the map learned over the
+/// What a controller-option scenario adds to its traces: for `bdmap`, the map learned over the
 /// staircase, as CSV and a figure, and the residuals of the coming step's disturbance
 /// over the staircase and over a 2 mm slew after it (printed). Nothing for the others.
-pub fn write_extras(name: &str, out: &Path) -> Result<(), String> {
+pub fn write_extras(name: &str, out: &Path) -> Result<(), crate::Error> {
     if name != "bdmap" {
         return Ok(());
     }
@@ -696,7 +718,7 @@ fn map_png(r: &closed_loop::MapRun, path: &Path) -> Result<(), Box<dyn std::erro
 
 /// Settling (within 1 µm and 2 nm), holding RMS and slew rate, judged on the held samples
 /// (step boundaries and analog hold, [`LoopView::held`]).
-fn future_work_summary(s: &Scenario, v: &Variant, r: &LoopView) -> String {
+fn options_summary(s: &Scenario, v: &Variant, r: &LoopView) -> String {
     let settle = |tol: f64| {
         r.held_settle_time(tol, 0.0).map_or("not settled".to_string(), |t| format!("{t:.3} s"))
     };
@@ -716,9 +738,9 @@ fn future_work_summary(s: &Scenario, v: &Variant, r: &LoopView) -> String {
     )
 }
 
-/// The figure of a future-work scenario: position on top, |error| of the held samples
+/// The figure of a controller-option scenario: position on top, |error| of the held samples
 /// (log scale, nm) below.
-pub fn future_work_png(
+pub fn options_png(
     title: &str,
     names: &[&str],
     runs: &[LoopView],
@@ -807,14 +829,14 @@ pub fn future_work_png(
 }
 
 #[cfg(test)]
-mod future_work_tests {
+mod controller_option_tests {
     use super::*;
 
     #[test]
-    fn every_future_work_name_is_a_scenario_with_a_distinct_variant() {
-        for n in FUTURE_WORK {
+    fn every_controller_option_is_a_scenario_with_a_distinct_variant() {
+        for n in CONTROLLER_OPTIONS {
             let s = by_name(n).unwrap_or_else(|| panic!("{n}"));
-            assert!(NAMES.contains(&n) && is_future_work(s.name));
+            assert!(names().contains(&n) && is_controller_option(s.name));
             assert_eq!(s.variants.len(), 2);
         }
         let r = analog_reference();
@@ -846,11 +868,16 @@ mod tests {
 
     #[test]
     fn every_name_is_a_scenario() {
-        for n in NAMES {
+        for n in names().into_iter().filter(|&n| n != "mirror") {
             let s = by_name(n).unwrap_or_else(|| panic!("{n}"));
             assert_eq!(s.name, n);
             assert!(!s.variants.is_empty());
         }
         assert!(by_name("fig6").is_none());
+        assert!(by_name("mirror").is_none(), "the mount is not a loop of one actuator");
+        for (old, new) in ALIASES {
+            assert!(!names().contains(&old), "an alias is not listed");
+            assert_eq!(by_name(old).map(|s| s.name), Some(new));
+        }
     }
 }
