@@ -6,6 +6,7 @@
 //!   bindings), unpacked within caps and kept inside its folder;
 //! * [`master`]: a flat SSP system or a single FMU in load / initialise / step phases,
 //!   Jacobi or Gauss–Seidel coupling, parameters, [`InputTable`]s for unconnected inputs;
+//! * [`input`]: piecewise-constant input tables (`time,<name>,…` CSV);
 //! * [`trace`]: what a run records, and its CSV;
 //! * [`sweep`]: grid and Monte Carlo plans, their execution on worker threads, generic
 //!   metrics (`final`, `min`, `max` of any recorded variable) and the results table;
@@ -60,6 +61,7 @@
 
 pub mod archive;
 mod error;
+pub mod input;
 pub mod master;
 pub mod ssp;
 pub mod sweep;
