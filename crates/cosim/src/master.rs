@@ -328,24 +328,11 @@ impl System {
     }
 
     fn port(&self, element: &str, connector: &str) -> Result<Port, Error> {
-        let i = self
-            .components
-            .iter()
-            .position(|c| c.name == element)
-            .ok_or_else(|| Error::Config(format!("no component named `{element}`")))?;
-        let v = self.components[i].fmu.var(connector)?;
-        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+        port(&self.components, element, connector)
     }
 
-    /// Qualified name → port: `component.variable`, or the bare name for a single FMU.
     fn resolve(&self, name: &str) -> Result<Port, Error> {
-        if self.archive.is_none() {
-            return self.port("fmu", name);
-        }
-        let (el, var) = name.split_once('.').ok_or_else(|| {
-            Error::Config(format!("`{name}`: name a component variable as component.variable"))
-        })?;
-        self.port(el, var)
+        resolve(&self.components, self.archive.is_some(), name)
     }
 
     /// Every input port fed by a component output or a system input, and the port behind
@@ -438,29 +425,11 @@ impl System {
             .collect()
     }
 
-    /// Initialization mode: the parameter set's values, then `--param` values (so a
-    /// `--param` overrides the set).
+    /// Initialization mode: each component's first binding, the parameter set's values,
+    /// then `--param` values (so a `--param` overrides the set).
     fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), Error> {
-        for c in self.components.iter_mut() {
-            c.fmu.enter_initialization(None, 0.0, Some(stop))?;
-        }
-        let mut values: Vec<(String, String)> = crate::ssp::first_bindings(self.archive.as_ref())?;
-        if let Some(set_name) = &opts.parameter_set {
-            let a = self
-                .archive
-                .as_ref()
-                .ok_or(Error::Config("--parameter-set needs an .ssp file".into()))?;
-            values.extend(a.parameter_set(set_name)?);
-        }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
-            let p = self.resolve(name).map_err(|e| e.context(format!("parameter `{name}`")))?;
-            set_text(&mut self.components, p, name, text)?;
-        }
-        for c in self.components.iter_mut() {
-            c.fmu.exit_initialization()?;
-        }
-        Ok(())
+        let first = crate::ssp::first_bindings(self.archive.as_ref())?;
+        set_parameters(&mut self.components, self.archive.as_ref(), first, opts, stop)
     }
 
     /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
@@ -767,45 +736,60 @@ impl Simulation {
             c.fmu.reset()?;
         }
         self.k = 0;
-        for c in self.components.iter_mut() {
-            c.fmu.enter_initialization(None, 0.0, Some(stop))?;
-        }
-        let mut values: Vec<(String, String)> = Vec::new();
-        if let Some(set_name) = &opts.parameter_set {
-            let a = self
-                ._archive
-                .as_ref()
-                .ok_or(Error::Config("--parameter-set needs an .ssp file".into()))?;
-            values.extend(a.parameter_set(set_name)?);
-        }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
-            let p = self.port_named(name).map_err(|e| e.context(format!("parameter `{name}`")))?;
-            set_text(&mut self.components, p, name, text)?;
-        }
-        for c in self.components.iter_mut() {
-            c.fmu.exit_initialization()?;
-        }
+        // The first bindings are not read again: fmi2Reset restores the start values, and
+        // the project's SSPs bind exactly those first. An SSP whose first binding differs
+        // from its FMUs' start values gets the start values after a reset.
+        set_parameters(&mut self.components, self._archive.as_ref(), Vec::new(), opts, stop)?;
         self.source_batches.read(&mut self.components, &mut self.latest, None)
     }
+}
 
-    /// [`System::resolve`] on the components the simulation holds.
-    fn port_named(&self, name: &str) -> Result<Port, Error> {
-        let (el, var) = match (&self._archive, name.split_once('.')) {
-            (None, _) => ("fmu", name),
-            (Some(_), Some(pair)) => pair,
-            (Some(_), None) => {
-                return Err(Error::Config(format!(
-                    "`{name}`: name a component variable as component.variable"
-                )))
-            }
-        };
-        let i = self
-            .components
-            .iter()
-            .position(|c| c.name == el)
-            .ok_or_else(|| Error::Config(format!("no component named `{el}`")))?;
-        let v = self.components[i].fmu.var(var)?;
-        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+/// The component `element`'s variable `connector`.
+fn port(components: &[Component], element: &str, connector: &str) -> Result<Port, Error> {
+    let i = components
+        .iter()
+        .position(|c| c.name == element)
+        .ok_or_else(|| Error::Config(format!("no component named `{element}`")))?;
+    let v = components[i].fmu.var(connector)?;
+    Ok(Port { component: i, vr: v.vr, ty: v.ty })
+}
+
+/// Qualified name → port: `component.variable` in an SSP, the bare name for a single FMU.
+fn resolve(components: &[Component], ssp: bool, name: &str) -> Result<Port, Error> {
+    if !ssp {
+        return port(components, "fmu", name);
     }
+    let (el, var) = name.split_once('.').ok_or_else(|| {
+        Error::Config(format!("`{name}`: name a component variable as component.variable"))
+    })?;
+    port(components, el, var)
+}
+
+/// Initialization mode on every component, from entering it to leaving it: `first`, then
+/// the parameter set of `opts`, then its `params`, each value over the ones before.
+fn set_parameters(
+    components: &mut [Component],
+    archive: Option<&Archive>,
+    first: Vec<(String, String)>,
+    opts: &Options,
+    stop: f64,
+) -> Result<(), Error> {
+    for c in components.iter_mut() {
+        c.fmu.enter_initialization(None, 0.0, Some(stop))?;
+    }
+    let mut values = first;
+    if let Some(set_name) = &opts.parameter_set {
+        let a = archive.ok_or(Error::Config("--parameter-set needs an .ssp file".into()))?;
+        values.extend(a.parameter_set(set_name)?);
+    }
+    values.extend(opts.params.iter().cloned());
+    for (name, text) in &values {
+        let p = resolve(components, archive.is_some(), name)
+            .map_err(|e| e.context(format!("parameter `{name}`")))?;
+        set_text(components, p, name, text)?;
+    }
+    for c in components.iter_mut() {
+        c.fmu.exit_initialization()?;
+    }
+    Ok(())
 }
