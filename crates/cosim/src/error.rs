@@ -37,6 +37,13 @@ pub enum Error {
         #[source]
         source: zip::result::ZipError,
     },
+    /// The SSP holds no readable `SystemStructure.ssd` at its root.
+    #[error("{}: no readable SystemStructure.ssd at its root: {source}", path.display())]
+    NoSsd {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
     /// A file could not be read.
     #[error("{}: {source}", path.display())]
     Io {

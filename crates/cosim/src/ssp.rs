@@ -249,10 +249,7 @@ impl Archive {
         let mut ssd = String::new();
         std::fs::File::open(dir.join("SystemStructure.ssd"))
             .and_then(|mut f| f.read_to_string(&mut ssd))
-            .map_err(|source| {
-                Error::Io { path: "no readable SystemStructure.ssd at its root".into(), source }
-                    .context(path.display().to_string())
-            })?;
+            .map_err(|source| Error::NoSsd { path: path.to_path_buf(), source })?;
         let system = parse_ssd(&ssd).map_err(|e| e.context(path.display().to_string()))?;
         Ok(Archive { dir, system, _unpacked: unpacked })
     }
