@@ -4,11 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
-use inchworm::master::{self, Coupling, InputTable, Options};
-use inchworm::sweep::exec::{self, Setup, Worker};
-use inchworm::sweep::metrics::{self, Metric};
-use inchworm::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
-use inchworm::sweep::{json_line, results_csv};
+use std::sync::Arc;
+
+use inchworm_cosim::master::{self, Coupling, InputTable, Options};
+use inchworm_cosim::sweep::exec::{self, Setup, Worker};
+use inchworm_cosim::sweep::metrics::{Metrics, Reductions};
+use inchworm_cosim::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
+use inchworm_cosim::sweep::{json_line, results_csv};
+use inchworm_scenarios::metrics::{LoopMetrics, Metric};
 
 const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 
@@ -133,7 +136,7 @@ fn fig5_setup(metrics: &[&str]) -> Setup {
         params: vec![],
         parameter_set: Some("full-control".into()),
         input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
-        metrics: metrics.iter().map(|m| Metric::parse(m).unwrap()).collect(),
+        metrics: Arc::new(LoopMetrics::parse(metrics).unwrap()),
     }
 }
 
@@ -157,10 +160,10 @@ fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
         params,
         parameter_set: setup.parameter_set.clone(),
         input: setup.input.clone(),
-        outputs: metrics::recorded(&setup.metrics),
+        outputs: setup.metrics.recorded(),
     };
     let trace = master::run(&setup.system, &opts, |_| {}).unwrap();
-    metrics::compute_all(&setup.metrics, &trace).unwrap()
+    setup.metrics.compute(&trace).unwrap()
 }
 
 #[test]
@@ -204,7 +207,7 @@ fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
         assert_eq!(out[i].metrics, fresh(&setup, &names, &rows[i]), "run {i}");
     }
     assert_ne!(out[0].metrics, out[1].metrics, "the parameters do reach the plant");
-    let metrics = &setup.metrics;
+    let metrics = &setup.metrics.names();
     let table = results_csv(&names, metrics, &out);
     let lines: Vec<&str> = table.lines().collect();
     assert_eq!(lines.len(), 6);
@@ -259,4 +262,8 @@ fn metric_flags_parse_or_say_why_not() {
     for bad in ["settle:-1", "rms:10:6", "rms:6", "final:", "median:x", "a,b"] {
         assert!(Metric::parse(bad).is_err(), "{bad}");
     }
+    // The engine's own metrics read any system; the actuator's are not among them.
+    let r = Reductions::parse(&["final:a.x", "max:b.y", "min:a.x"]).unwrap();
+    assert_eq!(r.recorded(), ["a.x", "b.y"]);
+    assert!(Reductions::parse(&["settle"]).is_err());
 }

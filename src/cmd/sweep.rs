@@ -9,11 +9,14 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::plot;
-use inchworm::sweep::exec::{self, Setup};
-use inchworm::sweep::metrics::{self, Metric};
-use inchworm::sweep::plan::{self, Plan};
-use inchworm::sweep::{self as sw, plots};
+use inchworm_cosim::sweep::exec::{self, Setup};
+use inchworm_cosim::sweep::metrics::Metrics;
+use inchworm_cosim::sweep::plan::{self, Plan};
+use inchworm_cosim::sweep::{self as sw};
+use inchworm_scenarios::metrics::{self, LoopMetrics};
+use inchworm_scenarios::{plot, sweep_plots as plots};
+
+use super::Text;
 
 use super::run::SimArgs;
 
@@ -91,15 +94,15 @@ fn plan_of(args: &SweepArgs) -> Result<Plan, String> {
     }
     let mut sweeps = Vec::new();
     for g in &args.grids {
-        sweeps.push(plan::parse_grid(g)?);
+        sweeps.push(plan::parse_grid(g).text()?);
     }
     for s in &args.samples_of {
-        sweeps.push(plan::parse_sample(s)?);
+        sweeps.push(plan::parse_sample(s).text()?);
     }
     if sweeps.is_empty() {
         return Err("nothing to sweep: give --grid, --sample or --plan".into());
     }
-    Plan::build(&sweeps, args.samples, args.seed)
+    Plan::build(&sweeps, args.samples, args.seed).text()
 }
 
 /// A progress line on stderr, redrawn at most 10 times a second: bar, count, rate, ETA.
@@ -142,11 +145,13 @@ fn safe_name(s: &str) -> String {
 }
 
 pub fn run(args: &SweepArgs) -> Result<(), String> {
-    let metrics: Vec<Metric> = if args.metrics.is_empty() {
-        metrics::DEFAULT.iter().map(|m| Metric::parse(m)).collect::<Result<_, _>>()?
+    let metrics = if args.metrics.is_empty() {
+        LoopMetrics::parse(&metrics::DEFAULT)
     } else {
-        args.metrics.iter().map(|m| Metric::parse(m)).collect::<Result<_, _>>()?
-    };
+        LoopMetrics::parse(&args.metrics)
+    }
+    .text()?;
+    let metric_names = metrics.names();
     let plan = plan_of(args)?;
     if args.plan_only {
         return super::write_file(&args.out.join("plan.csv"), |w| {
@@ -162,7 +167,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         params: opts.params,
         parameter_set: opts.parameter_set,
         input: opts.input,
-        metrics: metrics.clone(),
+        metrics: std::sync::Arc::new(metrics),
     };
     let jobs =
         args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -182,7 +187,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
     if json {
         let mut out = std::io::stdout().lock();
         for o in &outcomes {
-            writeln!(out, "{}", sw::json_line(&plan.names, &metrics, o))
+            writeln!(out, "{}", sw::json_line(&plan.names, &metric_names, o))
                 .map_err(|e| format!("stdout: {e}"))?;
         }
         return Ok(());
@@ -191,7 +196,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         plot::load_font(&args.font)?;
     }
     super::write_file(&args.out.join("plan.csv"), |w| w.write_all(plan.to_csv().as_bytes()))?;
-    let table = sw::results_csv(&plan.names, &metrics, &outcomes);
+    let table = sw::results_csv(&plan.names, &metric_names, &outcomes);
     super::write_file(&args.out.join("results.csv"), |w| w.write_all(table.as_bytes()))?;
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     println!(
@@ -202,7 +207,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
     if let Some(o) = outcomes.iter().find(|o| o.error.is_some()) {
         println!("  first failure, run {}: {}", o.run, o.error.as_deref().unwrap_or(""));
     }
-    for (i, m) in metrics.iter().enumerate() {
+    for (i, name) in metric_names.iter().enumerate() {
         let values: Vec<Option<f64>> = outcomes
             .iter()
             .filter(|o| o.error.is_none())
@@ -211,18 +216,17 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         let s = sw::stats(&values);
         println!(
             "  {:<32} n {:>5}  none {:>4}  mean {:.6e}  sd {:.3e}  min {:.6e}  median {:.6e}  max {:.6e}",
-            m.name, s.n, s.missing, s.mean, s.sd, s.min, s.median, s.max
+            name, s.n, s.missing, s.mean, s.sd, s.min, s.median, s.max
         );
         if args.no_plots {
             continue;
         }
         let present: Vec<f64> =
             values.iter().flatten().copied().filter(|v| v.is_finite()).collect();
-        let title =
-            format!("{}: {} runs with a value, {} without", m.name, present.len(), s.missing);
-        let png = args.out.join(format!("hist_{}.png", safe_name(&m.name)));
-        super::write_png(&png, |p| plots::histogram_png(&title, &m.name, &present, args.bins, p))?;
-        for (j, name) in plan.names.iter().enumerate() {
+        let title = format!("{}: {} runs with a value, {} without", name, present.len(), s.missing);
+        let png = args.out.join(format!("hist_{}.png", safe_name(name)));
+        super::write_png(&png, |p| plots::histogram_png(&title, name, &present, args.bins, p))?;
+        for (j, param) in plan.names.iter().enumerate() {
             let points: Vec<(f64, f64)> = outcomes
                 .iter()
                 .filter_map(|o| {
@@ -230,9 +234,9 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
                     Some((o.values[j], y))
                 })
                 .collect();
-            let png = args.out.join(format!("{}_vs_{}.png", safe_name(&m.name), safe_name(name)));
-            let title = format!("{} against {name}", m.name);
-            super::write_png(&png, |p| plots::scatter_png(&title, name, &m.name, &points, p))?;
+            let png = args.out.join(format!("{}_vs_{}.png", safe_name(name), safe_name(param)));
+            let title = format!("{} against {param}", name);
+            super::write_png(&png, |p| plots::scatter_png(&title, param, name, &points, p))?;
         }
     }
     Ok(())

@@ -3,13 +3,14 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 
 use crate::master::{Coupling, InputTable, Options, Simulation, System};
-use crate::sweep::metrics::{self, Metric};
+use crate::sweep::metrics::Metrics;
 use crate::sweep::plan::{Plan, Row};
 use crate::sweep::ranges::Ranges;
 use crate::trace::Trace;
+use crate::Error;
 
 /// What every run of a sweep shares.
 #[derive(Clone, Debug)]
@@ -22,7 +23,7 @@ pub struct Setup {
     pub params: Vec<(String, String)>,
     pub parameter_set: Option<String>,
     pub input: Option<InputTable>,
-    pub metrics: Vec<Metric>,
+    pub metrics: Arc<dyn Metrics>,
 }
 
 /// One run's outcome.
@@ -47,7 +48,7 @@ impl Setup {
             params,
             parameter_set: self.parameter_set.clone(),
             input: self.input.clone(),
-            outputs: metrics::recorded(&self.metrics),
+            outputs: self.metrics.recorded(),
         }
     }
 }
@@ -63,7 +64,7 @@ pub struct Worker<'a> {
     pub loads: usize,
 }
 
-fn simulate(sim: &mut Simulation) -> Result<Trace, String> {
+fn simulate(sim: &mut Simulation) -> Result<Trace, Error> {
     let n = sim.n_steps();
     let mut trace = Trace::new(sim.record_names().to_vec());
     trace.rows.reserve(n as usize + 1);
@@ -81,7 +82,7 @@ impl<'a> Worker<'a> {
         Worker { setup, sim: None, ranges, loads: 0 }
     }
 
-    fn fresh(&mut self, opts: &Options) -> Result<(), String> {
+    fn fresh(&mut self, opts: &Options) -> Result<(), Error> {
         self.sim = None;
         self.loads += 1;
         self.sim = Some(System::load(&self.setup.system)?.initialise(opts)?);
@@ -90,14 +91,14 @@ impl<'a> Worker<'a> {
 
     /// The system at t = 0 with `opts`' parameters: the loaded one reset, or, the first
     /// time or after a failure, loaded anew.
-    fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, String> {
+    fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, Error> {
         let reset = self.sim.as_mut().map(|sim| sim.reset(opts));
         if !matches!(reset, Some(Ok(()))) {
             // First run, or a reset refused (which may be the previous run's trouble):
             // start clean, and let a load or initialisation error be this row's.
             self.fresh(opts)?;
         }
-        self.sim.as_mut().ok_or_else(|| "the system is not loaded".to_string())
+        self.sim.as_mut().ok_or_else(|| Error::Config("the system is not loaded".into()))
     }
 
     /// Runs one row; never fails: an error is the outcome's.
@@ -113,13 +114,14 @@ impl<'a> Worker<'a> {
         if let Some(e) =
             names.iter().zip(&row.values).find_map(|(n, v)| self.ranges.check(n, *v).err())
         {
-            return outcome(vec![], Some(e));
+            return outcome(vec![], Some(e.to_string()));
         }
         let opts = self.setup.options(names, row);
         let result = self
             .ready(&opts)
             .and_then(simulate)
-            .and_then(|trace| metrics::compute_all(&self.setup.metrics, &trace));
+            .map_err(|e| e.to_string())
+            .and_then(|trace| self.setup.metrics.compute(&trace).map_err(|e| e.to_string()));
         let (metrics, error) = match result {
             Ok(m) => (m, None),
             Err(e) => {

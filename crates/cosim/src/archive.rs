@@ -7,6 +7,8 @@ use std::path::{Path, PathBuf};
 
 use inchworm_fmi_import::archive::{self as fmu_archive, Limits};
 
+use crate::Error;
+
 /// An unpacked archive's folder, removed when dropped, also on an error's way out.
 #[derive(Debug)]
 pub struct Unpacked {
@@ -25,25 +27,26 @@ impl Unpacked {
 }
 
 /// Unpacks the SSP at `path` into a new temporary folder.
-pub fn unpack_ssp(path: &Path) -> Result<Unpacked, String> {
-    let here = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let file = std::fs::File::open(path).map_err(|e| here(&e))?;
+pub fn unpack_ssp(path: &Path) -> Result<Unpacked, Error> {
+    let path_buf = || path.to_path_buf();
+    let archive = |unpacking| move |source| Error::Archive { path: path_buf(), unpacking, source };
+    let file =
+        std::fs::File::open(path).map_err(|source| Error::Io { path: path_buf(), source })?;
     let mut zip = zip::ZipArchive::new(std::io::BufReader::new(file))
-        .map_err(|e| format!("{}: not an SSP archive (zip): {e}", path.display()))?;
-    let limits = Limits::from_env().map_err(|e| here(&e))?;
-    let dir = fmu_archive::temp_dir("inchworm-ssp-").map_err(|e| here(&e))?;
-    fmu_archive::extract(&mut zip, dir.path(), &limits)
-        .map_err(|e| format!("{}: cannot unpack: {e}", path.display()))?;
+        .map_err(|source| Error::NotZip { path: path_buf(), source })?;
+    let limits = Limits::from_env().map_err(archive(false))?;
+    let dir = fmu_archive::temp_dir("inchworm-ssp-").map_err(archive(false))?;
+    fmu_archive::extract(&mut zip, dir.path(), &limits).map_err(archive(true))?;
     Ok(Unpacked { dir })
 }
 
 /// The file an SSD `source` names, inside the unpacked archive `dir`. A source that is
 /// absolute, climbs out with `..`, or is a URI with a scheme (`file:`, `http:`) would load
 /// something the archive does not hold, so it is refused.
-pub fn source_path(dir: &Path, component: &str, source: &str) -> Result<PathBuf, String> {
+pub fn source_path(dir: &Path, component: &str, source: &str) -> Result<PathBuf, Error> {
     let shown = cut(source, 200);
     let refuse = |why: &str| {
-        format!("component {component}: source \"{shown}\" {why}: refused (it must be a relative path inside the SSP, e.g. resources/Model.fmu)")
+        Error::Ssp(format!("component {component}: source \"{shown}\" {why}: refused (it must be a relative path inside the SSP, e.g. resources/Model.fmu)"))
     };
     if source.contains(':') {
         return Err(refuse("is a URI or a drive path"));
@@ -74,7 +77,7 @@ mod tests {
         assert_eq!(source_path(d, "a", "resources/A.fmu").unwrap(), d.join("resources/A.fmu"));
         assert_eq!(source_path(d, "a", "./A.fmu").unwrap(), d.join("A.fmu"));
         for bad in ["/tmp/A.fmu", "../A.fmu", "resources/../../A.fmu", "file:///tmp/A.fmu", "."] {
-            let e = source_path(d, "a", bad).unwrap_err();
+            let e = source_path(d, "a", bad).unwrap_err().to_string();
             assert!(e.starts_with(&format!("component a: source \"{bad}\" ")), "{e}");
             assert!(e.contains(": refused"), "{e}");
         }

@@ -19,6 +19,8 @@
 
 use std::fmt::Write as _;
 
+use crate::Error;
+
 /// splitmix64 (Steele, Lea and Flood 2014; Vigna's reference code).
 #[derive(Clone, Debug)]
 pub struct SplitMix64 {
@@ -172,27 +174,29 @@ pub struct Sweep {
     pub axis: Axis,
 }
 
-fn number(text: &str, what: &str) -> Result<f64, String> {
-    let v: f64 = text.trim().parse().map_err(|_| format!("{what}: `{text}` is not a number"))?;
+fn number(text: &str, what: &str) -> Result<f64, Error> {
+    let v: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| Error::Config(format!("{what}: `{text}` is not a number")))?;
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(format!("{what}: `{text}` is not finite"))
+        Err(Error::Config(format!("{what}: `{text}` is not finite")))
     }
 }
 
 /// `--grid NAME=a:b:n` (n points from a to b, ends included) or `NAME=v1;v2;…`.
-pub fn parse_grid(text: &str) -> Result<Sweep, String> {
+pub fn parse_grid(text: &str) -> Result<Sweep, Error> {
     let what = format!("--grid {text}");
-    let (name, spec) = text.split_once('=').ok_or(format!("{what}: expected NAME=a:b:n"))?;
+    let (name, spec) =
+        text.split_once('=').ok_or(Error::Config(format!("{what}: expected NAME=a:b:n")))?;
     let parts: Vec<&str> = spec.split(':').collect();
     let values = if parts.len() == 3 {
         let (a, b) = (number(parts[0], &what)?, number(parts[1], &what)?);
-        let n: usize =
-            parts[2].trim().parse().ok().filter(|&n| n >= 1).ok_or(format!(
-                "{what}: the point count `{}` is not a whole number ≥ 1",
-                parts[2]
-            ))?;
+        let n: usize = parts[2].trim().parse().ok().filter(|&n| n >= 1).ok_or(Error::Config(
+            format!("{what}: the point count `{}` is not a whole number ≥ 1", parts[2]),
+        ))?;
         if n == 1 {
             vec![a]
         } else {
@@ -203,33 +207,37 @@ pub fn parse_grid(text: &str) -> Result<Sweep, String> {
     } else if parts.len() == 1 {
         spec.split(';').map(|v| number(v, &what)).collect::<Result<_, _>>()?
     } else {
-        return Err(format!("{what}: expected NAME=a:b:n or NAME=v1;v2;…"));
+        return Err(Error::Config(format!("{what}: expected NAME=a:b:n or NAME=v1;v2;…")));
     };
     Ok(Sweep { name: name.trim().to_string(), axis: Axis::Grid(values) })
 }
 
 /// `--sample NAME=normal(mean,sd)`, `uniform(lo,hi)` or `lognormal(mu,sigma)`.
-pub fn parse_sample(text: &str) -> Result<Sweep, String> {
+pub fn parse_sample(text: &str) -> Result<Sweep, Error> {
     let what = format!("--sample {text}");
-    let (name, spec) =
-        text.split_once('=').ok_or(format!("{what}: expected NAME=normal(mean,sd)"))?;
+    let (name, spec) = text
+        .split_once('=')
+        .ok_or(Error::Config(format!("{what}: expected NAME=normal(mean,sd)")))?;
     let spec = spec.trim();
-    let (kind, args) = spec
-        .strip_suffix(')')
-        .and_then(|s| s.split_once('('))
-        .ok_or(format!("{what}: expected normal(m,s), uniform(a,b) or lognormal(mu,sigma)"))?;
+    let (kind, args) = spec.strip_suffix(')').and_then(|s| s.split_once('(')).ok_or(
+        Error::Config(format!("{what}: expected normal(m,s), uniform(a,b) or lognormal(mu,sigma)")),
+    )?;
     let args: Vec<f64> = args.split(',').map(|a| number(a, &what)).collect::<Result<_, _>>()?;
     let [a, b] = args[..] else {
-        return Err(format!("{what}: {kind} takes two numbers"));
+        return Err(Error::Config(format!("{what}: {kind} takes two numbers")));
     };
     let axis = match kind.trim() {
         "normal" if b >= 0.0 => Axis::Normal { mean: a, sd: b },
         "uniform" if a <= b => Axis::Uniform { lo: a, hi: b },
         "lognormal" if b >= 0.0 => Axis::LogNormal { mu: a, sigma: b },
-        "normal" | "lognormal" => return Err(format!("{what}: the spread must be ≥ 0")),
-        "uniform" => return Err(format!("{what}: uniform(a,b) needs a ≤ b")),
+        "normal" | "lognormal" => {
+            return Err(Error::Config(format!("{what}: the spread must be ≥ 0")))
+        }
+        "uniform" => return Err(Error::Config(format!("{what}: uniform(a,b) needs a ≤ b"))),
         k => {
-            return Err(format!("{what}: unknown distribution `{k}` (normal, uniform, lognormal)"))
+            return Err(Error::Config(format!(
+                "{what}: unknown distribution `{k}` (normal, uniform, lognormal)"
+            )))
         }
     };
     Ok(Sweep { name: name.trim().to_string(), axis })
@@ -254,11 +262,11 @@ pub struct Row {
 impl Plan {
     /// The grid (cartesian product, first axis outermost) times `samples` draws of the
     /// sampled axes from `seed`; no sampled axis: one run per grid point.
-    pub fn build(sweeps: &[Sweep], samples: usize, seed: u64) -> Result<Plan, String> {
+    pub fn build(sweeps: &[Sweep], samples: usize, seed: u64) -> Result<Plan, Error> {
         let mut names: Vec<String> = Vec::new();
         for s in sweeps {
             if names.contains(&s.name) {
-                return Err(format!("`{}` is swept twice", s.name));
+                return Err(Error::Config(format!("`{}` is swept twice", s.name)));
             }
             names.push(s.name.clone());
         }
@@ -272,7 +280,7 @@ impl Plan {
             sweeps.iter().filter(|s| !matches!(s.axis, Axis::Grid(_))).collect();
         let n_samples = if sampled.is_empty() { 1 } else { samples };
         if n_samples == 0 {
-            return Err("--samples must be at least 1".into());
+            return Err(Error::Config("--samples must be at least 1".into()));
         }
         // The draws first, in stream order.
         let mut rng = SplitMix64::new(seed);
@@ -332,20 +340,22 @@ impl Plan {
     }
 
     /// Reads [`Plan::to_csv`]'s format (any engine may write it).
-    pub fn parse(text: &str) -> Result<Plan, String> {
+    pub fn parse(text: &str) -> Result<Plan, Error> {
         let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or("the plan is empty")?;
+        let (_, header) = lines.next().ok_or(Error::Config("the plan is empty".into()))?;
         let cols: Vec<&str> = header.split(',').map(str::trim).collect();
         if cols.len() < 2 || cols[0] != "run" || cols[1] != "sample" {
-            return Err(format!("plan header must be `run,sample,<parameter>,…`, got `{header}`"));
+            return Err(Error::Config(format!(
+                "plan header must be `run,sample,<parameter>,…`, got `{header}`"
+            )));
         }
         let names: Vec<String> = cols[2..].iter().map(|c| c.to_string()).collect();
         let mut rows = Vec::new();
         for (i, l) in lines {
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            let bad = || format!("plan line {}: `{l}`", i + 1);
+            let bad = || Error::Config(format!("plan line {}: `{l}`", i + 1));
             if f.len() != cols.len() {
-                return Err(format!("{}: expected {} fields", bad(), cols.len()));
+                return Err(Error::Config(format!("{}: expected {} fields", bad(), cols.len())));
             }
             let run = f[0].parse().map_err(|_| bad())?;
             let sample = f[1].parse().map_err(|_| bad())?;
@@ -353,7 +363,7 @@ impl Plan {
                 .iter()
                 .map(|v| v.parse::<f64>().ok().filter(|x| x.is_finite()))
                 .collect::<Option<Vec<f64>>>()
-                .ok_or_else(|| format!("{}: not all finite numbers", bad()))?;
+                .ok_or_else(|| Error::Config(format!("{}: not all finite numbers", bad())))?;
             rows.push(Row { run, sample, values });
         }
         Ok(Plan { names, rows })
