@@ -193,6 +193,27 @@ fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
     Ok(value)
 }
 
+/// A parameter set's value of SSP type `kind` for a variable of type `ty`: SSP 1.0 gives
+/// each value the type of the variable it sets (an `ssv:Enumeration` or `ssv:Integer` for
+/// an FMI enumeration), and a value of another type (a Real `3` for an Integer, an Integer
+/// `1` for a Boolean) is a mistake in the set, not a conversion to make silently.
+fn check_binding_type(name: &str, kind: &str, ty: VarType) -> Result<(), String> {
+    let fits = match ty {
+        VarType::Real => kind == "Real",
+        VarType::Integer => kind == "Integer",
+        VarType::Boolean => kind == "Boolean",
+        VarType::String => kind == "String",
+        VarType::Enumeration => matches!(kind, "Enumeration" | "Integer"),
+    };
+    if fits {
+        return Ok(());
+    }
+    Err(format!(
+        "parameter `{}`: the parameter set gives it an ssv:{kind} value, but the variable is of type {ty}: refused (SSP 1.0: a value has its variable's type)",
+        cut(name, 200)
+    ))
+}
+
 fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), String> {
     set(components, p, parse_value(p.ty, name, text)?)
 }
@@ -373,6 +394,14 @@ impl System {
             }
             sources.push(crate::archive::source_path(&a.dir, &c.name, &c.source).map_err(here)?);
         }
+        let named: Vec<(&str, &Path)> = a
+            .system
+            .components
+            .iter()
+            .zip(&sources)
+            .map(|(c, s)| (c.name.as_str(), s.as_path()))
+            .collect();
+        crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
         let mut components = Vec::new();
         for (c, source) in a.system.components.iter().zip(&sources) {
             let fmu = CsFmu::load(source, &c.name, false)
@@ -447,6 +476,20 @@ impl System {
                             return Err(format!("connection from `{}` to itself", named(b)));
                         }
                     }
+                    if let Source::Output(p) = s {
+                        if p.ty != dst.ty {
+                            // FMI and SSP 1.0 connect a variable only to one of its own
+                            // type: a cast (Real to Integer, Integer to Boolean) would change
+                            // values silently at every step.
+                            return Err(format!(
+                                "connection from `{}` ({}) to `{}` ({}): the connectors are of different types: refused",
+                                named(a),
+                                p.ty,
+                                named(b),
+                                dst.ty
+                            ));
+                        }
+                    }
                     let same = |q: &Port| (q.component, q.vr) == (dst.component, dst.vr);
                     if let Some(i) = wiring.iter().position(|(q, _)| same(q)) {
                         return Err(format!(
@@ -509,14 +552,23 @@ impl System {
         for c in self.components.iter_mut() {
             c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
         }
-        let mut values: Vec<(String, String)> = crate::ssp::first_bindings(self.archive.as_ref())?;
+        // (name, the SSP type the parameter set gives it, value text); a `--param` has no
+        // type of its own and is read as the variable's.
+        let mut values: Vec<(String, Option<String>, String)> = Vec::new();
+        let typed = |(n, (k, v)): (String, (String, String))| (n, Some(k), v);
+        values.extend(
+            crate::ssp::first_bindings_typed(self.archive.as_ref())?.into_iter().map(typed),
+        );
         if let Some(set_name) = &opts.parameter_set {
             let a = self.archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
-            values.extend(a.parameter_set(set_name)?);
+            values.extend(a.parameter_set_typed(set_name)?.into_iter().map(typed));
         }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
+        values.extend(opts.params.iter().map(|(n, v)| (n.clone(), None, v.clone())));
+        for (name, kind, text) in &values {
             let p = self.resolve(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
+            if let Some(kind) = kind {
+                check_binding_type(name, kind, p.ty)?;
+            }
             set_text(&mut self.components, p, name, text)?;
         }
         for c in self.components.iter_mut() {
@@ -609,6 +661,13 @@ impl System {
             k: 0,
             components: self.components,
             _archive: self.archive,
+            loaded: Loaded {
+                inputs: self.inputs,
+                outputs: self.outputs,
+                connections: self.connections,
+                stop_time: self.stop_time,
+                step_size: self.step_size,
+            },
         };
         sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
         Ok(sim)
@@ -636,6 +695,18 @@ pub struct Simulation {
     n_steps: u64,
     k: u64,
     _archive: Option<Archive>,
+    /// What [`System::load`] read besides the components, for [`Simulation::reset`].
+    loaded: Loaded,
+}
+
+/// The parts of a [`System`] other than its components and archive.
+#[derive(Default)]
+struct Loaded {
+    inputs: Vec<String>,
+    outputs: Vec<String>,
+    connections: Vec<(End, End)>,
+    stop_time: Option<f64>,
+    step_size: Option<f64>,
 }
 
 impl Simulation {
@@ -851,52 +922,28 @@ pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Tra
 // Sweeps (src/sweep): one loaded system run many times, re-initialised in place between
 // runs instead of unpacked and instantiated again.
 impl Simulation {
-    /// Back to t = 0 with the parameters of `opts` (its parameter set, then its `params`):
-    /// `fmi2Reset` on every component, then initialization mode as in
-    /// [`System::initialise`]. Only the parameters change: the wiring, the recorded
-    /// variables, the input table, the coupling, the step and the stop time stay those of
-    /// the first [`System::initialise`]. After an error the simulation may be half reset:
-    /// drop it and load the system again.
+    /// Back to t = 0 with `opts`, exactly as a fresh [`System::load`] and
+    /// [`System::initialise`] would put it: `fmi2Reset` on every component, then the very
+    /// same [`System::initialise`] on them, so the SSD's first bindings, the parameter set,
+    /// the `--param` values, the input table, the wiring and the master's step counter
+    /// and held connector values all come from the one code path a fresh run takes (a
+    /// reset that re-applied only some of them gave rows that differ from `inchworm run`).
+    /// After an error the simulation holds no components: drop it and load the system
+    /// again.
     pub fn reset(&mut self, opts: &Options) -> Result<(), String> {
-        let stop = self.n_steps as f64 * self.h;
         for c in self.components.iter_mut() {
             c.fmu.reset().map_err(err)?;
         }
-        self.k = 0;
-        for c in self.components.iter_mut() {
-            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
-        }
-        let mut values: Vec<(String, String)> = Vec::new();
-        if let Some(set_name) = &opts.parameter_set {
-            let a = self._archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
-            values.extend(a.parameter_set(set_name)?);
-        }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
-            let p = self.port_named(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
-            set_text(&mut self.components, p, name, text)?;
-        }
-        for c in self.components.iter_mut() {
-            c.fmu.exit_initialization().map_err(err)?;
-        }
-        self.source_batches.read(&mut self.components, &mut self.latest, None)
-    }
-
-    /// [`System::resolve`] on the components the simulation holds.
-    fn port_named(&self, name: &str) -> Result<Port, String> {
-        let (el, var) = match (&self._archive, name.split_once('.')) {
-            (None, _) => ("fmu", name),
-            (Some(_), Some(pair)) => pair,
-            (Some(_), None) => {
-                return Err(format!("`{name}`: name a component variable as component.variable"))
-            }
+        let system = System {
+            archive: self._archive.take(),
+            components: std::mem::take(&mut self.components),
+            inputs: std::mem::take(&mut self.loaded.inputs),
+            outputs: std::mem::take(&mut self.loaded.outputs),
+            connections: std::mem::take(&mut self.loaded.connections),
+            stop_time: self.loaded.stop_time,
+            step_size: self.loaded.step_size,
         };
-        let i = self
-            .components
-            .iter()
-            .position(|c| c.name == el)
-            .ok_or_else(|| format!("no component named `{el}`"))?;
-        let v = self.components[i].fmu.var(var).map_err(err)?;
-        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+        *self = system.initialise(opts)?;
+        Ok(())
     }
 }

@@ -152,6 +152,16 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
 
 /// Parses an `.ssv` parameter set into `component.variable` → value text.
 pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
+    Ok(parse_ssv_typed(xml)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// A parameter value of an `.ssv`: its SSP type (the element: `Real`, `Integer`,
+/// `Boolean`, `String`, `Enumeration`) and its value text.
+pub type TypedValue = (String, String);
+
+/// [`parse_ssv`] with each value's SSP type, which the master checks against the
+/// variable's declared type.
+pub fn parse_ssv_typed(xml: &str) -> Result<BTreeMap<String, TypedValue>, String> {
     let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut out = BTreeMap::new();
@@ -165,9 +175,9 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
         match ev {
             Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
                 "Parameter" => current = Some(required(&e, "name")?),
-                "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => {
+                kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
                     if let Some(name) = current.take() {
-                        out.insert(name, required(&e, "value")?);
+                        out.insert(name, (kind.to_string(), required(&e, "value")?));
                     }
                 }
                 _ => {}
@@ -251,13 +261,19 @@ impl Archive {
     /// ParameterBindings whose set has that name ([`Archive::bound_parameter_set`]), else
     /// (an SSP without bindings) the file `resources/<name>.ssv` with qualified names.
     pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
-        if let Some(values) = self.bound_parameter_set(Some(name))? {
+        Ok(self.parameter_set_typed(name)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+    }
+
+    /// [`Archive::parameter_set`] with each value's SSP type.
+    pub fn parameter_set_typed(&self, name: &str) -> Result<BTreeMap<String, TypedValue>, String> {
+        if let Some(values) = self.bound_parameter_set_typed(Some(name))? {
             return Ok(values);
         }
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
         let text = std::fs::read_to_string(&p)
             .map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
-        parse_ssv(&text).map_err(|e| format!("parameter set {name} (resources/{name}.ssv): {e}"))
+        parse_ssv_typed(&text)
+            .map_err(|e| format!("parameter set {name} (resources/{name}.ssv): {e}"))
     }
 }
 
@@ -395,6 +411,16 @@ impl Archive {
         &self,
         selected: Option<&str>,
     ) -> Result<Option<BTreeMap<String, String>>, String> {
+        Ok(self
+            .bound_parameter_set_typed(selected)?
+            .map(|m| m.into_iter().map(|(n, (_, v))| (n, v)).collect()))
+    }
+
+    /// [`Archive::bound_parameter_set`] with each value's SSP type.
+    pub fn bound_parameter_set_typed(
+        &self,
+        selected: Option<&str>,
+    ) -> Result<Option<BTreeMap<String, TypedValue>>, String> {
         let bindings = parse_parameter_bindings(&self.read_ssd()?)?;
         if bindings.is_empty() {
             return Ok(None);
@@ -418,7 +444,7 @@ impl Archive {
                 Some(c) => format!("{c}.{}{p}", b.prefix),
                 None => format!("{}{p}", b.prefix),
             };
-            let values = parse_ssv(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            let values = parse_ssv_typed(&text).map_err(|e| format!("{}: {e}", b.source))?;
             out.extend(values.into_iter().map(|(p, v)| (qualify(&p), v)));
         }
         if let Some(name) = selected {
@@ -446,8 +472,13 @@ impl Archive {
 /// component of an SSP (nothing for a single FMU or an SSP without bindings), as libcosim
 /// and Ecos apply them.
 pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, String> {
+    Ok(first_bindings_typed(a)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// [`first_bindings`] with each value's SSP type.
+pub fn first_bindings_typed(a: Option<&Archive>) -> Result<Vec<(String, TypedValue)>, String> {
     match a {
-        Some(a) => Ok(a.bound_parameter_set(None)?.unwrap_or_default().into_iter().collect()),
+        Some(a) => Ok(a.bound_parameter_set_typed(None)?.unwrap_or_default().into_iter().collect()),
         None => Ok(Vec::new()),
     }
 }

@@ -260,3 +260,81 @@ fn metric_flags_parse_or_say_why_not() {
         assert!(Metric::parse(bad).is_err(), "{bad}");
     }
 }
+
+/// `final:`, `min:` and `max:` of every variable a plain run of `system` records: a
+/// difference anywhere in the outputs shows in one of them.
+fn every_output(system: &Path, input: &Option<InputTable>) -> Vec<Metric> {
+    let opts = Options {
+        stop_time: Some(0.02),
+        step_size: None,
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: None,
+        input: input.clone(),
+        outputs: vec![],
+    };
+    let sim = master::System::load(system).unwrap().initialise(&opts).unwrap();
+    let names = sim.record_names().to_vec();
+    assert!(!names.is_empty(), "{}: records nothing", system.display());
+    names
+        .iter()
+        .flat_map(|n| ["final", "min", "max"].map(|k| Metric::parse(&format!("{k}:{n}")).unwrap()))
+        .collect()
+}
+
+#[test]
+fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
+    // (system, a parameter of it to sweep, whether it has a system input to feed).
+    let systems = [
+        ("InchwormSystem.ssp", "plant.T_em", false),
+        ("InchwormSystemOpen.ssp", "plant.T_em", true),
+        ("MirrorMount.ssp", "plant_b.T_em", false),
+        ("fmi3/InchwormSystem.ssp", "plant.T_em", true),
+        ("fmi3/InchwormSystemMixed.ssp", "plant.T_em", false),
+    ];
+    // Repeated and shuffled: a value seen before, after another, must still give the row a
+    // fresh load gives (a reset that misses any state shows as a repeat that differs).
+    let values = [8.8, 8.8, 9.4, 8.8, 8.2, 9.4, 8.8];
+    for (file, param, open) in systems {
+        let system = Path::new(DIST).join(file);
+        assert!(system.is_file(), "{}: run `cargo run --release -p fmu-build`", system.display());
+        let input = open.then(|| InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap());
+        let setup = Setup {
+            system: system.clone(),
+            stop_time: Some(0.2),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: None,
+            input: input.clone(),
+            metrics: every_output(&system, &input),
+        };
+        let names = vec![param.to_string()];
+        let rows: Vec<Row> = values
+            .iter()
+            .enumerate()
+            // Run ids out of order too: the plan is data.
+            .map(|(i, &v)| Row { run: 100 - i, sample: 0, values: vec![v] })
+            .collect();
+        let plan = Plan { names: names.clone(), rows: rows.clone() };
+        let expected: Vec<Vec<Option<f64>>> =
+            rows.iter().map(|r| fresh(&setup, &names, r)).collect();
+        for jobs in [1, 2] {
+            let out = exec::run_plan(&setup, &plan, jobs, |_| {});
+            for (i, (o, e)) in out.iter().zip(&expected).enumerate() {
+                assert_eq!(o.error, None, "{file}, {jobs} worker(s), row {i}");
+                let bits = |v: &[Option<f64>]| -> Vec<Option<u64>> {
+                    v.iter().map(|x| x.map(f64::to_bits)).collect()
+                };
+                assert_eq!(
+                    bits(&o.metrics),
+                    bits(e),
+                    "{file}, {jobs} worker(s), row {i} ({param} = {}) differs from `inchworm run`",
+                    values[i]
+                );
+            }
+        }
+        // The parameter does reach the system, or equal rows would prove nothing.
+        assert_ne!(expected[0], expected[2], "{file}: {param} changes nothing");
+    }
+}

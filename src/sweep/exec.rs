@@ -9,7 +9,7 @@ use crate::master::{Coupling, InputTable, Options, Simulation, System};
 use crate::sweep::metrics::{self, Metric};
 use crate::sweep::plan::{Plan, Row};
 use crate::sweep::ranges::Ranges;
-use crate::trace::Trace;
+use crate::sweep::stream::Reducer;
 
 /// What every run of a sweep shares.
 #[derive(Clone, Debug)]
@@ -63,16 +63,16 @@ pub struct Worker<'a> {
     pub loads: usize,
 }
 
-fn simulate(sim: &mut Simulation) -> Result<Trace, String> {
-    let n = sim.n_steps();
-    let mut trace = Trace::new(sim.record_names().to_vec());
-    trace.rows.reserve(n as usize + 1);
-    trace.push(0.0, sim.sample()?);
-    for _ in 0..n {
+/// Steps `sim` to the stop time, each row reduced to the metrics as it comes (as
+/// `inchworm run` streams its rows): a run of any length takes the memory of one row.
+fn simulate(sim: &mut Simulation, metrics: &[Metric]) -> Result<Vec<Option<f64>>, String> {
+    let mut reducer = Reducer::new(metrics, sim.record_names())?;
+    reducer.push(0.0, &sim.sample()?);
+    for _ in 0..sim.n_steps() {
         sim.step()?;
-        trace.push(sim.time(), sim.sample()?);
+        reducer.push(sim.time(), &sim.sample()?);
     }
-    Ok(trace)
+    Ok(reducer.finish())
 }
 
 impl<'a> Worker<'a> {
@@ -116,10 +116,8 @@ impl<'a> Worker<'a> {
             return outcome(vec![], Some(e));
         }
         let opts = self.setup.options(names, row);
-        let result = self
-            .ready(&opts)
-            .and_then(simulate)
-            .and_then(|trace| metrics::compute_all(&self.setup.metrics, &trace));
+        let metrics = &self.setup.metrics;
+        let result = self.ready(&opts).and_then(|sim| simulate(sim, metrics));
         let (metrics, error) = match result {
             Ok(m) => (m, None),
             Err(e) => {

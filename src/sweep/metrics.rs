@@ -14,8 +14,8 @@
 use crate::closed_loop::{self, LoopView};
 use crate::trace::Trace;
 
-const SLIP_EVENTS: &str = "plant.slip_events";
-const DISTURBANCE: &str = "controller.disturbance_estimate";
+pub(crate) const SLIP_EVENTS: &str = "plant.slip_events";
+pub(crate) const DISTURBANCE: &str = "controller.disturbance_estimate";
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Kind {
@@ -52,6 +52,15 @@ impl Metric {
         let text = text.trim();
         if text.contains(',') || text.contains('"') {
             return Err(format!("--metric {text}: no commas or quotes (it names a CSV column)"));
+        }
+        // It names a column of the results and a line of the summary: a control character
+        // would break the header or reach the terminal.
+        if let Some(c) = text.chars().find(|c| c.is_control()) {
+            return Err(format!(
+                "--metric {}: the control character U+{:04X} is refused (it names a CSV column)",
+                text.escape_debug(),
+                c as u32
+            ));
         }
         let (head, rest) = match text.split_once(':') {
             Some((h, r)) => (h, Some(r)),

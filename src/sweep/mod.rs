@@ -1,6 +1,7 @@
 //! Parameter sweeps over a system: the plan ([`plan`]), what each run reports
 //! ([`metrics`]), running a plan on worker threads ([`exec`]), and the results as CSV, JSON
-//! lines and plots ([`plots`]); [`ranges`] refuses a swept value outside its declared range.
+//! lines and plots ([`plots`]); [`ranges`] refuses a swept value outside its declared range;
+//! [`stream`] computes a run's metrics row by row, in the memory of one row.
 //!
 //! The results table has one row per run: `run,sample,<parameter>,…,<metric>,…,status,error`;
 //! a metric with no value (a run that never settles) and the metrics of a failed run are
@@ -11,6 +12,7 @@ pub mod metrics;
 pub mod plan;
 pub mod plots;
 pub mod ranges;
+pub mod stream;
 
 use std::fmt::Write as _;
 
