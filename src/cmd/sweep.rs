@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use clap::Args;
 
+use inchworm::master;
 use inchworm::plot;
 use inchworm::sweep::exec::{self, Setup};
 use inchworm::sweep::metrics::{self, Metric};
@@ -235,6 +236,8 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         start: Instant::now(),
         last: None,
     });
+    // A stop signal ends the sweep between two steps; the runs done are still written.
+    master::stop_on_signals();
     let wall = Instant::now();
     let outcomes = exec::run_plan(&setup, &plan, jobs, |done| {
         if let Some(b) = bar.as_mut() {
@@ -248,11 +251,17 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
             writeln!(out, "{}", sw::json_line(&plan.names, &metrics, o))
                 .map_err(|e| format!("stdout: {e}"))?;
         }
-        return Ok(());
+        return master::interrupted();
     }
     super::write_file(&args.out.join("plan.csv"), |w| w.write_all(plan.to_csv().as_bytes()))?;
     let table = sw::results_csv(&plan.names, &metrics, &outcomes);
     super::write_file(&args.out.join("results.csv"), |w| w.write_all(table.as_bytes()))?;
+    if let Err(e) = master::interrupted() {
+        return Err(format!(
+            "{e} ({} holds the runs done)",
+            args.out.join("results.csv").display()
+        ));
+    }
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     println!(
         "{} runs in {wall:.2} s on {jobs} thread(s) ({:.1} runs/s); {failed} failed",

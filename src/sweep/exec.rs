@@ -69,6 +69,9 @@ fn simulate(sim: &mut Simulation, metrics: &[Metric]) -> Result<Vec<Option<f64>>
     let mut reducer = Reducer::new(metrics, sim.record_names())?;
     reducer.push(0.0, &sim.sample()?);
     for _ in 0..sim.n_steps() {
+        // SIGINT/SIGTERM (once `stop_on_signals` is installed) ends the run between two
+        // steps, as in `inchworm run`, so the unpacked FMUs are removed on the way out.
+        crate::master::interrupted()?;
         sim.step()?;
         reducer.push(sim.time(), &sim.sample()?);
     }
@@ -159,6 +162,10 @@ pub fn run_plan(
             scope.spawn(move || {
                 let mut w = Worker::new(setup);
                 loop {
+                    // After a stop signal no new run starts; the rows not run say so.
+                    if crate::master::stop_signal().is_some() {
+                        break;
+                    }
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(row) = plan.rows.get(i) else { break };
                     // A panic (a bug) fails its row, not the sweep; the system is loaded anew.
