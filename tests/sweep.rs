@@ -338,3 +338,95 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
         assert_ne!(expected[0], expected[2], "{file}: {param} changes nothing");
     }
 }
+
+/// A name from pieces a user or an attacker might type: letters, dots, brackets, spaces,
+/// non-ASCII, commas, quotes, control characters, the plan's own column names.
+fn random_name(r: &mut SplitMix64) -> String {
+    const PIECES: [&str; 16] = [
+        "plant", ".", "T_em", "[1]", " ", "é", "µ", "x", ",", "\"", "\u{7}", "\t", "run", "sample",
+        "\u{a0}", "\n",
+    ];
+    let n = 1 + (r.next_u64() % 4) as usize;
+    (0..n).map(|_| PIECES[(r.next_u64() % PIECES.len() as u64) as usize]).collect()
+}
+
+/// A number as a user might write it: any finite bits, small integers, signed zero.
+fn random_value(r: &mut SplitMix64) -> String {
+    match r.next_u64() % 4 {
+        0 => {
+            let v = f64::from_bits(r.next_u64());
+            if v.is_finite() {
+                format!("{v:e}")
+            } else {
+                "1e308".into()
+            }
+        }
+        1 => format!("{}", (r.next_u64() % 2001) as i64 - 1000),
+        2 => "-0".into(),
+        _ => format!("{}", r.uniform() * 10.0),
+    }
+}
+
+#[test]
+fn whatever_grid_writes_plan_reads_back_to_the_bit() {
+    let mut r = SplitMix64::new(2024);
+    let (mut accepted, mut refused) = (0, 0);
+    for _ in 0..3000 {
+        let axes = 1 + (r.next_u64() % 3) as usize;
+        let mut sweeps = Vec::new();
+        let mut ok = true;
+        for _ in 0..axes {
+            let name = random_name(&mut r);
+            let spec = if r.next_u64() % 2 == 0 {
+                let n = 1 + r.next_u64() % 5;
+                format!("{}:{}:{n}", random_value(&mut r), random_value(&mut r))
+            } else {
+                let k = 1 + r.next_u64() % 4;
+                (0..k).map(|_| random_value(&mut r)).collect::<Vec<_>>().join(";")
+            };
+            match plan::parse_grid(&format!("{name}={spec}")) {
+                Ok(s) => sweeps.push(s),
+                Err(_) => ok = false,
+            }
+        }
+        let Ok(p) = Plan::build(&sweeps, 1, 0) else {
+            refused += 1;
+            continue;
+        };
+        if !ok || sweeps.is_empty() {
+            refused += 1;
+            continue;
+        }
+        accepted += 1;
+        let text = p.to_csv();
+        let back = Plan::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        assert_eq!(back.names, p.names, "{text}");
+        assert_eq!(back.rows.len(), p.rows.len());
+        for (a, b) in back.rows.iter().zip(&p.rows) {
+            assert_eq!((a.run, a.sample), (b.run, b.sample));
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.values), bits(&b.values), "{text}");
+        }
+        // One row by its run index reads back alone, the same.
+        let k = p.rows.len() / 2;
+        let one = Plan::read(text.as_bytes(), Some(&[p.rows[k].run])).unwrap();
+        assert_eq!(one.rows, vec![p.rows[k].clone()]);
+    }
+    // Both sides of the rule are exercised: names it must refuse, and plans it must keep.
+    assert!(accepted > 300 && refused > 300, "accepted {accepted}, refused {refused}");
+}
+
+#[test]
+fn plan_sizes_are_checked_before_anything_is_allocated() {
+    let g = |t: &str| plan::parse_grid(t).unwrap();
+    let e = Plan::build(&[g("a=1:2:1000"), g("b=1:2:1000"), g("c=1:2:2")], 1, 0).unwrap_err();
+    assert_eq!(e, "1000 × 1000 × 2 = 2000000 runs: more than the 1000000 a sweep may have");
+    let s = plan::parse_sample("c=uniform(0,1)").unwrap();
+    let e = Plan::build(&[g("a=1:2:1000"), s], usize::MAX, 0).unwrap_err();
+    assert!(e.starts_with("1000 × 18446744073709551615 samples runs overflows"), "{e}");
+    let e = Plan::parse("run,sample,a\n0,0,1\n0,1,2\n").unwrap_err();
+    assert_eq!(e, "plan line 3: the run index 0 is given twice");
+    assert!(Plan::parse("run,sample,a,a\n").unwrap_err().contains("a column twice"));
+    let e = Plan::read("run,sample,a\n5,0,1\n".as_bytes(), Some(&[4])).unwrap_err();
+    assert_eq!(e, "no row with run index 4");
+}
