@@ -469,6 +469,12 @@ def sweep(tmp, tmp_path, *args, system=SSP, **kw):
     return inchworm(tmp, "sweep", system, *extra, *args, **kw)
 
 
+def refused(r, message):
+    """Exit status 1 and `message` as the one error line."""
+    assert r.returncode == 1, (r.returncode, r.stderr[-2000:])
+    assert error_line(r) == message
+
+
 def plan_file(tmp_path, text, name="plan.csv"):
     p = tmp_path / name
     p.write_text(text)
@@ -496,49 +502,43 @@ def test_sweep_rows_on_the_mirror_mount_equal_inchworm_run(tmp, tmp_path):
         assert {o: row["metrics"][f"final:{o}"] for o in outs} == expected, row["run"]
 
 
-def test_a_grid_of_more_points_than_the_cap_is_refused_not_an_abort(tmp, tmp_path):
-    r = sweep(tmp, tmp_path, "--grid", "plant.T_em=1:2:10000000000000", "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1, r.returncode
-    assert error_line(r) == (
-        "error: --grid plant.T_em=1:2:10000000000000: 10000000000000 points = 10000000000000 runs: "
-        "more than the 1000000 a sweep may have"
-    )
+# 65536^4 = 2^64: unchecked, the count wrapped to 0 and the sweep "succeeded" with no runs.
+OVERFLOWING = [a for n in ("plant.T_em", "plant.k_p", "plant.F_d0", "plant.T_ex") for a in ("--grid", f"{n}=1:2:65536")]
 
 
-def test_samples_past_the_cap_are_refused_not_an_abort(tmp, tmp_path):
-    r = sweep(tmp, tmp_path, "--sample", "plant.T_em=normal(8.8,0.1)", "--samples", "1000000000000000",
-              "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1, r.returncode
-    assert error_line(r) == (
-        "error: 1000000000000000 samples = 1000000000000000 runs: more than the 1000000 a sweep may have"
-    )
-
-
-def test_a_grid_product_that_overflows_is_refused_not_an_empty_plan(tmp, tmp_path):
-    # 65536^4 = 2^64: unchecked, the count wrapped to 0 and the sweep "succeeded" with no runs.
-    axes = [a for n in ("plant.T_em", "plant.k_p", "plant.F_d0", "plant.T_ex")
-            for a in ("--grid", f"{n}=1:2:65536")]
-    r = sweep(tmp, tmp_path, *axes, "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1, r.returncode
-    assert error_line(r) == (
-        "error: 65536 × 65536 × 65536 × 65536 runs overflows a 64-bit count: "
-        "more than the 1000000 a sweep may have"
-    )
+@pytest.mark.parametrize("args, message", [
+    # Allocated unchecked: the process aborted (SIGABRT).
+    (["--grid", "plant.T_em=1:2:10000000000000", "--plan-only"],
+     "--grid plant.T_em=1:2:10000000000000: 10000000000000 points = 10000000000000 runs: "
+     "more than the 1000000 a sweep may have"),
+    (["--sample", "plant.T_em=normal(8.8,0.1)", "--samples", "1000000000000000", "--plan-only"],
+     "1000000000000000 samples = 1000000000000000 runs: more than the 1000000 a sweep may have"),
+    (OVERFLOWING + ["--plan-only"],
+     "65536 × 65536 × 65536 × 65536 runs overflows a 64-bit count: more than the 1000000 a sweep may have"),
+    # A comma in the name writes a header with one column more than each row has.
+    (["--grid", "plant.T_em,x=1:2:2", "--plan-only"],
+     "--grid plant.T_em,x=1:2:2: the parameter name `plant.T_em,x` holds a comma: refused (it names a CSV column)"),
+    (["--grid", "plant.T_em=8.8;9", "--metric", "slips", "--metric", "slips", "--plan-only"],
+     "--metric slips is given twice (it names one column of the results)"),
+    (["--grid", "plant.T_em=8.8;9", "--jobs", "1000000", "--stop-time", "0.01", "--no-plots"],
+     "--jobs 1000000: more than the 256 worker threads a sweep runs"),
+], ids=["grid-points", "samples", "grid-overflow", "grid-comma", "metric-twice", "jobs"])
+def test_sweep_sizes_and_names_past_their_rules_are_refused(tmp, tmp_path, args, message):
+    r = sweep(tmp, tmp_path, *args, "--out", tmp_path / "o")
+    refused(r, f"error: {message}")
     assert not (tmp_path / "o" / "plan.csv").exists()
 
 
 def test_a_plan_with_a_run_index_twice_is_refused(tmp, tmp_path):
     plan = plan_file(tmp_path, "run,sample,plant.T_em\n0,0,8.8\n1,1,8.9\n0,2,9.0\n")
     r = sweep(tmp, tmp_path, "--plan", plan, "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1
-    assert error_line(r) == f"error: {plan}: plan line 4: the run index 0 is given twice"
+    refused(r, f"error: {plan}: plan line 4: the run index 0 is given twice")
 
 
 def test_a_plan_with_a_parameter_column_twice_is_refused(tmp, tmp_path):
     plan = plan_file(tmp_path, "run,sample,plant.T_em,plant.T_em\n0,0,8.8,9.0\n")
     r = sweep(tmp, tmp_path, "--plan", plan, "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1
-    assert error_line(r) == f"error: {plan}: plan header: the parameter `plant.T_em` is a column twice"
+    refused(r, f"error: {plan}: plan header: the parameter `plant.T_em` is a column twice")
 
 
 def test_a_plan_column_with_control_characters_is_refused(tmp, tmp_path):
@@ -553,40 +553,20 @@ def test_a_plan_column_with_control_characters_is_refused(tmp, tmp_path):
     )
 
 
-def test_a_grid_name_the_plan_could_not_read_back_is_refused(tmp, tmp_path):
-    # A comma in the name writes a header with one column more than each row has.
-    r = sweep(tmp, tmp_path, "--grid", "plant.T_em,x=1:2:2", "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1
-    assert error_line(r) == (
-        "error: --grid plant.T_em,x=1:2:2: the parameter name `plant.T_em,x` holds a comma: "
-        "refused (it names a CSV column)"
-    )
-    assert not (tmp_path / "o" / "plan.csv").exists()
-
-
 def test_a_metric_name_with_control_characters_is_refused(tmp, tmp_path):
     r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--metric", "final:plant.mode\x07",
               "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1
     assert "\x07" not in r.stderr
-    assert error_line(r) == (
+    refused(r, (
         "error: --metric final:plant.mode\\u{7}: the control character U+0007 is refused (it names a CSV column)"
-    )
-
-
-def test_a_metric_given_twice_is_refused(tmp, tmp_path):
-    r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--metric", "slips", "--metric", "slips",
-              "--plan-only", "--out", tmp_path / "o")
-    assert r.returncode == 1
-    assert error_line(r) == "error: --metric slips is given twice (it names one column of the results)"
+    ))
 
 
 def test_an_output_path_that_cannot_be_written_is_refused_before_the_first_run(tmp, tmp_path):
     out = tmp_path / "o"
     (out / "results.csv").mkdir(parents=True)
     r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--stop-time", "0.01", "--no-plots", "--out", out)
-    assert r.returncode == 1
-    assert error_line(r) == f"error: {out / 'results.csv'}: is a folder, cannot write the file there"
+    refused(r, f"error: {out / 'results.csv'}: is a folder, cannot write the file there")
     assert "runs in" not in r.stdout and not (out / "plan.csv").exists(), "the runs were made first"
 
 
@@ -595,35 +575,25 @@ def test_plots_past_their_cap_are_refused_before_the_first_run(tmp, tmp_path):
     plan = plan_file(tmp_path, "run,sample," + ",".join(names) + "\n0,0," + ",".join(["1"] * 70) + "\n")
     out = tmp_path / "o"
     r = sweep(tmp, tmp_path, "--plan", plan, "--stop-time", "0.01", "--out", out, timeout=300)
-    assert r.returncode == 1
-    assert error_line(r) == (
+    refused(r, (
         "error: 4 metrics × (1 histogram + 70 parameters) = 284 plots: more than the 64 a sweep draws; "
         "give --no-plots, or fewer metrics or parameters"
-    )
+    ))
     assert not out.exists() or not list(out.glob("*.png"))
 
 
 def test_a_plan_line_past_its_cap_is_refused_and_not_echoed(tmp, tmp_path):
     plan = plan_file(tmp_path, "run,sample," + "x" * (20 << 20) + "\n0,0,1\n")
     r = sweep(tmp, tmp_path, "--plan", plan, "--row", "0")
-    assert r.returncode == 1
-    assert error_line(r) == f"error: {plan}: plan line 1: longer than 65536 bytes"
+    refused(r, f"error: {plan}: plan line 1: longer than 65536 bytes")
     assert len(r.stderr) < 1000
 
 
 def test_a_row_asked_for_that_the_plan_gives_twice_is_refused(tmp, tmp_path):
     plan = plan_file(tmp_path, "run,sample,plant.T_em\n3,0,8.8\n4,1,8.9\n3,2,9.0\n")
     r = sweep(tmp, tmp_path, "--plan", plan, "--row", "3", "--stop-time", "0.01")
-    assert r.returncode == 1
-    assert error_line(r) == f"error: {plan}: plan line 4: the run index 3 is given twice"
+    refused(r, f"error: {plan}: plan line 4: the run index 3 is given twice")
     assert r.stdout == ""
-
-
-def test_too_many_worker_threads_are_refused(tmp, tmp_path):
-    r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--jobs", "1000000", "--stop-time", "0.01",
-              "--no-plots", "--out", tmp_path / "o")
-    assert r.returncode == 1
-    assert error_line(r) == "error: --jobs 1000000: more than the 256 worker threads a sweep runs"
 
 
 def test_a_long_sweep_run_streams_and_stops_on_sigterm_keeping_its_rows(tmp, tmp_path):
@@ -678,37 +648,27 @@ def test_a_connection_between_connectors_of_different_types_is_refused(tmp, tmp_
     assert old in ssd
     ssd = ssd.replace(old, 'startElement="plant" startConnector="encoder_position" endElement="controller"')
     r = run_ssp(tmp, tmp_path, ssp_with_ssd(tmp_path, ssd))
-    assert r.returncode == 1, r.stderr[-2000:]
-    assert error_line(r) == (
+    refused(r, (
         "error: connection from `plant.encoder_position` (Real) to `controller.encoder_counts` (Integer): "
         "the connectors are of different types: refused"
-    )
+    ))
 
 
-def binding_changed(tmp_path, entry, old, new):
+@pytest.mark.parametrize("entry, name, old, new, given, declared", [
+    ("resources/reference.default.ssv", "reference.n_points",
+     '<ssv:Integer value="1"/>', '<ssv:Real value="1"/>', "Real", "Integer"),
+    ("resources/controller.default.ssv", "controller.prefilter",
+     '<ssv:Boolean value="false"/>', '<ssv:Integer value="0"/>', "Integer", "Boolean"),
+], ids=["real-for-integer", "integer-for-boolean"])
+def test_a_binding_of_another_type_than_its_variable_is_refused(tmp, tmp_path, entry, name, old, new, given,
+                                                                 declared):
     with zipfile.ZipFile(CLOSED) as z:
         text = z.read(entry).decode()
-    assert old in text, text
-    return rezip(CLOSED, tmp_path / "bound.ssp", replace={entry: text.replace(old, new).encode()})
-
-
-def test_a_real_binding_for_an_integer_parameter_is_refused(tmp, tmp_path):
-    ssp = binding_changed(tmp_path, "resources/reference.default.ssv",
-                          '"n_points"><ssv:Integer value="1"/>', '"n_points"><ssv:Real value="1"/>')
+    here = f'"{name.split(".", 1)[1]}">'
+    assert here + old in text, text
+    ssp = rezip(CLOSED, tmp_path / "bound.ssp", replace={entry: text.replace(here + old, here + new).encode()})
     r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--out", tmp_path / "o.csv")
-    assert r.returncode == 1, r.stderr[-2000:]
-    assert error_line(r) == (
-        "error: parameter `reference.n_points`: the parameter set gives it an ssv:Real value, but the variable "
-        "is of type Integer: refused (SSP 1.0: a value has its variable's type)"
-    )
-
-
-def test_an_integer_binding_for_a_boolean_parameter_is_refused(tmp, tmp_path):
-    ssp = binding_changed(tmp_path, "resources/controller.default.ssv",
-                          '"prefilter"><ssv:Boolean value="false"/>', '"prefilter"><ssv:Integer value="0"/>')
-    r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--out", tmp_path / "o.csv")
-    assert r.returncode == 1, r.stderr[-2000:]
-    assert error_line(r) == (
-        "error: parameter `controller.prefilter`: the parameter set gives it an ssv:Integer value, but the "
-        "variable is of type Boolean: refused (SSP 1.0: a value has its variable's type)"
-    )
+    refused(r, (
+        f"error: parameter `{name}`: the parameter set gives it an ssv:{given} value, but the variable "
+        f"is of type {declared}: refused (SSP 1.0: a value has its variable's type)"
+    ))
