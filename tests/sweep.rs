@@ -377,7 +377,7 @@ fn whatever_grid_writes_plan_reads_back_to_the_bit() {
         let mut ok = true;
         for _ in 0..axes {
             let name = random_name(&mut r);
-            let spec = if r.next_u64() % 2 == 0 {
+            let spec = if r.next_u64().is_multiple_of(2) {
                 let n = 1 + r.next_u64() % 5;
                 format!("{}:{}:{n}", random_value(&mut r), random_value(&mut r))
             } else {
