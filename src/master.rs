@@ -193,19 +193,24 @@ fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
     Ok(value)
 }
 
-/// A parameter set's value of SSP type `kind` for a variable of type `ty`: SSP 1.0 gives
-/// each value the type of the variable it sets (an `ssv:Enumeration` or `ssv:Integer` for
-/// an FMI enumeration), and a value of another type (a Real `3` for an Integer, an Integer
-/// `1` for a Boolean) is a mistake in the set, not a conversion to make silently.
-fn check_binding_type(name: &str, kind: &str, ty: VarType) -> Result<(), String> {
-    let fits = match ty {
+/// Whether an SSP type (`Real`, `Integer`, … of `ssc:`/`ssv:`) is that of an FMI variable of
+/// type `ty`: the same name, or `Integer` for an enumeration (its values are integers).
+fn ssp_type_fits(kind: &str, ty: VarType) -> bool {
+    match ty {
         VarType::Real => kind == "Real",
         VarType::Integer => kind == "Integer",
         VarType::Boolean => kind == "Boolean",
         VarType::String => kind == "String",
         VarType::Enumeration => matches!(kind, "Enumeration" | "Integer"),
-    };
-    if fits {
+    }
+}
+
+/// A parameter set's value of SSP type `kind` for a variable of type `ty`: SSP 1.0 gives
+/// each value the type of the variable it sets (an `ssv:Enumeration` or `ssv:Integer` for
+/// an FMI enumeration), and a value of another type (a Real `3` for an Integer, an Integer
+/// `1` for a Boolean) is a mistake in the set, not a conversion to make silently.
+fn check_binding_type(name: &str, kind: &str, ty: VarType) -> Result<(), String> {
+    if ssp_type_fits(kind, ty) {
         return Ok(());
     }
     Err(format!(
@@ -351,6 +356,8 @@ pub struct System {
     inputs: Vec<String>,
     outputs: Vec<String>,
     connections: Vec<(End, End)>,
+    /// The SSD's declared connector types (empty for a single FMU).
+    connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
 }
@@ -380,6 +387,7 @@ impl System {
                 inputs,
                 outputs,
                 connections,
+                connector_types: BTreeMap::new(),
                 stop_time: None,
                 step_size,
             });
@@ -420,6 +428,7 @@ impl System {
             inputs: kind("input"),
             outputs: a.default_outputs(kind("output"))?,
             connections: a.system.connections.clone(),
+            connector_types: a.system.connector_types.clone(),
             stop_time: a.system.stop_time,
             step_size: a.system.step_size,
             components,
@@ -459,7 +468,33 @@ impl System {
             Some(el) => format!("{el}.{}", e.connector),
             None => e.connector.clone(),
         };
+        // The SSD declares each connector's type; it must be that of what it stands for: a
+        // component connector its FMU variable's, a system connector the type of the
+        // component variable on the other end of the connection.
+        let declared = |e: &End, ty: VarType, var: &End| -> Result<(), String> {
+            match self.connector_types.get(e) {
+                Some(kind) if !ssp_type_fits(kind, ty) => Err(format!(
+                    "connector `{}` is declared ssc:{kind} in the SSD, but `{}` is of type {ty}: refused",
+                    cut(&named(e), 200),
+                    cut(&named(var), 200)
+                )),
+                _ => Ok(()),
+            }
+        };
         for (a, b) in &self.connections {
+            if let (Some(e), Some(f)) = (&a.element, &b.element) {
+                let (p, q) = (self.port(e, &a.connector)?, self.port(f, &b.connector)?);
+                declared(a, p.ty, a)?;
+                declared(b, q.ty, b)?;
+            } else if let (None, Some(f)) = (&a.element, &b.element) {
+                let q = self.port(f, &b.connector)?;
+                declared(b, q.ty, b)?;
+                declared(a, q.ty, b)?;
+            } else if let (Some(e), None) = (&a.element, &b.element) {
+                let p = self.port(e, &a.connector)?;
+                declared(a, p.ty, a)?;
+                declared(b, p.ty, a)?;
+            }
             let source = match &a.element {
                 Some(e) => Source::Output(self.port(e, &a.connector)?),
                 None => Source::Input(
@@ -665,6 +700,7 @@ impl System {
                 inputs: self.inputs,
                 outputs: self.outputs,
                 connections: self.connections,
+                connector_types: self.connector_types,
                 stop_time: self.stop_time,
                 step_size: self.step_size,
             },
@@ -705,6 +741,7 @@ struct Loaded {
     inputs: Vec<String>,
     outputs: Vec<String>,
     connections: Vec<(End, End)>,
+    connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
 }
@@ -940,6 +977,7 @@ impl Simulation {
             inputs: std::mem::take(&mut self.loaded.inputs),
             outputs: std::mem::take(&mut self.loaded.outputs),
             connections: std::mem::take(&mut self.loaded.connections),
+            connector_types: std::mem::take(&mut self.loaded.connector_types),
             stop_time: self.loaded.stop_time,
             step_size: self.loaded.step_size,
         };

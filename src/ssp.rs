@@ -33,6 +33,10 @@ pub struct System {
     pub connections: Vec<(End, End)>,
     pub stop_time: Option<f64>,
     pub step_size: Option<f64>,
+    /// The type each connector declares (`Real`, `Integer`, `Boolean`, `String`,
+    /// `Enumeration`, `Binary`: its `ssc:` child), by its end: the system's connectors
+    /// (`element` None) and the components'. A connector without one is absent.
+    pub connector_types: BTreeMap<End, String>,
 }
 
 fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, String> {
@@ -63,6 +67,9 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
     let mut path: Vec<String> = Vec::new();
     let mut open = Open::default();
     let mut systems = 0;
+    // The component being read, and the connector whose type a child may give.
+    let mut component: Option<String> = None;
+    let mut connector: Option<End> = None;
     loop {
         let ev = reader.read_event().map_err(|e| {
             let at = line_of(xml, reader.error_position());
@@ -73,7 +80,11 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
             Event::End(_) => {
-                path.pop();
+                match path.pop().as_deref() {
+                    Some("Component") => component = None,
+                    Some("Connector") => connector = None,
+                    _ => {}
+                }
                 continue;
             }
             Event::Eof => {
@@ -99,13 +110,26 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
                 if kind != "application/x-fmu-sharedlibrary" {
                     return Err(format!("component type {kind} is not supported (FMUs only)"));
                 }
-                sys.components.push(Component {
-                    name: required(&e, "name")?,
-                    source: required(&e, "source")?,
-                });
+                let name = required(&e, "name")?;
+                sys.components
+                    .push(Component { name: name.clone(), source: required(&e, "source")? });
+                component = Some(name);
             }
             "Connector" if parent == Some("Connectors") && grandparent == Some("System") => {
-                sys.connectors.push((required(&e, "name")?, attr(&e, "kind")?.unwrap_or_default()));
+                let name = required(&e, "name")?;
+                sys.connectors.push((name.clone(), attr(&e, "kind")?.unwrap_or_default()));
+                connector = Some(End { element: None, connector: name });
+            }
+            "Connector" if parent == Some("Connectors") && grandparent == Some("Component") => {
+                connector =
+                    Some(End { element: component.clone(), connector: required(&e, "name")? });
+            }
+            kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration" | "Binary")
+                if parent == Some("Connector") =>
+            {
+                if let Some(end) = &connector {
+                    sys.connector_types.insert(end.clone(), kind.to_string());
+                }
             }
             "Connection" => {
                 let end = |el: &str, c: &str| -> Result<End, String> {

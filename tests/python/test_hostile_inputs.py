@@ -654,6 +654,24 @@ def test_a_connection_between_connectors_of_different_types_is_refused(tmp, tmp_
     ))
 
 
+@pytest.mark.parametrize("old, new, message", [
+    # The system's input declared Integer, feeding a Real input.
+    ('<ssd:Connector name="reference" kind="input"><ssc:Real unit="m"/>',
+     '<ssd:Connector name="reference" kind="input"><ssc:Integer/>',
+     "connector `reference` is declared ssc:Integer in the SSD, but `controller.reference` is of type Real"),
+    # A component connector declared other than its FMU variable.
+    ('<ssd:Connector name="encoder_counts" kind="output"><ssc:Integer/>',
+     '<ssd:Connector name="encoder_counts" kind="output"><ssc:Real/>',
+     "connector `plant.encoder_counts` is declared ssc:Real in the SSD, but `plant.encoder_counts` is of type "
+     "Integer"),
+], ids=["system-connector", "component-connector"])
+def test_a_connector_declared_another_type_than_it_carries_is_refused(tmp, tmp_path, old, new, message):
+    ssd = ssd_text()
+    assert old in ssd
+    r = run_ssp(tmp, tmp_path, ssp_with_ssd(tmp_path, ssd.replace(old, new, 1)))
+    refused(r, f"error: {message}: refused")
+
+
 @pytest.mark.parametrize("entry, name, old, new, given, declared", [
     ("resources/reference.default.ssv", "reference.n_points",
      '<ssv:Integer value="1"/>', '<ssv:Real value="1"/>', "Real", "Integer"),
