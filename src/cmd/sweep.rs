@@ -140,6 +140,10 @@ const MAX_PLOTS: usize = 64;
 /// The most metrics a sweep computes.
 const MAX_METRICS: usize = 64;
 
+/// The most histogram bins: the counts are allocated per plot, and a 1000-pixel-wide
+/// plot shows no more.
+const MAX_BINS: usize = 1000;
+
 /// The most worker threads: each holds a loaded system (its FMUs unpacked and loaded).
 const MAX_JOBS: usize = 256;
 
@@ -161,6 +165,12 @@ fn plot_count(metrics: usize, parameters: usize) -> Result<usize, String> {
 fn check_outputs(args: &SweepArgs, plan: &Plan, metrics: &[Metric]) -> Result<(), String> {
     let mut files = vec![args.out.join("plan.csv"), args.out.join("results.csv")];
     if !args.no_plots {
+        if args.bins > MAX_BINS {
+            return Err(format!(
+                "--bins {}: more than the {MAX_BINS} bins a histogram draws",
+                args.bins
+            ));
+        }
         plot_count(metrics.len(), plan.names.len())?;
         plot::load_font(&args.font)?;
         for m in metrics {

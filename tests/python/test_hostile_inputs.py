@@ -522,7 +522,10 @@ OVERFLOWING = [a for n in ("plant.T_em", "plant.k_p", "plant.F_d0", "plant.T_ex"
      "--metric slips is given twice (it names one column of the results)"),
     (["--grid", "plant.T_em=8.8;9", "--jobs", "1000000", "--stop-time", "0.01", "--no-plots"],
      "--jobs 1000000: more than the 256 worker threads a sweep runs"),
-], ids=["grid-points", "samples", "grid-overflow", "grid-comma", "metric-twice", "jobs"])
+    # Allocated after every run, unchecked: the sweep aborted once its runs were done.
+    (["--grid", "plant.T_em=8.8;9", "--stop-time", "0.01", "--bins", "1000000000000"],
+     "--bins 1000000000000: more than the 1000 bins a histogram draws"),
+], ids=["grid-points", "samples", "grid-overflow", "grid-comma", "metric-twice", "jobs", "bins"])
 def test_sweep_sizes_and_names_past_their_rules_are_refused(tmp, tmp_path, args, message):
     r = sweep(tmp, tmp_path, *args, "--out", tmp_path / "o")
     refused(r, f"error: {message}")
