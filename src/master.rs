@@ -694,16 +694,10 @@ impl System {
             h,
             n_steps,
             k: 0,
-            components: self.components,
-            _archive: self.archive,
-            loaded: Loaded {
-                inputs: self.inputs,
-                outputs: self.outputs,
-                connections: self.connections,
-                connector_types: self.connector_types,
-                stop_time: self.stop_time,
-                step_size: self.step_size,
-            },
+            components: std::mem::take(&mut self.components),
+            _archive: self.archive.take(),
+            // The rest of the system (connectors, connections, defaults), for a reset.
+            loaded: Some(self),
         };
         sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
         Ok(sim)
@@ -731,19 +725,9 @@ pub struct Simulation {
     n_steps: u64,
     k: u64,
     _archive: Option<Archive>,
-    /// What [`System::load`] read besides the components, for [`Simulation::reset`].
-    loaded: Loaded,
-}
-
-/// The parts of a [`System`] other than its components and archive.
-#[derive(Default)]
-struct Loaded {
-    inputs: Vec<String>,
-    outputs: Vec<String>,
-    connections: Vec<(End, End)>,
-    connector_types: BTreeMap<End, String>,
-    stop_time: Option<f64>,
-    step_size: Option<f64>,
+    /// The [`System`] this was initialised from, without its components and archive
+    /// (which the simulation holds), for [`Simulation::reset`]; `None` after a reset failed.
+    loaded: Option<System>,
 }
 
 impl Simulation {
@@ -971,16 +955,10 @@ impl Simulation {
         for c in self.components.iter_mut() {
             c.fmu.reset().map_err(err)?;
         }
-        let system = System {
-            archive: self._archive.take(),
-            components: std::mem::take(&mut self.components),
-            inputs: std::mem::take(&mut self.loaded.inputs),
-            outputs: std::mem::take(&mut self.loaded.outputs),
-            connections: std::mem::take(&mut self.loaded.connections),
-            connector_types: std::mem::take(&mut self.loaded.connector_types),
-            stop_time: self.loaded.stop_time,
-            step_size: self.loaded.step_size,
-        };
+        let mut system =
+            self.loaded.take().ok_or("a reset failed before: load the system again")?;
+        system.archive = self._archive.take();
+        system.components = std::mem::take(&mut self.components);
         *self = system.initialise(opts)?;
         Ok(())
     }
