@@ -13,10 +13,11 @@ use inchworm_cosim::sweep::exec::{self, Setup};
 use inchworm_cosim::sweep::metrics::Metrics;
 use inchworm_cosim::sweep::plan::{self, Plan};
 use inchworm_cosim::sweep::{self as sw};
+use inchworm_cosim::Error;
 use inchworm_scenarios::metrics::{self, LoopMetrics};
 use inchworm_scenarios::{plot, sweep_plots as plots};
 
-use super::Text;
+use super::{signals, Text};
 
 use super::run::SimArgs;
 
@@ -76,21 +77,12 @@ pub struct SweepArgs {
 
 fn plan_of(args: &SweepArgs) -> Result<Plan, String> {
     if let Some(p) = &args.plan {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let plan = Plan::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?;
-        if args.rows.is_empty() {
-            return Ok(plan);
-        }
-        let mut rows = Vec::new();
-        for k in &args.rows {
-            let r = plan
-                .rows
-                .iter()
-                .find(|r| r.run == *k)
-                .ok_or_else(|| format!("{}: no row with run index {k}", p.display()))?;
-            rows.push(r.clone());
-        }
-        return Ok(Plan { names: plan.names, rows });
+        // Read line by line: with --row only the rows asked for are kept, whatever the
+        // plan's size.
+        let f = std::fs::File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let only = (!args.rows.is_empty()).then_some(args.rows.as_slice());
+        return Plan::read(std::io::BufReader::new(f), only)
+            .map_err(|e| format!("{}: {e}", p.display()));
     }
     let mut sweeps = Vec::new();
     for g in &args.grids {
@@ -144,6 +136,65 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
+/// The most summary plots a sweep draws: one histogram per metric and one scatter plot
+/// per metric and parameter, so a plan of many columns would otherwise write thousands.
+const MAX_PLOTS: usize = 64;
+
+/// The most metrics a sweep computes.
+const MAX_METRICS: usize = 64;
+
+/// The most histogram bins: the counts are allocated per plot, and a 1000-pixel-wide
+/// plot shows no more.
+const MAX_BINS: usize = 1000;
+
+/// The most worker threads: each holds a loaded system (its FMUs unpacked and loaded).
+const MAX_JOBS: usize = 256;
+
+/// The number of summary plots, refused above [`MAX_PLOTS`] with the arithmetic.
+fn plot_count(metrics: usize, parameters: usize) -> Result<usize, String> {
+    let plots = parameters.checked_add(1).and_then(|p| p.checked_mul(metrics));
+    match plots {
+        Some(n) if n <= MAX_PLOTS => Ok(n),
+        _ => Err(format!(
+            "{metrics} metrics × (1 histogram + {parameters} parameters) = {} plots: more than the {MAX_PLOTS} a sweep draws; give --no-plots, or fewer metrics or parameters",
+            plots.map_or("too many".to_string(), |n| n.to_string())
+        )),
+    }
+}
+
+/// Everything the sweep will write, checked before the first run (a sweep may take
+/// hours, and a path refused at the end loses all of it): the font, the plot count, the
+/// folder made and writable, and no file to write a folder.
+fn check_outputs(args: &SweepArgs, plan: &Plan, metrics: &[String]) -> Result<(), String> {
+    let mut files = vec![args.out.join("plan.csv"), args.out.join("results.csv")];
+    if !args.no_plots {
+        if args.bins > MAX_BINS {
+            return Err(format!(
+                "--bins {}: more than the {MAX_BINS} bins a histogram draws",
+                args.bins
+            ));
+        }
+        plot_count(metrics.len(), plan.names.len())?;
+        plot::load_font(&args.font)?;
+        for m in metrics {
+            files.push(args.out.join(format!("hist_{}.png", safe_name(m))));
+            for name in &plan.names {
+                files.push(args.out.join(format!("{}_vs_{}.png", safe_name(m), safe_name(name))));
+            }
+        }
+    }
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    if let Some(f) = files.iter().find(|f| f.is_dir()) {
+        return Err(format!("{}: is a folder, cannot write the file there", f.display()));
+    }
+    // A file made and removed: the folder takes new files (permissions, a read-only disk).
+    tempfile::Builder::new()
+        .prefix(".inchworm-sweep-")
+        .tempfile_in(&args.out)
+        .map_err(|e| format!("{}: cannot write there: {e}", args.out.display()))?;
+    Ok(())
+}
+
 pub fn run(args: &SweepArgs) -> Result<(), String> {
     let metrics = if args.metrics.is_empty() {
         LoopMetrics::parse(&metrics::DEFAULT)
@@ -152,6 +203,19 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
     }
     .text()?;
     let metric_names = metrics.names();
+    if metric_names.len() > MAX_METRICS {
+        return Err(format!(
+            "{} metrics: more than the {MAX_METRICS} a sweep computes",
+            metric_names.len()
+        ));
+    }
+    if let Some(m) = metric_names
+        .iter()
+        .enumerate()
+        .find_map(|(i, m)| metric_names[..i].iter().any(|n| n == m).then_some(m))
+    {
+        return Err(format!("--metric {m} is given twice (it names one column of the results)"));
+    }
     let plan = plan_of(args)?;
     if args.plan_only {
         return super::write_file(&args.out.join("plan.csv"), |w| {
@@ -171,18 +235,33 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
     };
     let jobs =
         args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if jobs > MAX_JOBS {
+        return Err(format!("--jobs {jobs}: more than the {MAX_JOBS} worker threads a sweep runs"));
+    }
     let json = args.json || !args.rows.is_empty();
+    if !json {
+        check_outputs(args, &plan, &metric_names)?;
+    }
     let mut bar = (!json && std::io::stderr().is_terminal()).then(|| Progress {
         total: plan.rows.len(),
         start: Instant::now(),
         last: None,
     });
+    // A stop signal ends the sweep between two steps; the runs done are still written.
+    let stop = signals::stop_on_signals();
     let wall = Instant::now();
-    let outcomes = exec::run_plan(&setup, &plan, jobs, |done| {
+    let mut outcomes = exec::run_plan_until(&setup, &plan, jobs, &stop, |done| {
         if let Some(b) = bar.as_mut() {
             b.show(done);
         }
     });
+    // The run the signal stopped says which signal it was, as `inchworm run` does.
+    if signals::stop_signal().is_some() {
+        let stopped = Error::Stopped.to_string();
+        for o in outcomes.iter_mut().filter(|o| o.error.as_deref() == Some(stopped.as_str())) {
+            o.error = Some(signals::describe(Error::Stopped));
+        }
+    }
     let wall = wall.elapsed().as_secs_f64();
     if json {
         let mut out = std::io::stdout().lock();
@@ -190,14 +269,17 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
             writeln!(out, "{}", sw::json_line(&plan.names, &metric_names, o))
                 .map_err(|e| format!("stdout: {e}"))?;
         }
-        return Ok(());
-    }
-    if !args.no_plots {
-        plot::load_font(&args.font)?;
+        return signals::interrupted();
     }
     super::write_file(&args.out.join("plan.csv"), |w| w.write_all(plan.to_csv().as_bytes()))?;
     let table = sw::results_csv(&plan.names, &metric_names, &outcomes);
     super::write_file(&args.out.join("results.csv"), |w| w.write_all(table.as_bytes()))?;
+    if let Err(e) = signals::interrupted() {
+        return Err(format!(
+            "{e} ({} holds the runs done)",
+            args.out.join("results.csv").display()
+        ));
+    }
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     println!(
         "{} runs in {wall:.2} s on {jobs} thread(s) ({:.1} runs/s); {failed} failed",

@@ -40,6 +40,82 @@ pub fn unpack_ssp(path: &Path) -> Result<Unpacked, Error> {
     Ok(Unpacked { dir })
 }
 
+/// Bytes in the files under `dir` (an unpacked archive: within the entry cap, so the walk
+/// is bounded).
+fn dir_bytes(dir: &Path) -> u64 {
+    let mut total = 0u64;
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            match e.file_type() {
+                Ok(t) if t.is_dir() => todo.push(e.path()),
+                Ok(t) if t.is_file() => {
+                    total = total.saturating_add(e.metadata().map_or(0, |m| m.len()))
+                }
+                _ => {}
+            }
+        }
+    }
+    total
+}
+
+/// Bytes the zip at `path` inflates to, counted by inflating it (the sizes an archive
+/// declares are not to be trusted) and stopping past `budget`: `None` once more. A file
+/// that is not a zip counts 0: its loader refuses it with its own message.
+fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
+    let Ok(file) = std::fs::File::open(path) else { return Ok(Some(0)) };
+    let Ok(mut zip) = zip::ZipArchive::new(std::io::BufReader::new(file)) else {
+        return Ok(Some(0));
+    };
+    let mut total = 0u64;
+    for i in 0..zip.len() {
+        let Ok(entry) = zip.by_index(i) else { return Ok(Some(total)) };
+        let left = budget - total;
+        let n = std::io::copy(&mut std::io::Read::take(entry, left + 1), &mut std::io::sink())
+            .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        if n > left {
+            return Ok(None);
+        }
+        total += n;
+    }
+    Ok(Some(total))
+}
+
+/// One unpacking budget for a whole system: the SSP unpacked in `dir` and every
+/// component's FMU (unpacked once per component that references it) together within
+/// the total cap ([`Limits::total_bytes`], `INCHWORM_MAX_UNPACKED_BYTES`). Each archive
+/// alone is held to the cap as it is unpacked; without this, an SSP that references one
+/// FMU many times would unpack that many times the cap.
+pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<(), Error> {
+    let limits = Limits::from_env().map_err(|e| Error::Ssp(e.to_string()))?;
+    let cap = limits.total_bytes;
+    let ssp = dir_bytes(dir);
+    let mut used = ssp;
+    let over = |what: String| {
+        Error::Ssp(format!(
+            "the system unpacks to more than {cap} bytes in all ({what}): refused (raise the cap with {})",
+            fmu_archive::ENV_TOTAL
+        ))
+    };
+    for (i, (name, source)) in components.iter().enumerate() {
+        let left = cap.saturating_sub(used);
+        match inflated_size(source, left)? {
+            Some(n) => used += n,
+            None => {
+                return Err(over(format!(
+                    "the SSP {ssp} bytes, then {} component FMUs; component {} ({}) passes it",
+                    i + 1,
+                    cut(name, 200),
+                    source
+                        .file_name()
+                        .map_or_else(String::new, |f| f.to_string_lossy().into_owned())
+                )))
+            }
+        }
+    }
+    Ok(())
+}
+
 /// The file an SSD `source` names, inside the unpacked archive `dir`. A source that is
 /// absolute, climbs out with `..`, or is a URI with a scheme (`file:`, `http:`) would load
 /// something the archive does not hold, so it is refused.

@@ -9,7 +9,7 @@ use std::path::Path;
 use crate::archive::cut;
 use crate::fmu::{CsFmu, Var, VarType};
 pub use crate::input::InputTable;
-use crate::ssp::{Archive, End};
+use crate::ssp::{Archive, End, TypedValue};
 use crate::trace::Trace;
 use crate::{Error, StopFlag};
 
@@ -115,6 +115,32 @@ fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, Error> {
         }
     }
     Ok(value)
+}
+
+/// Whether an SSP type (`Real`, `Integer`, … of `ssc:`/`ssv:`) is that of an FMI variable of
+/// type `ty`: the same name, or `Integer` for an enumeration (its values are integers).
+fn ssp_type_fits(kind: &str, ty: VarType) -> bool {
+    match ty {
+        VarType::Real => kind == "Real",
+        VarType::Integer => kind == "Integer",
+        VarType::Boolean => kind == "Boolean",
+        VarType::String => kind == "String",
+        VarType::Enumeration => matches!(kind, "Enumeration" | "Integer"),
+    }
+}
+
+/// A parameter set's value of SSP type `kind` for a variable of type `ty`: SSP 1.0 gives
+/// each value the type of the variable it sets (an `ssv:Enumeration` or `ssv:Integer` for
+/// an FMI enumeration), and a value of another type (a Real `3` for an Integer, an Integer
+/// `1` for a Boolean) is a mistake in the set, not a conversion to make silently.
+fn check_binding_type(name: &str, kind: &str, ty: VarType) -> Result<(), Error> {
+    if ssp_type_fits(kind, ty) {
+        return Ok(());
+    }
+    Err(Error::Config(format!(
+        "parameter `{}`: the parameter set gives it an ssv:{kind} value, but the variable is of type {ty}: refused (SSP 1.0: a value has its variable's type)",
+        cut(name, 200)
+    )))
 }
 
 fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), Error> {
@@ -256,6 +282,8 @@ pub struct System {
     inputs: Vec<String>,
     outputs: Vec<String>,
     connections: Vec<(End, End)>,
+    /// The SSD's declared connector types (empty for a single FMU).
+    connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
 }
@@ -285,6 +313,7 @@ impl System {
                 inputs,
                 outputs,
                 connections,
+                connector_types: BTreeMap::new(),
                 stop_time: None,
                 step_size,
             });
@@ -302,6 +331,14 @@ impl System {
             }
             sources.push(crate::archive::source_path(&a.dir, &c.name, &c.source).map_err(here)?);
         }
+        let named: Vec<(&str, &Path)> = a
+            .system
+            .components
+            .iter()
+            .zip(&sources)
+            .map(|(c, s)| (c.name.as_str(), s.as_path()))
+            .collect();
+        crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
         let mut components = Vec::new();
         for (c, source) in a.system.components.iter().zip(&sources) {
             let fmu = CsFmu::load(source, &c.name, false)
@@ -320,6 +357,7 @@ impl System {
             inputs: kind("input"),
             outputs: a.default_outputs(kind("output"))?,
             connections: a.system.connections.clone(),
+            connector_types: a.system.connector_types.clone(),
             stop_time: a.system.stop_time,
             step_size: a.system.step_size,
             components,
@@ -346,7 +384,33 @@ impl System {
             Some(el) => format!("{el}.{}", e.connector),
             None => e.connector.clone(),
         };
+        // The SSD declares each connector's type; it must be that of what it stands for: a
+        // component connector its FMU variable's, a system connector the type of the
+        // component variable on the other end of the connection.
+        let declared = |e: &End, ty: VarType, var: &End| -> Result<(), Error> {
+            match self.connector_types.get(e) {
+                Some(kind) if !ssp_type_fits(kind, ty) => Err(Error::Ssp(format!(
+                    "connector `{}` is declared ssc:{kind} in the SSD, but `{}` is of type {ty}: refused",
+                    cut(&named(e), 200),
+                    cut(&named(var), 200)
+                ))),
+                _ => Ok(()),
+            }
+        };
         for (a, b) in &self.connections {
+            if let (Some(e), Some(f)) = (&a.element, &b.element) {
+                let (p, q) = (self.port(e, &a.connector)?, self.port(f, &b.connector)?);
+                declared(a, p.ty, a)?;
+                declared(b, q.ty, b)?;
+            } else if let (None, Some(f)) = (&a.element, &b.element) {
+                let q = self.port(f, &b.connector)?;
+                declared(b, q.ty, b)?;
+                declared(a, q.ty, b)?;
+            } else if let (Some(e), None) = (&a.element, &b.element) {
+                let p = self.port(e, &a.connector)?;
+                declared(a, p.ty, a)?;
+                declared(b, p.ty, a)?;
+            }
             let source = match &a.element {
                 Some(e) => Source::Output(self.port(e, &a.connector)?),
                 None => Source::Input(
@@ -366,6 +430,20 @@ impl System {
                             return Err(Error::Config(format!(
                                 "connection from `{}` to itself",
                                 named(b)
+                            )));
+                        }
+                    }
+                    if let Source::Output(p) = s {
+                        if p.ty != dst.ty {
+                            // FMI and SSP 1.0 connect a variable only to one of its own
+                            // type: a cast (Real to Integer, Integer to Boolean) would change
+                            // values silently at every step.
+                            return Err(Error::Config(format!(
+                                "connection from `{}` ({}) to `{}` ({}): the connectors are of different types: refused",
+                                named(a),
+                                p.ty,
+                                named(b),
+                                dst.ty
                             )));
                         }
                     }
@@ -426,9 +504,10 @@ impl System {
     }
 
     /// Initialization mode: each component's first binding, the parameter set's values,
-    /// then `--param` values (so a `--param` overrides the set).
+    /// then `--param` values (so a `--param` overrides the set). A value from the SSP
+    /// carries its SSP type, checked against the variable's.
     fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), Error> {
-        let first = crate::ssp::first_bindings(self.archive.as_ref())?;
+        let first = crate::ssp::first_bindings_typed(self.archive.as_ref())?;
         set_parameters(&mut self.components, self.archive.as_ref(), first, opts, stop)
     }
 
@@ -517,8 +596,10 @@ impl System {
             n_steps,
             k: 0,
             stop: None,
-            components: self.components,
-            _archive: self.archive,
+            components: std::mem::take(&mut self.components),
+            _archive: self.archive.take(),
+            // The rest of the system (connectors, connections, defaults), for a reset.
+            loaded: Some(self),
         };
         sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
         Ok(sim)
@@ -547,6 +628,9 @@ pub struct Simulation {
     k: u64,
     stop: Option<StopFlag>,
     _archive: Option<Archive>,
+    /// The [`System`] this was initialised from, without its components and archive
+    /// (which the simulation holds), for [`Simulation::reset`]; `None` after a reset failed.
+    loaded: Option<System>,
 }
 
 impl Simulation {
@@ -721,26 +805,31 @@ pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Tra
     Ok(trace)
 }
 
-// Sweeps (src/sweep): one loaded system run many times, re-initialised in place between
+// Sweeps (crate::sweep): one loaded system run many times, re-initialised in place between
 // runs instead of unpacked and instantiated again.
 impl Simulation {
-    /// Back to t = 0 with the parameters of `opts` (its parameter set, then its `params`):
-    /// `fmi2Reset` on every component, then initialization mode as in
-    /// [`System::initialise`]. Only the parameters change: the wiring, the recorded
-    /// variables, the input table, the coupling, the step and the stop time stay those of
-    /// the first [`System::initialise`]. After an error the simulation may be half reset:
-    /// drop it and load the system again.
+    /// Back to t = 0 with `opts`, exactly as a fresh [`System::load`] and
+    /// [`System::initialise`] would put it: `fmi2Reset` on every component, then the very
+    /// same [`System::initialise`] on them, so the SSD's first bindings, the parameter set,
+    /// the `--param` values, the input table, the wiring and the master's step counter
+    /// and held connector values all come from the one code path a fresh run takes (a
+    /// reset that re-applied only some of them gave rows that differ from `inchworm run`).
+    /// After an error the simulation holds no components: drop it and load the system
+    /// again.
     pub fn reset(&mut self, opts: &Options) -> Result<(), Error> {
-        let stop = self.n_steps as f64 * self.h;
         for c in self.components.iter_mut() {
             c.fmu.reset()?;
         }
-        self.k = 0;
-        // The first bindings are not read again: fmi2Reset restores the start values, and
-        // the project's SSPs bind exactly those first. An SSP whose first binding differs
-        // from its FMUs' start values gets the start values after a reset.
-        set_parameters(&mut self.components, self._archive.as_ref(), Vec::new(), opts, stop)?;
-        self.source_batches.read(&mut self.components, &mut self.latest, None)
+        let mut system = self
+            .loaded
+            .take()
+            .ok_or_else(|| Error::Config("a reset failed before: load the system again".into()))?;
+        system.archive = self._archive.take();
+        system.components = std::mem::take(&mut self.components);
+        let stop = self.stop.take();
+        *self = system.initialise(opts)?;
+        self.stop = stop;
+        Ok(())
     }
 }
 
@@ -766,26 +855,34 @@ fn resolve(components: &[Component], ssp: bool, name: &str) -> Result<Port, Erro
 }
 
 /// Initialization mode on every component, from entering it to leaving it: `first`, then
-/// the parameter set of `opts`, then its `params`, each value over the ones before.
+/// the parameter set of `opts`, then its `params`, each value over the ones before. A
+/// value from the SSP (a first binding or the set) comes with the SSP type it is given,
+/// which must be its variable's ([`check_binding_type`]); a `--param` has no type of its
+/// own and is read as the variable's.
 fn set_parameters(
     components: &mut [Component],
     archive: Option<&Archive>,
-    first: Vec<(String, String)>,
+    first: Vec<(String, TypedValue)>,
     opts: &Options,
     stop: f64,
 ) -> Result<(), Error> {
     for c in components.iter_mut() {
         c.fmu.enter_initialization(None, 0.0, Some(stop))?;
     }
-    let mut values = first;
+    // (name, the SSP type the SSP gives it, value text).
+    let typed = |(n, (k, v)): (String, TypedValue)| (n, Some(k), v);
+    let mut values: Vec<(String, Option<String>, String)> = first.into_iter().map(typed).collect();
     if let Some(set_name) = &opts.parameter_set {
         let a = archive.ok_or(Error::Config("--parameter-set needs an .ssp file".into()))?;
-        values.extend(a.parameter_set(set_name)?);
+        values.extend(a.parameter_set_typed(set_name)?.into_iter().map(typed));
     }
-    values.extend(opts.params.iter().cloned());
-    for (name, text) in &values {
+    values.extend(opts.params.iter().map(|(n, v)| (n.clone(), None, v.clone())));
+    for (name, kind, text) in &values {
         let p = resolve(components, archive.is_some(), name)
             .map_err(|e| e.context(format!("parameter `{name}`")))?;
+        if let Some(kind) = kind {
+            check_binding_type(name, kind, p.ty)?;
+        }
         set_text(components, p, name, text)?;
     }
     for c in components.iter_mut() {

@@ -35,6 +35,10 @@ pub struct System {
     pub connections: Vec<(End, End)>,
     pub stop_time: Option<f64>,
     pub step_size: Option<f64>,
+    /// The type each connector declares (`Real`, `Integer`, `Boolean`, `String`,
+    /// `Enumeration`, `Binary`: its `ssc:` child), by its end: the system's connectors
+    /// (`element` None) and the components'. A connector without one is absent.
+    pub connector_types: BTreeMap<End, String>,
 }
 
 fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, Error> {
@@ -66,6 +70,9 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
     let mut path: Vec<String> = Vec::new();
     let mut open = Open::default();
     let mut systems = 0;
+    // The component being read, and the connector whose type a child may give.
+    let mut component: Option<String> = None;
+    let mut connector: Option<End> = None;
     loop {
         let ev = reader.read_event().map_err(|e| {
             let at = line_of(xml, reader.error_position());
@@ -76,7 +83,11 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
             Event::End(_) => {
-                path.pop();
+                match path.pop().as_deref() {
+                    Some("Component") => component = None,
+                    Some("Connector") => connector = None,
+                    _ => {}
+                }
                 continue;
             }
             Event::Eof => {
@@ -104,13 +115,26 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
                         "component type {kind} is not supported (FMUs only)"
                     )));
                 }
-                sys.components.push(Component {
-                    name: required(&e, "name")?,
-                    source: required(&e, "source")?,
-                });
+                let name = required(&e, "name")?;
+                sys.components
+                    .push(Component { name: name.clone(), source: required(&e, "source")? });
+                component = Some(name);
             }
             "Connector" if parent == Some("Connectors") && grandparent == Some("System") => {
-                sys.connectors.push((required(&e, "name")?, attr(&e, "kind")?.unwrap_or_default()));
+                let name = required(&e, "name")?;
+                sys.connectors.push((name.clone(), attr(&e, "kind")?.unwrap_or_default()));
+                connector = Some(End { element: None, connector: name });
+            }
+            "Connector" if parent == Some("Connectors") && grandparent == Some("Component") => {
+                connector =
+                    Some(End { element: component.clone(), connector: required(&e, "name")? });
+            }
+            kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration" | "Binary")
+                if parent == Some("Connector") =>
+            {
+                if let Some(end) = &connector {
+                    sys.connector_types.insert(end.clone(), kind.to_string());
+                }
             }
             "Connection" => {
                 let end = |el: &str, c: &str| -> Result<End, Error> {
@@ -156,6 +180,16 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
 
 /// Parses an `.ssv` parameter set into `component.variable` → value text.
 pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, Error> {
+    Ok(parse_ssv_typed(xml)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// A parameter value of an `.ssv`: its SSP type (the element: `Real`, `Integer`,
+/// `Boolean`, `String`, `Enumeration`) and its value text.
+pub type TypedValue = (String, String);
+
+/// [`parse_ssv`] with each value's SSP type, which the master checks against the
+/// variable's declared type.
+pub fn parse_ssv_typed(xml: &str) -> Result<BTreeMap<String, TypedValue>, Error> {
     let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut out = BTreeMap::new();
@@ -172,9 +206,9 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, Error> {
         match ev {
             Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
                 "Parameter" => current = Some(required(&e, "name")?),
-                "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => {
+                kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
                     if let Some(name) = current.take() {
-                        out.insert(name, required(&e, "value")?);
+                        out.insert(name, (kind.to_string(), required(&e, "value")?));
                     }
                 }
                 _ => {}
@@ -258,13 +292,18 @@ impl Archive {
     /// ParameterBindings whose set has that name ([`Archive::bound_parameter_set`]), else
     /// (an SSP without bindings) the file `resources/<name>.ssv` with qualified names.
     pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, Error> {
-        if let Some(values) = self.bound_parameter_set(Some(name))? {
+        Ok(self.parameter_set_typed(name)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+    }
+
+    /// [`Archive::parameter_set`] with each value's SSP type.
+    pub fn parameter_set_typed(&self, name: &str) -> Result<BTreeMap<String, TypedValue>, Error> {
+        if let Some(values) = self.bound_parameter_set_typed(Some(name))? {
             return Ok(values);
         }
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
         let text = std::fs::read_to_string(&p)
             .map_err(|e| Error::Ssp(format!("parameter set {name}: {}: {e}", p.display())))?;
-        parse_ssv(&text)
+        parse_ssv_typed(&text)
             .map_err(|e| e.context(format!("parameter set {name} (resources/{name}.ssv)")))
     }
 }
@@ -411,6 +450,16 @@ impl Archive {
         &self,
         selected: Option<&str>,
     ) -> Result<Option<BTreeMap<String, String>>, Error> {
+        Ok(self
+            .bound_parameter_set_typed(selected)?
+            .map(|m| m.into_iter().map(|(n, (_, v))| (n, v)).collect()))
+    }
+
+    /// [`Archive::bound_parameter_set`] with each value's SSP type.
+    pub fn bound_parameter_set_typed(
+        &self,
+        selected: Option<&str>,
+    ) -> Result<Option<BTreeMap<String, TypedValue>>, Error> {
         let bindings = parse_parameter_bindings(&self.read_ssd()?)?;
         if bindings.is_empty() {
             return Ok(None);
@@ -434,7 +483,7 @@ impl Archive {
                 Some(c) => format!("{c}.{}{p}", b.prefix),
                 None => format!("{}{p}", b.prefix),
             };
-            let values = parse_ssv(&text).map_err(|e| e.context(&b.source))?;
+            let values = parse_ssv_typed(&text).map_err(|e| e.context(&b.source))?;
             out.extend(values.into_iter().map(|(p, v)| (qualify(&p), v)));
         }
         if let Some(name) = selected {
@@ -462,8 +511,13 @@ impl Archive {
 /// component of an SSP (nothing for a single FMU or an SSP without bindings), as libcosim
 /// and Ecos apply them.
 pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, Error> {
+    Ok(first_bindings_typed(a)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// [`first_bindings`] with each value's SSP type.
+pub fn first_bindings_typed(a: Option<&Archive>) -> Result<Vec<(String, TypedValue)>, Error> {
     match a {
-        Some(a) => Ok(a.bound_parameter_set(None)?.unwrap_or_default().into_iter().collect()),
+        Some(a) => Ok(a.bound_parameter_set_typed(None)?.unwrap_or_default().into_iter().collect()),
         None => Ok(Vec::new()),
     }
 }

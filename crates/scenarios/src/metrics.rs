@@ -12,13 +12,13 @@
 //!
 //! The column of a metric in the results is its flag text, as given.
 
-use inchworm_cosim::sweep::metrics::{check_column_name, BoxError, Metrics, Reduce};
+use inchworm_cosim::sweep::metrics::{check_column_name, BoxError, Metrics, Reduce, RowMetrics};
 use inchworm_cosim::{Error, Trace};
 
 use crate::closed_loop::{self, LoopView};
 
-const SLIP_EVENTS: &str = "plant.slip_events";
-const DISTURBANCE: &str = "controller.disturbance_estimate";
+pub(crate) const SLIP_EVENTS: &str = "plant.slip_events";
+pub(crate) const DISTURBANCE: &str = "controller.disturbance_estimate";
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Kind {
@@ -161,5 +161,10 @@ impl Metrics for LoopMetrics {
         let view =
             if self.0.iter().any(Metric::needs_loop) { Some(LoopView::new(trace)?) } else { None };
         self.0.iter().map(|m| m.compute(trace, view.as_ref())).collect()
+    }
+
+    /// Row by row ([`crate::stream::Reducer`]), to the bit what [`Metrics::compute`] gives.
+    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
+        crate::stream::stream(self, names)
     }
 }

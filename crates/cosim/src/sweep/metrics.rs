@@ -1,10 +1,13 @@
 //! What each run of a sweep reports, computed from its trace. The engine's own metrics
 //! read any recorded variable (`final:NAME`, `min:NAME`, `max:NAME`); a model's analysis
 //! adds its own through [`Metrics`] (the actuator's settle time and parked RMS live with
-//! its scenarios, in `inchworm-scenarios`).
+//! its scenarios, in `inchworm-scenarios`). A sweep computes them row by row as the master
+//! produces the rows ([`Metrics::stream`], [`RowMetrics`]), so a run of any length takes
+//! the memory of one row.
 
 use std::fmt::Debug;
 
+use crate::sweep::stream::ReduceStream;
 use crate::trace::Trace;
 use crate::Error;
 
@@ -21,6 +24,39 @@ pub trait Metrics: Debug + Send + Sync {
     /// Every metric on one run's trace, in the order of [`Metrics::names`]; `None` where a
     /// metric has no value on this run.
     fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError>;
+
+    /// The metrics of one run fed row by row, for rows of the variables `names` (the run's
+    /// recorded names, t = 0 first); at the end the values [`Metrics::compute`] gives on
+    /// the whole trace, to the bit. The default keeps the rows and computes on the trace,
+    /// in memory that grows with the run: an implementation that can reduce each row as it
+    /// comes should (the sweep runs in the memory of one row then).
+    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
+        Ok(Box::new(Buffered { metrics: self, trace: Trace::new(names.to_vec()) }))
+    }
+}
+
+/// One run's metrics, fed one row at a time ([`Metrics::stream`]).
+pub trait RowMetrics {
+    /// The row at time `t`, its values in the order of the names it was made for.
+    fn push(&mut self, t: f64, row: &[f64]);
+    /// Every metric's value, in the order of [`Metrics::names`]; `None` where it has none.
+    fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError>;
+}
+
+/// [`Metrics::stream`] for metrics that only compute on a whole trace.
+struct Buffered<'a, M: ?Sized> {
+    metrics: &'a M,
+    trace: Trace,
+}
+
+impl<M: Metrics + ?Sized> RowMetrics for Buffered<'_, M> {
+    fn push(&mut self, t: f64, row: &[f64]) {
+        self.trace.push(t, row.to_vec());
+    }
+
+    fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError> {
+        self.metrics.compute(&self.trace)
+    }
 }
 
 /// A recorded variable reduced to one number.
@@ -66,13 +102,28 @@ impl Reduce {
             Reduce::Max(_) => column.into_iter().reduce(f64::max),
         })
     }
+
+    /// [`Reduce::compute`] row by row, on rows of the variables `names`; `metric` names
+    /// it in the error if they lack the variable (the same error).
+    pub fn stream(&self, metric: &str, names: &[String]) -> Result<ReduceStream, Error> {
+        ReduceStream::new(self, metric, names)
+    }
 }
 
-/// A metric's text as a CSV column name: no commas or quotes.
+/// A metric's text as a CSV column name: no commas, quotes or control characters.
 pub fn check_column_name(text: &str) -> Result<(), Error> {
     if text.contains(',') || text.contains('"') {
         return Err(Error::Config(format!(
             "--metric {text}: no commas or quotes (it names a CSV column)"
+        )));
+    }
+    // It names a column of the results and a line of the summary: a control character
+    // would break the header or reach the terminal.
+    if let Some(c) = text.chars().find(|c| c.is_control()) {
+        return Err(Error::Config(format!(
+            "--metric {}: the control character U+{:04X} is refused (it names a CSV column)",
+            text.escape_debug(),
+            c as u32
         )));
     }
     Ok(())
@@ -115,5 +166,23 @@ impl Metrics for Reductions {
 
     fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError> {
         Ok(self.0.iter().map(|(n, r)| r.compute(n, trace)).collect::<Result<_, _>>()?)
+    }
+
+    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
+        let streams = self.0.iter().map(|(n, r)| r.stream(n, names)).collect::<Result<_, _>>()?;
+        Ok(Box::new(ReductionStreams(streams)))
+    }
+}
+
+/// [`Reductions`] row by row.
+struct ReductionStreams(Vec<ReduceStream>);
+
+impl RowMetrics for ReductionStreams {
+    fn push(&mut self, _t: f64, row: &[f64]) {
+        self.0.iter_mut().for_each(|s| s.push(row));
+    }
+
+    fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError> {
+        Ok(self.0.iter().map(ReduceStream::value).collect())
     }
 }

@@ -17,9 +17,84 @@
 //! from `+ − × ÷` and `sqrt` only, which IEEE 754 rounds correctly on every machine, so
 //! the same seed gives the same bits everywhere, whatever the platform's libm.
 
+use std::collections::HashSet;
 use std::fmt::Write as _;
+use std::io::BufRead;
 
 use crate::Error;
+
+/// The most runs a plan may have: a sweep keeps every run's outcome, and a plan from
+/// outside (or a slip of the finger: `--samples 1e12`) would otherwise allocate until the
+/// process aborts. A million runs is days of simulation; split larger studies.
+pub const MAX_RUNS: usize = 1_000_000;
+
+/// The most swept parameters (columns) a plan may have.
+pub const MAX_PARAMETERS: usize = 256;
+
+/// The most values (runs × parameters) a plan may hold: 16 Mi values, 128 MiB.
+pub const MAX_VALUES: usize = 1 << 24;
+
+/// The longest plan line read, bytes: far above [`MAX_PARAMETERS`] values of 25 characters.
+const MAX_LINE_BYTES: usize = 64 << 10;
+
+/// The longest parameter name, characters.
+const MAX_NAME_CHARS: usize = 256;
+
+/// Refuses a parameter name that a plan could not carry as a CSV column and read back as
+/// the same name, or that would reach a terminal or a file header as control characters.
+pub fn check_name(name: &str, what: &str) -> Result<(), Error> {
+    let shown = crate::archive::cut(&name.escape_debug().to_string(), 80);
+    if name.is_empty() {
+        return Err(Error::Config(format!("{what}: the parameter name is empty")));
+    }
+    if name.chars().count() > MAX_NAME_CHARS {
+        return Err(Error::Config(format!(
+            "{what}: the parameter name `{shown}` is longer than {MAX_NAME_CHARS} characters"
+        )));
+    }
+    if let Some(c) = name.chars().find(|c| c.is_control() || matches!(c, ',' | '"')) {
+        return Err(Error::Config(format!(
+            "{what}: the parameter name `{shown}` holds {}: refused (it names a CSV column)",
+            match c {
+                ',' => "a comma".to_string(),
+                '"' => "a quote".to_string(),
+                c => format!("the control character U+{:04X}", c as u32),
+            }
+        )));
+    }
+    if name != name.trim() {
+        return Err(Error::Config(format!(
+            "{what}: the parameter name `{shown}` starts or ends with white space"
+        )));
+    }
+    if matches!(name, "run" | "sample") {
+        return Err(Error::Config(format!(
+            "{what}: `{name}` names a plan column of its own, not a parameter"
+        )));
+    }
+    Ok(())
+}
+
+/// `runs × parameters` within [`MAX_RUNS`] and [`MAX_VALUES`], or the arithmetic that is not.
+fn check_size(runs: Option<usize>, shown: &str, parameters: usize) -> Result<usize, Error> {
+    let runs = runs.ok_or_else(|| {
+        Error::Config(format!(
+            "{shown} runs overflows a {}-bit count: more than the {MAX_RUNS} a sweep may have",
+            usize::BITS
+        ))
+    })?;
+    if runs > MAX_RUNS {
+        return Err(Error::Config(format!(
+            "{shown} = {runs} runs: more than the {MAX_RUNS} a sweep may have"
+        )));
+    }
+    match runs.checked_mul(parameters) {
+        Some(v) if v <= MAX_VALUES => Ok(runs),
+        _ => Err(Error::Config(format!(
+            "{runs} runs × {parameters} parameters: more than the {MAX_VALUES} values a plan may hold"
+        ))),
+    }
+}
 
 /// splitmix64 (Steele, Lea and Flood 2014; Vigna's reference code).
 #[derive(Clone, Debug)]
@@ -178,17 +253,17 @@ fn number(text: &str, what: &str) -> Result<f64, Error> {
     let v: f64 = text
         .trim()
         .parse()
-        .map_err(|_| Error::Config(format!("{what}: `{text}` is not a number")))?;
+        .map_err(|_| Error::Config(format!("{what}: `{}` is not a number", text.escape_debug())))?;
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Error::Config(format!("{what}: `{text}` is not finite")))
+        Err(Error::Config(format!("{what}: `{}` is not finite", text.escape_debug())))
     }
 }
 
 /// `--grid NAME=a:b:n` (n points from a to b, ends included) or `NAME=v1;v2;…`.
 pub fn parse_grid(text: &str) -> Result<Sweep, Error> {
-    let what = format!("--grid {text}");
+    let what = format!("--grid {}", text.escape_debug());
     let (name, spec) =
         text.split_once('=').ok_or(Error::Config(format!("{what}: expected NAME=a:b:n")))?;
     let parts: Vec<&str> = spec.split(':').collect();
@@ -197,6 +272,7 @@ pub fn parse_grid(text: &str) -> Result<Sweep, Error> {
         let n: usize = parts[2].trim().parse().ok().filter(|&n| n >= 1).ok_or(Error::Config(
             format!("{what}: the point count `{}` is not a whole number ≥ 1", parts[2]),
         ))?;
+        check_size(Some(n), &format!("{what}: {n} points"), 1)?;
         if n == 1 {
             vec![a]
         } else {
@@ -209,12 +285,13 @@ pub fn parse_grid(text: &str) -> Result<Sweep, Error> {
     } else {
         return Err(Error::Config(format!("{what}: expected NAME=a:b:n or NAME=v1;v2;…")));
     };
+    check_name(name.trim(), &what)?;
     Ok(Sweep { name: name.trim().to_string(), axis: Axis::Grid(values) })
 }
 
 /// `--sample NAME=normal(mean,sd)`, `uniform(lo,hi)` or `lognormal(mu,sigma)`.
 pub fn parse_sample(text: &str) -> Result<Sweep, Error> {
-    let what = format!("--sample {text}");
+    let what = format!("--sample {}", text.escape_debug());
     let (name, spec) = text
         .split_once('=')
         .ok_or(Error::Config(format!("{what}: expected NAME=normal(mean,sd)")))?;
@@ -240,6 +317,7 @@ pub fn parse_sample(text: &str) -> Result<Sweep, Error> {
             )))
         }
     };
+    check_name(name.trim(), &what)?;
     Ok(Sweep { name: name.trim().to_string(), axis })
 }
 
@@ -282,6 +360,25 @@ impl Plan {
         if n_samples == 0 {
             return Err(Error::Config("--samples must be at least 1".into()));
         }
+        if names.len() > MAX_PARAMETERS {
+            return Err(Error::Config(format!(
+                "{} swept parameters: more than the {MAX_PARAMETERS} a plan may have",
+                names.len()
+            )));
+        }
+        // Checked before anything is allocated: the product of the axes and the samples
+        // may pass any cap, or wrap around to a small number (even 0) unchecked.
+        let mut factors: Vec<String> = grids.iter().map(|(_, v)| v.len().to_string()).collect();
+        if !sampled.is_empty() {
+            factors.push(format!("{n_samples} samples"));
+        }
+        let runs = grids
+            .iter()
+            .map(|(_, v)| v.len())
+            .chain([n_samples])
+            .try_fold(1usize, |acc, n| acc.checked_mul(n));
+        let shown = if factors.len() > 1 { factors.join(" × ") } else { factors.join("") };
+        check_size(runs, &shown, names.len())?;
         // The draws first, in stream order.
         let mut rng = SplitMix64::new(seed);
         let draws: Vec<Vec<f64>> = (0..n_samples)
@@ -297,6 +394,7 @@ impl Plan {
                     .collect()
             })
             .collect();
+        // No overflow: the product with the samples was checked above.
         let n_grid: usize = grids.iter().map(|(_, v)| v.len()).product();
         let mut rows = Vec::with_capacity(n_grid * n_samples);
         for g in 0..n_grid {
@@ -341,30 +439,127 @@ impl Plan {
 
     /// Reads [`Plan::to_csv`]'s format (any engine may write it).
     pub fn parse(text: &str) -> Result<Plan, Error> {
-        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or(Error::Config("the plan is empty".into()))?;
+        Plan::read(text.as_bytes(), None)
+    }
+
+    /// Reads a plan line by line from `from`, keeping every row, or with `only` just the
+    /// rows whose run index it lists (in the order listed): the memory is that of the rows
+    /// kept, not of the file. Refused: a header that is not `run,sample,<parameter>,…`, a
+    /// parameter twice or a name [`check_name`] refuses, a line longer than 64 KiB, a
+    /// field that is not a finite number, more rows than [`MAX_RUNS`], and a run index
+    /// twice (every index when all rows are kept; those in `only` otherwise), or one in
+    /// `only` that the plan lacks.
+    pub fn read(mut from: impl BufRead, only: Option<&[usize]>) -> Result<Plan, Error> {
+        let mut buf = Vec::new();
+        let mut number = 0usize;
+        let mut next_line = |buf: &mut Vec<u8>| -> Result<Option<usize>, Error> {
+            loop {
+                buf.clear();
+                let mut line = std::io::Read::take(&mut from, MAX_LINE_BYTES as u64 + 1);
+                let n =
+                    line.read_until(b'\n', buf).map_err(|e| Error::Config(format!("plan: {e}")))?;
+                if n == 0 {
+                    return Ok(None);
+                }
+                number += 1;
+                if buf.len() > MAX_LINE_BYTES && buf.last() != Some(&b'\n') {
+                    return Err(Error::Config(format!(
+                        "plan line {number}: longer than {MAX_LINE_BYTES} bytes"
+                    )));
+                }
+                if !buf.iter().all(u8::is_ascii_whitespace) {
+                    return Ok(Some(number));
+                }
+            }
+        };
+        let text = |buf: &[u8], i: usize| -> Result<String, Error> {
+            std::str::from_utf8(buf)
+                .map(|l| l.trim_end_matches(['\n', '\r']).to_string())
+                .map_err(|_| Error::Config(format!("plan line {i}: not UTF-8 text")))
+        };
+        let i = next_line(&mut buf)?.ok_or(Error::Config("the plan is empty".into()))?;
+        let header = text(&buf, i)?;
+        let header = header.strip_prefix('\u{feff}').unwrap_or(&header);
         let cols: Vec<&str> = header.split(',').map(str::trim).collect();
         if cols.len() < 2 || cols[0] != "run" || cols[1] != "sample" {
             return Err(Error::Config(format!(
-                "plan header must be `run,sample,<parameter>,…`, got `{header}`"
+                "plan header must be `run,sample,<parameter>,…`, got `{}`",
+                crate::archive::cut(&header.escape_debug().to_string(), 200)
             )));
         }
-        let names: Vec<String> = cols[2..].iter().map(|c| c.to_string()).collect();
+        let mut names: Vec<String> = Vec::new();
+        for c in &cols[2..] {
+            check_name(c, "plan header")?;
+            if names.iter().any(|n| n == c) {
+                return Err(Error::Config(format!(
+                    "plan header: the parameter `{c}` is a column twice"
+                )));
+            }
+            names.push(c.to_string());
+        }
+        if names.len() > MAX_PARAMETERS {
+            return Err(Error::Config(format!(
+                "plan header: {} parameters, more than the {MAX_PARAMETERS} a plan may have",
+                names.len()
+            )));
+        }
+        let mut seen: HashSet<usize> = HashSet::new();
+        let mut kept: Vec<Option<Row>> = vec![None; only.map_or(0, <[usize]>::len)];
         let mut rows = Vec::new();
-        for (i, l) in lines {
+        let mut count = 0usize;
+        while let Some(i) = next_line(&mut buf)? {
+            let l = text(&buf, i)?;
+            let bad = || {
+                format!(
+                    "plan line {i}: `{}`",
+                    crate::archive::cut(&l.escape_debug().to_string(), 200)
+                )
+            };
+            count += 1;
+            check_size(Some(count), &format!("plan line {i}: {count} rows"), names.len())?;
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            let bad = || Error::Config(format!("plan line {}: `{l}`", i + 1));
             if f.len() != cols.len() {
                 return Err(Error::Config(format!("{}: expected {} fields", bad(), cols.len())));
             }
-            let run = f[0].parse().map_err(|_| bad())?;
-            let sample = f[1].parse().map_err(|_| bad())?;
+            let run: usize = f[0].parse().map_err(|_| Error::Config(bad()))?;
+            let sample = f[1].parse().map_err(|_| Error::Config(bad()))?;
+            let wanted: Vec<usize> = match only {
+                None => vec![],
+                Some(ks) => {
+                    ks.iter().enumerate().filter(|(_, k)| **k == run).map(|(j, _)| j).collect()
+                }
+            };
+            let keep = only.is_none() || !wanted.is_empty();
+            let twice = if only.is_none() {
+                !seen.insert(run)
+            } else {
+                wanted.iter().any(|&j| kept[j].is_some())
+            };
+            if twice {
+                return Err(Error::Config(format!(
+                    "plan line {i}: the run index {run} is given twice"
+                )));
+            }
             let values = f[2..]
                 .iter()
                 .map(|v| v.parse::<f64>().ok().filter(|x| x.is_finite()))
                 .collect::<Option<Vec<f64>>>()
                 .ok_or_else(|| Error::Config(format!("{}: not all finite numbers", bad())))?;
-            rows.push(Row { run, sample, values });
+            if !keep {
+                continue;
+            }
+            let row = Row { run, sample, values };
+            match only {
+                None => rows.push(row),
+                Some(_) => wanted.iter().for_each(|&j| kept[j] = Some(row.clone())),
+            }
+        }
+        if let Some(ks) = only {
+            rows = kept
+                .into_iter()
+                .zip(ks)
+                .map(|(r, k)| r.ok_or_else(|| Error::Config(format!("no row with run index {k}"))))
+                .collect::<Result<_, _>>()?;
         }
         Ok(Plan { names, rows })
     }
