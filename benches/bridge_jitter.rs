@@ -12,11 +12,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use inchworm::bridge::{FmuCompensator, FmuMechanism};
 use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::realtime::{enter_real_time, percentiles, Pacer, Percentiles};
 use inchworm_bridge::transport::UdpTransport;
+use inchworm_scenarios::bridge::{FmuCompensator, FmuMechanism};
 
 fn line(name: &str, p: Percentiles, overruns: u64) {
     println!(

@@ -8,11 +8,11 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use inchworm::closed_loop::run as direct;
-use inchworm::master::run;
-use inchworm::scenario;
 use inchworm_controller::Params;
+use inchworm_cosim::master::run;
 use inchworm_plant::PlantParams;
+use inchworm_scenarios::closed_loop::run as direct;
+use inchworm_scenarios::scenario;
 
 const DURATION: f64 = 600.0;
 

@@ -10,11 +10,13 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use inchworm::closed_loop;
-use inchworm::master::{Coupling, InputTable, Options, System};
-use inchworm::sweep::exec::{self, Setup};
-use inchworm::sweep::metrics::{self, Metric};
-use inchworm::sweep::plan::{self, Plan};
+use std::sync::Arc;
+
+use inchworm_cosim::master::{Coupling, InputTable, Options, System};
+use inchworm_cosim::sweep::exec::{self, Setup};
+use inchworm_cosim::sweep::plan::{self, Plan};
+use inchworm_scenarios::closed_loop;
+use inchworm_scenarios::metrics::LoopMetrics;
 
 const REPEATS: usize = 3;
 const RUNS: usize = 40;
@@ -58,7 +60,7 @@ fn main() {
         params: vec![],
         parameter_set: Some("full-control".into()),
         input: Some(input.clone()),
-        metrics: metric_names.iter().map(|m| Metric::parse(m).expect("valid")).collect(),
+        metrics: Arc::new(LoopMetrics::parse(&metric_names).expect("valid")),
     };
     let sweeps = [
         plan::parse_sample("plant.T_em=normal(8.8,0.22)").expect("valid"),
@@ -116,7 +118,7 @@ fn main() {
         params: vec![("plant.T_em".into(), "8.8".into())],
         parameter_set: Some("full-control".into()),
         input: Some(input),
-        outputs: metrics::recorded(&setup.metrics),
+        outputs: setup.metrics.recorded(),
     };
     let load = best(|| {
         let t = Instant::now();

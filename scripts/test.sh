@@ -23,4 +23,6 @@ cargo clippy --release --workspace --all-targets -- -D warnings
 cargo run --release -q -p fmu-build -- --check
 cargo run --release -q -p fmu-build
 cargo test --release --workspace
+# The engine from outside the workspace (its own Cargo.lock, the same target folder).
+cargo test --release --manifest-path tests/engine-api/Cargo.toml --target-dir "${CARGO_TARGET_DIR:-target}"
 .venv/bin/python -m pytest tests/python -q -p no:cacheprovider

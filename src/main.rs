@@ -38,7 +38,7 @@ enum Command {
     /// Run a named scenario (fig5, staircase, calibration, fia6: the paper's closed loops
     /// through the master on dist/InchwormSystem.ssp, or the crates with --direct; slew,
     /// stall: open-loop slews of the plant crate; mirror: the three-actuator mount;
-    /// analog, fastgait, future, bdmap: the controller's options beyond the paper), write
+    /// analog, fastgait, combined, bdmap: the controller's options beyond the paper), write
     /// its CSVs and <out>/<name>.png, and print settle times, RMS and estimates.
     Scenario(ScenarioArgs),
     /// Run an SSP system (.ssp) or a single FMI 2.0 or 3.0 Co-Simulation FMU (.fmu) with a fixed
@@ -123,7 +123,7 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e}");
             // The shell's convention for a run a signal stopped: 128 + the signal.
-            match inchworm::master::stop_signal() {
+            match cmd::signals::stop_signal() {
                 Some(s) => ExitCode::from((128 + s).clamp(0, 255) as u8),
                 None => ExitCode::FAILURE,
             }

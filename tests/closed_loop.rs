@@ -5,12 +5,12 @@
 //! "Settled" is judged on the parked samples (all three DACs zero for the previous 8
 //! samples), as docs/model.md §4.1 defines it.
 
-use inchworm::closed_loop::{self, LoopView};
 use inchworm_controller::basis::Basis;
 use inchworm_controller::gait::{Direction, Timing};
 use inchworm_controller::measurements::raw;
 use inchworm_controller::{Params, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, NOMINAL_WEIGHTS};
 use inchworm_plant::PlantParams;
+use inchworm_scenarios::closed_loop::{self, LoopView};
 
 const UM: f64 = 1e-6;
 
@@ -256,10 +256,10 @@ fn each_flag_changes_behaviour_as_the_paper_says() {
 
 #[test]
 fn fia6_device_settles_from_its_nominal_map() {
-    let s = inchworm::scenario::by_name("fia6").unwrap();
+    let s = inchworm_scenarios::scenario::by_name("fia6").unwrap();
     let tr = run(
         PlantParams::fia6(),
-        inchworm::controller::fia6(),
+        inchworm_scenarios::controller::fia6(),
         |t| s.reference.value(0, t),
         s.duration,
     );

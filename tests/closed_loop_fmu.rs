@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use inchworm::closed_loop::{recorded, LoopView, ITERATED};
-use inchworm::scenario::{self, Via};
-use inchworm::trace::Trace;
+use inchworm_cosim::trace::Trace;
+use inchworm_scenarios::closed_loop::{recorded, LoopView, ITERATED};
+use inchworm_scenarios::scenario::{self, Via};
 
 const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 

@@ -4,11 +4,11 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use inchworm::closed_loop::run as direct;
-use inchworm::master::{run, Coupling, InputTable, Options};
-use inchworm::trace::Trace;
 use inchworm_controller::Params;
+use inchworm_cosim::master::{run, Coupling, InputTable, Options};
+use inchworm_cosim::trace::Trace;
 use inchworm_plant::PlantParams;
+use inchworm_scenarios::closed_loop::run as direct;
 
 fn dist(name: &str) -> PathBuf {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
@@ -97,7 +97,7 @@ fn gauss_seidel_closes_the_loop_too() {
 fn error_of(path: &Path, o: &Options) -> String {
     match run(path, o, |_| {}) {
         Ok(_) => panic!("{} ran although it should not", path.display()),
-        Err(e) => e,
+        Err(e) => e.to_string(),
     }
 }
 
@@ -117,8 +117,8 @@ fn bad_files_names_and_values_are_refused_clearly() {
     let mut o = options(None, Coupling::Jacobi);
     o.input = Some(InputTable::parse("time,refrence\n0,1\n").unwrap());
     assert!(error_of(&ssp, &o).contains("refrence"));
-    assert!(InputTable::parse("t,x\n0,1\n").unwrap_err().contains("time"));
-    assert!(InputTable::parse("time,x\n1,1\n0,2\n").unwrap_err().contains("backwards"));
+    assert!(InputTable::parse("t,x\n0,1\n").unwrap_err().to_string().contains("time"));
+    assert!(InputTable::parse("time,x\n1,1\n0,2\n").unwrap_err().to_string().contains("backwards"));
 
     let dir = std::env::temp_dir().join(format!("inchworm-master-test-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -155,13 +155,13 @@ fn streamed_rows_are_the_collected_trace() {
     let mut o = options(None, Coupling::Jacobi);
     o.stop_time = Some(1.0);
     let collected = run(&ssp, &o, |_| {}).unwrap();
-    let sim = inchworm::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
+    let sim = inchworm_cosim::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
     assert_eq!(sim.n_steps(), 500);
     let mut streamed = Trace::new(sim.record_names().to_vec());
     sim.run_into(
         |t, row| {
             streamed.push(t, row.to_vec());
-            Ok(())
+            Ok::<(), inchworm_cosim::Error>(())
         },
         |_| {},
     )
@@ -186,7 +186,7 @@ fn a_stop_time_off_the_grid_is_refused_before_any_step() {
     assert!(error_of(&ssp, &o).ends_with("more than the 2^53 this master can count exactly"));
     // 10 s in 2 ms steps is 5000.000000000001 in floating point: on the grid.
     o.stop_time = Some(10.0);
-    let sim = inchworm::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
+    let sim = inchworm_cosim::master::System::load(&ssp).unwrap().initialise(&o).unwrap();
     assert_eq!(sim.n_steps(), 5000);
 }
 
@@ -195,7 +195,7 @@ fn input_tables_skip_a_bom_and_cut_what_they_echo() {
     let t = InputTable::parse("\u{feff}time,reference\n0,1\n").unwrap();
     assert_eq!(t.names, vec!["reference".to_string()]);
     let long = format!("time,x\n0,{}y\n", "1".repeat(10_000));
-    let e = InputTable::parse(&long).unwrap_err();
+    let e = InputTable::parse(&long).unwrap_err().to_string();
     assert_eq!(e, format!("input CSV line 2: not all numbers: `0,{}…`", "1".repeat(198)));
     let mut o = options(None, Coupling::Jacobi);
     o.input = Some(InputTable::parse("time,reference\n0.5,1e-4\n").unwrap());
@@ -203,4 +203,53 @@ fn input_tables_skip_a_bom_and_cut_what_they_echo() {
         error_of(&dist("InchwormSystemOpen.ssp"), &o),
         "input CSV starts at t = 0.5, after the start time 0: its first row must be at t = 0 or earlier"
     );
+}
+
+#[test]
+fn a_stop_flag_ends_the_run_between_two_steps() {
+    let ssp = dist("InchwormSystemOpen.ssp");
+    let o = options(None, Coupling::Jacobi);
+    let stop = inchworm_cosim::StopFlag::new();
+    let sim = inchworm_cosim::System::load(&ssp).unwrap().initialise(&o).unwrap();
+    let sim = sim.stop_when(stop.clone());
+    let mut rows = 0;
+    let e = sim
+        .run_into(
+            |_, _| {
+                rows += 1;
+                if rows == 10 {
+                    stop.set();
+                }
+                Ok::<(), inchworm_cosim::Error>(())
+            },
+            |_| {},
+        )
+        .unwrap_err();
+    assert!(e.is_stopped(), "{e}");
+    assert_eq!(rows, 10, "no step after the flag is set");
+}
+
+#[test]
+fn a_component_that_cannot_load_keeps_the_import_error_as_source() {
+    let dir = std::env::temp_dir().join(format!("inchworm-missing-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let ssp = dir.join("Missing.ssp");
+    let mut w = zip::ZipWriter::new(std::fs::File::create(&ssp).unwrap());
+    w.start_file("SystemStructure.ssd", zip::write::SimpleFileOptions::default()).unwrap();
+    std::io::Write::write_all(
+        &mut w,
+        br#"<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" version="1.0" name="S"><ssd:System name="S"><ssd:Elements><ssd:Component name="a" source="resources/A.fmu"/></ssd:Elements></ssd:System></ssd:SystemStructureDescription>"#,
+    )
+    .unwrap();
+    w.finish().unwrap();
+    let Err(e) = inchworm_cosim::System::load(&ssp) else { panic!("loaded without its FMU") };
+    match &e {
+        inchworm_cosim::Error::Component { component, source } => {
+            assert_eq!(component, "a");
+            assert!(matches!(source, inchworm_cosim::fmu::FmuError::Missing(_)), "{source:?}");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(e.to_string().starts_with("component a: "), "{e}");
+    std::fs::remove_dir_all(dir).unwrap();
 }

@@ -15,8 +15,8 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::FmiImport;
 
-use inchworm::gait::{self, CHECK_TOLERANCE_UM, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 use inchworm_plant::PlantParams;
+use inchworm_scenarios::gait::{self, CHECK_TOLERANCE_UM, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
 const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist/InchwormPlant.fmu");
 const TRACE: &str =

@@ -4,11 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
-use inchworm::master::{self, Coupling, InputTable, Options};
-use inchworm::sweep::exec::{self, Setup, Worker};
-use inchworm::sweep::metrics::{self, Metric};
-use inchworm::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
-use inchworm::sweep::{json_line, results_csv};
+use std::sync::Arc;
+
+use inchworm_cosim::master::{self, Coupling, InputTable, Options};
+use inchworm_cosim::sweep::exec::{self, Setup, Worker};
+use inchworm_cosim::sweep::metrics::{Metrics, Reductions};
+use inchworm_cosim::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
+use inchworm_cosim::sweep::{json_line, results_csv};
+use inchworm_scenarios::metrics::{LoopMetrics, Metric};
 
 const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 
@@ -133,7 +136,7 @@ fn fig5_setup(metrics: &[&str]) -> Setup {
         params: vec![],
         parameter_set: Some("full-control".into()),
         input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
-        metrics: metrics.iter().map(|m| Metric::parse(m).unwrap()).collect(),
+        metrics: Arc::new(LoopMetrics::parse(metrics).unwrap()),
     }
 }
 
@@ -157,10 +160,10 @@ fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
         params,
         parameter_set: setup.parameter_set.clone(),
         input: setup.input.clone(),
-        outputs: metrics::recorded(&setup.metrics),
+        outputs: setup.metrics.recorded(),
     };
     let trace = master::run(&setup.system, &opts, |_| {}).unwrap();
-    metrics::compute_all(&setup.metrics, &trace).unwrap()
+    setup.metrics.compute(&trace).unwrap()
 }
 
 #[test]
@@ -204,7 +207,7 @@ fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
         assert_eq!(out[i].metrics, fresh(&setup, &names, &rows[i]), "run {i}");
     }
     assert_ne!(out[0].metrics, out[1].metrics, "the parameters do reach the plant");
-    let metrics = &setup.metrics;
+    let metrics = &setup.metrics.names();
     let table = results_csv(&names, metrics, &out);
     let lines: Vec<&str> = table.lines().collect();
     assert_eq!(lines.len(), 6);
@@ -259,4 +262,184 @@ fn metric_flags_parse_or_say_why_not() {
     for bad in ["settle:-1", "rms:10:6", "rms:6", "final:", "median:x", "a,b"] {
         assert!(Metric::parse(bad).is_err(), "{bad}");
     }
+    // The engine's own metrics read any system; the actuator's are not among them.
+    let r = Reductions::parse(&["final:a.x", "max:b.y", "min:a.x"]).unwrap();
+    assert_eq!(r.recorded(), ["a.x", "b.y"]);
+    assert!(Reductions::parse(&["settle"]).is_err());
+}
+
+/// `final:`, `min:` and `max:` of every variable a plain run of `system` records: a
+/// difference anywhere in the outputs shows in one of them.
+fn every_output(system: &Path, input: &Option<InputTable>) -> Arc<dyn Metrics> {
+    let opts = Options {
+        stop_time: Some(0.02),
+        step_size: None,
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: None,
+        input: input.clone(),
+        outputs: vec![],
+    };
+    let sim = master::System::load(system).unwrap().initialise(&opts).unwrap();
+    let names = sim.record_names().to_vec();
+    assert!(!names.is_empty(), "{}: records nothing", system.display());
+    Arc::new(LoopMetrics(
+        names
+            .iter()
+            .flat_map(|n| {
+                ["final", "min", "max"].map(|k| Metric::parse(&format!("{k}:{n}")).unwrap())
+            })
+            .collect(),
+    ))
+}
+
+#[test]
+fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
+    // (system, a parameter of it to sweep, whether it has a system input to feed).
+    let systems = [
+        ("InchwormSystem.ssp", "plant.T_em", false),
+        ("InchwormSystemOpen.ssp", "plant.T_em", true),
+        ("MirrorMount.ssp", "plant_b.T_em", false),
+        ("fmi3/InchwormSystem.ssp", "plant.T_em", true),
+        ("fmi3/InchwormSystemMixed.ssp", "plant.T_em", false),
+    ];
+    // Repeated and shuffled: a value seen before, after another, must still give the row a
+    // fresh load gives (a reset that misses any state shows as a repeat that differs).
+    let values = [8.8, 8.8, 9.4, 8.8, 8.2, 9.4, 8.8];
+    for (file, param, open) in systems {
+        let system = Path::new(DIST).join(file);
+        assert!(system.is_file(), "{}: run `cargo run --release -p fmu-build`", system.display());
+        let input = open.then(|| InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap());
+        let setup = Setup {
+            system: system.clone(),
+            stop_time: Some(0.2),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: None,
+            input: input.clone(),
+            metrics: every_output(&system, &input),
+        };
+        let names = vec![param.to_string()];
+        let rows: Vec<Row> = values
+            .iter()
+            .enumerate()
+            // Run ids out of order too: the plan is data.
+            .map(|(i, &v)| Row { run: 100 - i, sample: 0, values: vec![v] })
+            .collect();
+        let plan = Plan { names: names.clone(), rows: rows.clone() };
+        let expected: Vec<Vec<Option<f64>>> =
+            rows.iter().map(|r| fresh(&setup, &names, r)).collect();
+        for jobs in [1, 2] {
+            let out = exec::run_plan(&setup, &plan, jobs, |_| {});
+            for (i, (o, e)) in out.iter().zip(&expected).enumerate() {
+                assert_eq!(o.error, None, "{file}, {jobs} worker(s), row {i}");
+                let bits = |v: &[Option<f64>]| -> Vec<Option<u64>> {
+                    v.iter().map(|x| x.map(f64::to_bits)).collect()
+                };
+                assert_eq!(
+                    bits(&o.metrics),
+                    bits(e),
+                    "{file}, {jobs} worker(s), row {i} ({param} = {}) differs from `inchworm run`",
+                    values[i]
+                );
+            }
+        }
+        // The parameter does reach the system, or equal rows would prove nothing.
+        assert_ne!(expected[0], expected[2], "{file}: {param} changes nothing");
+    }
+}
+
+/// A name from pieces a user or an attacker might type: letters, dots, brackets, spaces,
+/// non-ASCII, commas, quotes, control characters, the plan's own column names.
+fn random_name(r: &mut SplitMix64) -> String {
+    const PIECES: [&str; 16] = [
+        "plant", ".", "T_em", "[1]", " ", "é", "µ", "x", ",", "\"", "\u{7}", "\t", "run", "sample",
+        "\u{a0}", "\n",
+    ];
+    let n = 1 + (r.next_u64() % 4) as usize;
+    (0..n).map(|_| PIECES[(r.next_u64() % PIECES.len() as u64) as usize]).collect()
+}
+
+/// A number as a user might write it: any finite bits, small integers, signed zero.
+fn random_value(r: &mut SplitMix64) -> String {
+    match r.next_u64() % 4 {
+        0 => {
+            let v = f64::from_bits(r.next_u64());
+            if v.is_finite() {
+                format!("{v:e}")
+            } else {
+                "1e308".into()
+            }
+        }
+        1 => format!("{}", (r.next_u64() % 2001) as i64 - 1000),
+        2 => "-0".into(),
+        _ => format!("{}", r.uniform() * 10.0),
+    }
+}
+
+#[test]
+fn whatever_grid_writes_plan_reads_back_to_the_bit() {
+    let mut r = SplitMix64::new(2024);
+    let (mut accepted, mut refused) = (0, 0);
+    for _ in 0..3000 {
+        let axes = 1 + (r.next_u64() % 3) as usize;
+        let mut sweeps = Vec::new();
+        let mut ok = true;
+        for _ in 0..axes {
+            let name = random_name(&mut r);
+            let spec = if r.next_u64().is_multiple_of(2) {
+                let n = 1 + r.next_u64() % 5;
+                format!("{}:{}:{n}", random_value(&mut r), random_value(&mut r))
+            } else {
+                let k = 1 + r.next_u64() % 4;
+                (0..k).map(|_| random_value(&mut r)).collect::<Vec<_>>().join(";")
+            };
+            match plan::parse_grid(&format!("{name}={spec}")) {
+                Ok(s) => sweeps.push(s),
+                Err(_) => ok = false,
+            }
+        }
+        let Ok(p) = Plan::build(&sweeps, 1, 0) else {
+            refused += 1;
+            continue;
+        };
+        if !ok || sweeps.is_empty() {
+            refused += 1;
+            continue;
+        }
+        accepted += 1;
+        let text = p.to_csv();
+        let back = Plan::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
+        assert_eq!(back.names, p.names, "{text}");
+        assert_eq!(back.rows.len(), p.rows.len());
+        for (a, b) in back.rows.iter().zip(&p.rows) {
+            assert_eq!((a.run, a.sample), (b.run, b.sample));
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&a.values), bits(&b.values), "{text}");
+        }
+        // One row by its run index reads back alone, the same.
+        let k = p.rows.len() / 2;
+        let one = Plan::read(text.as_bytes(), Some(&[p.rows[k].run])).unwrap();
+        assert_eq!(one.rows, vec![p.rows[k].clone()]);
+    }
+    // Both sides of the rule are exercised: names it must refuse, and plans it must keep.
+    assert!(accepted > 300 && refused > 300, "accepted {accepted}, refused {refused}");
+}
+
+#[test]
+fn plan_sizes_are_checked_before_anything_is_allocated() {
+    let g = |t: &str| plan::parse_grid(t).unwrap();
+    let e = Plan::build(&[g("a=1:2:1000"), g("b=1:2:1000"), g("c=1:2:2")], 1, 0)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(e, "1000 × 1000 × 2 = 2000000 runs: more than the 1000000 a sweep may have");
+    let s = plan::parse_sample("c=uniform(0,1)").unwrap();
+    let e = Plan::build(&[g("a=1:2:1000"), s], usize::MAX, 0).unwrap_err().to_string();
+    assert!(e.starts_with("1000 × 18446744073709551615 samples runs overflows"), "{e}");
+    let e = Plan::parse("run,sample,a\n0,0,1\n0,1,2\n").unwrap_err().to_string();
+    assert_eq!(e, "plan line 3: the run index 0 is given twice");
+    assert!(Plan::parse("run,sample,a,a\n").unwrap_err().to_string().contains("a column twice"));
+    let e = Plan::read("run,sample,a\n5,0,1\n".as_bytes(), Some(&[4])).unwrap_err().to_string();
+    assert_eq!(e, "no row with run index 4");
 }

@@ -157,7 +157,7 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
     let mode = if args.lockstep { "lock-step" } else { "real time, 500 Hz" };
 
     if board_role {
-        let mechanism = inchworm::bridge::FmuMechanism::load(&fmu, &params)?;
+        let mechanism = inchworm_scenarios::bridge::FmuMechanism::load(&fmu, &params)?;
         let cfg = BoardConfig {
             lockstep: args.lockstep,
             watchdog_periods: args.watchdog.max(1),
@@ -226,7 +226,7 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         None => None,
     };
     let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
-    let mut comp = inchworm::bridge::FmuCompensator::load(&fmu, &params)?;
+    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&fmu, &params)?;
     if let Some(l) = log.as_mut() {
         let mut meta = format!(
             "role=controller\nfmu={}\nlockstep={}\nduration={duration}\n",

@@ -5,10 +5,10 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::fmu::{CsFmu, FmuError};
-use inchworm::gait::{self, CHECK_TOLERANCE_UM};
-use inchworm::plant::{GaitRun, Plant};
-use inchworm::plot;
+use inchworm_cosim::fmu::{CsFmu, FmuError};
+use inchworm_scenarios::gait::{self, CHECK_TOLERANCE_UM};
+use inchworm_scenarios::plant::{GaitRun, Plant};
+use inchworm_scenarios::plot;
 
 #[derive(Args)]
 pub struct GaitArgs {

@@ -5,11 +5,14 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
+use inchworm_cosim::InputTable;
+
 pub mod bridge;
 pub mod gait;
 pub mod replay;
 pub mod run;
 pub mod scenario;
+pub mod signals;
 pub mod sweep;
 
 /// Creates the folder `path` goes in, if it has one and it is missing.
@@ -72,7 +75,7 @@ pub fn parse_params(params: &[String]) -> Result<Vec<(String, String)>, String> 
 const MAX_INPUT_BYTES: u64 = 256 << 20;
 
 /// A CSV of inputs (`time,<name>,…`) read from `path`; errors name the file.
-pub fn read_input(path: &Path) -> Result<inchworm::master::InputTable, String> {
+pub fn read_input(path: &Path) -> Result<InputTable, String> {
     let here = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let limit = match std::env::var("INCHWORM_MAX_INPUT_BYTES") {
         Err(_) => MAX_INPUT_BYTES,
@@ -90,11 +93,22 @@ pub fn read_input(path: &Path) -> Result<inchworm::master::InputTable, String> {
             "the input CSV is larger than {limit} bytes (raise the limit with INCHWORM_MAX_INPUT_BYTES): refused"
         )));
     }
-    inchworm::master::InputTable::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+    InputTable::parse(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Makes the output folder before a run, so a bad path fails before the work, not after.
 pub fn create_dir(dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir)
         .map_err(|e| format!("{}: cannot create the output directory: {e}", dir.display()))
+}
+
+/// The binary reports every error as one line of text, `error: <message>`.
+pub trait Text<T> {
+    fn text(self) -> Result<T, String>;
+}
+
+impl<T, E: std::fmt::Display> Text<T> for Result<T, E> {
+    fn text(self) -> Result<T, String> {
+        self.map_err(|e| e.to_string())
+    }
 }

@@ -62,8 +62,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), String> {
     if samples.is_empty() {
         return Err(format!("{}: no controller samples", args.log.display()));
     }
-    let params = inchworm::bridge::params_from_meta(&meta);
-    let mut comp = inchworm::bridge::FmuCompensator::load(&args.fmu, &params)?;
+    let params = inchworm_scenarios::bridge::params_from_meta(&meta);
+    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&args.fmu, &params)?;
     let r = replay(&mut comp, &samples)?;
     drop(comp);
     println!(

@@ -7,9 +7,12 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::master::{self, Coupling, Options};
-use inchworm::plot;
-use inchworm::trace::{self, Decimated};
+use inchworm_cosim::master::{self, Coupling, Options};
+use inchworm_cosim::trace::{self, Decimated};
+use inchworm_scenarios::plot;
+
+use super::signals;
+use super::Text;
 
 /// Rows a plot is drawn from, whatever the run's length: 2000 to 4000 points a line
 /// resolve a 1400-pixel-wide panel, and a 10^6 s run would have 5 · 10^8.
@@ -84,16 +87,28 @@ impl SimArgs {
     }
 }
 
+/// Why a run ended early: the engine's error, or the CSV could not be written.
+enum Stopped {
+    Engine(inchworm_cosim::Error),
+    Write(String),
+}
+
+impl From<inchworm_cosim::Error> for Stopped {
+    fn from(e: inchworm_cosim::Error) -> Stopped {
+        Stopped::Engine(e)
+    }
+}
+
 pub fn run(args: &RunArgs) -> Result<(), String> {
     let opts = args.sim.options(args.outputs.clone())?;
     // Before any work: a bad font or output path fails before the run, not after it.
     if args.plot.is_some() {
         plot::load_font(&args.font)?;
     }
-    master::stop_on_signals();
-    let sim = master::System::load(&args.file)?;
-    master::interrupted()?;
-    let sim = sim.initialise(&opts)?;
+    let stop = signals::stop_on_signals();
+    let sim = master::System::load(&args.file).text()?;
+    signals::interrupted()?;
+    let sim = sim.initialise(&opts).text()?.stop_when(stop);
     let names = sim.record_names().to_vec();
     let out = &args.out;
     let io = |e: std::io::Error| format!("{}: {e}", out.display());
@@ -106,7 +121,7 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let wall = Instant::now();
     let ran = sim.run_into(
         |t, row| {
-            trace::write_row(&mut csv, t, row).map_err(io)?;
+            trace::write_row(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
             if let Some(s) = &mut sample {
                 s.push(t, row);
             }
@@ -125,6 +140,10 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     if show {
         eprintln!();
     }
+    let ran = ran.map_err(|e| match e {
+        Stopped::Engine(e) => signals::describe(e),
+        Stopped::Write(e) => e,
+    });
     let flushed = csv.flush().map_err(io);
     if let Err(e) = ran {
         return Err(match rows {

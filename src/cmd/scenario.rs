@@ -2,17 +2,20 @@
 //! the crates with `--direct`), each variant as CSV, all of them in one PNG.
 
 use std::path::PathBuf;
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::closed_loop::{LoopView, SlewView};
-use inchworm::plot;
-use inchworm::scenario::{self, Via};
+use inchworm_scenarios::closed_loop::{LoopView, SlewView};
+use inchworm_scenarios::plot;
+use inchworm_scenarios::scenario::{self, Via};
+
+use super::Text;
 
 #[derive(Args)]
 pub struct ScenarioArgs {
-    /// fig5 | staircase | calibration | fia6 | slew | stall | mirror
+    #[arg(help = scenario_help().as_str())]
     pub name: String,
     /// Folder holding InchwormSystem.ssp (built by `cargo run --release -p fmu-build`).
     #[arg(long, default_value = "dist")]
@@ -26,19 +29,29 @@ pub struct ScenarioArgs {
     pub font: PathBuf,
 }
 
+/// The scenario argument's help: every name of the scenarios' table and what it runs.
+fn scenario_help() -> &'static String {
+    static HELP: OnceLock<String> = OnceLock::new();
+    HELP.get_or_init(|| {
+        let lines: Vec<String> =
+            scenario::SCENARIOS.iter().map(|(n, what)| format!("  {n}: {what}")).collect();
+        format!("The scenario:\n{}", lines.join("\n"))
+    })
+}
+
 pub fn run(args: &ScenarioArgs) -> Result<(), String> {
     if args.name == "mirror" {
-        return scenario::mirror(&args.dist, &args.out, &args.font);
+        return scenario::mirror(&args.dist, &args.out, &args.font).text();
     }
     let s = scenario::by_name(&args.name).ok_or_else(|| {
-        format!("unknown scenario `{}`; known: {}", args.name, scenario::NAMES.join(", "))
+        format!("unknown scenario `{}`; known: {}", args.name, scenario::names().join(", "))
     })?;
     plot::load_font(&args.font)?;
     super::create_dir(&args.out)?;
     let ssp = args.dist.join("InchwormSystem.ssp");
     let via = if args.direct { Via::Direct } else { Via::System(&ssp) };
     let wall = Instant::now();
-    let traces = s.run(via)?;
+    let traces = s.run(via).text()?;
     let wall = wall.elapsed().as_secs_f64();
     let views = traces.iter().map(LoopView::new).collect::<Result<Vec<_>, _>>()?;
     println!("{} ({})", s.title, s.via_text(via));
@@ -71,11 +84,11 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
             r.write_csv(w)
         })?;
     }
-    if scenario::is_future_work(s.name) {
+    if scenario::is_controller_option(s.name) {
         super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
-            scenario::future_work_png(s.title, &names, &views, p)
+            scenario::options_png(s.title, &names, &views, p)
         })?;
-        return scenario::write_extras(s.name, &args.out);
+        return scenario::write_extras(s.name, &args.out).text();
     }
     super::write_png(&args.out.join(format!("{}.png", s.name)), |p| {
         plot::closed_loop_png(s.title, &names, &views, p)

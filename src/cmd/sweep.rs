@@ -9,11 +9,15 @@ use std::time::Instant;
 
 use clap::Args;
 
-use inchworm::plot;
-use inchworm::sweep::exec::{self, Setup};
-use inchworm::sweep::metrics::{self, Metric};
-use inchworm::sweep::plan::{self, Plan};
-use inchworm::sweep::{self as sw, plots};
+use inchworm_cosim::sweep::exec::{self, Setup};
+use inchworm_cosim::sweep::metrics::Metrics;
+use inchworm_cosim::sweep::plan::{self, Plan};
+use inchworm_cosim::sweep::{self as sw};
+use inchworm_cosim::Error;
+use inchworm_scenarios::metrics::{self, LoopMetrics};
+use inchworm_scenarios::{plot, sweep_plots as plots};
+
+use super::{signals, Text};
 
 use super::run::SimArgs;
 
@@ -73,33 +77,24 @@ pub struct SweepArgs {
 
 fn plan_of(args: &SweepArgs) -> Result<Plan, String> {
     if let Some(p) = &args.plan {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let plan = Plan::parse(&text).map_err(|e| format!("{}: {e}", p.display()))?;
-        if args.rows.is_empty() {
-            return Ok(plan);
-        }
-        let mut rows = Vec::new();
-        for k in &args.rows {
-            let r = plan
-                .rows
-                .iter()
-                .find(|r| r.run == *k)
-                .ok_or_else(|| format!("{}: no row with run index {k}", p.display()))?;
-            rows.push(r.clone());
-        }
-        return Ok(Plan { names: plan.names, rows });
+        // Read line by line: with --row only the rows asked for are kept, whatever the
+        // plan's size.
+        let f = std::fs::File::open(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let only = (!args.rows.is_empty()).then_some(args.rows.as_slice());
+        return Plan::read(std::io::BufReader::new(f), only)
+            .map_err(|e| format!("{}: {e}", p.display()));
     }
     let mut sweeps = Vec::new();
     for g in &args.grids {
-        sweeps.push(plan::parse_grid(g)?);
+        sweeps.push(plan::parse_grid(g).text()?);
     }
     for s in &args.samples_of {
-        sweeps.push(plan::parse_sample(s)?);
+        sweeps.push(plan::parse_sample(s).text()?);
     }
     if sweeps.is_empty() {
         return Err("nothing to sweep: give --grid, --sample or --plan".into());
     }
-    Plan::build(&sweeps, args.samples, args.seed)
+    Plan::build(&sweeps, args.samples, args.seed).text()
 }
 
 /// A progress line on stderr, redrawn at most 10 times a second: bar, count, rate, ETA.
@@ -141,12 +136,86 @@ fn safe_name(s: &str) -> String {
         .collect()
 }
 
+/// The most summary plots a sweep draws: one histogram per metric and one scatter plot
+/// per metric and parameter, so a plan of many columns would otherwise write thousands.
+const MAX_PLOTS: usize = 64;
+
+/// The most metrics a sweep computes.
+const MAX_METRICS: usize = 64;
+
+/// The most histogram bins: the counts are allocated per plot, and a 1000-pixel-wide
+/// plot shows no more.
+const MAX_BINS: usize = 1000;
+
+/// The most worker threads: each holds a loaded system (its FMUs unpacked and loaded).
+const MAX_JOBS: usize = 256;
+
+/// The number of summary plots, refused above [`MAX_PLOTS`] with the arithmetic.
+fn plot_count(metrics: usize, parameters: usize) -> Result<usize, String> {
+    let plots = parameters.checked_add(1).and_then(|p| p.checked_mul(metrics));
+    match plots {
+        Some(n) if n <= MAX_PLOTS => Ok(n),
+        _ => Err(format!(
+            "{metrics} metrics × (1 histogram + {parameters} parameters) = {} plots: more than the {MAX_PLOTS} a sweep draws; give --no-plots, or fewer metrics or parameters",
+            plots.map_or("too many".to_string(), |n| n.to_string())
+        )),
+    }
+}
+
+/// Everything the sweep will write, checked before the first run (a sweep may take
+/// hours, and a path refused at the end loses all of it): the font, the plot count, the
+/// folder made and writable, and no file to write a folder.
+fn check_outputs(args: &SweepArgs, plan: &Plan, metrics: &[String]) -> Result<(), String> {
+    let mut files = vec![args.out.join("plan.csv"), args.out.join("results.csv")];
+    if !args.no_plots {
+        if args.bins > MAX_BINS {
+            return Err(format!(
+                "--bins {}: more than the {MAX_BINS} bins a histogram draws",
+                args.bins
+            ));
+        }
+        plot_count(metrics.len(), plan.names.len())?;
+        plot::load_font(&args.font)?;
+        for m in metrics {
+            files.push(args.out.join(format!("hist_{}.png", safe_name(m))));
+            for name in &plan.names {
+                files.push(args.out.join(format!("{}_vs_{}.png", safe_name(m), safe_name(name))));
+            }
+        }
+    }
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    if let Some(f) = files.iter().find(|f| f.is_dir()) {
+        return Err(format!("{}: is a folder, cannot write the file there", f.display()));
+    }
+    // A file made and removed: the folder takes new files (permissions, a read-only disk).
+    tempfile::Builder::new()
+        .prefix(".inchworm-sweep-")
+        .tempfile_in(&args.out)
+        .map_err(|e| format!("{}: cannot write there: {e}", args.out.display()))?;
+    Ok(())
+}
+
 pub fn run(args: &SweepArgs) -> Result<(), String> {
-    let metrics: Vec<Metric> = if args.metrics.is_empty() {
-        metrics::DEFAULT.iter().map(|m| Metric::parse(m)).collect::<Result<_, _>>()?
+    let metrics = if args.metrics.is_empty() {
+        LoopMetrics::parse(&metrics::DEFAULT)
     } else {
-        args.metrics.iter().map(|m| Metric::parse(m)).collect::<Result<_, _>>()?
-    };
+        LoopMetrics::parse(&args.metrics)
+    }
+    .text()?;
+    let metric_names = metrics.names();
+    if metric_names.len() > MAX_METRICS {
+        return Err(format!(
+            "{} metrics: more than the {MAX_METRICS} a sweep computes",
+            metric_names.len()
+        ));
+    }
+    if let Some(m) = metric_names
+        .iter()
+        .enumerate()
+        .find_map(|(i, m)| metric_names[..i].iter().any(|n| n == m).then_some(m))
+    {
+        return Err(format!("--metric {m} is given twice (it names one column of the results)"));
+    }
     let plan = plan_of(args)?;
     if args.plan_only {
         return super::write_file(&args.out.join("plan.csv"), |w| {
@@ -162,37 +231,55 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         params: opts.params,
         parameter_set: opts.parameter_set,
         input: opts.input,
-        metrics: metrics.clone(),
+        metrics: std::sync::Arc::new(metrics),
     };
     let jobs =
         args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if jobs > MAX_JOBS {
+        return Err(format!("--jobs {jobs}: more than the {MAX_JOBS} worker threads a sweep runs"));
+    }
     let json = args.json || !args.rows.is_empty();
+    if !json {
+        check_outputs(args, &plan, &metric_names)?;
+    }
     let mut bar = (!json && std::io::stderr().is_terminal()).then(|| Progress {
         total: plan.rows.len(),
         start: Instant::now(),
         last: None,
     });
+    // A stop signal ends the sweep between two steps; the runs done are still written.
+    let stop = signals::stop_on_signals();
     let wall = Instant::now();
-    let outcomes = exec::run_plan(&setup, &plan, jobs, |done| {
+    let mut outcomes = exec::run_plan_until(&setup, &plan, jobs, &stop, |done| {
         if let Some(b) = bar.as_mut() {
             b.show(done);
         }
     });
+    // The run the signal stopped says which signal it was, as `inchworm run` does.
+    if signals::stop_signal().is_some() {
+        let stopped = Error::Stopped.to_string();
+        for o in outcomes.iter_mut().filter(|o| o.error.as_deref() == Some(stopped.as_str())) {
+            o.error = Some(signals::describe(Error::Stopped));
+        }
+    }
     let wall = wall.elapsed().as_secs_f64();
     if json {
         let mut out = std::io::stdout().lock();
         for o in &outcomes {
-            writeln!(out, "{}", sw::json_line(&plan.names, &metrics, o))
+            writeln!(out, "{}", sw::json_line(&plan.names, &metric_names, o))
                 .map_err(|e| format!("stdout: {e}"))?;
         }
-        return Ok(());
-    }
-    if !args.no_plots {
-        plot::load_font(&args.font)?;
+        return signals::interrupted();
     }
     super::write_file(&args.out.join("plan.csv"), |w| w.write_all(plan.to_csv().as_bytes()))?;
-    let table = sw::results_csv(&plan.names, &metrics, &outcomes);
+    let table = sw::results_csv(&plan.names, &metric_names, &outcomes);
     super::write_file(&args.out.join("results.csv"), |w| w.write_all(table.as_bytes()))?;
+    if let Err(e) = signals::interrupted() {
+        return Err(format!(
+            "{e} ({} holds the runs done)",
+            args.out.join("results.csv").display()
+        ));
+    }
     let failed = outcomes.iter().filter(|o| o.error.is_some()).count();
     println!(
         "{} runs in {wall:.2} s on {jobs} thread(s) ({:.1} runs/s); {failed} failed",
@@ -202,7 +289,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
     if let Some(o) = outcomes.iter().find(|o| o.error.is_some()) {
         println!("  first failure, run {}: {}", o.run, o.error.as_deref().unwrap_or(""));
     }
-    for (i, m) in metrics.iter().enumerate() {
+    for (i, name) in metric_names.iter().enumerate() {
         let values: Vec<Option<f64>> = outcomes
             .iter()
             .filter(|o| o.error.is_none())
@@ -211,18 +298,17 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         let s = sw::stats(&values);
         println!(
             "  {:<32} n {:>5}  none {:>4}  mean {:.6e}  sd {:.3e}  min {:.6e}  median {:.6e}  max {:.6e}",
-            m.name, s.n, s.missing, s.mean, s.sd, s.min, s.median, s.max
+            name, s.n, s.missing, s.mean, s.sd, s.min, s.median, s.max
         );
         if args.no_plots {
             continue;
         }
         let present: Vec<f64> =
             values.iter().flatten().copied().filter(|v| v.is_finite()).collect();
-        let title =
-            format!("{}: {} runs with a value, {} without", m.name, present.len(), s.missing);
-        let png = args.out.join(format!("hist_{}.png", safe_name(&m.name)));
-        super::write_png(&png, |p| plots::histogram_png(&title, &m.name, &present, args.bins, p))?;
-        for (j, name) in plan.names.iter().enumerate() {
+        let title = format!("{}: {} runs with a value, {} without", name, present.len(), s.missing);
+        let png = args.out.join(format!("hist_{}.png", safe_name(name)));
+        super::write_png(&png, |p| plots::histogram_png(&title, name, &present, args.bins, p))?;
+        for (j, param) in plan.names.iter().enumerate() {
             let points: Vec<(f64, f64)> = outcomes
                 .iter()
                 .filter_map(|o| {
@@ -230,9 +316,9 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
                     Some((o.values[j], y))
                 })
                 .collect();
-            let png = args.out.join(format!("{}_vs_{}.png", safe_name(&m.name), safe_name(name)));
-            let title = format!("{} against {name}", m.name);
-            super::write_png(&png, |p| plots::scatter_png(&title, name, &m.name, &points, p))?;
+            let png = args.out.join(format!("{}_vs_{}.png", safe_name(name), safe_name(param)));
+            let title = format!("{} against {param}", name);
+            super::write_png(&png, |p| plots::scatter_png(&title, param, name, &points, p))?;
         }
     }
     Ok(())

@@ -625,3 +625,242 @@ def test_an_fmi3_parameter_refused_at_initialization_names_the_fmi3_call(tmp, tm
         "error: InchwormPlant: fmi3ExitInitializationMode returned fmi3Error at t = 0 s "
         "(the FMU's log messages above say why)"
     )
+
+
+# ---------------------------------------------------------------------------------------
+# Sweeps, whole-system caps and types (docs/ssp.md, "Sweeps: caps and rules"). Each case
+# failed on the binary before these rules (INCHWORM_BIN=<that build> shows it).
+
+MIRROR = DIST / "MirrorMount.ssp"
+CLOSED = DIST / "InchwormSystem.ssp"  # the system with bindings and a reference component
+
+
+def sweep(tmp, tmp_path, *args, system=SSP, **kw):
+    extra = ["--input", ref_csv(tmp_path)] if system == SSP else []
+    return inchworm(tmp, "sweep", system, *extra, *args, **kw)
+
+
+def refused(r, message):
+    """Exit status 1 and `message` as the one error line."""
+    assert r.returncode == 1, (r.returncode, r.stderr[-2000:])
+    assert error_line(r) == message
+
+
+def plan_file(tmp_path, text, name="plan.csv"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_sweep_rows_on_the_mirror_mount_equal_inchworm_run(tmp, tmp_path):
+    # A reset must restore what a fresh load applies: the SSD's first bindings (the
+    # references' targets) were lost, so rows after the first differed from `run`.
+    outs = ["reference_b.reference", "plant_b.encoder_position", "plant_c.runner_position"]
+    run = inchworm(tmp, "run", MIRROR, "--stop-time", "0.2", "--param", "plant_b.T_em=8.8",
+                   "--out", tmp_path / "run.csv", *[a for o in outs for a in ("--output", o)])
+    assert run.returncode == 0, run.stderr[-2000:]
+    last = (tmp_path / "run.csv").read_text().splitlines()[-1].split(",")
+    expected = {o: float(v) for o, v in zip(outs, last[1:])}
+    plan = plan_file(tmp_path, "run,sample,plant_b.T_em\n0,0,8.8\n1,0,8.8\n2,0,8.8\n")
+    r = inchworm(tmp, "sweep", MIRROR, "--plan", plan, "--json", "--jobs", "1", "--stop-time", "0.2",
+                 *[a for o in outs for a in ("--metric", f"final:{o}")])
+    assert r.returncode == 0, r.stderr[-2000:]
+    import json
+    rows = [json.loads(l) for l in r.stdout.splitlines()]
+    assert [row["run"] for row in rows] == [0, 1, 2]
+    for row in rows:
+        assert row["status"] == "ok", row
+        assert {o: row["metrics"][f"final:{o}"] for o in outs} == expected, row["run"]
+
+
+# 65536^4 = 2^64: unchecked, the count wrapped to 0 and the sweep "succeeded" with no runs.
+OVERFLOWING = [a for n in ("plant.T_em", "plant.k_p", "plant.F_d0", "plant.T_ex") for a in ("--grid", f"{n}=1:2:65536")]
+
+
+@pytest.mark.parametrize("args, message", [
+    # Allocated unchecked: the process aborted (SIGABRT).
+    (["--grid", "plant.T_em=1:2:10000000000000", "--plan-only"],
+     "--grid plant.T_em=1:2:10000000000000: 10000000000000 points = 10000000000000 runs: "
+     "more than the 1000000 a sweep may have"),
+    (["--sample", "plant.T_em=normal(8.8,0.1)", "--samples", "1000000000000000", "--plan-only"],
+     "1000000000000000 samples = 1000000000000000 runs: more than the 1000000 a sweep may have"),
+    (OVERFLOWING + ["--plan-only"],
+     "65536 × 65536 × 65536 × 65536 runs overflows a 64-bit count: more than the 1000000 a sweep may have"),
+    # A comma in the name writes a header with one column more than each row has.
+    (["--grid", "plant.T_em,x=1:2:2", "--plan-only"],
+     "--grid plant.T_em,x=1:2:2: the parameter name `plant.T_em,x` holds a comma: refused (it names a CSV column)"),
+    (["--grid", "plant.T_em=8.8;9", "--metric", "slips", "--metric", "slips", "--plan-only"],
+     "--metric slips is given twice (it names one column of the results)"),
+    (["--grid", "plant.T_em=8.8;9", "--jobs", "1000000", "--stop-time", "0.01", "--no-plots"],
+     "--jobs 1000000: more than the 256 worker threads a sweep runs"),
+    # Allocated after every run, unchecked: the sweep aborted once its runs were done.
+    (["--grid", "plant.T_em=8.8;9", "--stop-time", "0.01", "--bins", "1000000000000"],
+     "--bins 1000000000000: more than the 1000 bins a histogram draws"),
+], ids=["grid-points", "samples", "grid-overflow", "grid-comma", "metric-twice", "jobs", "bins"])
+def test_sweep_sizes_and_names_past_their_rules_are_refused(tmp, tmp_path, args, message):
+    r = sweep(tmp, tmp_path, *args, "--out", tmp_path / "o")
+    refused(r, f"error: {message}")
+    assert not (tmp_path / "o" / "plan.csv").exists()
+
+
+def test_a_plan_with_a_run_index_twice_is_refused(tmp, tmp_path):
+    plan = plan_file(tmp_path, "run,sample,plant.T_em\n0,0,8.8\n1,1,8.9\n0,2,9.0\n")
+    r = sweep(tmp, tmp_path, "--plan", plan, "--plan-only", "--out", tmp_path / "o")
+    refused(r, f"error: {plan}: plan line 4: the run index 0 is given twice")
+
+
+def test_a_plan_with_a_parameter_column_twice_is_refused(tmp, tmp_path):
+    plan = plan_file(tmp_path, "run,sample,plant.T_em,plant.T_em\n0,0,8.8,9.0\n")
+    r = sweep(tmp, tmp_path, "--plan", plan, "--plan-only", "--out", tmp_path / "o")
+    refused(r, f"error: {plan}: plan header: the parameter `plant.T_em` is a column twice")
+
+
+def test_a_plan_column_with_control_characters_is_refused(tmp, tmp_path):
+    plan = plan_file(tmp_path, "run,sample,plant.T_em\x1b[2J\n0,0,8.8\n")
+    r = sweep(tmp, tmp_path, "--plan", plan, "--plan-only", "--out", tmp_path / "o")
+    assert r.returncode == 1
+    line = error_line(r)
+    assert "\x1b" not in r.stderr, "the control character reached the terminal"
+    assert line == (
+        f"error: {plan}: plan header: the parameter name `plant.T_em\\u{{1b}}[2J` holds the control "
+        "character U+001B: refused (it names a CSV column)"
+    )
+
+
+def test_a_metric_name_with_control_characters_is_refused(tmp, tmp_path):
+    r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--metric", "final:plant.mode\x07",
+              "--plan-only", "--out", tmp_path / "o")
+    assert "\x07" not in r.stderr
+    refused(r, (
+        "error: --metric final:plant.mode\\u{7}: the control character U+0007 is refused (it names a CSV column)"
+    ))
+
+
+def test_an_output_path_that_cannot_be_written_is_refused_before_the_first_run(tmp, tmp_path):
+    out = tmp_path / "o"
+    (out / "results.csv").mkdir(parents=True)
+    r = sweep(tmp, tmp_path, "--grid", "plant.T_em=8.8;9", "--stop-time", "0.01", "--no-plots", "--out", out)
+    refused(r, f"error: {out / 'results.csv'}: is a folder, cannot write the file there")
+    assert "runs in" not in r.stdout and not (out / "plan.csv").exists(), "the runs were made first"
+
+
+def test_plots_past_their_cap_are_refused_before_the_first_run(tmp, tmp_path):
+    names = [f"plant.p{i}" for i in range(70)]
+    plan = plan_file(tmp_path, "run,sample," + ",".join(names) + "\n0,0," + ",".join(["1"] * 70) + "\n")
+    out = tmp_path / "o"
+    r = sweep(tmp, tmp_path, "--plan", plan, "--stop-time", "0.01", "--out", out, timeout=300)
+    refused(r, (
+        "error: 4 metrics × (1 histogram + 70 parameters) = 284 plots: more than the 64 a sweep draws; "
+        "give --no-plots, or fewer metrics or parameters"
+    ))
+    assert not out.exists() or not list(out.glob("*.png"))
+
+
+def test_a_plan_line_past_its_cap_is_refused_and_not_echoed(tmp, tmp_path):
+    plan = plan_file(tmp_path, "run,sample," + "x" * (20 << 20) + "\n0,0,1\n")
+    r = sweep(tmp, tmp_path, "--plan", plan, "--row", "0")
+    refused(r, f"error: {plan}: plan line 1: longer than 65536 bytes")
+    assert len(r.stderr) < 1000
+
+
+def test_a_row_asked_for_that_the_plan_gives_twice_is_refused(tmp, tmp_path):
+    plan = plan_file(tmp_path, "run,sample,plant.T_em\n3,0,8.8\n4,1,8.9\n3,2,9.0\n")
+    r = sweep(tmp, tmp_path, "--plan", plan, "--row", "3", "--stop-time", "0.01")
+    refused(r, f"error: {plan}: plan line 4: the run index 3 is given twice")
+    assert r.stdout == ""
+
+
+def test_a_long_sweep_run_streams_and_stops_on_sigterm_keeping_its_rows(tmp, tmp_path):
+    # 5e9 steps: the whole trace was reserved up front and the allocation aborted (SIGABRT).
+    out = tmp_path / "o"
+    e = dict(os.environ, TMPDIR=str(tmp))
+    p = subprocess.Popen([str(BIN), "sweep", SSP, "--input", ref_csv(tmp_path), "--grid", "plant.T_em=8.8;9",
+                          "--stop-time", "1e7", "--jobs", "1", "--no-plots", "--out", out],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e)
+    try:
+        time.sleep(3)
+        assert p.poll() is None, f"stopped with {p.returncode}: {p.stderr.read()[-2000:]}"
+        rss_kb = int(next(l for l in open(f"/proc/{p.pid}/status") if l.startswith("VmRSS")).split()[1])
+        assert rss_kb < 200_000, f"{rss_kb} kB resident: the run is not streamed"
+        p.send_signal(signal.SIGTERM)
+        _, err = p.communicate(timeout=30)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert p.returncode == 128 + signal.SIGTERM, err[-2000:]
+    assert err.strip().splitlines()[-1] == f"error: interrupted by SIGTERM ({out / 'results.csv'} holds the runs done)"
+    rows = (out / "results.csv").read_text().splitlines()
+    assert len(rows) == 3 and rows[1].endswith('failed,"interrupted by SIGTERM"'), rows
+
+
+def test_one_fmu_referenced_many_times_is_held_to_one_budget(tmp, tmp_path):
+    # Each archive alone fits the cap, so each was let through: 12 references unpacked 12 times.
+    with zipfile.ZipFile(PLANT) as z:
+        fmu_bytes = sum(i.file_size for i in z.infolist())
+    with zipfile.ZipFile(SSP) as z:
+        ssp_bytes = sum(i.file_size for i in z.infolist())
+    comps = "".join(f'<ssd:Component name="p{i}" source="resources/InchwormPlant.fmu"/>' for i in range(12))
+    ssd = ('<ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+           f'version="1.0" name="S"><ssd:System name="S"><ssd:Elements>{comps}</ssd:Elements></ssd:System>'
+           '</ssd:SystemStructureDescription>')
+    ssp = ssp_with_ssd(tmp_path, ssd, "many.ssp")
+    cap = ssp_bytes + 3 * fmu_bytes + 1000
+    r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--step-size", "0.002", "--output", "p0.mode",
+                 "--out", tmp_path / "o.csv", env={"INCHWORM_MAX_UNPACKED_BYTES": str(cap)})
+    assert r.returncode == 1, r.stderr[-2000:]
+    line = error_line(r)
+    assert line.startswith(f"error: {ssp}: the system unpacks to more than {cap} bytes in all (the SSP "), line
+    assert line.endswith("component p3 (InchwormPlant.fmu) passes it): refused "
+                         "(raise the cap with INCHWORM_MAX_UNPACKED_BYTES)"), line
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_a_connection_between_connectors_of_different_types_is_refused(tmp, tmp_path):
+    ssd = ssd_text()
+    old = 'startElement="plant" startConnector="encoder_counts" endElement="controller"'
+    assert old in ssd
+    ssd = ssd.replace(old, 'startElement="plant" startConnector="encoder_position" endElement="controller"')
+    r = run_ssp(tmp, tmp_path, ssp_with_ssd(tmp_path, ssd))
+    refused(r, (
+        "error: connection from `plant.encoder_position` (Real) to `controller.encoder_counts` (Integer): "
+        "the connectors are of different types: refused"
+    ))
+
+
+@pytest.mark.parametrize("old, new, message", [
+    # The system's input declared Integer, feeding a Real input.
+    ('<ssd:Connector name="reference" kind="input"><ssc:Real unit="m"/>',
+     '<ssd:Connector name="reference" kind="input"><ssc:Integer/>',
+     "connector `reference` is declared ssc:Integer in the SSD, but `controller.reference` is of type Real"),
+    # A component connector declared other than its FMU variable.
+    ('<ssd:Connector name="encoder_counts" kind="output"><ssc:Integer/>',
+     '<ssd:Connector name="encoder_counts" kind="output"><ssc:Real/>',
+     "connector `plant.encoder_counts` is declared ssc:Real in the SSD, but `plant.encoder_counts` is of type "
+     "Integer"),
+], ids=["system-connector", "component-connector"])
+def test_a_connector_declared_another_type_than_it_carries_is_refused(tmp, tmp_path, old, new, message):
+    ssd = ssd_text()
+    assert old in ssd
+    r = run_ssp(tmp, tmp_path, ssp_with_ssd(tmp_path, ssd.replace(old, new, 1)))
+    refused(r, f"error: {message}: refused")
+
+
+@pytest.mark.parametrize("entry, name, old, new, given, declared", [
+    ("resources/reference.default.ssv", "reference.n_points",
+     '<ssv:Integer value="1"/>', '<ssv:Real value="1"/>', "Real", "Integer"),
+    ("resources/controller.default.ssv", "controller.prefilter",
+     '<ssv:Boolean value="false"/>', '<ssv:Integer value="0"/>', "Integer", "Boolean"),
+], ids=["real-for-integer", "integer-for-boolean"])
+def test_a_binding_of_another_type_than_its_variable_is_refused(tmp, tmp_path, entry, name, old, new, given,
+                                                                 declared):
+    with zipfile.ZipFile(CLOSED) as z:
+        text = z.read(entry).decode()
+    here = f'"{name.split(".", 1)[1]}">'
+    assert here + old in text, text
+    ssp = rezip(CLOSED, tmp_path / "bound.ssp", replace={entry: text.replace(here + old, here + new).encode()})
+    r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--out", tmp_path / "o.csv")
+    refused(r, (
+        f"error: parameter `{name}`: the parameter set gives it an ssv:{given} value, but the variable "
+        f"is of type {declared}: refused (SSP 1.0: a value has its variable's type)"
+    ))

@@ -3,6 +3,7 @@ workers) gives the table the local `inchworm sweep` gives, row for row and bit f
 failed rows included."""
 import json
 import math
+import os
 import pathlib
 import subprocess
 import sys
@@ -15,7 +16,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "python" / "inchworm_dask"))
 import inchworm_dask  # noqa: E402
 
-EXE = ROOT / "target" / "release" / "inchworm"
+# INCHWORM_BIN: the binary to test, if not this tree's target/release/inchworm.
+EXE = pathlib.Path(os.environ.get("INCHWORM_BIN", ROOT / "target" / "release" / "inchworm"))
 SSP = ROOT / "dist" / "InchwormSystemOpen.ssp"
 METRICS = ["settle:1e-6", "rms:6:10", "disturbance", "slips", "max:plant.runner_position"]
 

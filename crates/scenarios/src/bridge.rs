@@ -7,8 +7,8 @@ use std::path::Path;
 use inchworm_bridge::{Compensator, Mechanism, PERIOD};
 use inchworm_controller::volts_of_code;
 
-use crate::fmu::{CsFmu, VarType};
-use crate::master::set_param;
+use inchworm_cosim::fmu::{CsFmu, VarType};
+use inchworm_cosim::master::set_param;
 
 fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, String> {
     let mut fmu = CsFmu::load(path, instance, false).map_err(|e| e.to_string())?;

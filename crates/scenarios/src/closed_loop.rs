@@ -10,7 +10,7 @@ use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
 use crate::gait::Step;
-use crate::trace::Trace;
+use inchworm_cosim::Trace;
 
 /// The plan flag of the controller crate's sample: the controller FMU has no such output,
 /// so only the direct coupling records it (see [`LoopView::iterated`]).

@@ -3,13 +3,14 @@
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 
 use crate::master::{Coupling, InputTable, Options, Simulation, System};
-use crate::sweep::metrics::{self, Metric};
+use crate::sweep::metrics::Metrics;
+use crate::sweep::metrics::RowMetrics;
 use crate::sweep::plan::{Plan, Row};
 use crate::sweep::ranges::Ranges;
-use crate::trace::Trace;
+use crate::{Error, StopFlag};
 
 /// What every run of a sweep shares.
 #[derive(Clone, Debug)]
@@ -22,7 +23,7 @@ pub struct Setup {
     pub params: Vec<(String, String)>,
     pub parameter_set: Option<String>,
     pub input: Option<InputTable>,
-    pub metrics: Vec<Metric>,
+    pub metrics: Arc<dyn Metrics>,
 }
 
 /// One run's outcome.
@@ -47,7 +48,7 @@ impl Setup {
             params,
             parameter_set: self.parameter_set.clone(),
             input: self.input.clone(),
-            outputs: metrics::recorded(&self.metrics),
+            outputs: self.metrics.recorded(),
         }
     }
 }
@@ -61,27 +62,47 @@ pub struct Worker<'a> {
     ranges: Ranges,
     /// Loads (unpack + instantiate) done so far: 1 unless a run failed.
     pub loads: usize,
+    /// Ends a run between two steps once set ([`Worker::stop_when`]).
+    stop: StopFlag,
 }
 
-fn simulate(sim: &mut Simulation) -> Result<Trace, String> {
-    let n = sim.n_steps();
-    let mut trace = Trace::new(sim.record_names().to_vec());
-    trace.rows.reserve(n as usize + 1);
-    trace.push(0.0, sim.sample()?);
-    for _ in 0..n {
-        sim.step()?;
-        trace.push(sim.time(), sim.sample()?);
+/// Steps `sim` to the stop time, each row reduced to the metrics as it comes (as
+/// `inchworm run` streams its rows): a run of any length takes the memory of one row
+/// (with metrics that stream, [`Metrics::stream`]). `stop` ends it between two steps with
+/// [`Error::Stopped`].
+fn simulate(
+    sim: &mut Simulation,
+    metrics: &dyn Metrics,
+    stop: &StopFlag,
+) -> Result<Vec<Option<f64>>, String> {
+    let text = |e: Error| e.to_string();
+    let mut reducer: Box<dyn RowMetrics + '_> =
+        metrics.stream(sim.record_names()).map_err(|e| e.to_string())?;
+    reducer.push(0.0, &sim.sample().map_err(text)?);
+    for _ in 0..sim.n_steps() {
+        // A stop (SIGINT/SIGTERM in the binary) ends the run between two steps, as in
+        // `inchworm run`, so the unpacked FMUs are removed on the way out.
+        stop.check().map_err(text)?;
+        sim.step().map_err(text)?;
+        reducer.push(sim.time(), &sim.sample().map_err(text)?);
     }
-    Ok(trace)
+    reducer.finish().map_err(|e| e.to_string())
 }
 
 impl<'a> Worker<'a> {
     pub fn new(setup: &'a Setup) -> Worker<'a> {
         let ranges = Ranges::read(&setup.system).unwrap_or_default();
-        Worker { setup, sim: None, ranges, loads: 0 }
+        Worker { setup, sim: None, ranges, loads: 0, stop: StopFlag::new() }
     }
 
-    fn fresh(&mut self, opts: &Options) -> Result<(), String> {
+    /// Makes a run stop between two steps, failing its row with [`Error::Stopped`], once
+    /// `flag` is set.
+    pub fn stop_when(mut self, flag: StopFlag) -> Worker<'a> {
+        self.stop = flag;
+        self
+    }
+
+    fn fresh(&mut self, opts: &Options) -> Result<(), Error> {
         self.sim = None;
         self.loads += 1;
         self.sim = Some(System::load(&self.setup.system)?.initialise(opts)?);
@@ -90,14 +111,14 @@ impl<'a> Worker<'a> {
 
     /// The system at t = 0 with `opts`' parameters: the loaded one reset, or, the first
     /// time or after a failure, loaded anew.
-    fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, String> {
+    fn ready(&mut self, opts: &Options) -> Result<&mut Simulation, Error> {
         let reset = self.sim.as_mut().map(|sim| sim.reset(opts));
         if !matches!(reset, Some(Ok(()))) {
             // First run, or a reset refused (which may be the previous run's trouble):
             // start clean, and let a load or initialisation error be this row's.
             self.fresh(opts)?;
         }
-        self.sim.as_mut().ok_or_else(|| "the system is not loaded".to_string())
+        self.sim.as_mut().ok_or_else(|| Error::Config("the system is not loaded".into()))
     }
 
     /// Runs one row; never fails: an error is the outcome's.
@@ -113,13 +134,16 @@ impl<'a> Worker<'a> {
         if let Some(e) =
             names.iter().zip(&row.values).find_map(|(n, v)| self.ranges.check(n, *v).err())
         {
-            return outcome(vec![], Some(e));
+            return outcome(vec![], Some(e.to_string()));
         }
         let opts = self.setup.options(names, row);
+        let setup = self.setup;
+        let metrics = &*setup.metrics;
+        let stop = self.stop.clone();
         let result = self
             .ready(&opts)
-            .and_then(simulate)
-            .and_then(|trace| metrics::compute_all(&self.setup.metrics, &trace));
+            .map_err(|e| e.to_string())
+            .and_then(|sim| simulate(sim, metrics, &stop));
         let (metrics, error) = match result {
             Ok(m) => (m, None),
             Err(e) => {
@@ -148,6 +172,19 @@ pub fn run_plan(
     setup: &Setup,
     plan: &Plan,
     jobs: usize,
+    progress: impl FnMut(usize),
+) -> Vec<Outcome> {
+    run_plan_until(setup, plan, jobs, &StopFlag::new(), progress)
+}
+
+/// [`run_plan`] that `stop` ends between two steps: the run under way fails with
+/// [`Error::Stopped`], no new run starts, and the rows not run fail with "the worker
+/// thread stopped before this run"; the runs done keep their outcomes.
+pub fn run_plan_until(
+    setup: &Setup,
+    plan: &Plan,
+    jobs: usize,
+    stop: &StopFlag,
     mut progress: impl FnMut(usize),
 ) -> Vec<Outcome> {
     let jobs = jobs.clamp(1, plan.rows.len().max(1));
@@ -159,8 +196,12 @@ pub fn run_plan(
             let tx = tx.clone();
             let next = &next;
             scope.spawn(move || {
-                let mut w = Worker::new(setup);
+                let mut w = Worker::new(setup).stop_when(stop.clone());
                 loop {
+                    // After a stop no new run starts; the rows not run say so.
+                    if stop.is_set() {
+                        break;
+                    }
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(row) = plan.rows.get(i) else { break };
                     // A panic (a bug) fails its row, not the sweep; the system is loaded anew.

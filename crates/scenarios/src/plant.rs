@@ -6,8 +6,8 @@ use std::io::Write;
 use inchworm_plant::PlantParams;
 pub use inchworm_plant::{Dac, Mode, Outputs};
 
-use crate::fmu::{CsFmu, FmuError, VarType};
 use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
+use inchworm_cosim::fmu::{CsFmu, FmuError, VarType};
 
 /// The DAC inputs (V), in the order of [`Dac`]'s fields.
 pub const INPUTS: [&str; 3] = ["dac_earth", "dac_nonearth", "dac_extension"];

@@ -1,4 +1,5 @@
-//! docs/model.md §4.2 (issue 14): the paper's future work as controller options.
+//! docs/model.md §4.2: the controller's options beyond the paper (analog mode, the 50 Hz gait,
+//! the brake-disturbance map), each against the baseline.
 use inchworm_controller::analog::Phase;
 use inchworm_controller::{Controller, Params, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Plant, PlantParams};
@@ -246,7 +247,7 @@ fn fifty_hertz_gait_slews_2_mm_over_5_times_faster_and_settles() {
 /// the baseline"), one row per configuration, from the directly coupled loop.
 #[test]
 fn comparison_table_of_the_options() {
-    use inchworm::closed_loop::{self, LoopView};
+    use inchworm_scenarios::closed_loop::{self, LoopView};
     let view = |p: &Params, r: f64, d: f64| {
         LoopView::new(&closed_loop::run(PlantParams::fia20(), p.clone(), |_| r, d).unwrap())
             .unwrap()
@@ -368,7 +369,7 @@ fn disturbance_map_predicts_the_coming_step_better_than_the_last_estimate() {
     assert!(pred_s < 0.2 * UM);
     // Planning with the prediction: the staircase still regulates to a nanometre, Fig. 5
     // still settles as fast.
-    use inchworm::closed_loop::{self, LoopView};
+    use inchworm_scenarios::closed_loop::{self, LoopView};
     let on = Params { use_disturbance_map: true, ..map };
     let tr = LoopView::new(
         &closed_loop::run(PlantParams::fia20(), on.clone(), staircase, 700.0).unwrap(),
@@ -399,8 +400,8 @@ fn disturbance_map_predicts_the_coming_step_better_than_the_last_estimate() {
 /// steps, `C(z) = k` against the double integrator `K (z − a)/(z − 1)`.
 #[test]
 fn single_integrator_with_the_map_against_the_double_integrator() {
-    use inchworm::closed_loop::{self, LoopView};
     use inchworm_controller::compensator::{margins, single_integrator_margins, Gains};
+    use inchworm_scenarios::closed_loop::{self, LoopView};
     let map = Params { disturbance_map: true, use_disturbance_map: true, ..Params::default() };
     let configs = [
         ("double integrator (baseline)", Params::default()),

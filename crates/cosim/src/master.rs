@@ -1,16 +1,17 @@
-//! A fixed-step co-simulation master for FMI 2.0 Co-Simulation FMUs: a flat SSP system or a
+//! A fixed-step co-simulation master for FMI 2.0 and 3.0 Co-Simulation FMUs: a flat SSP system or a
 //! single FMU, Jacobi or Gauss–Seidel coupling, parameters and parameter sets, a CSV of
 //! inputs for unconnected inputs, and the chosen variables recorded at every
 //! communication point.
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicI32, Ordering};
 
 use crate::archive::cut;
-use crate::fmu::{CsFmu, FmuError, Var, VarType};
-use crate::ssp::{Archive, End};
+use crate::fmu::{CsFmu, Var, VarType};
+pub use crate::input::InputTable;
+use crate::ssp::{Archive, End, TypedValue};
 use crate::trace::Trace;
+use crate::{Error, StopFlag};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coupling {
@@ -30,84 +31,6 @@ pub struct Options {
     pub input: Option<InputTable>,
     /// Names to record; empty: every system output connector (or every FMU output).
     pub outputs: Vec<String>,
-}
-
-/// Piecewise-constant signals from a CSV: `time,<name>,…`; the value at `t` is that of the
-/// last row with `time ≤ t` (a repeated time row marks a jump; the later row wins).
-#[derive(Clone, Debug)]
-pub struct InputTable {
-    pub names: Vec<String>,
-    rows: Vec<(f64, Vec<f64>)>,
-}
-
-impl InputTable {
-    /// The `(time, value)` rows of column `column`.
-    pub fn points(&self, column: usize) -> Vec<(f64, f64)> {
-        self.rows.iter().map(|(t, v)| (*t, v[column])).collect()
-    }
-
-    /// One signal from `(time, value)` rows, held from each time on; the times as
-    /// [`InputTable::parse`] wants them, non-decreasing and finite.
-    pub fn steps(name: &str, rows: &[(f64, f64)]) -> Result<InputTable, String> {
-        if rows.is_empty() || rows.windows(2).any(|w| w[1].0 < w[0].0) {
-            return Err(format!("input `{name}`: times must be non-decreasing, at least one row"));
-        }
-        if rows.iter().any(|(t, v)| !t.is_finite() || !v.is_finite()) {
-            return Err(format!("input `{name}`: times and values must be finite"));
-        }
-        Ok(InputTable {
-            names: vec![name.to_string()],
-            rows: rows.iter().map(|&(t, v)| (t, vec![v])).collect(),
-        })
-    }
-
-    /// Parses the CSV text. A leading UTF-8 byte-order mark is skipped; a line echoed in an
-    /// error is cut to 200 characters.
-    pub fn parse(text: &str) -> Result<InputTable, String> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
-        let header = lines.next().ok_or("input CSV is empty")?;
-        let cols: Vec<String> =
-            header.split(',').map(|c| c.trim().trim_matches('"').to_string()).collect();
-        if cols.first().map(String::as_str) != Some("time") || cols.len() < 2 {
-            let header = cut(header, 200);
-            return Err(format!("input CSV header must be `time,<name>,…`, got `{header}`"));
-        }
-        let mut rows = Vec::new();
-        for (i, l) in lines.enumerate() {
-            let v: Result<Vec<f64>, _> = l.split(',').map(|x| x.trim().parse::<f64>()).collect();
-            let v = v.map_err(|_| {
-                format!("input CSV line {}: not all numbers: `{}`", i + 2, cut(l, 200))
-            })?;
-            if v.len() != cols.len() || v.iter().any(|x| !x.is_finite()) {
-                return Err(format!(
-                    "input CSV line {}: expected {} finite numbers, got `{}`",
-                    i + 2,
-                    cols.len(),
-                    cut(l, 200)
-                ));
-            }
-            if rows.last().is_some_and(|(t, _): &(f64, Vec<f64>)| v[0] < *t) {
-                return Err(format!("input CSV line {}: time goes backwards", i + 2));
-            }
-            rows.push((v[0], v[1..].to_vec()));
-        }
-        if rows.is_empty() {
-            return Err("input CSV has no rows".into());
-        }
-        Ok(InputTable { names: cols[1..].to_vec(), rows })
-    }
-
-    /// The time of the first row: before it the table has no value.
-    pub fn start_time(&self) -> f64 {
-        self.rows[0].0
-    }
-
-    pub fn value(&self, column: usize, t: f64) -> f64 {
-        let tol = 1e-9 * t.abs().max(1e-3);
-        let i = self.rows.partition_point(|(rt, _)| *rt <= t + tol);
-        self.rows[i.saturating_sub(1)].1[column]
-    }
 }
 
 /// A variable of one component, resolved.
@@ -145,61 +68,88 @@ struct Component {
     fmu: CsFmu,
 }
 
-fn err(e: FmuError) -> String {
-    e.to_string()
-}
-
-fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), String> {
+fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), Error> {
     set_var(&mut components[p.component].fmu, Var { vr: p.vr, ty: p.ty }, value)
 }
 
-fn set_var(f: &mut CsFmu, v: Var, value: f64) -> Result<(), String> {
+fn set_var(f: &mut CsFmu, v: Var, value: f64) -> Result<(), Error> {
     match v.ty {
         VarType::Real => f.set_real(&[v.vr], &[value]),
         VarType::Integer | VarType::Enumeration => f.set_integer(&[v.vr], &[value.round() as i32]),
         VarType::Boolean => f.set_boolean(&[v.vr], &[value != 0.0]),
-        VarType::String => return Err("String variables cannot be connected".into()),
+        VarType::String => {
+            return Err(Error::Config("String variables cannot be connected".into()))
+        }
     }
-    .map_err(err)
+    .map_err(Error::from)
 }
 
 /// A start value or parameter given as text (`--param`, an `.ssv`), checked against the
 /// variable's type.
-fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, String> {
+fn parse_value(ty: VarType, name: &str, text: &str) -> Result<f64, Error> {
     let value = match ty {
         VarType::Boolean => match text.trim() {
             "true" | "1" => 1.0,
             "false" | "0" => 0.0,
-            t => return Err(format!("{name} = {t}: not a Boolean (true/false)")),
+            t => return Err(Error::Config(format!("{name} = {t}: not a Boolean (true/false)"))),
         },
-        _ => text.trim().parse::<f64>().map_err(|_| format!("{name} = {text}: not a number"))?,
+        _ => text
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| Error::Config(format!("{name} = {text}: not a number")))?,
     };
     if !value.is_finite() {
-        return Err(format!("{name} = {text}: not a finite number"));
+        return Err(Error::Config(format!("{name} = {text}: not a finite number")));
     }
     if matches!(ty, VarType::Integer | VarType::Enumeration) {
         if value.fract() != 0.0 {
-            return Err(format!("{name} = {text}: not an integer"));
+            return Err(Error::Config(format!("{name} = {text}: not an integer")));
         }
         // fmi2Integer is 32 bits: a cast would saturate silently.
         if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&value) {
-            return Err(format!(
+            return Err(Error::Config(format!(
                 "{name} = {text}: out of the Integer range {}..={}",
                 i32::MIN,
                 i32::MAX
-            ));
+            )));
         }
     }
     Ok(value)
 }
 
-fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), String> {
+/// Whether an SSP type (`Real`, `Integer`, … of `ssc:`/`ssv:`) is that of an FMI variable of
+/// type `ty`: the same name, or `Integer` for an enumeration (its values are integers).
+fn ssp_type_fits(kind: &str, ty: VarType) -> bool {
+    match ty {
+        VarType::Real => kind == "Real",
+        VarType::Integer => kind == "Integer",
+        VarType::Boolean => kind == "Boolean",
+        VarType::String => kind == "String",
+        VarType::Enumeration => matches!(kind, "Enumeration" | "Integer"),
+    }
+}
+
+/// A parameter set's value of SSP type `kind` for a variable of type `ty`: SSP 1.0 gives
+/// each value the type of the variable it sets (an `ssv:Enumeration` or `ssv:Integer` for
+/// an FMI enumeration), and a value of another type (a Real `3` for an Integer, an Integer
+/// `1` for a Boolean) is a mistake in the set, not a conversion to make silently.
+fn check_binding_type(name: &str, kind: &str, ty: VarType) -> Result<(), Error> {
+    if ssp_type_fits(kind, ty) {
+        return Ok(());
+    }
+    Err(Error::Config(format!(
+        "parameter `{}`: the parameter set gives it an ssv:{kind} value, but the variable is of type {ty}: refused (SSP 1.0: a value has its variable's type)",
+        cut(name, 200)
+    )))
+}
+
+fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Result<(), Error> {
     set(components, p, parse_value(p.ty, name, text)?)
 }
 
 /// Sets one variable of a single FMU by name from text, as `--param NAME=VALUE` does.
-pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), String> {
-    let v = fmu.var(name).map_err(err)?;
+pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), Error> {
+    let v = fmu.var(name)?;
     set_var(fmu, v, parse_value(v.ty, name, text)?)
 }
 
@@ -221,12 +171,14 @@ struct Group {
 }
 
 impl Batches {
-    fn new(ports: &[Port]) -> Result<Batches, String> {
+    fn new(ports: &[Port]) -> Result<Batches, Error> {
         let mut groups: Vec<Group> = Vec::new();
         for (slot, p) in ports.iter().enumerate() {
             let ty = match p.ty {
                 VarType::String => {
-                    return Err("String variables cannot be connected or recorded".into())
+                    return Err(Error::Config(
+                        "String variables cannot be connected or recorded".into(),
+                    ))
                 }
                 VarType::Enumeration => VarType::Integer,
                 t => t,
@@ -260,23 +212,23 @@ impl Batches {
         components: &mut [Component],
         out: &mut [f64],
         only: Option<usize>,
-    ) -> Result<(), String> {
+    ) -> Result<(), Error> {
         for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
             let f = &mut components[g.component].fmu;
             match g.ty {
                 VarType::Real => {
-                    f.get_real(&g.vrs, &mut g.reals).map_err(err)?;
+                    f.get_real(&g.vrs, &mut g.reals)?;
                     g.slots.iter().zip(&g.reals).for_each(|(&s, &v)| out[s] = v);
                 }
                 VarType::Boolean => {
-                    f.get_boolean(&g.vrs, &mut g.booleans).map_err(err)?;
+                    f.get_boolean(&g.vrs, &mut g.booleans)?;
                     g.slots
                         .iter()
                         .zip(&g.booleans)
                         .for_each(|(&s, &v)| out[s] = f64::from(u8::from(v)));
                 }
                 _ => {
-                    f.get_integer(&g.vrs, &mut g.integers).map_err(err)?;
+                    f.get_integer(&g.vrs, &mut g.integers)?;
                     g.slots.iter().zip(&g.integers).for_each(|(&s, &v)| out[s] = f64::from(v));
                 }
             }
@@ -289,24 +241,24 @@ impl Batches {
         components: &mut [Component],
         values: &[f64],
         only: Option<usize>,
-    ) -> Result<(), String> {
+    ) -> Result<(), Error> {
         for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
             let f = &mut components[g.component].fmu;
             match g.ty {
                 VarType::Real => {
                     g.slots.iter().zip(&mut g.reals).for_each(|(&s, v)| *v = values[s]);
-                    f.set_real(&g.vrs, &g.reals).map_err(err)?;
+                    f.set_real(&g.vrs, &g.reals)?;
                 }
                 VarType::Boolean => {
                     g.slots.iter().zip(&mut g.booleans).for_each(|(&s, v)| *v = values[s] != 0.0);
-                    f.set_boolean(&g.vrs, &g.booleans).map_err(err)?;
+                    f.set_boolean(&g.vrs, &g.booleans)?;
                 }
                 _ => {
                     g.slots
                         .iter()
                         .zip(&mut g.integers)
                         .for_each(|(&s, v)| *v = values[s].round() as i32);
-                    f.set_integer(&g.vrs, &g.integers).map_err(err)?;
+                    f.set_integer(&g.vrs, &g.integers)?;
                 }
             }
         }
@@ -330,6 +282,8 @@ pub struct System {
     inputs: Vec<String>,
     outputs: Vec<String>,
     connections: Vec<(End, End)>,
+    /// The SSD's declared connector types (empty for a single FMU).
+    connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
 }
@@ -337,10 +291,10 @@ pub struct System {
 impl System {
     /// Loads `path`: an `.ssp` (a flat system of FMI 2.0 CS FMUs), or a single `.fmu`,
     /// which is a system whose connectors are the FMU's own.
-    pub fn load(path: &Path) -> Result<System, String> {
+    pub fn load(path: &Path) -> Result<System, Error> {
         let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
         if !is_ssp {
-            let fmu = CsFmu::load(path, "fmu", false).map_err(err)?;
+            let fmu = CsFmu::load(path, "fmu", false)?;
             let step_size = fmu.default_step_size();
             let inputs = fmu.names_with_causality("input");
             let outputs = fmu.names_with_causality("output");
@@ -359,24 +313,36 @@ impl System {
                 inputs,
                 outputs,
                 connections,
+                connector_types: BTreeMap::new(),
                 stop_time: None,
                 step_size,
             });
         }
         let a = Archive::open(path)?;
-        let here = |e: String| format!("{}: {e}", path.display());
+        let here = |e: Error| e.context(path.display().to_string());
         // Every name and source checked before any FMU is loaded.
         let mut sources = Vec::new();
         for (i, c) in a.system.components.iter().enumerate() {
             if a.system.components[..i].iter().any(|d| d.name == c.name) {
-                return Err(here(format!("two components are named `{}`", cut(&c.name, 200))));
+                return Err(here(Error::Ssp(format!(
+                    "two components are named `{}`",
+                    cut(&c.name, 200)
+                ))));
             }
             sources.push(crate::archive::source_path(&a.dir, &c.name, &c.source).map_err(here)?);
         }
+        let named: Vec<(&str, &Path)> = a
+            .system
+            .components
+            .iter()
+            .zip(&sources)
+            .map(|(c, s)| (c.name.as_str(), s.as_path()))
+            .collect();
+        crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
         let mut components = Vec::new();
         for (c, source) in a.system.components.iter().zip(&sources) {
             let fmu = CsFmu::load(source, &c.name, false)
-                .map_err(|e| format!("component {}: {e}", c.name))?;
+                .map_err(|source| Error::Component { component: c.name.clone(), source })?;
             components.push(Component { name: c.name.clone(), fmu });
         }
         let kind = |k: &str| -> Vec<String> {
@@ -391,6 +357,7 @@ impl System {
             inputs: kind("input"),
             outputs: a.default_outputs(kind("output"))?,
             connections: a.system.connections.clone(),
+            connector_types: a.system.connector_types.clone(),
             stop_time: a.system.stop_time,
             step_size: a.system.step_size,
             components,
@@ -398,30 +365,17 @@ impl System {
         })
     }
 
-    fn port(&self, element: &str, connector: &str) -> Result<Port, String> {
-        let i = self
-            .components
-            .iter()
-            .position(|c| c.name == element)
-            .ok_or_else(|| format!("no component named `{element}`"))?;
-        let v = self.components[i].fmu.var(connector).map_err(err)?;
-        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+    fn port(&self, element: &str, connector: &str) -> Result<Port, Error> {
+        port(&self.components, element, connector)
     }
 
-    /// Qualified name → port: `component.variable`, or the bare name for a single FMU.
-    fn resolve(&self, name: &str) -> Result<Port, String> {
-        if self.archive.is_none() {
-            return self.port("fmu", name);
-        }
-        let (el, var) = name
-            .split_once('.')
-            .ok_or_else(|| format!("`{name}`: name a component variable as component.variable"))?;
-        self.port(el, var)
+    fn resolve(&self, name: &str) -> Result<Port, Error> {
+        resolve(&self.components, self.archive.is_some(), name)
     }
 
     /// Every input port fed by a component output or a system input, and the port behind
     /// each system output connector.
-    fn wire(&self) -> Result<Wiring, String> {
+    fn wire(&self) -> Result<Wiring, Error> {
         let mut wiring: Vec<(Port, Source)> = Vec::new();
         // Who drives each input so far, to name both when a second connection comes.
         let mut drivers: Vec<&End> = Vec::new();
@@ -430,12 +384,41 @@ impl System {
             Some(el) => format!("{el}.{}", e.connector),
             None => e.connector.clone(),
         };
+        // The SSD declares each connector's type; it must be that of what it stands for: a
+        // component connector its FMU variable's, a system connector the type of the
+        // component variable on the other end of the connection.
+        let declared = |e: &End, ty: VarType, var: &End| -> Result<(), Error> {
+            match self.connector_types.get(e) {
+                Some(kind) if !ssp_type_fits(kind, ty) => Err(Error::Ssp(format!(
+                    "connector `{}` is declared ssc:{kind} in the SSD, but `{}` is of type {ty}: refused",
+                    cut(&named(e), 200),
+                    cut(&named(var), 200)
+                ))),
+                _ => Ok(()),
+            }
+        };
         for (a, b) in &self.connections {
+            if let (Some(e), Some(f)) = (&a.element, &b.element) {
+                let (p, q) = (self.port(e, &a.connector)?, self.port(f, &b.connector)?);
+                declared(a, p.ty, a)?;
+                declared(b, q.ty, b)?;
+            } else if let (None, Some(f)) = (&a.element, &b.element) {
+                let q = self.port(f, &b.connector)?;
+                declared(b, q.ty, b)?;
+                declared(a, q.ty, b)?;
+            } else if let (Some(e), None) = (&a.element, &b.element) {
+                let p = self.port(e, &a.connector)?;
+                declared(a, p.ty, a)?;
+                declared(b, p.ty, a)?;
+            }
             let source = match &a.element {
                 Some(e) => Source::Output(self.port(e, &a.connector)?),
                 None => Source::Input(
                     self.inputs.iter().position(|n| *n == a.connector).ok_or_else(|| {
-                        format!("connection starts at unknown system connector `{}`", a.connector)
+                        Error::Config(format!(
+                            "connection starts at unknown system connector `{}`",
+                            a.connector
+                        ))
                     })?,
                 ),
             };
@@ -444,34 +427,51 @@ impl System {
                     let dst = self.port(e, &b.connector)?;
                     if let Source::Output(p) = s {
                         if (p.component, p.vr) == (dst.component, dst.vr) {
-                            return Err(format!("connection from `{}` to itself", named(b)));
+                            return Err(Error::Config(format!(
+                                "connection from `{}` to itself",
+                                named(b)
+                            )));
+                        }
+                    }
+                    if let Source::Output(p) = s {
+                        if p.ty != dst.ty {
+                            // FMI and SSP 1.0 connect a variable only to one of its own
+                            // type: a cast (Real to Integer, Integer to Boolean) would change
+                            // values silently at every step.
+                            return Err(Error::Config(format!(
+                                "connection from `{}` ({}) to `{}` ({}): the connectors are of different types: refused",
+                                named(a),
+                                p.ty,
+                                named(b),
+                                dst.ty
+                            )));
                         }
                     }
                     let same = |q: &Port| (q.component, q.vr) == (dst.component, dst.vr);
                     if let Some(i) = wiring.iter().position(|(q, _)| same(q)) {
-                        return Err(format!(
+                        return Err(Error::Config(format!(
                             "input `{}` is driven by two connections, from `{}` and from `{}`",
                             named(b),
                             named(drivers[i]),
                             named(a)
-                        ));
+                        )));
                     }
                     wiring.push((dst, s));
                     drivers.push(a);
                 }
                 (None, Source::Output(p)) => {
                     if system_outputs.insert(b.connector.clone(), p).is_some() {
-                        return Err(format!(
+                        return Err(Error::Config(format!(
                             "system output `{}` is driven by two connections",
                             b.connector
-                        ));
+                        )));
                     }
                 }
                 (None, Source::Input(_)) => {
-                    return Err(format!(
+                    return Err(Error::Config(format!(
                         "connection from a system input straight to system output `{}`",
                         b.connector
-                    ))
+                    )))
                 }
             }
         }
@@ -484,7 +484,7 @@ impl System {
         &self,
         names: &[String],
         system_outputs: &BTreeMap<String, Port>,
-    ) -> Result<Vec<Probe>, String> {
+    ) -> Result<Vec<Probe>, Error> {
         names
             .iter()
             .map(|n| {
@@ -495,54 +495,42 @@ impl System {
                 Ok(match (system_outputs.get(n), system_input) {
                     (Some(p), _) => Probe::Port(*p),
                     (None, Some(i)) => Probe::SystemInput(i),
-                    (None, None) => {
-                        Probe::Port(self.resolve(n).map_err(|e| format!("output `{n}`: {e}"))?)
-                    }
+                    (None, None) => Probe::Port(
+                        self.resolve(n).map_err(|e| e.context(format!("output `{n}`")))?,
+                    ),
                 })
             })
             .collect()
     }
 
-    /// Initialization mode: the parameter set's values, then `--param` values (so a
-    /// `--param` overrides the set).
-    fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), String> {
-        for c in self.components.iter_mut() {
-            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
-        }
-        let mut values: Vec<(String, String)> = crate::ssp::first_bindings(self.archive.as_ref())?;
-        if let Some(set_name) = &opts.parameter_set {
-            let a = self.archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
-            values.extend(a.parameter_set(set_name)?);
-        }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
-            let p = self.resolve(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
-            set_text(&mut self.components, p, name, text)?;
-        }
-        for c in self.components.iter_mut() {
-            c.fmu.exit_initialization().map_err(err)?;
-        }
-        Ok(())
+    /// Initialization mode: each component's first binding, the parameter set's values,
+    /// then `--param` values (so a `--param` overrides the set). A value from the SSP
+    /// carries its SSP type, checked against the variable's.
+    fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), Error> {
+        let first = crate::ssp::first_bindings_typed(self.archive.as_ref())?;
+        set_parameters(&mut self.components, self.archive.as_ref(), first, opts, stop)
     }
 
     /// Phase 2 of [`run`]: wires the connections, resolves what to record, sets the
     /// parameters in initialization mode, and leaves every component at t = 0 ready to
     /// step.
-    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, String> {
+    pub fn initialise(mut self, opts: &Options) -> Result<Simulation, Error> {
         let stop = opts.stop_time.or(self.stop_time).unwrap_or(1.0);
         let h = opts.step_size.or(self.step_size).unwrap_or(stop / 500.0);
         if !(h > 0.0 && h.is_finite() && stop > 0.0 && stop.is_finite()) {
-            return Err(format!("step size {h} and stop time {stop} must be finite and > 0"));
+            return Err(Error::Config(format!(
+                "step size {h} and stop time {stop} must be finite and > 0"
+            )));
         }
         let n_steps = step_count(stop, h)?;
         if let Some(t) = &opts.input {
             // Before its first row a table has no value; holding that row back to t = 0
             // would drive the system with a value it was not given.
             if t.start_time() > 1e-9 {
-                return Err(format!(
+                return Err(Error::Config(format!(
                     "input CSV starts at t = {}, after the start time 0: its first row must be at t = 0 or earlier",
                     t.start_time()
-                ));
+                )));
             }
         }
         let Wiring { inputs: wiring, system_outputs } = self.wire()?;
@@ -553,10 +541,10 @@ impl System {
             .collect();
         if let Some(t) = &opts.input {
             if let Some(n) = t.names.iter().find(|n| !self.inputs.contains(n)) {
-                return Err(format!(
+                return Err(Error::Config(format!(
                     "input CSV column `{n}` is not an input of the system (inputs: {})",
                     self.inputs.join(", ")
-                ));
+                )));
             }
         }
         let record_names: Vec<String> =
@@ -607,8 +595,11 @@ impl System {
             h,
             n_steps,
             k: 0,
-            components: self.components,
-            _archive: self.archive,
+            stop: None,
+            components: std::mem::take(&mut self.components),
+            _archive: self.archive.take(),
+            // The rest of the system (connectors, connections, defaults), for a reset.
+            loaded: Some(self),
         };
         sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
         Ok(sim)
@@ -635,7 +626,11 @@ pub struct Simulation {
     h: f64,
     n_steps: u64,
     k: u64,
+    stop: Option<StopFlag>,
     _archive: Option<Archive>,
+    /// The [`System`] this was initialised from, without its components and archive
+    /// (which the simulation holds), for [`Simulation::reset`]; `None` after a reset failed.
+    loaded: Option<System>,
 }
 
 impl Simulation {
@@ -662,7 +657,7 @@ impl Simulation {
 
     /// Sets the inputs of component `only` (every component if `None`) from the latest
     /// outputs and the system inputs at the current time.
-    fn feed(&mut self, only: Option<usize>) -> Result<(), String> {
+    fn feed(&mut self, only: Option<usize>) -> Result<(), Error> {
         let t = self.time();
         for i in 0..self.destinations.len() {
             let (dst, feed) = self.destinations[i];
@@ -679,11 +674,11 @@ impl Simulation {
                                 (Some(c), Some(table)) => table.names[c].as_str(),
                                 _ => "?",
                             };
-                            return Err(format!(
+                            return Err(Error::Config(format!(
                                 "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
                                 i32::MIN,
                                 i32::MAX
-                            ));
+                            )));
                         }
                         v
                     }
@@ -695,7 +690,7 @@ impl Simulation {
     }
 
     /// The recorded variables now, in the order of [`Simulation::record_names`].
-    pub fn sample(&mut self) -> Result<Vec<f64>, String> {
+    pub fn sample(&mut self) -> Result<Vec<f64>, Error> {
         self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
         let t = self.time();
         let mut ports = self.port_values.iter();
@@ -709,20 +704,20 @@ impl Simulation {
     }
 
     /// One communication step from `k h` to `(k + 1) h`.
-    pub fn step(&mut self) -> Result<(), String> {
+    pub fn step(&mut self) -> Result<(), Error> {
         let h = self.h;
         match self.coupling {
             Coupling::GaussSeidel => {
                 for ci in 0..self.components.len() {
                     self.feed(Some(ci))?;
-                    self.components[ci].fmu.do_step(h).map_err(err)?;
+                    self.components[ci].fmu.do_step(h)?;
                     self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
                 }
             }
             Coupling::Jacobi => {
                 self.feed(None)?;
                 for c in self.components.iter_mut() {
-                    c.fmu.do_step(h).map_err(err)?;
+                    c.fmu.do_step(h)?;
                 }
                 self.source_batches.read(&mut self.components, &mut self.latest, None)?;
             }
@@ -731,31 +726,41 @@ impl Simulation {
         Ok(())
     }
 
-    pub fn terminate(mut self) -> Result<(), String> {
+    pub fn terminate(mut self) -> Result<(), Error> {
         for c in self.components.iter_mut() {
-            c.fmu.terminate().map_err(err)?;
+            c.fmu.terminate()?;
         }
         Ok(())
     }
 
+    /// Makes [`Simulation::run_into`] stop between two steps with [`Error::Stopped`] once
+    /// `flag` is set, so the caller returns through its destructors (and the unpacked
+    /// archives are removed) instead of being killed mid-step.
+    pub fn stop_when(mut self, flag: StopFlag) -> Simulation {
+        self.stop = Some(flag);
+        self
+    }
+
     /// Steps to the stop time and hands every row to `sink` as soon as it is computed, t = 0
     /// first: nothing grows with the number of steps, so a run of any length runs in the
-    /// same memory. Stops between two steps, with an error, on SIGINT or SIGTERM once
-    /// [`stop_on_signals`] is installed.
-    pub fn run_into(
+    /// same memory. The sink's own error type carries its failures (a full disk) as well
+    /// as the engine's.
+    pub fn run_into<E: From<Error>>(
         mut self,
-        mut sink: impl FnMut(f64, &[f64]) -> Result<(), String>,
+        mut sink: impl FnMut(f64, &[f64]) -> Result<(), E>,
         mut progress: impl FnMut(f64),
-    ) -> Result<(), String> {
+    ) -> Result<(), E> {
         let n = self.n_steps;
         sink(0.0, &self.sample()?)?;
         for k in 0..n {
-            interrupted()?;
+            if let Some(flag) = &self.stop {
+                flag.check()?;
+            }
             self.step()?;
             sink(self.time(), &self.sample()?)?;
             progress((k + 1) as f64 / n as f64);
         }
-        self.terminate()
+        Ok(self.terminate()?)
     }
 }
 
@@ -766,68 +771,20 @@ const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 /// `stop / h` as a whole number of steps, or why not. A last step shorter than `h` would
 /// be refused by FMUs with a fixed sample (the controller takes whole 2 ms samples only),
 /// and only at the end of the run: such a stop time is refused before the first step.
-fn step_count(stop: f64, h: f64) -> Result<u64, String> {
+fn step_count(stop: f64, h: f64) -> Result<u64, Error> {
     let steps = stop / h;
     if steps > MAX_STEPS {
-        return Err(format!(
+        return Err(Error::Config(format!(
             "stop time {stop:e} / step size {h} = {steps:e} steps: more than the 2^53 this master can count exactly"
-        ));
+        )));
     }
     let n = steps.round();
     if n < 1.0 || (steps - n).abs() > 1e-9 * n {
-        return Err(format!(
+        return Err(Error::Config(format!(
             "stop time {stop} is not a whole number of steps of {h} ({stop} / {h} = {steps}): choose a stop time that is"
-        ));
+        )));
     }
     Ok(n as u64)
-}
-
-/// The signal that asked the run to stop (0: none).
-static SIGNAL: AtomicI32 = AtomicI32::new(0);
-
-#[cfg(unix)]
-extern "C" fn on_signal(sig: libc::c_int) {
-    // A second signal means now: the default action, without waiting for the step.
-    if SIGNAL.swap(sig, Ordering::SeqCst) != 0 {
-        // SAFETY: signal and raise are async-signal-safe.
-        unsafe {
-            libc::signal(sig, libc::SIG_DFL);
-            libc::raise(sig);
-        }
-    }
-}
-
-/// Makes SIGINT and SIGTERM stop [`Simulation::run_into`] between two steps with an error,
-/// so the caller returns through its destructors and the unpacked archives are removed.
-/// Only for a caller that runs the master: elsewhere the signals would be ignored.
-pub fn stop_on_signals() {
-    #[cfg(unix)]
-    // SAFETY: the handler only touches an atomic and async-signal-safe calls.
-    unsafe {
-        let handler = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-        libc::signal(libc::SIGINT, handler);
-        libc::signal(libc::SIGTERM, handler);
-    }
-}
-
-/// The signal that stopped the run, if one did: for the exit status 128 + signal.
-pub fn stop_signal() -> Option<i32> {
-    Some(SIGNAL.load(Ordering::SeqCst)).filter(|&s| s != 0)
-}
-
-/// An error once a stop signal has come.
-pub fn interrupted() -> Result<(), String> {
-    match stop_signal() {
-        None => Ok(()),
-        Some(s) => {
-            let name = match s {
-                libc::SIGINT => "SIGINT",
-                libc::SIGTERM => "SIGTERM",
-                _ => "a signal",
-            };
-            Err(format!("interrupted by {name}"))
-        }
-    }
 }
 
 /// Runs `path` (an `.ssp`, or a single `.fmu`): loads it, initializes it, steps it to the
@@ -835,68 +792,101 @@ pub fn interrupted() -> Result<(), String> {
 ///
 /// The whole trace is kept in memory: for short runs (scenarios, tests). A long run
 /// streams its rows with [`Simulation::run_into`].
-pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Trace, String> {
+pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Trace, Error> {
     let sim = System::load(path)?.initialise(opts)?;
     let mut trace = Trace::new(sim.record_names().to_vec());
     sim.run_into(
         |t, row| {
             trace.push(t, row.to_vec());
-            Ok(())
+            Ok::<(), Error>(())
         },
         progress,
     )?;
     Ok(trace)
 }
 
-// Sweeps (src/sweep): one loaded system run many times, re-initialised in place between
+// Sweeps (crate::sweep): one loaded system run many times, re-initialised in place between
 // runs instead of unpacked and instantiated again.
 impl Simulation {
-    /// Back to t = 0 with the parameters of `opts` (its parameter set, then its `params`):
-    /// `fmi2Reset` on every component, then initialization mode as in
-    /// [`System::initialise`]. Only the parameters change: the wiring, the recorded
-    /// variables, the input table, the coupling, the step and the stop time stay those of
-    /// the first [`System::initialise`]. After an error the simulation may be half reset:
-    /// drop it and load the system again.
-    pub fn reset(&mut self, opts: &Options) -> Result<(), String> {
-        let stop = self.n_steps as f64 * self.h;
+    /// Back to t = 0 with `opts`, exactly as a fresh [`System::load`] and
+    /// [`System::initialise`] would put it: `fmi2Reset` on every component, then the very
+    /// same [`System::initialise`] on them, so the SSD's first bindings, the parameter set,
+    /// the `--param` values, the input table, the wiring and the master's step counter
+    /// and held connector values all come from the one code path a fresh run takes (a
+    /// reset that re-applied only some of them gave rows that differ from `inchworm run`).
+    /// After an error the simulation holds no components: drop it and load the system
+    /// again.
+    pub fn reset(&mut self, opts: &Options) -> Result<(), Error> {
         for c in self.components.iter_mut() {
-            c.fmu.reset().map_err(err)?;
+            c.fmu.reset()?;
         }
-        self.k = 0;
-        for c in self.components.iter_mut() {
-            c.fmu.enter_initialization(None, 0.0, Some(stop)).map_err(err)?;
-        }
-        let mut values: Vec<(String, String)> = Vec::new();
-        if let Some(set_name) = &opts.parameter_set {
-            let a = self._archive.as_ref().ok_or("--parameter-set needs an .ssp file")?;
-            values.extend(a.parameter_set(set_name)?);
-        }
-        values.extend(opts.params.iter().cloned());
-        for (name, text) in &values {
-            let p = self.port_named(name).map_err(|e| format!("parameter `{name}`: {e}"))?;
-            set_text(&mut self.components, p, name, text)?;
-        }
-        for c in self.components.iter_mut() {
-            c.fmu.exit_initialization().map_err(err)?;
-        }
-        self.source_batches.read(&mut self.components, &mut self.latest, None)
+        let mut system = self
+            .loaded
+            .take()
+            .ok_or_else(|| Error::Config("a reset failed before: load the system again".into()))?;
+        system.archive = self._archive.take();
+        system.components = std::mem::take(&mut self.components);
+        let stop = self.stop.take();
+        *self = system.initialise(opts)?;
+        self.stop = stop;
+        Ok(())
     }
+}
 
-    /// [`System::resolve`] on the components the simulation holds.
-    fn port_named(&self, name: &str) -> Result<Port, String> {
-        let (el, var) = match (&self._archive, name.split_once('.')) {
-            (None, _) => ("fmu", name),
-            (Some(_), Some(pair)) => pair,
-            (Some(_), None) => {
-                return Err(format!("`{name}`: name a component variable as component.variable"))
-            }
-        };
-        let i = self
-            .components
-            .iter()
-            .position(|c| c.name == el)
-            .ok_or_else(|| format!("no component named `{el}`"))?;
-        let v = self.components[i].fmu.var(var).map_err(err)?;
-        Ok(Port { component: i, vr: v.vr, ty: v.ty })
+/// The component `element`'s variable `connector`.
+fn port(components: &[Component], element: &str, connector: &str) -> Result<Port, Error> {
+    let i = components
+        .iter()
+        .position(|c| c.name == element)
+        .ok_or_else(|| Error::Config(format!("no component named `{element}`")))?;
+    let v = components[i].fmu.var(connector)?;
+    Ok(Port { component: i, vr: v.vr, ty: v.ty })
+}
+
+/// Qualified name → port: `component.variable` in an SSP, the bare name for a single FMU.
+fn resolve(components: &[Component], ssp: bool, name: &str) -> Result<Port, Error> {
+    if !ssp {
+        return port(components, "fmu", name);
     }
+    let (el, var) = name.split_once('.').ok_or_else(|| {
+        Error::Config(format!("`{name}`: name a component variable as component.variable"))
+    })?;
+    port(components, el, var)
+}
+
+/// Initialization mode on every component, from entering it to leaving it: `first`, then
+/// the parameter set of `opts`, then its `params`, each value over the ones before. A
+/// value from the SSP (a first binding or the set) comes with the SSP type it is given,
+/// which must be its variable's ([`check_binding_type`]); a `--param` has no type of its
+/// own and is read as the variable's.
+fn set_parameters(
+    components: &mut [Component],
+    archive: Option<&Archive>,
+    first: Vec<(String, TypedValue)>,
+    opts: &Options,
+    stop: f64,
+) -> Result<(), Error> {
+    for c in components.iter_mut() {
+        c.fmu.enter_initialization(None, 0.0, Some(stop))?;
+    }
+    // (name, the SSP type the SSP gives it, value text).
+    let typed = |(n, (k, v)): (String, TypedValue)| (n, Some(k), v);
+    let mut values: Vec<(String, Option<String>, String)> = first.into_iter().map(typed).collect();
+    if let Some(set_name) = &opts.parameter_set {
+        let a = archive.ok_or(Error::Config("--parameter-set needs an .ssp file".into()))?;
+        values.extend(a.parameter_set_typed(set_name)?.into_iter().map(typed));
+    }
+    values.extend(opts.params.iter().map(|(n, v)| (n.clone(), None, v.clone())));
+    for (name, kind, text) in &values {
+        let p = resolve(components, archive.is_some(), name)
+            .map_err(|e| e.context(format!("parameter `{name}`")))?;
+        if let Some(kind) = kind {
+            check_binding_type(name, kind, p.ty)?;
+        }
+        set_text(components, p, name, text)?;
+    }
+    for c in components.iter_mut() {
+        c.fmu.exit_initialization()?;
+    }
+    Ok(())
 }

@@ -98,7 +98,7 @@ pub struct CheckValues {
 
 /// `tests/data/plant-check-values.csv`, compiled in, so the command holds a run to the very
 /// file the tests read (its README says where the values come from).
-const CHECK_VALUES_CSV: &str = include_str!("../tests/data/plant-check-values.csv");
+const CHECK_VALUES_CSV: &str = include_str!("../../../tests/data/plant-check-values.csv");
 
 /// The independent reference integration's raw measurements for `device` (`fia20` or
 /// `fia6`), one per step of [`CHECK_AMPLITUDES`]; empty for another device.
@@ -155,8 +155,10 @@ mod tests {
     /// tests/data (the plant test replays that file, the CLI generates it).
     #[test]
     fn check_sequence_reproduces_the_reference_trace_inputs() {
-        let path =
-            concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/plant-check-trace-fia20-passive.csv");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/data/plant-check-trace-fia20-passive.csv"
+        );
         let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("reading {path}: {e}"));
         let rows: Vec<Vec<f64>> = text
             .lines()

@@ -10,6 +10,8 @@ use std::path::{Path, PathBuf};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 
+use crate::Error;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Component {
     pub name: String,
@@ -33,29 +35,34 @@ pub struct System {
     pub connections: Vec<(End, End)>,
     pub stop_time: Option<f64>,
     pub step_size: Option<f64>,
+    /// The type each connector declares (`Real`, `Integer`, `Boolean`, `String`,
+    /// `Enumeration`, `Binary`: its `ssc:` child), by its end: the system's connectors
+    /// (`element` None) and the components'. A connector without one is absent.
+    pub connector_types: BTreeMap<End, String>,
 }
 
-fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, String> {
+fn attr(e: &BytesStart, name: &str) -> Result<Option<String>, Error> {
     for a in e.attributes() {
-        let a = a.map_err(|err| format!("malformed attribute: {err}"))?;
+        let a = a.map_err(|err| Error::Ssp(format!("malformed attribute: {err}")))?;
         if a.key.local_name().into_inner() == name {
             return a
                 .normalized_value(quick_xml::XmlVersion::Implicit1_0)
                 .map(|v| Some(v.into_owned()))
-                .map_err(|err| format!("attribute {name}: {err}"));
+                .map_err(|err| Error::Ssp(format!("attribute {name}: {err}")));
         }
     }
     Ok(None)
 }
 
-fn required(e: &BytesStart, name: &str) -> Result<String, String> {
-    attr(e, name)?
-        .ok_or_else(|| format!("<{}> lacks the attribute {name}", e.local_name().into_inner()))
+fn required(e: &BytesStart, name: &str) -> Result<String, Error> {
+    attr(e, name)?.ok_or_else(|| {
+        Error::Ssp(format!("<{}> lacks the attribute {name}", e.local_name().into_inner()))
+    })
 }
 
 /// Parses `SystemStructure.ssd`. Nested systems are refused with a message: this master
 /// runs flat systems.
-pub fn parse_ssd(xml: &str) -> Result<System, String> {
+pub fn parse_ssd(xml: &str) -> Result<System, Error> {
     let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut sys = System::default();
@@ -63,17 +70,24 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
     let mut path: Vec<String> = Vec::new();
     let mut open = Open::default();
     let mut systems = 0;
+    // The component being read, and the connector whose type a child may give.
+    let mut component: Option<String> = None;
+    let mut connector: Option<End> = None;
     loop {
         let ev = reader.read_event().map_err(|e| {
             let at = line_of(xml, reader.error_position());
-            format!("SystemStructure.ssd line {at}: malformed XML: {e}")
+            Error::Ssp(format!("SystemStructure.ssd line {at}: malformed XML: {e}"))
         })?;
         open.track(&ev);
         let (e, empty) = match &ev {
             Event::Start(e) => (e.clone(), false),
             Event::Empty(e) => (e.clone(), true),
             Event::End(_) => {
-                path.pop();
+                match path.pop().as_deref() {
+                    Some("Component") => component = None,
+                    Some("Connector") => connector = None,
+                    _ => {}
+                }
                 continue;
             }
             Event::Eof => {
@@ -89,7 +103,7 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
             "System" => {
                 systems += 1;
                 if systems > 1 {
-                    return Err("SystemStructure.ssd: nested systems are not supported by this master; flatten the system".into());
+                    return Err(Error::Ssp("SystemStructure.ssd: nested systems are not supported by this master; flatten the system".into()));
                 }
                 sys.name = required(&e, "name")?;
             }
@@ -97,18 +111,33 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
                 let kind =
                     attr(&e, "type")?.unwrap_or_else(|| "application/x-fmu-sharedlibrary".into());
                 if kind != "application/x-fmu-sharedlibrary" {
-                    return Err(format!("component type {kind} is not supported (FMUs only)"));
+                    return Err(Error::Ssp(format!(
+                        "component type {kind} is not supported (FMUs only)"
+                    )));
                 }
-                sys.components.push(Component {
-                    name: required(&e, "name")?,
-                    source: required(&e, "source")?,
-                });
+                let name = required(&e, "name")?;
+                sys.components
+                    .push(Component { name: name.clone(), source: required(&e, "source")? });
+                component = Some(name);
             }
             "Connector" if parent == Some("Connectors") && grandparent == Some("System") => {
-                sys.connectors.push((required(&e, "name")?, attr(&e, "kind")?.unwrap_or_default()));
+                let name = required(&e, "name")?;
+                sys.connectors.push((name.clone(), attr(&e, "kind")?.unwrap_or_default()));
+                connector = Some(End { element: None, connector: name });
+            }
+            "Connector" if parent == Some("Connectors") && grandparent == Some("Component") => {
+                connector =
+                    Some(End { element: component.clone(), connector: required(&e, "name")? });
+            }
+            kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration" | "Binary")
+                if parent == Some("Connector") =>
+            {
+                if let Some(end) = &connector {
+                    sys.connector_types.insert(end.clone(), kind.to_string());
+                }
             }
             "Connection" => {
-                let end = |el: &str, c: &str| -> Result<End, String> {
+                let end = |el: &str, c: &str| -> Result<End, Error> {
                     Ok(End { element: attr(&e, el)?, connector: required(&e, c)? })
                 };
                 sys.connections.push((
@@ -117,11 +146,11 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
                 ));
             }
             "DefaultExperiment" => {
-                let num = |n: &str| -> Result<Option<f64>, String> {
+                let num = |n: &str| -> Result<Option<f64>, Error> {
                     attr(&e, n)?
                         .map(|v| {
                             v.trim().parse::<f64>().map_err(|_| {
-                                format!("DefaultExperiment {n}=\"{v}\" is not a number")
+                                Error::Ssp(format!("DefaultExperiment {n}=\"{v}\" is not a number"))
                             })
                         })
                         .transpose()
@@ -131,11 +160,10 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
             // The project's own annotation carries the communication step.
             "CommunicationStep" => {
                 if let Some(v) = attr(&e, "stepSize")? {
-                    sys.step_size = Some(
-                        v.trim()
-                            .parse()
-                            .map_err(|_| format!("stepSize \"{v}\" is not a number"))?,
-                    );
+                    sys.step_size =
+                        Some(v.trim().parse().map_err(|_| {
+                            Error::Ssp(format!("stepSize \"{v}\" is not a number"))
+                        })?);
                 }
             }
             _ => {}
@@ -145,13 +173,23 @@ pub fn parse_ssd(xml: &str) -> Result<System, String> {
         }
     }
     if systems == 0 {
-        return Err("SystemStructure.ssd has no <System>".into());
+        return Err(Error::Ssp("SystemStructure.ssd has no <System>".into()));
     }
     Ok(sys)
 }
 
 /// Parses an `.ssv` parameter set into `component.variable` → value text.
-pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
+pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, Error> {
+    Ok(parse_ssv_typed(xml)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// A parameter value of an `.ssv`: its SSP type (the element: `Real`, `Integer`,
+/// `Boolean`, `String`, `Enumeration`) and its value text.
+pub type TypedValue = (String, String);
+
+/// [`parse_ssv`] with each value's SSP type, which the master checks against the
+/// variable's declared type.
+pub fn parse_ssv_typed(xml: &str) -> Result<BTreeMap<String, TypedValue>, Error> {
     let xml = xml.strip_prefix('\u{feff}').unwrap_or(xml);
     let mut reader = Reader::from_str(xml);
     let mut out = BTreeMap::new();
@@ -159,15 +197,18 @@ pub fn parse_ssv(xml: &str) -> Result<BTreeMap<String, String>, String> {
     let mut open = Open::default();
     loop {
         let ev = reader.read_event().map_err(|e| {
-            format!("line {}: malformed XML: {e}", line_of(xml, reader.error_position()))
+            Error::Ssp(format!(
+                "line {}: malformed XML: {e}",
+                line_of(xml, reader.error_position())
+            ))
         })?;
         open.track(&ev);
         match ev {
             Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
                 "Parameter" => current = Some(required(&e, "name")?),
-                "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => {
+                kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
                     if let Some(name) = current.take() {
-                        out.insert(name, required(&e, "value")?);
+                        out.insert(name, (kind.to_string(), required(&e, "value")?));
                     }
                 }
                 _ => {}
@@ -212,14 +253,16 @@ impl Open {
         }
     }
 
-    fn complete(&self, file: &str, xml: &str) -> Result<(), String> {
+    fn complete(&self, file: &str, xml: &str) -> Result<(), Error> {
         match self.names.last() {
-            Some(inner) => Err(format!(
+            Some(inner) => Err(Error::Ssp(format!(
                 "{file}line {}: the file ends inside <{}>: expected </{inner}> (a truncated file?)",
                 line_of(xml, xml.len() as u64),
                 self.names.join("> <"),
-            )),
-            None if !self.root_seen => Err(format!("{file}has no root element (an empty file?)")),
+            ))),
+            None if !self.root_seen => {
+                Err(Error::Ssp(format!("{file}has no root element (an empty file?)")))
+            }
             None => Ok(()),
         }
     }
@@ -234,30 +277,34 @@ pub struct Archive {
 }
 
 impl Archive {
-    pub fn open(path: &Path) -> Result<Archive, String> {
+    pub fn open(path: &Path) -> Result<Archive, Error> {
         let unpacked = crate::archive::unpack_ssp(path)?;
         let dir = unpacked.dir().to_path_buf();
         let mut ssd = String::new();
         std::fs::File::open(dir.join("SystemStructure.ssd"))
             .and_then(|mut f| f.read_to_string(&mut ssd))
-            .map_err(|e| {
-                format!("{}: no readable SystemStructure.ssd at its root: {e}", path.display())
-            })?;
-        let system = parse_ssd(&ssd).map_err(|e| format!("{}: {e}", path.display()))?;
+            .map_err(|source| Error::NoSsd { path: path.to_path_buf(), source })?;
+        let system = parse_ssd(&ssd).map_err(|e| e.context(path.display().to_string()))?;
         Ok(Archive { dir, system, _unpacked: unpacked })
     }
 
     /// The parameter set `name` as `component.variable` → value text: the SSD's
     /// ParameterBindings whose set has that name ([`Archive::bound_parameter_set`]), else
     /// (an SSP without bindings) the file `resources/<name>.ssv` with qualified names.
-    pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, String> {
-        if let Some(values) = self.bound_parameter_set(Some(name))? {
+    pub fn parameter_set(&self, name: &str) -> Result<BTreeMap<String, String>, Error> {
+        Ok(self.parameter_set_typed(name)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+    }
+
+    /// [`Archive::parameter_set`] with each value's SSP type.
+    pub fn parameter_set_typed(&self, name: &str) -> Result<BTreeMap<String, TypedValue>, Error> {
+        if let Some(values) = self.bound_parameter_set_typed(Some(name))? {
             return Ok(values);
         }
         let p = self.dir.join("resources").join(format!("{name}.ssv"));
         let text = std::fs::read_to_string(&p)
-            .map_err(|e| format!("parameter set {name}: {}: {e}", p.display()))?;
-        parse_ssv(&text).map_err(|e| format!("parameter set {name} (resources/{name}.ssv): {e}"))
+            .map_err(|e| Error::Ssp(format!("parameter set {name}: {}: {e}", p.display())))?;
+        parse_ssv_typed(&text)
+            .map_err(|e| e.context(format!("parameter set {name} (resources/{name}.ssv)")))
     }
 }
 
@@ -274,13 +321,15 @@ pub struct ParameterBinding {
 
 /// The `ssd:ParameterBinding`s of `SystemStructure.ssd` that reference a file, in document
 /// order. Inline `ssd:ParameterValues` are not read.
-pub fn parse_parameter_bindings(xml: &str) -> Result<Vec<ParameterBinding>, String> {
+pub fn parse_parameter_bindings(xml: &str) -> Result<Vec<ParameterBinding>, Error> {
     let mut reader = Reader::from_str(xml);
     let mut out = Vec::new();
     // The innermost open Component or System: the element a binding belongs to.
     let mut owners: Vec<Option<String>> = Vec::new();
     loop {
-        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error: {e}"))?;
+        let ev = reader
+            .read_event()
+            .map_err(|e| Error::Ssp(format!("SystemStructure.ssd: XML error: {e}")))?;
         match &ev {
             Event::Start(e) | Event::Empty(e) => {
                 let empty = matches!(ev, Event::Empty(_));
@@ -310,14 +359,17 @@ pub fn parse_parameter_bindings(xml: &str) -> Result<Vec<ParameterBinding>, Stri
 }
 
 /// The `name` attribute of an `.ssv` file's `ssv:ParameterSet`.
-pub fn parameter_set_name(xml: &str) -> Result<String, String> {
+pub fn parameter_set_name(xml: &str) -> Result<String, Error> {
     let mut reader = Reader::from_str(xml);
     loop {
-        match reader.read_event().map_err(|e| format!("parameter set: XML error: {e}"))? {
+        match reader
+            .read_event()
+            .map_err(|e| Error::Ssp(format!("parameter set: XML error: {e}")))?
+        {
             Event::Start(e) | Event::Empty(e) if e.local_name().into_inner() == "ParameterSet" => {
                 return required(&e, "name");
             }
-            Event::Eof => return Err("no <ssv:ParameterSet>".into()),
+            Event::Eof => return Err(Error::Ssp("no <ssv:ParameterSet>".into())),
             _ => {}
         }
     }
@@ -325,12 +377,14 @@ pub fn parameter_set_name(xml: &str) -> Result<String, String> {
 
 /// The output connectors of the SSD's components, as `component.connector` in document
 /// order: what a closed system (no system connectors) records by default.
-pub fn parse_component_outputs(xml: &str) -> Result<Vec<String>, String> {
+pub fn parse_component_outputs(xml: &str) -> Result<Vec<String>, Error> {
     let mut reader = Reader::from_str(xml);
     let mut out = Vec::new();
     let mut component: Option<String> = None;
     loop {
-        let ev = reader.read_event().map_err(|e| format!("SystemStructure.ssd: XML error: {e}"))?;
+        let ev = reader
+            .read_event()
+            .map_err(|e| Error::Ssp(format!("SystemStructure.ssd: XML error: {e}")))?;
         match &ev {
             Event::Start(e) | Event::Empty(e) => match e.local_name().into_inner() {
                 "Component" if matches!(ev, Event::Start(_)) => {
@@ -352,33 +406,34 @@ pub fn parse_component_outputs(xml: &str) -> Result<Vec<String>, String> {
 }
 
 impl Archive {
-    fn read_ssd(&self) -> Result<String, String> {
+    fn read_ssd(&self) -> Result<String, Error> {
         let p = self.dir.join("SystemStructure.ssd");
-        std::fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))
+        std::fs::read_to_string(&p).map_err(|source| Error::Io { path: p, source })
     }
 
     /// An `.ssv` of a binding, by its `source` relative to the SSP root; a source that
     /// would leave the archive is refused.
-    fn read_bound_ssv(&self, source: &str) -> Result<String, String> {
+    fn read_bound_ssv(&self, source: &str) -> Result<String, Error> {
         let rel = Path::new(source);
         if rel.is_absolute()
             || rel.components().any(|c| !matches!(c, std::path::Component::Normal(_)))
         {
-            return Err(format!(
+            return Err(Error::Ssp(format!(
                 "parameter binding source `{source}` must be a relative path inside the SSP"
-            ));
+            )));
         }
         let p = self.dir.join(rel);
-        std::fs::read_to_string(&p)
-            .map_err(|e| format!("parameter binding source `{source}`: {}: {e}", p.display()))
+        std::fs::read_to_string(&p).map_err(|e| {
+            Error::Ssp(format!("parameter binding source `{source}`: {}: {e}", p.display()))
+        })
     }
 
     /// The SSD's parameter sets by name, in the order of their first binding.
-    pub fn bound_parameter_set_names(&self) -> Result<Vec<String>, String> {
+    pub fn bound_parameter_set_names(&self) -> Result<Vec<String>, Error> {
         let mut names = Vec::new();
         for b in parse_parameter_bindings(&self.read_ssd()?)? {
             let n = parameter_set_name(&self.read_bound_ssv(&b.source)?)
-                .map_err(|e| format!("{}: {e}", b.source))?;
+                .map_err(|e| e.context(&b.source))?;
             if !names.contains(&n) {
                 names.push(n);
             }
@@ -394,7 +449,17 @@ impl Archive {
     pub fn bound_parameter_set(
         &self,
         selected: Option<&str>,
-    ) -> Result<Option<BTreeMap<String, String>>, String> {
+    ) -> Result<Option<BTreeMap<String, String>>, Error> {
+        Ok(self
+            .bound_parameter_set_typed(selected)?
+            .map(|m| m.into_iter().map(|(n, (_, v))| (n, v)).collect()))
+    }
+
+    /// [`Archive::bound_parameter_set`] with each value's SSP type.
+    pub fn bound_parameter_set_typed(
+        &self,
+        selected: Option<&str>,
+    ) -> Result<Option<BTreeMap<String, TypedValue>>, Error> {
         let bindings = parse_parameter_bindings(&self.read_ssd()?)?;
         if bindings.is_empty() {
             return Ok(None);
@@ -408,7 +473,7 @@ impl Archive {
                 seen.push(&b.component);
             }
             let text = self.read_bound_ssv(&b.source)?;
-            let name = parameter_set_name(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            let name = parameter_set_name(&text).map_err(|e| e.context(&b.source))?;
             let chosen = selected == Some(name.as_str());
             found |= chosen;
             if !first && !chosen {
@@ -418,15 +483,15 @@ impl Archive {
                 Some(c) => format!("{c}.{}{p}", b.prefix),
                 None => format!("{}{p}", b.prefix),
             };
-            let values = parse_ssv(&text).map_err(|e| format!("{}: {e}", b.source))?;
+            let values = parse_ssv_typed(&text).map_err(|e| e.context(&b.source))?;
             out.extend(values.into_iter().map(|(p, v)| (qualify(&p), v)));
         }
         if let Some(name) = selected {
             if !found {
-                return Err(format!(
+                return Err(Error::Ssp(format!(
                     "parameter set {name} is not bound in the SSD (its sets: {})",
                     self.bound_parameter_set_names()?.join(", ")
-                ));
+                )));
             }
         }
         Ok(Some(out))
@@ -434,7 +499,7 @@ impl Archive {
 
     /// What a run records by default: the system's output connectors, or for a closed
     /// system (none) every component's output connector (`component.connector`).
-    pub fn default_outputs(&self, system_outputs: Vec<String>) -> Result<Vec<String>, String> {
+    pub fn default_outputs(&self, system_outputs: Vec<String>) -> Result<Vec<String>, Error> {
         if !system_outputs.is_empty() {
             return Ok(system_outputs);
         }
@@ -445,9 +510,14 @@ impl Archive {
 /// What a run sets before any `--parameter-set` or `--param`: the first binding of each
 /// component of an SSP (nothing for a single FMU or an SSP without bindings), as libcosim
 /// and Ecos apply them.
-pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, String> {
+pub fn first_bindings(a: Option<&Archive>) -> Result<Vec<(String, String)>, Error> {
+    Ok(first_bindings_typed(a)?.into_iter().map(|(n, (_, v))| (n, v)).collect())
+}
+
+/// [`first_bindings`] with each value's SSP type.
+pub fn first_bindings_typed(a: Option<&Archive>) -> Result<Vec<(String, TypedValue)>, Error> {
     match a {
-        Some(a) => Ok(a.bound_parameter_set(None)?.unwrap_or_default().into_iter().collect()),
+        Some(a) => Ok(a.bound_parameter_set_typed(None)?.unwrap_or_default().into_iter().collect()),
         None => Ok(Vec::new()),
     }
 }
@@ -481,16 +551,17 @@ mod tests {
         assert_eq!(s.connectors, vec![("u".to_string(), "input".to_string())]);
         assert_eq!(s.connections[1].0, End { element: None, connector: "u".into() });
         assert_eq!(s.stop_time, Some(3.5));
-        assert!(parse_ssd("<x/>").unwrap_err().contains("no <System>"));
+        assert!(parse_ssd("<x/>").unwrap_err().to_string().contains("no <System>"));
         assert!(parse_ssd(
             "<ssd:System name='a'><ssd:Elements><ssd:System name='b'/></ssd:Elements></ssd:System>"
         )
         .unwrap_err()
+        .to_string()
         .contains("nested"));
         assert!(parse_ssd("<a><b></a>").is_err());
         let cut = &xml[..xml.find("  <ssd:DefaultExperiment").unwrap()];
         assert_eq!(
-            parse_ssd(cut).unwrap_err(),
+            parse_ssd(cut).unwrap_err().to_string(),
             "SystemStructure.ssd line 16: the file ends inside <ssd:SystemStructureDescription>: \
              expected </ssd:SystemStructureDescription> (a truncated file?)"
         );
@@ -579,9 +650,13 @@ mod tests {
             kv(&[("a.k", "10"), ("a.m", "2"), ("b.k", "3")])
         );
         assert_eq!(a.bound_parameter_set_names().unwrap(), ["default", "fast"]);
-        let e = a.parameter_set("slow").unwrap_err();
+        let e = a.parameter_set("slow").unwrap_err().to_string();
         assert!(e.contains("parameter set slow") && e.contains("default, fast"), "{e}");
-        assert!(a.read_bound_ssv("../etc/passwd").unwrap_err().contains("inside the SSP"));
+        assert!(a
+            .read_bound_ssv("../etc/passwd")
+            .unwrap_err()
+            .to_string()
+            .contains("inside the SSP"));
         assert!(first_bindings(None).unwrap().is_empty());
     }
 
@@ -595,7 +670,7 @@ mod tests {
         assert_eq!(p["controller.prefilter"], "true");
         let cut = &xml[..xml.find("<ssv:Parameter name=\"controller").unwrap()];
         assert_eq!(
-            parse_ssv(cut).unwrap_err(),
+            parse_ssv(cut).unwrap_err().to_string(),
             "line 3: the file ends inside <ssv:ParameterSet> <ssv:Parameters>: \
              expected </ssv:Parameters> (a truncated file?)"
         );

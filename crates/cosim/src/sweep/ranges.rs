@@ -9,6 +9,8 @@ use std::path::Path;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 
+use crate::Error;
+
 /// Qualified name (`component.variable`, or the bare name for a single FMU) → (min, max).
 #[derive(Clone, Debug, Default)]
 pub struct Ranges(BTreeMap<String, (Option<f64>, Option<f64>)>);
@@ -19,13 +21,18 @@ fn attr(e: &BytesStart, name: &str) -> Option<String> {
     })
 }
 
-fn model_description(fmu: &Path) -> Result<String, String> {
-    let f = std::fs::File::open(fmu).map_err(|e| format!("{}: {e}", fmu.display()))?;
-    let mut zip = zip::ZipArchive::new(f).map_err(|e| format!("{}: {e}", fmu.display()))?;
-    let mut entry =
-        zip.by_name("modelDescription.xml").map_err(|e| format!("{}: {e}", fmu.display()))?;
+fn model_description(fmu: &Path) -> Result<String, Error> {
+    let f =
+        std::fs::File::open(fmu).map_err(|e| Error::Config(format!("{}: {e}", fmu.display())))?;
+    let mut zip =
+        zip::ZipArchive::new(f).map_err(|e| Error::Config(format!("{}: {e}", fmu.display())))?;
+    let mut entry = zip
+        .by_name("modelDescription.xml")
+        .map_err(|e| Error::Config(format!("{}: {e}", fmu.display())))?;
     let mut text = String::new();
-    entry.read_to_string(&mut text).map_err(|e| format!("{}: {e}", fmu.display()))?;
+    entry
+        .read_to_string(&mut text)
+        .map_err(|e| Error::Config(format!("{}: {e}", fmu.display())))?;
     Ok(text)
 }
 
@@ -55,7 +62,7 @@ fn scan(xml: &str, prefix: &str, out: &mut BTreeMap<String, (Option<f64>, Option
 
 impl Ranges {
     /// The ranges of every component of an `.ssp`, or of a single `.fmu`.
-    pub fn read(system: &Path) -> Result<Ranges, String> {
+    pub fn read(system: &Path) -> Result<Ranges, Error> {
         let mut out = BTreeMap::new();
         if system.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp")) {
             let a = crate::ssp::Archive::open(system)?;
@@ -73,15 +80,15 @@ impl Ranges {
     }
 
     /// `Err` naming the variable and its range if `value` is outside it.
-    pub fn check(&self, name: &str, value: f64) -> Result<(), String> {
+    pub fn check(&self, name: &str, value: f64) -> Result<(), Error> {
         match self.0.get(name) {
             Some(&(lo, hi)) if lo.is_some_and(|l| value < l) || hi.is_some_and(|h| value > h) => {
                 let show = |b: Option<f64>| b.map_or("-inf".to_string(), |v| v.to_string());
-                Err(format!(
+                Err(Error::Config(format!(
                     "parameter {name} = {value} is outside its range [{}, {}]",
                     show(lo),
                     show(hi).replace("-inf", "inf")
-                ))
+                )))
             }
             _ => Ok(()),
         }

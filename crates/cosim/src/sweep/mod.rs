@@ -1,6 +1,7 @@
 //! Parameter sweeps over a system: the plan ([`plan`]), what each run reports
-//! ([`metrics`]), running a plan on worker threads ([`exec`]), and the results as CSV, JSON
-//! lines and plots ([`plots`]); [`ranges`] refuses a swept value outside its declared range.
+//! ([`metrics`]), running a plan on worker threads ([`exec`]), and the results as CSV and
+//! JSON lines; [`ranges`] refuses a swept value outside its declared range; [`stream`]
+//! reduces a run's rows to the engine's metrics as they come, in the memory of one row.
 //!
 //! The results table has one row per run: `run,sample,<parameter>,…,<metric>,…,status,error`;
 //! a metric with no value (a run that never settles) and the metrics of a failed run are
@@ -9,21 +10,21 @@
 pub mod exec;
 pub mod metrics;
 pub mod plan;
-pub mod plots;
 pub mod ranges;
+pub mod stream;
 
 use std::fmt::Write as _;
 
 use exec::Outcome;
-use metrics::Metric;
 
 fn csv_quote(s: &str) -> String {
     format!("\"{}\"", s.replace('"', "\"\"").replace(['\n', '\r'], " "))
 }
 
 /// The results table ([module docs](self)).
-pub fn results_csv(names: &[String], metrics: &[Metric], outcomes: &[Outcome]) -> String {
-    let mnames: Vec<&str> = metrics.iter().map(|m| m.name.as_str()).collect();
+/// `metrics` are the metrics' column names ([`metrics::Metrics::names`]).
+pub fn results_csv(names: &[String], metrics: &[String], outcomes: &[Outcome]) -> String {
+    let mnames: Vec<&str> = metrics.iter().map(String::as_str).collect();
     let mut s = String::from("run,sample");
     for n in names.iter().map(String::as_str).chain(mnames.iter().copied()) {
         let _ = write!(s, ",{n}");
@@ -81,7 +82,7 @@ fn json_number(v: Option<f64>) -> String {
 
 /// One run as one JSON line: `{"run":…,"sample":…,"params":{…},"metrics":{…},"status":…,"error":…}`;
 /// numbers in the shortest text that reads back as the same `f64`, a missing value `null`.
-pub fn json_line(names: &[String], metrics: &[Metric], o: &Outcome) -> String {
+pub fn json_line(names: &[String], metrics: &[String], o: &Outcome) -> String {
     let params: Vec<String> = names
         .iter()
         .zip(&o.values)
@@ -91,7 +92,7 @@ pub fn json_line(names: &[String], metrics: &[Metric], o: &Outcome) -> String {
         .iter()
         .enumerate()
         .map(|(i, m)| {
-            format!("{}:{}", json_string(&m.name), json_number(o.metrics.get(i).copied().flatten()))
+            format!("{}:{}", json_string(m), json_number(o.metrics.get(i).copied().flatten()))
         })
         .collect();
     format!(

@@ -13,7 +13,7 @@ use plotters::style::{register_font, FontStyle};
 use crate::closed_loop::{LoopView, SlewView};
 use crate::gait::{SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 use crate::plant::{self, GaitRun};
-use crate::trace::Trace;
+use inchworm_cosim::Trace;
 
 /// Where Debian's `fonts-dejavu-core` puts its sans-serif face.
 pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
