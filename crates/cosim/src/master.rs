@@ -769,8 +769,8 @@ impl Simulation {
 const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 
 /// `stop / h` as a whole number of steps, or why not. A last step shorter than `h` would
-/// be refused by FMUs with a fixed sample (the controller takes whole 2 ms samples only),
-/// and only at the end of the run: such a stop time is refused before the first step.
+/// be refused by FMUs with a fixed communication step, and only at the end of the run:
+/// such a stop time is refused before the first step.
 fn step_count(stop: f64, h: f64) -> Result<u64, Error> {
     let steps = stop / h;
     if steps > MAX_STEPS {

@@ -1,5 +1,5 @@
 //! Reading an SSP 1.0 file: the system structure (components, connectors, connections)
-//! and parameter sets, enough to run a flat system of FMI 2.0 Co-Simulation FMUs.
+//! and parameter sets, enough to run a flat system of FMI 2.0 and FMI 3.0 Co-Simulation FMUs.
 //! Elements and attributes this master does not use (geometry, annotations of other
 //! tools, units) are skipped, not refused.
 
