@@ -71,5 +71,5 @@ pub mod trace;
 pub use inchworm_fmi_import as fmu;
 
 pub use error::{Error, StopFlag};
-pub use master::{Coupling, InputTable, Options, Simulation, System};
+pub use master::{Checkpoint, Coupling, InputTable, Options, Simulation, System};
 pub use trace::Trace;

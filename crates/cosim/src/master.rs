@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::archive::cut;
-use crate::fmu::{CsFmu, Var, VarType};
+use crate::fmu::{CsFmu, FmuState, Var, VarType};
 pub use crate::input::InputTable;
 use crate::ssp::{Archive, End, TypedValue};
 use crate::trace::Trace;
@@ -803,6 +803,84 @@ pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Tra
         progress,
     )?;
     Ok(trace)
+}
+
+/// A communication point of a running [`Simulation`] to come back to: every component's
+/// FMU state (`fmi2GetFMUstate` / `fmi3GetFMUState`, whichever standard the component is)
+/// and the master's own state there (the step counter and the outputs last read, which
+/// feed the next step). Restoring it makes the steps after it repeat bit for bit, so a
+/// study can branch many runs from one settled transient. The FMU states live in their
+/// components: give a checkpoint back with [`Simulation::release`]; those not released
+/// are freed with the simulation.
+pub struct Checkpoint {
+    states: Vec<FmuState>,
+    k: u64,
+    latest: Vec<f64>,
+}
+
+impl Checkpoint {
+    /// The communication step the checkpoint was taken at (its time is `step · h`).
+    pub fn step(&self) -> u64 {
+        self.k
+    }
+}
+
+impl Simulation {
+    /// Saves the current communication point. An FMU that cannot save its state (it does
+    /// not declare `canGetAndSetFMUstate`) fails the call with its component's name, and
+    /// the states already taken from the others are freed.
+    pub fn checkpoint(&mut self) -> Result<Checkpoint, Error> {
+        let mut states = Vec::with_capacity(self.components.len());
+        for i in 0..self.components.len() {
+            match self.components[i].fmu.get_state() {
+                Ok(s) => states.push(s),
+                Err(source) => {
+                    for (c, s) in self.components.iter_mut().zip(states) {
+                        // Freeing is best effort here: the error that matters is the one
+                        // that stopped the checkpoint.
+                        let _ = c.fmu.free_state(s);
+                    }
+                    let component = self.components[i].name.clone();
+                    return Err(Error::Component { component, source });
+                }
+            }
+        }
+        Ok(Checkpoint { states, k: self.k, latest: self.latest.clone() })
+    }
+
+    /// Back to `checkpoint`, which this simulation took: every component restores its
+    /// state (a checkpoint of another simulation is refused by the first component, whose
+    /// FMU did not hand out that state), then the master's step counter and last outputs.
+    pub fn restore(&mut self, checkpoint: &Checkpoint) -> Result<(), Error> {
+        if checkpoint.states.len() != self.components.len() {
+            return Err(Error::Config(format!(
+                "the checkpoint holds {} component states, this simulation has {} components",
+                checkpoint.states.len(),
+                self.components.len()
+            )));
+        }
+        for (c, s) in self.components.iter_mut().zip(&checkpoint.states) {
+            c.fmu
+                .set_state(s)
+                .map_err(|source| Error::Component { component: c.name.clone(), source })?;
+        }
+        self.k = checkpoint.k;
+        self.latest.clone_from(&checkpoint.latest);
+        Ok(())
+    }
+
+    /// Frees the FMU states of `checkpoint`.
+    pub fn release(&mut self, checkpoint: Checkpoint) -> Result<(), Error> {
+        if checkpoint.states.len() != self.components.len() {
+            return Err(Error::Config("the checkpoint was not taken from this simulation".into()));
+        }
+        for (c, s) in self.components.iter_mut().zip(checkpoint.states) {
+            c.fmu
+                .free_state(s)
+                .map_err(|source| Error::Component { component: c.name.clone(), source })?;
+        }
+        Ok(())
+    }
 }
 
 // Sweeps (crate::sweep): one loaded system run many times, re-initialised in place between
