@@ -794,8 +794,11 @@ def test_a_long_sweep_run_streams_and_stops_on_sigterm_keeping_its_rows(tmp, tmp
     assert len(rows) == 3 and rows[1].endswith('failed,"interrupted by SIGTERM"'), rows
 
 
-def test_one_fmu_referenced_many_times_is_held_to_one_budget(tmp, tmp_path):
-    # Each archive alone fits the cap, so each was let through: 12 references unpacked 12 times.
+def test_one_fmu_referenced_many_times_is_unpacked_once_within_one_budget(tmp, tmp_path):
+    # Each archive alone fits the cap, so each was let through: 12 references unpacked 12
+    # times. Now the FMU is unpacked once and instantiated 12 times from that folder, so a
+    # budget with room for one copy (and not two) runs the system, and one for the SSP
+    # alone refuses it before anything is unpacked.
     with zipfile.ZipFile(PLANT) as z:
         fmu_bytes = sum(i.file_size for i in z.infolist())
     with zipfile.ZipFile(SSP) as z:
@@ -805,15 +808,22 @@ def test_one_fmu_referenced_many_times_is_held_to_one_budget(tmp, tmp_path):
            f'version="1.0" name="S"><ssd:System name="S"><ssd:Elements>{comps}</ssd:Elements></ssd:System>'
            '</ssd:SystemStructureDescription>')
     ssp = ssp_with_ssd(tmp_path, ssd, "many.ssp")
-    cap = ssp_bytes + 3 * fmu_bytes + 1000
+    cap = ssp_bytes + fmu_bytes + fmu_bytes // 2
     r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--step-size", "0.002", "--output", "p0.mode",
-                 "--out", tmp_path / "o.csv", env={"INCHWORM_MAX_UNPACKED_BYTES": str(cap)})
+                 "--output", "p11.mode", "--out", tmp_path / "o.csv", env={"INCHWORM_MAX_UNPACKED_BYTES": str(cap)})
+    assert r.returncode == 0, r.stderr[-2000:]
+    rows = (tmp_path / "o.csv").read_text().splitlines()
+    assert len(rows) == 1 + 6 and rows[0].endswith("p0.mode,p11.mode"), rows
+
+    cap = ssp_bytes + fmu_bytes // 2
+    r = inchworm(tmp, "run", ssp, "--stop-time", "0.01", "--step-size", "0.002", "--output", "p0.mode",
+                 "--out", tmp_path / "o2.csv", env={"INCHWORM_MAX_UNPACKED_BYTES": str(cap)})
     assert r.returncode == 1, r.stderr[-2000:]
     line = error_line(r)
     assert line.startswith(f"error: {ssp}: the system unpacks to more than {cap} bytes in all (the SSP "), line
-    assert line.endswith("component p3 (InchwormPlant.fmu) passes it): refused "
+    assert line.endswith("component p0 (InchwormPlant.fmu) passes it): refused "
                          "(raise the cap with INCHWORM_MAX_UNPACKED_BYTES)"), line
-    assert not (tmp_path / "o.csv").exists()
+    assert not (tmp_path / "o2.csv").exists()
 
 
 def test_a_connection_between_connectors_of_different_types_is_refused(tmp, tmp_path):

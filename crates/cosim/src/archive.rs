@@ -81,12 +81,15 @@ fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
     Ok(Some(total))
 }
 
-/// One unpacking budget for a whole system: the SSP unpacked in `dir` and every
-/// component's FMU (unpacked once per component that references it) together within
-/// the total cap ([`Limits::total_bytes`], `INCHWORM_MAX_UNPACKED_BYTES`). Each archive
-/// alone is held to the cap as it is unpacked; without this, an SSP that references one
-/// FMU many times would unpack that many times the cap.
-pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<(), Error> {
+/// One unpacking budget for a whole system: the SSP unpacked in `dir` and every FMU its
+/// components reference together within the total cap ([`Limits::total_bytes`],
+/// `INCHWORM_MAX_UNPACKED_BYTES`). An FMU that several components reference counts once,
+/// as the master unpacks it once (see `System::load`); one that must be unpacked apart
+/// for every instance (`canBeInstantiatedOnlyOncePerProcess`) is counted again by
+/// [`check_another_copy`] before each further copy. Each archive alone is held to the cap
+/// as it is unpacked; without this, an SSP that references one FMU many times would
+/// unpack that many times the cap. Returns the bytes counted so far.
+pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<u64, Error> {
     let limits = Limits::from_env().map_err(|e| Error::Ssp(e.to_string()))?;
     let cap = limits.total_bytes;
     let ssp = dir_bytes(dir);
@@ -98,6 +101,9 @@ pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<(
         ))
     };
     for (i, (name, source)) in components.iter().enumerate() {
+        if components[..i].iter().any(|(_, earlier)| earlier == source) {
+            continue;
+        }
         let left = cap.saturating_sub(used);
         match inflated_size(source, left)? {
             Some(n) => used += n,
@@ -113,7 +119,25 @@ pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<(
             }
         }
     }
-    Ok(())
+    Ok(used)
+}
+
+/// Counts one more copy of the FMU `source` (component `name`) into `used`, the bytes
+/// [`check_system_budget`] counted, or refuses it past the total cap.
+pub fn check_another_copy(used: &mut u64, name: &str, source: &Path) -> Result<(), Error> {
+    let limits = Limits::from_env().map_err(|e| Error::Ssp(e.to_string()))?;
+    let cap = limits.total_bytes;
+    match inflated_size(source, cap.saturating_sub(*used))? {
+        Some(n) => {
+            *used += n;
+            Ok(())
+        }
+        None => Err(Error::Ssp(format!(
+            "the system unpacks to more than {cap} bytes in all (component {} needs a copy of its FMU of its own, as it declares canBeInstantiatedOnlyOncePerProcess): refused (raise the cap with {})",
+            cut(name, 200),
+            fmu_archive::ENV_TOTAL
+        ))),
+    }
 }
 
 /// The file an SSD `source` names, inside the unpacked archive `dir`. A source that is

@@ -338,11 +338,23 @@ impl System {
             .zip(&sources)
             .map(|(c, s)| (c.name.as_str(), s.as_path()))
             .collect();
-        crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
-        let mut components = Vec::new();
-        for (c, source) in a.system.components.iter().zip(&sources) {
-            let fmu = CsFmu::load(source, &c.name, false)
-                .map_err(|source| Error::Component { component: c.name.clone(), source })?;
+        let mut used = crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
+        let mut components: Vec<Component> = Vec::new();
+        for (i, (c, source)) in a.system.components.iter().zip(&sources).enumerate() {
+            let component = |source| Error::Component { component: c.name.clone(), source };
+            // An FMU that several components use is unpacked once and instantiated from
+            // that folder again, unless each of its instances needs a library of its own.
+            let earlier = sources[..i].iter().position(|s| s == source);
+            let fmu = match earlier.map(|e| &components[e].fmu) {
+                Some(first) if first.can_instantiate_again() => {
+                    first.instantiate_again(&c.name, false).map_err(component)?
+                }
+                Some(_) => {
+                    crate::archive::check_another_copy(&mut used, &c.name, source).map_err(here)?;
+                    CsFmu::load(source, &c.name, false).map_err(component)?
+                }
+                None => CsFmu::load(source, &c.name, false).map_err(component)?,
+            };
             components.push(Component { name: c.name.clone(), fmu });
         }
         let kind = |k: &str| -> Vec<String> {

@@ -31,6 +31,9 @@ pub enum ImportError {
     MissingSymbol { library: PathBuf, symbol: &'static str },
     /// `modelDescription.xml` declares a capability (`flag`) whose function the binary lacks.
     MissingCapability { library: PathBuf, symbol: &'static str, flag: &'static str },
+    /// Another instance was asked of an FMU that declares
+    /// `canBeInstantiatedOnlyOncePerProcess="true"` from the library already loaded.
+    OncePerProcess { model: String },
     /// `fmi2GetTypesPlatform` is not "default".
     TypesPlatform(String),
     /// `function` (`fmi2GetVersion`, `fmi3GetVersion`) returned another version.
@@ -85,6 +88,10 @@ impl fmt::Display for ImportError {
                 f,
                 "modelDescription.xml declares {flag}=\"true\" but the FMU's binary {} does not export {symbol}",
                 library.display()
+            ),
+            ImportError::OncePerProcess { model } => write!(
+                f,
+                "{model} declares canBeInstantiatedOnlyOncePerProcess=\"true\": another instance needs a copy of its own, not the library already loaded"
             ),
             ImportError::TypesPlatform(p) => {
                 write!(f, "fmi2GetTypesPlatform returned \"{p}\", expected \"default\"")

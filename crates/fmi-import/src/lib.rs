@@ -36,6 +36,7 @@ use std::collections::HashMap;
 use std::mem::ManuallyDrop;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 pub use binary::{fmi2_platform, fmi3_platform};
 pub use description::{
@@ -94,8 +95,9 @@ pub struct CsFmu {
     owner: u64,
     states: HashMap<u64, Saved>,
     next_state: u64,
-    // Last: the unpacked directory goes after the library is unloaded.
-    unpacked: Unpacked,
+    // Last: the unpacked directory goes after the library is unloaded. Shared by the
+    // instances made with `instantiate_again`; removed with the last of them.
+    unpacked: Arc<Unpacked>,
 }
 
 impl Drop for CsFmu {
@@ -149,6 +151,48 @@ impl CsFmu {
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
+        Self::from_unpacked(path, Arc::new(unpacked), instance_name, logging_on)
+    }
+
+    /// Whether [`CsFmu::instantiate_again`] may make more instances from this one's
+    /// unpacked folder and library: not for an FMU that declares
+    /// `canBeInstantiatedOnlyOncePerProcess`, whose every instance needs a library of its
+    /// own (a copy unpacked apart, as [`CsFmu::load`] makes).
+    pub fn can_instantiate_again(&self) -> bool {
+        self.description
+            .co_simulation
+            .as_ref()
+            .is_some_and(|cs| !cs.can_be_instantiated_only_once_per_process)
+    }
+
+    /// Another instance of the same FMU under `instance_name`, from the folder this one
+    /// was unpacked in: a system that uses one FMU many times unpacks it once.
+    pub fn instantiate_again(
+        &self,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Result<Self, FmuError> {
+        if !self.can_instantiate_again() {
+            return Err(FmuError::Import {
+                path: self.unpacked.dir().to_path_buf(),
+                source: ImportError::OncePerProcess { model: self.cx.model.clone() },
+            });
+        }
+        Self::from_unpacked(
+            self.unpacked.dir(),
+            Arc::clone(&self.unpacked),
+            instance_name,
+            logging_on,
+        )
+    }
+
+    fn from_unpacked(
+        path: &Path,
+        unpacked: Arc<Unpacked>,
+        instance_name: &str,
+        logging_on: bool,
+    ) -> Result<Self, FmuError> {
+        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
         let Some(cs) = &description.co_simulation else {
