@@ -3,41 +3,14 @@
 //! thread: the plant in a steady loop of gaits (brake switches and all), the controller
 //! in a closed loop against a synthetic encoder that makes it move and iterate.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
 use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
-struct Counting;
-
-thread_local! {
-    // Per thread, so the test harness's own threads do not count.
-    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
-fn allocations() -> u64 {
-    ALLOCATIONS.with(Cell::get)
-}
+#[path = "../../../tests/support/counting_alloc.rs"]
+mod counting_alloc;
+use counting_alloc::allocations;
 
 const PLANT_DAC: [u32; 3] = [1, 2, 3];
 const OUTPUTS: [u32; 6] = [11, 12, 13, 14, 15, 16];
