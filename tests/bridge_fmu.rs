@@ -53,11 +53,25 @@ fn reference(t: f64) -> f64 {
 /// it starts inherit it and other work on the machine (a CPU-bound process on every core)
 /// cannot stall them past a watchdog, as `inchworm bridge` does for itself in real time.
 /// Without the privilege the test runs under the default scheduler.
-struct RealTime(Option<(i32, i32)>);
+/// One test of this file at a time: the harness runs tests on parallel threads, and the
+/// bridge processes of one test (real-time ones, under SCHED_FIFO, and those it spawns)
+/// took the two cores from another test's board for seconds, so that board missed a
+/// controller's whole handshake ("no HELLO answer from the board within 5.0 s", seen in
+/// about one run in three with every test of the file at once; none in serial runs).
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// This test's turn at the machine (see [`SERIAL`]); a test that failed while holding it
+/// leaves nothing shared behind.
+fn turn() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+struct RealTime(Option<(i32, i32)>, #[allow(dead_code)] std::sync::MutexGuard<'static, ()>);
 
 impl RealTime {
     fn enter() -> RealTime {
-        RealTime(inchworm_bridge::realtime::fifo_thread(50).ok())
+        let turn = turn();
+        RealTime(inchworm_bridge::realtime::fifo_thread(50).ok(), turn)
     }
 }
 
@@ -301,6 +315,7 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
 
 #[test]
 fn bad_bridge_arguments_are_refused_clearly() {
+    let _turn = turn();
     let run = |args: &[&str]| {
         let out = Command::new(BIN).args(args).output().unwrap();
         assert!(!out.status.success(), "{args:?}");
@@ -653,6 +668,7 @@ fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
 
 #[test]
 fn without_real_time_privileges_the_bridge_warns_and_runs() {
+    let _turn = turn();
     // No CAP_SYS_NICE / CAP_IPC_LOCK, an rtprio limit of 0 and a 64 KiB memlock limit: both
     // requests are refused, each with a warning, and the real-time loop runs anyway.
     // SAFETY: geteuid has no preconditions.
