@@ -132,7 +132,8 @@ def test_the_fmpy_coupling_is_inchworm_run_bit_for_bit(mirror_ssp):
 
 
 def tip_only(tip, at_s):
-    """SSP parameters: no piston move (the prescription in focus at 0), a tip at `at_s`."""
+    """SSP parameters: no piston move (the prescription in focus at 0), a tip at `at_s`; each
+    actuator's share R tip sin φ on the mount's default geometry (R = 50 mm, a at 90°)."""
     phi = [math.radians(90 + 120 * i) for i in range(3)]
     params = []
     for x, p in zip(CHAINS, phi):
