@@ -5,11 +5,11 @@ wavefront tilt 2 θ d2/D referred to the pupil, times f); a despace Δ is a focu
 encircled energy is Mahajan's. Then the FMPy coupling against `inchworm run`, and a short
 run of the CLI on a small grid: the image motion equals the mount's pointing times the
 lever, and the guider holds the image that the unguided run leaves off."""
+import contextlib
 import csv
+import io
 import json
 import math
-import os
-import subprocess
 import sys
 
 import numpy as np
@@ -21,6 +21,7 @@ from conftest import DIST, ROOT
 from test_mirror_mount import mirror_ssp  # noqa: F401  (the fixture: dist/MirrorMount.ssp)
 
 sys.path.insert(0, str(ROOT / "python" / "inchworm_optics"))
+from inchworm_optics import __main__ as cli  # noqa: E402
 from inchworm_optics.cosim import CHAINS, MountCosim  # noqa: E402
 from inchworm_optics.optics import Frame, Instrument  # noqa: E402
 from inchworm_optics.telescope import Prescription  # noqa: E402
@@ -131,7 +132,8 @@ def test_the_fmpy_coupling_is_inchworm_run_bit_for_bit(mirror_ssp):
 
 
 def tip_only(tip, at_s):
-    """SSP parameters: no piston move (the prescription in focus at 0), a tip at `at_s`."""
+    """SSP parameters: no piston move (the prescription in focus at 0), a tip at `at_s`; each
+    actuator's share R tip sin φ on the mount's default geometry (R = 50 mm, a at 90°)."""
     phi = [math.radians(90 + 120 * i) for i in range(3)]
     params = []
     for x, p in zip(CHAINS, phi):
@@ -145,20 +147,22 @@ def short_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("optics")
     rx = out / "rx.json"
     rx.write_text(json.dumps({"focus_piston_m": 0.0}))
-    cmd = [sys.executable, "-m", "inchworm_optics", "--dist", str(DIST), "--out", str(out), "--prescription", str(rx),
-           "--duration", "1.2", "--pupil", "16", "--fov", "24", "--runs", "stepping,drift,guided-analog",
-           "--regulation", "0.4", "--drift", "0,0", "--offset", "150,-100", "--held-from", "0.9", "--bound", "5",
-           "--guide-pause", "0"]
+    args = ["--dist", str(DIST), "--out", str(out), "--prescription", str(rx),
+            "--duration", "1.2", "--pupil", "16", "--fov", "24", "--runs", "stepping,drift,guided-analog",
+            "--regulation", "0.4", "--drift", "0,0", "--offset", "150,-100", "--held-from", "0.9", "--bound", "5",
+            "--guide-pause", "0"]
     for p in tip_only(2e-6, 0.1):
-        cmd += ["--param", p]
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "python" / "inchworm_optics"), "OMP_NUM_THREADS": "1"}
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT)
-    assert p.returncode == 0, p.stderr
+        args += ["--param", p]
+    # The CLI's own entry point, in this process (poppy is imported once for the module).
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        rc = cli.main(args)
+    assert rc == 0, stderr.getvalue()
     summary = {}
     with open(out / "optics-summary.csv", newline="") as f:
         for r in csv.DictReader(f):
             summary[(r["run"], r["figure"])] = float(r["value"])
-    return out, summary, p.stdout
+    return out, summary, stdout.getvalue()
 
 
 def test_the_cli_writes_its_csvs_and_pngs(short_run):

@@ -31,8 +31,6 @@ from dataclasses import asdict, dataclass, fields
 import json
 import math
 
-import numpy as np
-
 MAS_PER_RAD = 180.0 / math.pi * 3600e3
 
 
