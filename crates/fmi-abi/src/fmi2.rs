@@ -176,3 +176,43 @@ pub type fmi2GetStringStatusTYPE =
 /// What `fmi2GetTypesPlatform` and `fmi2GetVersion` return, NUL-terminated.
 pub const fmi2TypesPlatform: &[u8] = b"default\0";
 pub const fmi2Version: &[u8] = b"2.0\0";
+
+/// `fmi2EventInfo`, filled by `fmi2NewDiscreteStates`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct fmi2EventInfo {
+    pub newDiscreteStatesNeeded: fmi2Boolean,
+    pub terminateSimulation: fmi2Boolean,
+    pub nominalsOfContinuousStatesChanged: fmi2Boolean,
+    pub valuesOfContinuousStatesChanged: fmi2Boolean,
+    pub nextEventTimeDefined: fmi2Boolean,
+    pub nextEventTime: fmi2Real,
+}
+
+// Model Exchange.
+pub type fmi2EnterEventModeTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
+pub type fmi2NewDiscreteStatesTYPE =
+    unsafe extern "C" fn(fmi2Component, *mut fmi2EventInfo) -> fmi2Status;
+pub type fmi2EnterContinuousTimeModeTYPE = unsafe extern "C" fn(fmi2Component) -> fmi2Status;
+pub type fmi2CompletedIntegratorStepTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    fmi2Boolean,
+    *mut fmi2Boolean,
+    *mut fmi2Boolean,
+) -> fmi2Status;
+pub type fmi2SetTimeTYPE = unsafe extern "C" fn(fmi2Component, fmi2Real) -> fmi2Status;
+pub type fmi2SetContinuousStatesTYPE =
+    unsafe extern "C" fn(fmi2Component, *const fmi2Real, usize) -> fmi2Status;
+/// The shape of `fmi2GetDerivatives`, `fmi2GetEventIndicators`, `fmi2GetContinuousStates`
+/// and `fmi2GetNominalsOfContinuousStates`.
+pub type fmi2GetRealVectorTYPE =
+    unsafe extern "C" fn(fmi2Component, *mut fmi2Real, usize) -> fmi2Status;
+pub type fmi2GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
+    fmi2Component,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2ValueReference,
+    usize,
+    *const fmi2Real,
+    *mut fmi2Real,
+) -> fmi2Status;

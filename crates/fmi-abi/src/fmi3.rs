@@ -181,3 +181,49 @@ pub type fmi3SerializeFMUStateTYPE =
     unsafe extern "C" fn(fmi3Instance, fmi3FMUState, *mut fmi3Byte, usize) -> fmi3Status;
 pub type fmi3DeserializeFMUStateTYPE =
     unsafe extern "C" fn(fmi3Instance, *const fmi3Byte, usize, *mut fmi3FMUState) -> fmi3Status;
+
+// Model Exchange.
+pub type fmi3InstantiateModelExchangeTYPE = unsafe extern "C" fn(
+    fmi3String,
+    fmi3String,
+    fmi3String,
+    fmi3Boolean,
+    fmi3Boolean,
+    fmi3InstanceEnvironment,
+    fmi3LogMessageCallback,
+) -> fmi3Instance;
+pub type fmi3EnterEventModeTYPE = fmi3InstanceOnlyTYPE;
+pub type fmi3EnterContinuousTimeModeTYPE = fmi3InstanceOnlyTYPE;
+pub type fmi3UpdateDiscreteStatesTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Float64,
+) -> fmi3Status;
+pub type fmi3CompletedIntegratorStepTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    fmi3Boolean,
+    *mut fmi3Boolean,
+    *mut fmi3Boolean,
+) -> fmi3Status;
+pub type fmi3SetTimeTYPE = unsafe extern "C" fn(fmi3Instance, fmi3Float64) -> fmi3Status;
+pub type fmi3SetContinuousStatesTYPE =
+    unsafe extern "C" fn(fmi3Instance, *const fmi3Float64, usize) -> fmi3Status;
+/// The shape of `fmi3GetContinuousStateDerivatives`, `fmi3GetEventIndicators`,
+/// `fmi3GetContinuousStates` and `fmi3GetNominalsOfContinuousStates`.
+pub type fmi3GetFloat64VectorTYPE =
+    unsafe extern "C" fn(fmi3Instance, *mut fmi3Float64, usize) -> fmi3Status;
+pub type fmi3GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *const fmi3ValueReference,
+    usize,
+    *const fmi3Float64,
+    usize,
+    *mut fmi3Float64,
+    usize,
+) -> fmi3Status;

@@ -199,6 +199,8 @@ pub enum FmuError {
     Import { path: PathBuf, source: ImportError },
     /// The FMU offers no Co-Simulation interface.
     NotCoSimulation { model: String },
+    /// The FMU offers no Model Exchange interface.
+    NotModelExchange { model: String },
     /// No variable of that name in `modelDescription.xml`.
     UnknownVariable { model: String, name: String },
     /// The variable exists but has another type than the call needs.
@@ -230,6 +232,10 @@ impl fmt::Display for FmuError {
             FmuError::NotCoSimulation { model } => write!(
                 f,
                 "{model}: the FMU has no Co-Simulation interface (modelDescription.xml lacks <CoSimulation>)"
+            ),
+            FmuError::NotModelExchange { model } => write!(
+                f,
+                "{model}: the FMU has no Model Exchange interface (modelDescription.xml lacks <ModelExchange>)"
             ),
             FmuError::UnknownVariable { model, name } => {
                 write!(f, "{model}: no variable named `{name}` in modelDescription.xml")

@@ -31,6 +31,7 @@ pub mod description;
 mod error;
 mod ffi;
 mod logger;
+mod model_exchange;
 
 use std::collections::HashMap;
 use std::mem::ManuallyDrop;
@@ -38,12 +39,14 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
+pub use backend::me::EventUpdate;
 pub use binary::{fmi2_platform, fmi3_platform};
 pub use description::{
-    Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType, Variability,
-    Variable,
+    Causality, CoSimulation, ContinuousState, DefaultExperiment, Initial, ModelDescription,
+    ModelExchange, VarType, Variability, Variable,
 };
 pub use error::{FmuError, ImportError, Status};
+pub use model_exchange::MeFmu;
 
 use archive::Unpacked;
 use backend::fmi2::Fmi2Backend;
@@ -151,7 +154,7 @@ impl CsFmu {
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
-        Self::from_unpacked(path, Arc::new(unpacked), instance_name, logging_on)
+        Self::from_unpacked(path, Arc::new(unpacked), instance_name, (logging_on, false))
     }
 
     /// Whether [`CsFmu::instantiate_again`] may make more instances from this one's
@@ -159,10 +162,18 @@ impl CsFmu {
     /// `canBeInstantiatedOnlyOncePerProcess`, whose every instance needs a library of its
     /// own (a copy unpacked apart, as [`CsFmu::load`] makes).
     pub fn can_instantiate_again(&self) -> bool {
-        self.description
-            .co_simulation
-            .as_ref()
-            .is_some_and(|cs| !cs.can_be_instantiated_only_once_per_process)
+        let md = &self.description;
+        let once = if self.is_model_exchange() {
+            md.model_exchange.as_ref().map(|me| me.can_be_instantiated_only_once_per_process)
+        } else {
+            md.co_simulation.as_ref().map(|cs| cs.can_be_instantiated_only_once_per_process)
+        };
+        once == Some(false)
+    }
+
+    /// Whether the instance was made for Model Exchange (by [`MeFmu::load`]).
+    pub fn is_model_exchange(&self) -> bool {
+        self.backend.me().is_some()
     }
 
     /// Another instance of the same FMU under `instance_name`, from the folder this one
@@ -182,29 +193,39 @@ impl CsFmu {
             self.unpacked.dir(),
             Arc::clone(&self.unpacked),
             instance_name,
-            logging_on,
+            (logging_on, self.is_model_exchange()),
         )
     }
 
+    /// An instance for Co-Simulation (`model_exchange` false) or Model Exchange.
     fn from_unpacked(
         path: &Path,
         unpacked: Arc<Unpacked>,
         instance_name: &str,
-        logging_on: bool,
+        (logging_on, model_exchange): (bool, bool),
     ) -> Result<Self, FmuError> {
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
-        let Some(cs) = &description.co_simulation else {
-            return Err(FmuError::NotCoSimulation { model });
+        let identifier = match (&description.co_simulation, &description.model_exchange) {
+            (_, Some(me)) if model_exchange => &me.model_identifier,
+            (Some(cs), _) if !model_exchange => &cs.model_identifier,
+            _ if model_exchange => return Err(FmuError::NotModelExchange { model }),
+            _ => return Err(FmuError::NotCoSimulation { model }),
         };
         let fmi3 = description.is_fmi3();
         let platform = if fmi3 { fmi3_platform() } else { fmi2_platform() };
-        let library = binary::library_path_for(platform, unpacked.dir(), &cs.model_identifier)
-            .map_err(import)?;
+        let library =
+            binary::library_path_for(platform, unpacked.dir(), identifier).map_err(import)?;
         let binary = Binary::load(unpacked.dir(), &library).map_err(import)?;
         let resources = unpacked.dir().join("resources");
-        let setup = Setup { md: &description, resources: &resources, instance_name, logging_on };
+        let setup = Setup {
+            md: &description,
+            resources: &resources,
+            instance_name,
+            logging_on,
+            model_exchange,
+        };
         let backend: Box<dyn Backend> = if fmi3 {
             Box::new(Fmi3Backend::instantiate(binary, &setup).map_err(import)?)
         } else {

@@ -27,10 +27,11 @@ struct Api {
     set_integer: fmi2SetIntegerTYPE,
     set_boolean: fmi2SetBooleanTYPE,
     set_string: fmi2SetStringTYPE,
-    do_step: fmi2DoStepTYPE,
+    /// `None` for a Model Exchange instance.
+    do_step: Option<fmi2DoStepTYPE>,
 }
 
-/// The functions the FMI 2.0 Co-Simulation API requires besides those in [`Api`] and [`super::FMI2_NAMES`]: resolved
+/// The functions the FMI 2.0 Co-Simulation API requires (of a Co-Simulation instance) besides those in [`Api`] and [`super::FMI2_NAMES`]: resolved
 /// so that an incomplete binary is refused at load, not at its first use.
 const ALSO_REQUIRED: [&str; 6] = [
     "fmi2CancelStep",
@@ -46,6 +47,7 @@ pub(crate) struct Fmi2Backend {
     instance: Instance,
     api: Api,
     states: States<fmi2Byte>,
+    me: Option<super::me::Me>,
     // What the FMU may hold pointers to until fmi2FreeInstance; dropped after it.
     _callbacks: Box<fmi2CallbackFunctions>,
     _env: Box<LogEnv>,
@@ -60,13 +62,24 @@ impl Fmi2Backend {
     /// Resolves the `fmi2*` functions of `binary`, checks its platform and version and
     /// instantiates it for Co-Simulation.
     pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi2Backend, ImportError> {
-        let Setup { md, resources, instance_name, logging_on } = *setup;
+        let Setup { md, resources, instance_name, logging_on, model_exchange } = *setup;
         // SAFETY: each type is the FMI 2.0 signature of the function named.
-        let (api, instantiate, types_platform, get_version, common) = unsafe {
+        let (api, instantiate, types_platform, get_version, common, mut me) = unsafe {
             let instantiate: fmi2InstantiateTYPE =
                 binary.required(super::FMI2_NAMES.instantiate)?;
-            for name in ALSO_REQUIRED {
-                binary.required::<fmi2CancelStepTYPE>(name)?;
+            let me = match &md.model_exchange {
+                Some(m) if model_exchange => Some(super::me::Me::resolve(
+                    &binary,
+                    false,
+                    status,
+                    m.provides_directional_derivative,
+                )?),
+                _ => None,
+            };
+            if !model_exchange {
+                for name in ALSO_REQUIRED {
+                    binary.required::<fmi2CancelStepTYPE>(name)?;
+                }
             }
             let common = Common::<fmi2Byte>::resolve(&binary, &super::FMI2_NAMES, status, setup)?;
             let api = Api {
@@ -81,12 +94,12 @@ impl Fmi2Backend {
                 set_integer: binary.required("fmi2SetInteger")?,
                 set_boolean: binary.required("fmi2SetBoolean")?,
                 set_string: binary.required("fmi2SetString")?,
-                do_step: binary.required("fmi2DoStep")?,
+                do_step: if model_exchange { None } else { Some(binary.required("fmi2DoStep")?) },
             };
             let types_platform: fmi2GetTypesPlatformTYPE =
                 binary.required("fmi2GetTypesPlatform")?;
             let get_version: fmi2GetVersionTYPE = binary.required("fmi2GetVersion")?;
-            (api, instantiate, types_platform, get_version, common)
+            (api, instantiate, types_platform, get_version, common, me)
         };
         // SAFETY: both return a static NUL-terminated string.
         let platform = crate::binary::c_text(unsafe { types_platform() });
@@ -113,7 +126,7 @@ impl Fmi2Backend {
         let component = unsafe {
             instantiate(
                 c_name.as_ptr(),
-                fmi2CoSimulation,
+                if model_exchange { fmi2ModelExchange } else { fmi2CoSimulation },
                 c_guid.as_ptr(),
                 c_resources.as_ptr(),
                 &*callbacks,
@@ -122,9 +135,13 @@ impl Fmi2Backend {
             )
         };
         let (instance, states) = common.finish(component, (binary, version), status, setup)?;
+        if let Some(me) = me.as_mut() {
+            me.bind(instance.ptr());
+        }
         Ok(Fmi2Backend {
             instance,
             states,
+            me,
             api,
             _callbacks: callbacks,
             _env: env,
@@ -177,7 +194,8 @@ impl Backend for Fmi2Backend {
     }
 
     fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
-        let (c, f) = (self.instance.ptr(), self.api.do_step);
+        let c = self.instance.ptr();
+        let f = self.api.do_step.ok_or_else(|| cx.other_interface("fmi2DoStep", true))?;
         cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))
     }
 
@@ -241,6 +259,10 @@ impl Backend for Fmi2Backend {
 
     fn states(&self) -> &dyn StateCalls {
         &self.states
+    }
+
+    fn me(&self) -> Option<&super::me::Me> {
+        self.me.as_ref()
     }
 
     fn instance(&self) -> &Instance {

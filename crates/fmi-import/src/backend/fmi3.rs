@@ -29,7 +29,8 @@ struct Api {
     set_int32: fmi3SetInt32TYPE,
     set_boolean: fmi3SetBooleanTYPE,
     set_string: fmi3SetStringTYPE,
-    do_step: fmi3DoStepTYPE,
+    /// `None` for a Model Exchange instance.
+    do_step: Option<fmi3DoStepTYPE>,
 }
 
 pub(crate) struct Fmi3Backend {
@@ -37,9 +38,16 @@ pub(crate) struct Fmi3Backend {
     instance: Instance,
     api: Api,
     states: States<fmi3Byte>,
+    me: Option<super::me::Me>,
     // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
     _env: Box<LogEnv>,
     _strings: [CString; 3],
+}
+
+/// The instantiate function of the interface asked for.
+enum Instantiate {
+    Cs(fmi3InstantiateCoSimulationTYPE),
+    Me(fmi3InstantiateModelExchangeTYPE),
 }
 
 fn status(raw: fmi3Status) -> Status {
@@ -61,11 +69,23 @@ impl Fmi3Backend {
     /// Resolves the `fmi3*` functions of `binary`, checks its version and instantiates it
     /// for Co-Simulation.
     pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi3Backend, ImportError> {
-        let Setup { md, resources, instance_name, logging_on } = *setup;
+        let Setup { md, resources, instance_name, logging_on, model_exchange } = *setup;
         // SAFETY: each type is the FMI 3.0 signature of the function named.
-        let (api, instantiate, get_version, common) = unsafe {
-            let instantiate: fmi3InstantiateCoSimulationTYPE =
-                binary.required(super::FMI3_NAMES.instantiate)?;
+        let (api, instantiate, get_version, common, mut me) = unsafe {
+            let instantiate = if model_exchange {
+                Instantiate::Me(binary.required(super::FMI3_NAMES.instantiate_me)?)
+            } else {
+                Instantiate::Cs(binary.required(super::FMI3_NAMES.instantiate)?)
+            };
+            let me = match &md.model_exchange {
+                Some(m) if model_exchange => Some(super::me::Me::resolve(
+                    &binary,
+                    true,
+                    status,
+                    m.provides_directional_derivative,
+                )?),
+                _ => None,
+            };
             let common = Common::<fmi3Byte>::resolve(&binary, &super::FMI3_NAMES, status, setup)?;
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,
@@ -78,10 +98,10 @@ impl Fmi3Backend {
                 set_int32: binary.required("fmi3SetInt32")?,
                 set_boolean: binary.required("fmi3SetBoolean")?,
                 set_string: binary.required("fmi3SetString")?,
-                do_step: binary.required("fmi3DoStep")?,
+                do_step: if model_exchange { None } else { Some(binary.required("fmi3DoStep")?) },
             };
             let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
-            (api, instantiate, get_version, common)
+            (api, instantiate, get_version, common, me)
         };
         // SAFETY: returns a static NUL-terminated string.
         let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
@@ -95,26 +115,45 @@ impl Fmi3Backend {
         let env = Box::new(LogEnv { instance: instance_name.to_owned() });
         // SAFETY: the FMI 3.0 signature; every pointer passed lives in the backend, which
         // frees the instance before dropping them.
-        let instance = unsafe {
-            instantiate(
-                c_name.as_ptr(),
-                c_token.as_ptr(),
-                c_resources.as_ptr(),
-                fmi3False, // visible
-                logging_on,
-                fmi3False, // eventModeUsed
-                fmi3False, // earlyReturnAllowed
-                std::ptr::null(),
-                0,
-                &*env as *const LogEnv as *mut c_void,
-                Some(log_message),
-                None,
-            )
+        let environment = &*env as *const LogEnv as *mut c_void;
+        let (name, token, resource) = (c_name.as_ptr(), c_token.as_ptr(), c_resources.as_ptr());
+        let instance = match instantiate {
+            Instantiate::Cs(instantiate) => unsafe {
+                instantiate(
+                    name,
+                    token,
+                    resource,
+                    fmi3False, // visible
+                    logging_on,
+                    fmi3False, // eventModeUsed
+                    fmi3False, // earlyReturnAllowed
+                    std::ptr::null(),
+                    0,
+                    environment,
+                    Some(log_message),
+                    None,
+                )
+            },
+            Instantiate::Me(instantiate) => unsafe {
+                instantiate(
+                    name,
+                    token,
+                    resource,
+                    fmi3False,
+                    logging_on,
+                    environment,
+                    Some(log_message),
+                )
+            },
         };
         let (instance, states) = common.finish(instance, (binary, version), status, setup)?;
+        if let Some(me) = me.as_mut() {
+            me.bind(instance.ptr());
+        }
         Ok(Fmi3Backend {
             instance,
             states,
+            me,
             api,
             _env: env,
             _strings: [c_name, c_token, c_resources],
@@ -143,7 +182,8 @@ impl Backend for Fmi3Backend {
 
     fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
         const F: &str = "fmi3DoStep";
-        let (i, f) = (self.instance.ptr(), self.api.do_step);
+        let i = self.instance.ptr();
+        let f = self.api.do_step.ok_or_else(|| cx.other_interface(F, true))?;
         let (mut event, mut end, mut early, mut last) = (false, false, false, t);
         cx.call(F, || {
             status(unsafe { f(i, t, h, no_prior, &mut event, &mut end, &mut early, &mut last) })
@@ -218,6 +258,10 @@ impl Backend for Fmi3Backend {
 
     fn states(&self) -> &dyn StateCalls {
         &self.states
+    }
+
+    fn me(&self) -> Option<&super::me::Me> {
+        self.me.as_ref()
     }
 
     fn instance(&self) -> &Instance {

@@ -9,6 +9,7 @@
 
 pub(crate) mod fmi2;
 pub(crate) mod fmi3;
+pub(crate) mod me;
 pub(crate) mod state;
 
 use std::ffi::{CStr, CString};
@@ -24,6 +25,8 @@ pub(crate) struct Setup<'a> {
     pub resources: &'a std::path::Path,
     pub instance_name: &'a str,
     pub logging_on: bool,
+    /// Co-Simulation (false) or Model Exchange (true).
+    pub model_exchange: bool,
 }
 
 /// The experiment a backend enters initialization with.
@@ -60,6 +63,8 @@ pub(crate) trait Backend {
     fn set_string(&mut self, cx: &mut Calls, vrs: &[u32], values: &[*const c_char]) -> Done;
     /// The FMU-state calls of this instance.
     fn states(&self) -> &dyn state::StateCalls;
+    /// The Model Exchange calls, if instantiated for Model Exchange.
+    fn me(&self) -> Option<&me::Me>;
     /// The instance: its instance-only calls; freed when the backend is dropped.
     fn instance(&self) -> &Instance;
 }
@@ -148,6 +153,20 @@ impl Calls {
     }
 
     /// `function` is absent because the FMU does not declare `flag`.
+    /// `function` belongs to the other interface than the instance was made for.
+    pub fn other_interface(&self, function: &'static str, model_exchange: bool) -> FmuError {
+        let (made, other) = if model_exchange {
+            ("Model Exchange", "Co-Simulation")
+        } else {
+            ("Co-Simulation", "Model Exchange")
+        };
+        FmuError::Unsupported {
+            model: self.model.clone(),
+            function,
+            why: format!("the instance was made for {made}, and {function} is a {other} call"),
+        }
+    }
+
     pub fn unsupported(&self, function: &'static str, flag: &'static str) -> FmuError {
         FmuError::Unsupported {
             model: self.model.clone(),
@@ -259,6 +278,7 @@ impl Drop for Instance {
 /// spell them: one concordance, so that neither standard's names are written twice.
 struct Spellings {
     instantiate: [&'static str; 2],
+    instantiate_me: [&'static str; 2],
     free: [&'static str; 2],
     exit: [&'static str; 2],
     terminate: [&'static str; 2],
@@ -275,6 +295,7 @@ struct Spellings {
 
 const SPELLINGS: Spellings = Spellings {
     instantiate: ["fmi2Instantiate", "fmi3InstantiateCoSimulation"],
+    instantiate_me: ["fmi2Instantiate", "fmi3InstantiateModelExchange"],
     free: ["fmi2FreeInstance", "fmi3FreeInstance"],
     exit: ["fmi2ExitInitializationMode", "fmi3ExitInitializationMode"],
     terminate: ["fmi2Terminate", "fmi3Terminate"],
@@ -293,6 +314,7 @@ const fn spelled(i: usize) -> Names {
     let s = &SPELLINGS;
     Names {
         instantiate: s.instantiate[i],
+        instantiate_me: s.instantiate_me[i],
         free: s.free[i],
         plain: [s.exit[i], s.terminate[i], s.reset[i]],
         state: state::Names {
@@ -314,6 +336,7 @@ pub(crate) static FMI3_NAMES: Names = spelled(1);
 /// One standard's names of what [`Common`] resolves.
 pub(crate) struct Names {
     pub instantiate: &'static str,
+    pub instantiate_me: &'static str,
     pub free: &'static str,
     /// Exit initialization, terminate, reset (the order of [`Plain`]).
     pub plain: [&'static str; 3],
@@ -339,8 +362,13 @@ impl<B: Copy + 'static> Common<B> {
         status: fn(std::os::raw::c_int) -> Status,
         setup: &Setup<'_>,
     ) -> Result<Self, crate::ImportError> {
-        let cs = setup.md.co_simulation.as_ref().expect("checked by CsFmu::load");
-        let capabilities = (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state);
+        let capabilities = if setup.model_exchange {
+            let me = setup.md.model_exchange.as_ref().expect("checked by MeFmu::load");
+            (me.can_get_and_set_fmu_state, me.can_serialize_fmu_state)
+        } else {
+            let cs = setup.md.co_simulation.as_ref().expect("checked by CsFmu::load");
+            (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state)
+        };
         let [exit, terminate, reset] = names.plain;
         Ok(Common {
             names,
@@ -360,8 +388,13 @@ impl<B: Copy + 'static> Common<B> {
         setup: &Setup<'_>,
     ) -> Result<(Instance, state::States<B>), crate::ImportError> {
         if ptr.is_null() {
+            let names = self.names;
             return Err(crate::ImportError::Instantiate {
-                function: self.names.instantiate,
+                function: if setup.model_exchange {
+                    names.instantiate_me
+                } else {
+                    names.instantiate
+                },
                 instance: setup.instance_name.to_owned(),
             });
         }

@@ -56,6 +56,11 @@ impl Standard for Fmi2 {
                     VarType::String => attr(a, "start").map(str::to_owned),
                     _ => doc.check_start(a, (&tag, &ty.to_string()), false, item, pos)?,
                 };
+                if let Some(of) = doc.number::<u32>(a, &tag, "derivative", "an index", pos)? {
+                    // This variable's index: the variables before it, plus one.
+                    let index = doc.md_variables() as u32 + 1;
+                    doc.derivative_of.insert(index, of);
+                }
                 v.ty = ty;
                 v.declared_type = attr(a, "declaredType").map(str::to_owned);
                 *typed = true;

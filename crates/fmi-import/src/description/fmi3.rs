@@ -73,6 +73,9 @@ impl Standard for Fmi3 {
             default_variability,
         )?;
         let start = doc.check_start(a, (&tag, name), true, item, pos)?;
+        if let Some(of) = doc.number::<u32>(a, &tag, "derivative", "a value reference", pos)? {
+            doc.derivative_of.insert(vr, of);
+        }
         let ty = match name {
             "Float64" => Some(VarType::Real),
             "Int32" => Some(VarType::Integer),

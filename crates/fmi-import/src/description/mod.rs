@@ -135,6 +135,31 @@ pub struct CoSimulation {
     pub can_serialize_fmu_state: bool,
 }
 
+/// `<ModelExchange>`: the identifier of the binary, the capability flags a master uses,
+/// and the sizes of the problem (from `<ModelStructure>` and, in FMI 2.0, the root's
+/// `numberOfEventIndicators`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ModelExchange {
+    pub model_identifier: String,
+    pub needs_execution_tool: bool,
+    pub completed_integrator_step_not_needed: bool,
+    pub can_be_instantiated_only_once_per_process: bool,
+    pub can_get_and_set_fmu_state: bool,
+    pub can_serialize_fmu_state: bool,
+    pub provides_directional_derivative: bool,
+    pub number_of_event_indicators: usize,
+    /// The continuous states in `<ModelStructure>` order: the order of the state vector
+    /// of `fmi*GetContinuousStates` and of the derivatives.
+    pub states: Vec<ContinuousState>,
+}
+
+/// One continuous state: its value reference and that of its derivative.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ContinuousState {
+    pub state: u32,
+    pub derivative: u32,
+}
+
 /// `<DefaultExperiment>`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct DefaultExperiment {
@@ -155,6 +180,8 @@ pub struct ModelDescription {
     /// `None` if the FMU has no `<CoSimulation>` (a Model Exchange-only FMU).
     pub co_simulation: Option<CoSimulation>,
     pub has_model_exchange: bool,
+    /// `None` if the FMU has no `<ModelExchange>`.
+    pub model_exchange: Option<ModelExchange>,
     pub default_experiment: Option<DefaultExperiment>,
     pub variables: Vec<Variable>,
     by_name: HashMap<String, usize>,
@@ -252,6 +279,14 @@ pub(crate) struct Doc<'a> {
     names: std::collections::HashSet<String>,
     /// The standard's names of the FMU-state capability flags of `<CoSimulation>`.
     state_flags: (&'static str, &'static str),
+    /// The `derivative` attributes read: keyed by the variable's 1-based index (FMI 2.0)
+    /// or value reference (FMI 3.0), the state's index or value reference.
+    pub(crate) derivative_of: HashMap<u32, u32>,
+    /// `<ModelStructure>`'s derivatives (FMI 2.0 `<Derivatives><Unknown index>`, FMI 3.0
+    /// `<ContinuousStateDerivative valueReference>`) and where each was read.
+    structure_derivatives: Vec<(u32, usize)>,
+    /// FMI 3.0 `<EventIndicator>` elements; FMI 2.0's root attribute.
+    event_indicators: usize,
 }
 
 impl<'a> Doc<'a> {
@@ -268,6 +303,9 @@ impl<'a> Doc<'a> {
             seen_root: false,
             names: Default::default(),
             state_flags: ("", ""),
+            derivative_of: HashMap::new(),
+            structure_derivatives: Vec::new(),
+            event_indicators: 0,
         }
     }
 
@@ -415,6 +453,11 @@ impl<'a> Doc<'a> {
         Ok(())
     }
 
+    /// How many variables were added so far.
+    pub(crate) fn md_variables(&self) -> usize {
+        self.md.variables.len()
+    }
+
     /// Takes a name for a variable the master cannot address (it is still checked unique).
     pub(crate) fn claim_name(&mut self, name: &str, pos: usize) -> Result<(), ImportError> {
         if !self.names.insert(name.to_owned()) {
@@ -472,7 +515,52 @@ impl<'a> Doc<'a> {
                 ),
             ));
         }
+        self.resolve_states()?;
         Ok(self.md)
+    }
+
+    /// The continuous states of `<ModelExchange>`, from `<ModelStructure>`'s derivatives
+    /// and each derivative's `derivative` attribute.
+    fn resolve_states(&mut self) -> Result<(), ImportError> {
+        let Some(me) = self.md.model_exchange.as_mut() else { return Ok(()) };
+        me.number_of_event_indicators = self.event_indicators;
+        let fmi3 = self.md.fmi_version.starts_with("3.");
+        let variables = &self.md.variables;
+        // FMI 2.0 refers to variables by 1-based index, FMI 3.0 by value reference.
+        let vr_of = |key: u32| -> Option<u32> {
+            if fmi3 {
+                Some(key)
+            } else {
+                variables.get((key as usize).checked_sub(1)?).map(|v| v.vr)
+            }
+        };
+        let (what, key) = if fmi3 {
+            ("<ContinuousStateDerivative valueReference", "value reference")
+        } else {
+            ("<Derivatives><Unknown index", "index")
+        };
+        let mut states = Vec::with_capacity(self.structure_derivatives.len());
+        for &(d, pos) in &self.structure_derivatives {
+            let bad = |why: String| {
+                let (line, column) = line_column(self.text, pos);
+                ImportError::Description {
+                    line,
+                    column,
+                    message: format!("{what}=\"{d}\">: {why}"),
+                }
+            };
+            let derivative = vr_of(d).ok_or_else(|| bad(format!("no variable has {key} {d}")))?;
+            let of = self
+                .derivative_of
+                .get(&d)
+                .copied()
+                .ok_or_else(|| bad("the variable has no `derivative` attribute".into()))?;
+            let state =
+                vr_of(of).ok_or_else(|| bad(format!("its state ({key} {of}) is no variable")))?;
+            states.push(ContinuousState { state, derivative });
+        }
+        me.states = states;
+        Ok(())
     }
 
     /// `<fmiModelDescription>`: picks the standard by `fmiVersion`.
@@ -511,6 +599,11 @@ impl<'a> Doc<'a> {
             return Err(ImportError::UnsupportedVersion(cut(&version, 40)));
         };
         self.state_flags = flags;
+        if version.starts_with("2.") {
+            self.event_indicators = self
+                .number::<usize>(a, name, "numberOfEventIndicators", "a count", pos)?
+                .unwrap_or(0);
+        }
         self.md.fmi_version = version;
         self.md.model_name = self.required(a, name, "modelName", pos)?.to_owned();
         self.md.guid = self.required(a, name, token, pos)?.to_owned();
@@ -529,8 +622,24 @@ impl<'a> Doc<'a> {
         let depth = self.stack.len();
         match (depth, name) {
             (1, "CoSimulation") => self.co_simulation(a, pos),
-            (1, "ModelExchange") => {
-                self.md.has_model_exchange = true;
+            (1, "ModelExchange") => self.model_exchange(a, pos),
+            (3, "Unknown")
+                if self.stack[1] == "ModelStructure" && self.stack[2] == "Derivatives" =>
+            {
+                let index = self.number::<u32>(a, "Unknown", "index", "an index", pos)?;
+                let index = index.ok_or_else(|| {
+                    self.error(pos, "<Derivatives><Unknown> lacks the required attribute index")
+                })?;
+                self.structure_derivatives.push((index, pos));
+                Ok(())
+            }
+            (2, "ContinuousStateDerivative") if self.stack[1] == "ModelStructure" => {
+                let vr = self.value_reference(a, name, pos)?;
+                self.structure_derivatives.push((vr, pos));
+                Ok(())
+            }
+            (2, "EventIndicator") if self.stack[1] == "ModelStructure" => {
+                self.event_indicators += 1;
                 Ok(())
             }
             (1, "DefaultExperiment") => {
@@ -569,23 +678,56 @@ impl<'a> Doc<'a> {
         }
     }
 
-    fn co_simulation(&mut self, a: &Attrs, pos: usize) -> Result<(), ImportError> {
-        const TAG: &str = "CoSimulation";
-        if self.md.co_simulation.is_some() {
-            return Err(self.error(pos, "a second <CoSimulation>"));
-        }
-        let model_identifier = self.required(a, TAG, "modelIdentifier", pos)?.trim().to_owned();
+    /// The `modelIdentifier` of `<CoSimulation>` or `<ModelExchange>` (`tag`).
+    fn model_identifier(&self, a: &Attrs, tag: &str, pos: usize) -> Result<String, ImportError> {
+        let model_identifier = self.required(a, tag, "modelIdentifier", pos)?.trim().to_owned();
         if model_identifier.is_empty() {
-            return Err(self.error(pos, "<CoSimulation> has an empty modelIdentifier"));
+            return Err(self.error(pos, format!("<{tag}> has an empty modelIdentifier")));
         }
         // It names the binary to dlopen: a path in it would load a library from outside
         // the FMU.
         if !plain_file_name(&model_identifier) {
             return Err(self.error(
                 pos,
-                format!("<CoSimulation> modelIdentifier=\"{}\" is not a plain file name (no `/`, `\\`, `:` or NUL; not `.` or `..`): refused", cut(&model_identifier, 200)),
+                format!("<{tag}> modelIdentifier=\"{}\" is not a plain file name (no `/`, `\\`, `:` or NUL; not `.` or `..`): refused", cut(&model_identifier, 200)),
             ));
         }
+        Ok(model_identifier)
+    }
+
+    fn model_exchange(&mut self, a: &Attrs, pos: usize) -> Result<(), ImportError> {
+        const TAG: &str = "ModelExchange";
+        if self.md.model_exchange.is_some() {
+            return Err(self.error(pos, "a second <ModelExchange>"));
+        }
+        let model_identifier = self.model_identifier(a, TAG, pos)?;
+        let (get_set, serialize) = self.state_flags;
+        let flag = |k| self.boolean(a, TAG, k, pos);
+        // FMI 2.0 spells it in the singular, FMI 3.0 in the plural.
+        let directional =
+            flag("providesDirectionalDerivative")? || flag("providesDirectionalDerivatives")?;
+        let me = ModelExchange {
+            model_identifier,
+            needs_execution_tool: flag("needsExecutionTool")?,
+            completed_integrator_step_not_needed: flag("completedIntegratorStepNotNeeded")?,
+            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
+            can_get_and_set_fmu_state: flag(get_set)?,
+            can_serialize_fmu_state: flag(serialize)?,
+            provides_directional_derivative: directional,
+            number_of_event_indicators: 0,
+            states: Vec::new(),
+        };
+        self.md.has_model_exchange = true;
+        self.md.model_exchange = Some(me);
+        Ok(())
+    }
+
+    fn co_simulation(&mut self, a: &Attrs, pos: usize) -> Result<(), ImportError> {
+        const TAG: &str = "CoSimulation";
+        if self.md.co_simulation.is_some() {
+            return Err(self.error(pos, "a second <CoSimulation>"));
+        }
+        let model_identifier = self.model_identifier(a, TAG, pos)?;
         let (get_set, serialize) = self.state_flags;
         let flag = |k| self.boolean(a, TAG, k, pos);
         self.md.co_simulation = Some(CoSimulation {
