@@ -36,6 +36,42 @@ pub struct RunArgs {
     pub plot: Option<PathBuf>,
     #[arg(long, default_value = plot::DEFAULT_FONT)]
     pub font: PathBuf,
+    /// Integrate this component's Model Exchange interface in the master instead of
+    /// stepping its Co-Simulation: COMPONENT=me (`fmu=me` for a single FMU), or `me` for
+    /// every component; repeatable. A component whose FMU has only Model Exchange is
+    /// integrated either way.
+    #[arg(long = "interface", value_name = "COMPONENT=me")]
+    pub interface: Vec<String>,
+    /// Relative tolerance of the Model Exchange integrator.
+    #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().rtol)]
+    pub me_rtol: f64,
+    /// Absolute tolerance of the Model Exchange integrator (times each state's nominal).
+    #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().atol)]
+    pub me_atol: f64,
+}
+
+impl RunArgs {
+    /// The components to integrate as Model Exchange, from `--interface`.
+    pub fn interfaces(&self) -> Result<master::Interfaces, String> {
+        let mut model_exchange = Vec::new();
+        for a in &self.interface {
+            let (component, kind) = match a.split_once('=') {
+                Some((c, k)) => (c.trim(), k.trim()),
+                None => ("*", a.trim()),
+            };
+            match kind {
+                "me" => model_exchange.push(component.to_owned()),
+                "cs" => {}
+                k => return Err(format!("--interface {a}: `{k}` is not an interface (me or cs)")),
+            }
+        }
+        let tolerance =
+            inchworm_cosim::model_exchange::Tolerance { rtol: self.me_rtol, atol: self.me_atol };
+        if !(tolerance.rtol > 0.0 && tolerance.atol > 0.0) {
+            return Err("--me-rtol and --me-atol must be > 0".into());
+        }
+        Ok(master::Interfaces { model_exchange, tolerance })
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -106,7 +142,8 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         plot::load_font(&args.font)?;
     }
     let stop = signals::stop_on_signals();
-    let sim = master::System::load(&args.file).text()?;
+    let interfaces = args.interfaces()?;
+    let sim = master::System::load_as(&args.file, &interfaces).text()?;
     signals::interrupted()?;
     let sim = sim.initialise(&opts).text()?.stop_when(stop);
     let names = sim.record_names().to_vec();

@@ -2,7 +2,10 @@
  * and FMI 3.0 with -DFMI3: x' = -a x + u, an event indicator x - level (each crossing
  * counted), a time event every `period` seconds (counted, and x jumps by `jump`), the exact
  * Jacobian -a as directional derivative, and `mode` for the hostile cases: 1 the
- * derivatives return Error, 2 they are NaN, 3 the event iteration never converges. */
+ * derivatives return Error, 2 they are NaN, 3 the event iteration never converges. The
+ * FMI 2.0 build has a Co-Simulation interface too, stepped with the exact solution for a
+ * held input and its events at the start of each step, where the master handles those of
+ * a Model Exchange component at a communication point. */
 #include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
@@ -100,8 +103,23 @@ EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 F(fmi2SetDebugLogging)(void *c, int on, size_t n, const char **cats) { return 0; }
 EXPORT void *fmi2Instantiate(const char *n, int type, const char *g, const char *r, const void *cb, int v, int l) {
-    return type == 0 ? create() : NULL;
+    return create();
 }
+F(fmi2DoStep)(void *c, double t, double h, int np) {
+    M *m = c; bool again, jumped;
+    event(m, &again, &jumped);
+    double a = m->r[A], u = m->r[U], e = exp(-a * h);
+    m->r[X] = a != 0 ? m->r[X] * e + u / a * (1 - e) : m->r[X] + u * h;
+    m->t = t + h;
+    return m->i[MODE - NREAL] == 1 ? 3 : 0;
+}
+/* Asynchronous stepping is not offered: these refuse. */
+F(fmi2CancelStep)(void *c) { return 3; }
+F(fmi2GetStatus)(void *c, int k, int *v) { return 3; }
+F(fmi2GetRealStatus)(void *c, int k, double *v) { return 3; }
+F(fmi2GetIntegerStatus)(void *c, int k, int *v) { return 3; }
+F(fmi2GetBooleanStatus)(void *c, int k, int *v) { return 3; }
+F(fmi2GetStringStatus)(void *c, int k, const char **v) { return 3; }
 EXPORT void fmi2FreeInstance(void *c) { free(c); }
 F(fmi2SetupExperiment)(void *c, int a, double b, double t0, int d, double e) { ((M *)c)->t = t0; return 0; }
 F(fmi2EnterInitializationMode)(void *c) { return 0; }

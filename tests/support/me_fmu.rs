@@ -8,10 +8,12 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Which standard the FMU is built for.
+/// Which standard the FMU is built for; `Fmi2Cs`: FMI 2.0 with a Co-Simulation
+/// interface as well.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Standard {
     Fmi2,
+    Fmi2Cs,
     Fmi3,
 }
 
@@ -32,7 +34,8 @@ pub fn build(dir: &Path, name: &str, standard: Standard) -> PathBuf {
     let status = cmd.arg("-lm").status().unwrap_or_else(|e| panic!("cannot run {cc}: {e}"));
     assert!(status.success(), "{cc} failed on {}", c.display());
     let (folder, xml) = match standard {
-        Standard::Fmi2 => (inchworm_fmi_import::fmi2_platform().0, fmi2_description(name)),
+        Standard::Fmi2 => (inchworm_fmi_import::fmi2_platform().0, fmi2_description(name, false)),
+        Standard::Fmi2Cs => (inchworm_fmi_import::fmi2_platform().0, fmi2_description(name, true)),
         Standard::Fmi3 => (inchworm_fmi_import::fmi3_platform().0, fmi3_description(name)),
     };
     let fmu = dir.join(format!("{name}.fmu"));
@@ -55,7 +58,14 @@ const PARAMETERS: [(&str, &str, &str, &str); 5] = [
     ("jump", "parameter", "fixed", "0"),
 ];
 
-fn fmi2_description(name: &str) -> String {
+fn fmi2_description(name: &str, cs: bool) -> String {
+    let cs = if cs {
+        format!(
+            r#"<CoSimulation modelIdentifier="{name}" canHandleVariableCommunicationStepSize="true"/>"#
+        )
+    } else {
+        String::new()
+    };
     let mut v = String::from(
         r#"<ScalarVariable name="x" valueReference="0" causality="output" variability="continuous" initial="exact"><Real start="1"/></ScalarVariable>
 <ScalarVariable name="der(x)" valueReference="1" causality="local" variability="continuous"><Real derivative="1"/></ScalarVariable>
@@ -75,7 +85,7 @@ fn fmi2_description(name: &str) -> String {
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{{me-test}}" numberOfEventIndicators="1">
-<ModelExchange modelIdentifier="{name}" providesDirectionalDerivative="true"/>
+<ModelExchange modelIdentifier="{name}" providesDirectionalDerivative="true"/>{cs}
 <ModelVariables>
 {v}</ModelVariables>
 <ModelStructure>

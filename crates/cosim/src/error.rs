@@ -69,6 +69,10 @@ pub enum Error {
         #[source]
         source: Box<Error>,
     },
+    /// The master's integration of a Model Exchange component failed: the integrator, a
+    /// non-finite derivative, an event iteration that did not settle, too many events.
+    #[error("component {component}: at t = {time} s: {message}")]
+    Integration { component: String, time: f64, message: String },
     /// The run's [`StopFlag`] was set; it stopped between two steps.
     #[error("stopped before the stop time")]
     Stopped,

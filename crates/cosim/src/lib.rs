@@ -63,6 +63,7 @@ pub mod archive;
 mod error;
 pub mod input;
 pub mod master;
+pub mod model_exchange;
 pub mod ssp;
 pub mod sweep;
 pub mod trace;
@@ -71,5 +72,5 @@ pub mod trace;
 pub use inchworm_fmi_import as fmu;
 
 pub use error::{Error, StopFlag};
-pub use master::{Checkpoint, Coupling, InputTable, Options, Simulation, System};
+pub use master::{Checkpoint, Coupling, InputTable, Interfaces, Options, Simulation, System};
 pub use trace::Trace;

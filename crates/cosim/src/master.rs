@@ -7,8 +7,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::archive::cut;
-use crate::fmu::{CsFmu, FmuState, Var, VarType};
+use crate::fmu::{CsFmu, FmuError, FmuState, MeFmu, Var, VarType};
 pub use crate::input::InputTable;
+use crate::model_exchange::{MeRun, MeStats, Tolerance};
 use crate::ssp::{Archive, End, TypedValue};
 use crate::trace::Trace;
 use crate::{Error, StopFlag};
@@ -65,7 +66,88 @@ enum Probe {
 
 struct Component {
     name: String,
-    fmu: CsFmu,
+    fmu: Fmu,
+}
+
+/// A component's FMU: stepped by its own Co-Simulation, or integrated by the master
+/// (Model Exchange). Everything else (variables, initialization, FMU state, reset) is the
+/// same calls either way, through `Deref`.
+enum Fmu {
+    Cs(CsFmu),
+    Me(MeRun),
+}
+
+impl std::ops::Deref for Fmu {
+    type Target = CsFmu;
+    fn deref(&self) -> &CsFmu {
+        match self {
+            Fmu::Cs(f) => f,
+            Fmu::Me(m) => &m.fmu,
+        }
+    }
+}
+
+impl std::ops::DerefMut for Fmu {
+    fn deref_mut(&mut self) -> &mut CsFmu {
+        match self {
+            Fmu::Cs(f) => f,
+            Fmu::Me(m) => &mut m.fmu,
+        }
+    }
+}
+
+impl Fmu {
+    /// One communication step from `t` to `t + h`.
+    fn advance(&mut self, t: f64, h: f64) -> Result<(), Error> {
+        match self {
+            Fmu::Cs(f) => Ok(f.do_step(h)?),
+            Fmu::Me(m) => m.advance(t, h),
+        }
+    }
+
+    /// Another instance under `name`, of the same interface, from the folder this one was
+    /// unpacked in.
+    fn again(&self, name: &str, tolerance: Tolerance) -> Result<Fmu, FmuError> {
+        Ok(match self {
+            Fmu::Cs(f) => Fmu::Cs(f.instantiate_again(name, false)?),
+            Fmu::Me(m) => {
+                Fmu::Me(MeRun::new(m.fmu.instantiate_again(name, false)?, name, tolerance))
+            }
+        })
+    }
+
+    /// Loads `source` as component `name`: as Model Exchange if `me` is true; else as
+    /// Co-Simulation, or as Model Exchange if the FMU has no Co-Simulation (an ME-only
+    /// FMU).
+    fn open(source: &Path, name: &str, me: bool, tolerance: Tolerance) -> Result<Fmu, FmuError> {
+        let model_exchange = || {
+            let fmu = MeFmu::load(source, name, false)?;
+            Ok(Fmu::Me(MeRun::new(fmu, name, tolerance)))
+        };
+        if me {
+            return model_exchange();
+        }
+        match CsFmu::load(source, name, false) {
+            Err(FmuError::NotCoSimulation { .. }) => model_exchange(),
+            other => other.map(Fmu::Cs),
+        }
+    }
+}
+
+/// Which components the master integrates as Model Exchange, and how finely. A component
+/// whose FMU offers only Model Exchange always is; one named here is, if its FMU offers
+/// Model Exchange (if not, loading it fails and says so).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Interfaces {
+    /// Component names (`fmu` for a single FMU), or `*` for every component.
+    pub model_exchange: Vec<String>,
+    pub tolerance: Tolerance,
+}
+
+impl Interfaces {
+    fn wants_me(&self, component: &str) -> bool {
+        self.model_exchange.iter().any(|n| n == "*" || n == component)
+    }
 }
 
 fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), Error> {
@@ -292,9 +374,18 @@ impl System {
     /// Loads `path`: an `.ssp` (a flat system of FMI 2.0 CS FMUs), or a single `.fmu`,
     /// which is a system whose connectors are the FMU's own.
     pub fn load(path: &Path) -> Result<System, Error> {
+        System::load_as(path, &Interfaces::default())
+    }
+
+    /// [`System::load`], with the components of `interfaces` run as Model Exchange.
+    pub fn load_as(path: &Path, interfaces: &Interfaces) -> Result<System, Error> {
+        let tolerance = interfaces.tolerance;
+        if let Some(n) = interfaces.model_exchange.iter().find(|n| n.is_empty()) {
+            return Err(Error::Config(format!("`{n}`: name a component to run as Model Exchange")));
+        }
         let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
         if !is_ssp {
-            let fmu = CsFmu::load(path, "fmu", false)?;
+            let fmu = Fmu::open(path, "fmu", interfaces.wants_me("fmu"), tolerance)?;
             let step_size = fmu.default_step_size();
             let inputs = fmu.names_with_causality("input");
             let outputs = fmu.names_with_causality("output");
@@ -320,6 +411,16 @@ impl System {
         }
         let a = Archive::open(path)?;
         let here = |e: Error| e.context(path.display().to_string());
+        if let Some(n) = interfaces
+            .model_exchange
+            .iter()
+            .find(|n| *n != "*" && !a.system.components.iter().any(|c| &c.name == *n))
+        {
+            return Err(here(Error::Config(format!(
+                "--interface: no component named `{}` to run as Model Exchange",
+                cut(n, 200)
+            ))));
+        }
         // Every name and source checked before any FMU is loaded.
         let mut sources = Vec::new();
         for (i, c) in a.system.components.iter().enumerate() {
@@ -344,16 +445,22 @@ impl System {
             let component = |source| Error::Component { component: c.name.clone(), source };
             // An FMU that several components use is unpacked once and instantiated from
             // that folder again, unless each of its instances needs a library of its own.
+            // The earlier instance serves if it runs the interface this one is to run.
+            let me = interfaces.wants_me(&c.name);
             let earlier = sources[..i].iter().position(|s| s == source);
             let fmu = match earlier.map(|e| &components[e].fmu) {
-                Some(first) if first.can_instantiate_again() => {
-                    first.instantiate_again(&c.name, false).map_err(component)?
+                Some(first)
+                    if first.can_instantiate_again()
+                        && first.is_model_exchange()
+                            == (me || first.description().co_simulation.is_none()) =>
+                {
+                    first.again(&c.name, tolerance).map_err(component)?
                 }
                 Some(_) => {
                     crate::archive::check_another_copy(&mut used, &c.name, source).map_err(here)?;
-                    CsFmu::load(source, &c.name, false).map_err(component)?
+                    Fmu::open(source, &c.name, me, tolerance).map_err(component)?
                 }
-                None => CsFmu::load(source, &c.name, false).map_err(component)?,
+                None => Fmu::open(source, &c.name, me, tolerance).map_err(component)?,
             };
             components.push(Component { name: c.name.clone(), fmu });
         }
@@ -720,22 +827,35 @@ impl Simulation {
         let h = self.h;
         match self.coupling {
             Coupling::GaussSeidel => {
+                let t = self.time();
                 for ci in 0..self.components.len() {
                     self.feed(Some(ci))?;
-                    self.components[ci].fmu.do_step(h)?;
+                    self.components[ci].fmu.advance(t, h)?;
                     self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
                 }
             }
             Coupling::Jacobi => {
                 self.feed(None)?;
+                let t = self.time();
                 for c in self.components.iter_mut() {
-                    c.fmu.do_step(h)?;
+                    c.fmu.advance(t, h)?;
                 }
                 self.source_batches.read(&mut self.components, &mut self.latest, None)?;
             }
         }
         self.k += 1;
         Ok(())
+    }
+
+    /// What integrating each Model Exchange component cost so far, by component name.
+    pub fn model_exchange_stats(&self) -> Vec<(String, MeStats)> {
+        self.components
+            .iter()
+            .filter_map(|c| match &c.fmu {
+                Fmu::Me(m) => Some((c.name.clone(), m.stats())),
+                Fmu::Cs(_) => None,
+            })
+            .collect()
     }
 
     pub fn terminate(mut self) -> Result<(), Error> {

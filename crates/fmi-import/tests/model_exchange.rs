@@ -92,8 +92,8 @@ fn every_call_gives_the_model_s_numbers() {
 fn wrong_lengths_statuses_and_interfaces_are_refused_naming_the_call() {
     both(|standard, f| {
         let (two, fmi) = match standard {
-            Standard::Fmi2 => (true, "fmi2"),
             Standard::Fmi3 => (false, "fmi3"),
+            _ => (true, "fmi2"),
         };
         let mut fmu = loaded(standard, "refusals");
         fmu.update_discrete_states().unwrap();
