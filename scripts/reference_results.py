@@ -76,29 +76,16 @@ def plant_input():
     return names, step_rows([(round(float(r["time"]), 6), [float(r[n]) for n in names]) for r in rows])
 
 
-def controller_input(dist, steps):
-    """The encoder counts the controller saw in the Fig. 5 full-control loop."""
+def controller_input(steps):
+    """The encoder counts the controller saw in the Fig. 5 full-control loop: the loop of
+    tests/python/test_closed_loop.py (dist/'s FMI 2.0 FMUs in FMPy), whose step k reads
+    the count after step k - 1 (0, at rest, before the first)."""
     sys.path.insert(0, str(ROOT / "tests" / "python"))
-    from test_closed_loop import load
+    from test_closed_loop import jacobi_fig5
 
-    plant, pv = load(str(dist / "InchwormPlant.fmu"), "plant")
-    ctrl, cv = load(str(dist / "InchwormController.fmu"), "controller")
-    dac = ["dac_earth", "dac_nonearth", "dac_extension"]
-    samples = []
-    for k in range(steps):
-        t = round(k * H, 6)
-        enc = plant.getInteger([pv["encoder_counts"]])
-        volts = ctrl.getReal([cv[n] for n in dac])
-        plant.setReal([pv[n] for n in dac], volts)
-        ctrl.setInteger([cv["encoder_counts"]], enc)
-        ctrl.setReal([cv["reference"]], [100e-6])
-        plant.doStep(t, H)
-        ctrl.doStep(t, H)
-        samples.append((t, [100e-6, enc[0]]))
-    for f in (plant, ctrl):
-        f.terminate()
-        f.freeInstance()
-    return ["reference", "encoder_counts"], step_rows(samples)
+    after = jacobi_fig5(steps * H)
+    seen = [0] + after[:-1]
+    return ["reference", "encoder_counts"], step_rows([(round(k * H, 6), [100e-6, c]) for k, c in enumerate(seen)])
 
 
 def mount_input():
@@ -120,7 +107,7 @@ def simulate(fmu, model_dir, name):
 def record(dist):
     inputs = {
         "InchwormPlant": plant_input(),
-        "InchwormController": controller_input(dist, int(round(STOP["InchwormController"] / H))),
+        "InchwormController": controller_input(int(round(STOP["InchwormController"] / H))),
         "InchwormMount": mount_input(),
     }
     for name in OUTPUTS:
