@@ -7,7 +7,7 @@
 #
 #   bash scripts/debian11.sh           # after `cargo run --release -p fmu-build`
 #
-# Needs root (debootstrap, chroot). Slow the first time (the root is about 250 MB, made
+# Needs root (debootstrap, chroot). Slow the first time (the root is about 430 MB, made
 # once under ${INCHWORM_DEBIAN11_ROOT:-~/.cache/inchworm/debian11}), so not in test.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -257,13 +257,16 @@ fn build(
         let out = root.join("dist").join("bin");
         std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
         let path = out.join("inchworm");
-        std::fs::write(&path, &bin[0]).map_err(|e| format!("{}: {e}", path.display()))?;
+        // Through a new file renamed over the old, so a running `inchworm` is not touched.
+        let tmp = path.with_extension("partial");
+        let err = |e: std::io::Error| format!("{}: {e}", path.display());
+        std::fs::write(&tmp, &bin[0]).map_err(err)?;
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755))
-                .map_err(|e| format!("{}: {e}", path.display()))?;
+            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o755)).map_err(err)?;
         }
+        std::fs::rename(&tmp, &path).map_err(err)?;
         println!("fmu-build: wrote {}", path.display());
     }
     Ok(built)

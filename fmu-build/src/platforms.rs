@@ -23,7 +23,7 @@ use sha2::{Digest, Sha256};
 
 /// Bumped whenever the build commands below change, so no cached library of an older
 /// recipe is reused.
-const RECIPE: &str = "fmu-build platforms 1";
+const RECIPE: &str = "fmu-build platforms 2";
 
 /// The glibc whose symbol versions the Linux libraries and binary are linked against:
 /// glibc 2.17 (RHEL/CentOS 7, 2012) is the oldest that zig links for both x86-64 and
@@ -129,6 +129,11 @@ fn command(root: &Path, target: &Target, target_dir: &Path) -> Command {
             target.platform.rust_target.to_uppercase().replace('-', "_")
         );
         cmd.env(var, linker);
+    }
+    if target.platform.os == "macos" {
+        // Cargo strips debug information on macOS with `rust-objcopy`, which Debian's
+        // rustc-web does not ship; the release profile has no debug information to strip.
+        cmd.env("CARGO_PROFILE_RELEASE_STRIP", "false");
     }
     cmd.args(["--release", "--target", &target.cargo_target()]);
     if target.build_std {
