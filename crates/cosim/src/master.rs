@@ -116,20 +116,25 @@ impl Fmu {
         })
     }
 
-    /// Loads `source` as component `name`: as Model Exchange if `me` is true; else as
-    /// Co-Simulation, or as Model Exchange if the FMU has no Co-Simulation (an ME-only
-    /// FMU).
-    fn open(source: &Path, name: &str, me: bool, tolerance: Tolerance) -> Result<Fmu, FmuError> {
+    /// Loads `source` as component `name`: as Model Exchange if `me` asks for it (and,
+    /// for [`Want::MeIfOffered`], the FMU has it); else as Co-Simulation, or as Model
+    /// Exchange if the FMU has no Co-Simulation (an ME-only FMU).
+    fn open(source: &Path, name: &str, me: Want, tolerance: Tolerance) -> Result<Fmu, FmuError> {
         let model_exchange = || {
             let fmu = MeFmu::load(source, name, false)?;
             Ok(Fmu::Me(MeRun::new(fmu, name, tolerance)))
         };
-        if me {
-            return model_exchange();
-        }
-        match CsFmu::load(source, name, false) {
+        let cs = || match CsFmu::load(source, name, false) {
             Err(FmuError::NotCoSimulation { .. }) => model_exchange(),
             other => other.map(Fmu::Cs),
+        };
+        match me {
+            Want::Me => model_exchange(),
+            Want::MeIfOffered => match model_exchange() {
+                Err(FmuError::NotModelExchange { .. }) => cs(),
+                other => other,
+            },
+            Want::Cs => cs(),
         }
     }
 }
@@ -139,14 +144,32 @@ impl Fmu {
 /// Model Exchange (if not, loading it fails and says so).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Interfaces {
-    /// Component names (`fmu` for a single FMU), or `*` for every component.
+    /// Component names (`fmu` for a single FMU), or `*` for every component whose FMU
+    /// offers Model Exchange.
     pub model_exchange: Vec<String>,
     pub tolerance: Tolerance,
 }
 
+/// The interface asked of one component.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Want {
+    /// Co-Simulation (Model Exchange for an ME-only FMU).
+    Cs,
+    /// Model Exchange: named.
+    Me,
+    /// Model Exchange where offered: `*`.
+    MeIfOffered,
+}
+
 impl Interfaces {
-    fn wants_me(&self, component: &str) -> bool {
-        self.model_exchange.iter().any(|n| n == "*" || n == component)
+    fn wants_me(&self, component: &str) -> Want {
+        if self.model_exchange.iter().any(|n| n == component) {
+            Want::Me
+        } else if self.model_exchange.iter().any(|n| n == "*") {
+            Want::MeIfOffered
+        } else {
+            Want::Cs
+        }
     }
 }
 
@@ -452,7 +475,11 @@ impl System {
                 Some(first)
                     if first.can_instantiate_again()
                         && first.is_model_exchange()
-                            == (me || first.description().co_simulation.is_none()) =>
+                            == match me {
+                                Want::Me => true,
+                                Want::MeIfOffered => first.description().model_exchange.is_some(),
+                                Want::Cs => first.description().co_simulation.is_none(),
+                            } =>
                 {
                     first.again(&c.name, tolerance).map_err(component)?
                 }
