@@ -3,7 +3,7 @@
 //! by its own Co-Simulation (the exact solver) and with the plant's Model Exchange
 //! integrated by the master (diffsol's BDF, docs/model-exchange.md), side by side: wall
 //! times, the largest encoder difference in counts, and what the integration cost. Then
-//! the same for SECONDS (default 20) of the Figs. 6–7 staircase (`--parameter-set
+//! the same for SECONDS (default 10) of the Figs. 6–7 staircase (`--parameter-set
 //! staircase`).
 
 use std::path::{Path, PathBuf};
@@ -54,7 +54,7 @@ fn main() -> Result<(), Error> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let ssp =
         args.first().map(PathBuf::from).unwrap_or_else(|| root.join("dist/InchwormSystem.ssp"));
-    let staircase: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(20.0);
+    let staircase: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0);
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
     let opts = |stop: f64, set: Option<&str>| Options {
         stop_time: Some(stop),
