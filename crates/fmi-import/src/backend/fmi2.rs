@@ -67,15 +67,7 @@ impl Fmi2Backend {
         let (api, instantiate, types_platform, get_version, common, mut me) = unsafe {
             let instantiate: fmi2InstantiateTYPE =
                 binary.required(super::FMI2_NAMES.instantiate)?;
-            let me = match &md.model_exchange {
-                Some(m) if model_exchange => Some(super::me::Me::resolve(
-                    &binary,
-                    false,
-                    status,
-                    m.provides_directional_derivative,
-                )?),
-                _ => None,
-            };
+            let me = super::me::Me::for_setup(&binary, setup, status)?;
             if !model_exchange {
                 for name in ALSO_REQUIRED {
                     binary.required::<fmi2CancelStepTYPE>(name)?;

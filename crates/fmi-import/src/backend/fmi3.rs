@@ -77,15 +77,7 @@ impl Fmi3Backend {
             } else {
                 Instantiate::Cs(binary.required(super::FMI3_NAMES.instantiate)?)
             };
-            let me = match &md.model_exchange {
-                Some(m) if model_exchange => Some(super::me::Me::resolve(
-                    &binary,
-                    true,
-                    status,
-                    m.provides_directional_derivative,
-                )?),
-                _ => None,
-            };
+            let me = super::me::Me::for_setup(&binary, setup, status)?;
             let common = Common::<fmi3Byte>::resolve(&binary, &super::FMI3_NAMES, status, setup)?;
             let api = Api {
                 set_debug_logging: binary.required("fmi3SetDebugLogging")?,

@@ -178,6 +178,24 @@ impl Me {
         })
     }
 
+    /// The calls of `setup`'s instance if it is made for Model Exchange.
+    ///
+    /// # Safety
+    /// As for [`Me::resolve`].
+    pub unsafe fn for_setup(
+        binary: &Binary,
+        setup: &super::Setup<'_>,
+        status: fn(c_int) -> Status,
+    ) -> Result<Option<Me>, ImportError> {
+        match &setup.md.model_exchange {
+            Some(m) if setup.model_exchange => {
+                let fmi3 = setup.md.is_fmi3();
+                Ok(Some(Me::resolve(binary, fmi3, status, m.provides_directional_derivative)?))
+            }
+            _ => Ok(None),
+        }
+    }
+
     /// The instance the calls go to, once it exists.
     pub fn bind(&mut self, instance: *mut c_void) {
         self.instance = instance;
