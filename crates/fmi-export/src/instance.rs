@@ -234,16 +234,47 @@ pub struct Instance<S: Standard, M: Model> {
     pub snapshots: Vec<*mut Snapshot<M>>,
     /// Reused by every step, so reporting nothing allocates nothing.
     pub step_log: StepLog,
-    /// The table's positions sorted by value reference: a lookup per value without a
-    /// scan of the table.
-    index: Box<[(u32, u32)]>,
+    /// The table's position of each value reference.
+    index: Index,
+}
+
+/// Value reference → table position. The models number their variables densely, so a
+/// lookup is one load; a sparse numbering, which a direct table would make large, is
+/// searched by binary search.
+enum Index {
+    /// Position + 1 at the reference, 0 where there is none.
+    Direct(Box<[u32]>),
+    /// (reference, position), sorted.
+    Sorted(Box<[(u32, u32)]>),
+}
+
+impl Index {
+    /// The index of a table whose entries have references `vrs`, in table order.
+    fn new(vrs: impl Iterator<Item = u32>) -> Index {
+        let mut sorted: Vec<(u32, u32)> = vrs.zip(0..).collect();
+        sorted.sort_unstable();
+        let top = sorted.last().map_or(0, |e| e.0 as usize);
+        if top <= 4 * sorted.len() + 64 {
+            let mut direct = vec![0u32; top + 1];
+            for &(vr, i) in &sorted {
+                direct[vr as usize] = i + 1;
+            }
+            Index::Direct(direct.into_boxed_slice())
+        } else {
+            Index::Sorted(sorted.into_boxed_slice())
+        }
+    }
+
+    fn position(&self, vr: u32) -> Option<usize> {
+        match self {
+            Index::Direct(d) => d.get(vr as usize).and_then(|&p| (p as usize).checked_sub(1)),
+            Index::Sorted(s) => s.binary_search_by_key(&vr, |e| e.0).ok().map(|i| s[i].1 as usize),
+        }
+    }
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
     pub fn new(name: CString, callbacks: S::Callbacks, logging_on: bool) -> Self {
-        let mut index: Vec<(u32, u32)> =
-            M::variables().iter().enumerate().map(|(i, v)| (v.vr, i as u32)).collect();
-        index.sort_unstable();
         Instance {
             magic: S::MAGIC,
             name,
@@ -257,7 +288,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             last_step_status: OK,
             snapshots: Vec::new(),
             step_log: StepLog::default(),
-            index: index.into_boxed_slice(),
+            index: Index::new(M::variables().iter().map(|v| v.vr)),
         }
     }
 
@@ -283,8 +314,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
     }
 
     pub fn variable(&self, vr: u32) -> Option<&'static Variable> {
-        let i = self.index.binary_search_by_key(&vr, |e| e.0).ok()?;
-        M::variables().get(self.index[i].1 as usize)
+        M::variables().get(self.index.position(vr)?)
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {
@@ -327,7 +357,7 @@ pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> &str {
 
 #[cfg(test)]
 mod tests {
-    use super::Clip;
+    use super::{Clip, Index};
 
     #[test]
     fn long_strings_from_outside_are_cut() {
@@ -335,5 +365,23 @@ mod tests {
         let long = "é".repeat(200);
         let cut = Clip(&long).to_string();
         assert_eq!(cut, format!("{}… (400 bytes)", "é".repeat(Clip::MAX)));
+    }
+
+    /// Both forms find every reference at its position, and nothing in a hole or past the end.
+    #[test]
+    fn dense_and_sparse_references_find_their_positions() {
+        let dense = [7u32, 1, 2, 3, 10, 4];
+        let sparse = [7u32, 1, 1_000_000, 3, 70_000];
+        let (d, s) = (Index::new(dense.into_iter()), Index::new(sparse.into_iter()));
+        assert!(matches!(d, Index::Direct(_)));
+        assert!(matches!(s, Index::Sorted(_)));
+        for (index, refs) in [(&d, &dense[..]), (&s, &sparse[..])] {
+            for (i, &vr) in refs.iter().enumerate() {
+                assert_eq!(index.position(vr), Some(i), "reference {vr}");
+            }
+            for vr in [0, 5, 6, 8, 11, 69_999, 1_000_001, u32::MAX] {
+                assert_eq!(index.position(vr), None, "reference {vr}");
+            }
+        }
     }
 }
