@@ -20,7 +20,9 @@ from conftest import DIST, assert_check_values, write_gait_input
 FMI3 = DIST / "fmi3"
 FMPY = [str(pathlib.Path(sys.executable).parent / "fmpy")]
 NAMES = ["InchwormPlant", "InchwormController"]
-ALLOWED_NEEDED = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "ld-linux-x86-64.so.2"}
+# glibc before 2.34 (the floor is 2.17) kept libdl and libpthread apart from libc; every
+# glibc since still ships both names.
+ALLOWED_NEEDED = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "ld-linux-x86-64.so.2", "libdl.so.2", "libpthread.so.0"}
 # Every function of fmi3Functions.h (FMI 3.0): common, Model Exchange, Co-Simulation,
 # Scheduled Execution.
 N_FMI3_FUNCTIONS = 75
