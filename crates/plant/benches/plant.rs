@@ -260,7 +260,8 @@ fn distribution(seq: &[Dac]) {
         us[us.len() - 1]
     );
     println!("  by stops in the step | steps | share | median | p99 | mean brake switches | share of the steps at or above the p99");
-    let classes: [(&str, fn(&Timed) -> bool); 6] = [
+    type Member = fn(&Timed) -> bool;
+    let classes: [(&str, Member); 6] = [
         ("quiet step", |s| s.quiet),
         ("event loop, 0 stops", |s| !s.quiet && s.stops == 0),
         ("1-2 stops", |s| (1..=2).contains(&s.stops)),
