@@ -4,23 +4,15 @@
 //! import layer (this binary's allocator); the FMUs' own code runs on their own allocator,
 //! and crates/plant-fmu3/tests/no_alloc.rs counts it.
 
-use std::path::{Path, PathBuf};
-
 use inchworm_cosim::master::{Coupling, InputTable, Options, System};
 
 #[path = "support/counting_alloc.rs"]
 mod counting_alloc;
 use counting_alloc::allocations;
 
-fn dist(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
-    assert!(
-        p.is_file(),
-        "{} is missing: run `cargo run --release -p fmu-build` first",
-        p.display()
-    );
-    p
-}
+#[path = "support/dist.rs"]
+mod dist;
+use dist::dist;
 
 /// Allocations in `steps` steps and rows after 500 steps of warm-up, and whether the
 /// runner moved over them (so the gaits, brake switches and estimator ran).
