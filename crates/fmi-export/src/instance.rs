@@ -7,6 +7,7 @@ use std::ffi::{CStr, CString};
 use std::fmt::{self, Write as _};
 use std::os::raw::c_int;
 
+use crate::arrays;
 pub use crate::standards::Facts;
 use crate::table::{Kind, Variable};
 use crate::{Model, StepLog};
@@ -234,30 +235,31 @@ pub struct Instance<S: Standard, M: Model> {
     pub snapshots: Vec<*mut Snapshot<M>>,
     /// Reused by every step, so reporting nothing allocates nothing.
     pub step_log: StepLog,
-    /// The table's position of each value reference.
+    /// The standard's variables by value reference, each with its table rows (first,
+    /// count: more than one for an FMI 3.0 array).
     index: Index,
 }
 
-/// Value reference → table position. The models number their variables densely, so a
-/// lookup is one load; a sparse numbering, which a direct table would make large, is
-/// searched by binary search.
+/// Value reference → the variable's table rows. The models number their variables
+/// densely, so a lookup is one load; a sparse numbering, which a direct table would make
+/// large, is searched by binary search.
 enum Index {
-    /// Position + 1 at the reference, 0 where there is none.
-    Direct(Box<[u32]>),
-    /// (reference, position), sorted.
-    Sorted(Box<[(u32, u32)]>),
+    /// (first row + 1, count) at the reference, (0, 0) where there is none.
+    Direct(Box<[(u32, u32)]>),
+    /// (reference, first row, count), sorted.
+    Sorted(Box<[(u32, u32, u32)]>),
 }
 
 impl Index {
-    /// The index of a table whose entries have references `vrs`, in table order.
-    fn new(vrs: impl Iterator<Item = u32>) -> Index {
-        let mut sorted: Vec<(u32, u32)> = vrs.zip(0..).collect();
+    /// The index of the variables `(reference, first row, count)`.
+    fn new(entries: impl Iterator<Item = (u32, u32, u32)>) -> Index {
+        let mut sorted: Vec<(u32, u32, u32)> = entries.collect();
         sorted.sort_unstable();
         let top = sorted.last().map_or(0, |e| e.0 as usize);
         if top <= 4 * sorted.len() + 64 {
-            let mut direct = vec![0u32; top + 1];
-            for &(vr, i) in &sorted {
-                direct[vr as usize] = i + 1;
+            let mut direct = vec![(0u32, 0u32); top + 1];
+            for &(vr, first, len) in &sorted {
+                direct[vr as usize] = (first + 1, len);
             }
             Index::Direct(direct.into_boxed_slice())
         } else {
@@ -265,16 +267,30 @@ impl Index {
         }
     }
 
-    fn position(&self, vr: u32) -> Option<usize> {
+    /// The first row and the count of the variable behind `vr`.
+    fn rows(&self, vr: u32) -> Option<(usize, usize)> {
         match self {
-            Index::Direct(d) => d.get(vr as usize).and_then(|&p| (p as usize).checked_sub(1)),
-            Index::Sorted(s) => s.binary_search_by_key(&vr, |e| e.0).ok().map(|i| s[i].1 as usize),
+            Index::Direct(d) => {
+                let &(first, len) = d.get(vr as usize)?;
+                Some(((first as usize).checked_sub(1)?, len as usize))
+            }
+            Index::Sorted(s) => {
+                let (_, first, len) = s[s.binary_search_by_key(&vr, |e| e.0).ok()?];
+                Some((first as usize, len as usize))
+            }
         }
     }
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
     pub fn new(name: CString, callbacks: S::Callbacks, logging_on: bool) -> Self {
+        let vars = M::variables();
+        let entries = match S::ARRAYS {
+            true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
+            false => arrays::scalar_entries(vars),
+        };
+        let index =
+            Index::new(entries.iter().map(|e| (vars[e.first].vr, e.first as u32, e.len as u32)));
         Instance {
             magic: S::MAGIC,
             name,
@@ -288,7 +304,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             last_step_status: OK,
             snapshots: Vec::new(),
             step_log: StepLog::default(),
-            index: Index::new(M::variables().iter().map(|v| v.vr)),
+            index,
         }
     }
 
@@ -313,8 +329,16 @@ impl<S: Standard, M: Model> Instance<S, M> {
         ERROR
     }
 
-    pub fn variable(&self, vr: u32) -> Option<&'static Variable> {
-        M::variables().get(self.index.position(vr)?)
+    /// The table rows of the variable behind `vr`: the first (an array's first
+    /// element) and how many.
+    pub fn rows(&self, vr: u32) -> Option<(usize, usize)> {
+        self.index.rows(vr)
+    }
+
+    /// The variable behind `vr` (an array's first element) and how many values it has.
+    pub fn variable(&self, vr: u32) -> Option<(&'static Variable, usize)> {
+        let (first, len) = self.rows(vr)?;
+        Some((M::variables().get(first)?, len))
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {
@@ -367,20 +391,32 @@ mod tests {
         assert_eq!(cut, format!("{}… (400 bytes)", "é".repeat(Clip::MAX)));
     }
 
-    /// Both forms find every reference at its position, and nothing in a hole or past the end.
+    /// Both forms find every reference's rows, and nothing in a hole or past the end.
     #[test]
-    fn dense_and_sparse_references_find_their_positions() {
-        let dense = [7u32, 1, 2, 3, 10, 4];
-        let sparse = [7u32, 1, 1_000_000, 3, 70_000];
-        let (d, s) = (Index::new(dense.into_iter()), Index::new(sparse.into_iter()));
+    fn dense_and_sparse_references_find_their_rows() {
+        // (reference, first row, count): an array of three among scalars.
+        let rows = |refs: &[u32]| -> Vec<(u32, u32, u32)> {
+            let mut first = 0;
+            refs.iter()
+                .enumerate()
+                .map(|(i, &vr)| {
+                    let len = if i == 1 { 3 } else { 1 };
+                    first += len;
+                    (vr, first - len, len)
+                })
+                .collect()
+        };
+        let dense = rows(&[7, 1, 2, 3, 10, 4]);
+        let sparse = rows(&[7, 1, 1_000_000, 3, 70_000]);
+        let (d, s) = (Index::new(dense.iter().copied()), Index::new(sparse.iter().copied()));
         assert!(matches!(d, Index::Direct(_)));
         assert!(matches!(s, Index::Sorted(_)));
-        for (index, refs) in [(&d, &dense[..]), (&s, &sparse[..])] {
-            for (i, &vr) in refs.iter().enumerate() {
-                assert_eq!(index.position(vr), Some(i), "reference {vr}");
+        for (index, entries) in [(&d, &dense), (&s, &sparse)] {
+            for &(vr, first, len) in entries {
+                assert_eq!(index.rows(vr), Some((first as usize, len as usize)), "reference {vr}");
             }
             for vr in [0, 5, 6, 8, 11, 69_999, 1_000_001, u32::MAX] {
-                assert_eq!(index.position(vr), None, "reference {vr}");
+                assert_eq!(index.rows(vr), None, "reference {vr}");
             }
         }
     }
