@@ -495,18 +495,13 @@ fn fmi2_instantiate_refuses_model_exchange_a_wrong_guid_and_no_name() {
     let log = inchworm_fmi_export::testing::Log(Default::default());
     let f = inchworm_fmi_export::testing::callbacks(&log);
     let guid = CString::new(model_description::guid::<Toy>()).unwrap();
+    let cs_guid = CString::new(model_description::guid::<CsToy>()).unwrap();
     let null = std::ptr::null();
     unsafe {
-        assert!(fmi2Instantiate::<Toy>(
-            c"x".as_ptr(),
-            fmi2ModelExchange,
-            guid.as_ptr(),
-            null,
-            &f,
-            0,
-            0
-        )
-        .is_null());
+        let x = c"x".as_ptr();
+        assert!(fmi2Instantiate::<CsToy>(x, fmi2ModelExchange, cs_guid.as_ptr(), null, &f, 0, 0)
+            .is_null());
+        assert!(fmi2Instantiate::<Toy>(x, 2, guid.as_ptr(), null, &f, 0, 0).is_null());
         assert!(fmi2Instantiate::<Toy>(
             c"x".as_ptr(),
             fmi2CoSimulation,
@@ -535,7 +530,8 @@ fn fmi2_instantiate_refuses_model_exchange_a_wrong_guid_and_no_name() {
     assert_eq!(
         *log.0.lock().unwrap(),
         [
-            "3|logStatusError|fmi2Instantiate: this FMU implements Co-Simulation only (fmuType must be fmi2CoSimulation)".to_string(),
+            "3|logStatusError|fmi2Instantiate: not supported: this FMU implements Co-Simulation only".to_string(),
+            "3|logStatusError|fmi2Instantiate: fmuType is neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)".to_string(),
             format!("3|logStatusError|fmi2Instantiate: fmuGUID \"{{wrong}}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"),
             "3|logStatusError|fmi2Instantiate: instanceName is NULL or empty".to_string(),
         ]
@@ -594,9 +590,17 @@ fn fmi3_instantiate_checks_interface_token_and_event_mode() {
     let (n, t, null) = (c"me".as_ptr(), token.as_ptr(), std::ptr::null());
     let vr = [1u32];
     unsafe {
-        assert!(
-            fmi3InstantiateModelExchange::<Toy>(n, t, null, false, false, env, logger).is_null()
+        let cs_token = CString::new(model_description::guid::<CsToy>()).unwrap();
+        let cs_only = fmi3InstantiateModelExchange::<CsToy>(
+            n,
+            cs_token.as_ptr(),
+            null,
+            false,
+            false,
+            env,
+            logger,
         );
+        assert!(cs_only.is_null());
         assert!(fmi3InstantiateScheduledExecution::<Toy>(
             n, t, null, false, false, env, logger, None, None, None
         )
@@ -651,7 +655,7 @@ fn fmi3_instantiate_checks_interface_token_and_event_mode() {
         *log.0.lock().unwrap(),
         [
             "3|logStatusError|me: fmi3InstantiateModelExchange: not supported: this FMU implements Co-Simulation only",
-            "3|logStatusError|me: fmi3InstantiateScheduledExecution: not supported: this FMU implements Co-Simulation only",
+            "3|logStatusError|me: fmi3InstantiateScheduledExecution: not supported: this FMU has no Scheduled Execution interface",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: eventModeUsed requested, but this FMU has no event mode (hasEventMode=\"false\")",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: requiredIntermediateVariables given, but this FMU provides no intermediate updates",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: instantiationToken is NULL",
@@ -718,8 +722,8 @@ fn fmi3_time_do_step_results_counts_and_absent_types() {
         "nValues 2 differs from nValueReferences 1",
         "value reference 11 (steps) is Int32, not UInt8",
         "value reference 0 (time) is Float64, not Int8",
-        "fmi3EnterEventMode: not supported: hasEventMode is false",
-        "fmi3SetTime: not supported: this FMU implements Co-Simulation only (no Model Exchange)",
+        "fmi3EnterEventMode: not supported: a Co-Simulation instance has no event mode",
+        "fmi3SetTime: not supported: a Co-Simulation instance has no event mode",
     ] {
         assert!(h.saw(ERROR, &[part]), "{part}: {:?}", h.logged());
     }

@@ -8,8 +8,8 @@ use std::fmt::Write;
 use super::api::type_name;
 use super::TIME_VR;
 use crate::model_description::{
-    causality, escape, guid, initial, is_initial_unknown, prolog, shared_head, start_attr,
-    unit_and_range, variability,
+    causality, common_flags, escape, guid, initial, is_initial_unknown, prolog, shared_head,
+    start_attr, state_of, unit_and_range, variability,
 };
 use crate::table::{Causality, Variable};
 use crate::Model;
@@ -32,6 +32,14 @@ pub fn model_description<M: Model>() -> String {
         escape(info.version),
         env!("CARGO_PKG_VERSION")
     );
+    if M::model_exchange().is_some() {
+        let _ = writeln!(
+            w,
+            r#"  <ModelExchange modelIdentifier="{}" {} providesAdjointDerivatives="false" providesPerElementDependencies="false" needsCompletedIntegratorStep="false" providesEvaluateDiscreteStates="false"/>"#,
+            escape(info.model_identifier),
+            common_flags("FMUState", "providesDirectionalDerivatives")
+        );
+    }
     let _ = writeln!(
         w,
         r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
@@ -45,7 +53,10 @@ pub fn model_description<M: Model>() -> String {
     );
     for v in M::variables() {
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
-        let attrs = unit_and_range(v);
+        let mut attrs = unit_and_range(v);
+        if let Some(state) = state_of::<M>(v) {
+            let _ = write!(attrs, " derivative=\"{state}\"");
+        }
         let _ = writeln!(
             w,
             r#"    <{} name="{}" valueReference="{}" description="{}" causality="{}" variability="{}"{init}{attrs}{}/>"#,
@@ -64,12 +75,18 @@ pub fn model_description<M: Model>() -> String {
         M::variables().iter().filter(|v| pred(v)).map(|v| v.vr).collect()
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
-    let initial_unknowns = vrs(&is_initial_unknown);
-    for vr in outputs {
-        let _ = writeln!(w, "    <Output valueReference=\"{vr}\"/>");
-    }
-    for vr in initial_unknowns {
-        let _ = writeln!(w, "    <InitialUnknown valueReference=\"{vr}\"/>");
+    let derivatives = vrs(&|v| state_of::<M>(v).is_some());
+    let initial_unknowns = vrs(&is_initial_unknown::<M>);
+    let indicators = M::model_exchange().map_or(&[][..], |me| me.event_indicators);
+    for (tag, list) in [
+        ("Output", &outputs[..]),
+        ("ContinuousStateDerivative", &derivatives[..]),
+        ("InitialUnknown", &initial_unknowns[..]),
+        ("EventIndicator", indicators),
+    ] {
+        for vr in list {
+            let _ = writeln!(w, "    <{tag} valueReference=\"{vr}\"/>");
+        }
     }
     let _ = writeln!(w, "  </ModelStructure>");
     let _ = writeln!(w, "</fmiModelDescription>");
