@@ -93,7 +93,6 @@ pub fn fmi2GetVersion() -> *const c_char {
 }
 
 const BAD_TYPE: &str = "fmuType is neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)";
-const NO_DERIVATIVES: &str = "providesDirectionalDerivative is false (estimate derivatives by finite differences over fmi2GetFMUstate and fmi2SetFMUstate)";
 const NO_INTERPOLATION: &str =
     "canInterpolateInputs is false (inputs are held constant over each communication step)";
 const SYNCHRONOUS: &str =
@@ -136,7 +135,7 @@ macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
     fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status = entry::serialized_size::<Fmi2, M>(c, F, s, size);
     fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status = entry::serialize::<Fmi2, M>(c, F, s, (b as *mut u8, size));
     fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status = entry::deserialize::<Fmi2, M>(c, F, (b as *const u8, size), s);
-    fmi2GetDirectionalDerivative(c: fmi2Component, u: *const fmi2ValueReference, nu: usize, k: *const fmi2ValueReference, nk: usize, dk: *const fmi2Real, du: *mut fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, GETTABLE, NO_DERIVATIVES);
+    fmi2GetDirectionalDerivative(c: fmi2Component, u: *const fmi2ValueReference, nu: usize, k: *const fmi2ValueReference, nk: usize, dk: *const fmi2Real, du: *mut fmi2Real) -> fmi2Status = entry::directional_derivative::<Fmi2, M>(c, F, (u, nu), (k, nk), (dk, nk), (du, nu));
     fmi2SetRealInputDerivatives(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, o: *const fmi2Integer, v: *const fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, SETTABLE, NO_INTERPOLATION);
     fmi2GetRealOutputDerivatives(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, o: *const fmi2Integer, v: *mut fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, AFTER_STEP, "maxOutputDerivativeOrder is 0");
     fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, no_prior: fmi2Boolean) -> fmi2Status = entry::do_step::<Fmi2, M>(c, F, t, h, None);

@@ -872,7 +872,8 @@ pub unsafe fn deserialize<S: Standard, M: Model>(
 /// The model's Model Exchange declaration. Only reached through an instance of that
 /// interface, which [`instantiate`] creates only for a model that has one.
 fn me<M: Model>() -> &'static crate::ModelExchange {
-    const NONE: crate::ModelExchange = crate::ModelExchange { states: &[], event_indicators: &[] };
+    const NONE: crate::ModelExchange =
+        crate::ModelExchange { states: &[], event_indicators: &[], directional_derivatives: false };
     M::model_exchange().unwrap_or(&NONE)
 }
 
@@ -1100,6 +1101,45 @@ pub unsafe fn update_discrete_states<S: Standard, M: Model>(
                 out.write(&EventUpdate::default(), true);
                 inst.refuse(func, format_args!("{why}"))
             }
+        }
+    })
+}
+
+/// `GetDirectionalDerivative(s)`: `sensitivity = J seed` over the given unknowns and
+/// knowns, from the model's exact partial derivatives.
+pub unsafe fn directional_derivative<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    (unknowns, nu): (*const u32, usize),
+    (knowns, nk): (*const u32, usize),
+    (seed, ns): (*const f64, usize),
+    (out, no): (*mut f64, usize),
+) -> Status {
+    with_instance::<S, M>(c, func, GETTABLE, |inst| {
+        if !M::model_exchange().is_some_and(|me| me.directional_derivatives) {
+            let why = format_args!("not supported: {}", S::NO_DIRECTIONAL_DERIVATIVES);
+            return inst.refuse(func, why);
+        }
+        if ns != nk || no != nu {
+            let why = format_args!("{ns} seeds for {nk} knowns, {no} sensitivities for {nu} unknowns (every variable of this FMU is a scalar)");
+            return inst.refuse(func, why);
+        }
+        let (Some(u), Some(k), Some(seed), Some(out)) =
+            (slice(unknowns, nu), slice(knowns, nk), slice(seed, ns), slice_mut(out, no))
+        else {
+            return inst.refuse(func, format_args!("an array argument is NULL"));
+        };
+        for &vr in u.iter().chain(k) {
+            if let Err(why) = inst.lookup(vr, Kind::Real) {
+                return inst.refuse(func, format_args!("{why}"));
+            }
+        }
+        if let Some(s) = seed.iter().find(|s| !s.is_finite()) {
+            return inst.refuse(func, format_args!("seed {s} is not finite"));
+        }
+        match inst.model.directional_derivative(u, k, seed, out) {
+            Ok(()) => OK,
+            Err(why) => inst.refuse(func, format_args!("{why}")),
         }
     })
 }

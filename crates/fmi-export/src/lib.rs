@@ -98,6 +98,9 @@ pub struct ContinuousState {
 pub struct ModelExchange {
     pub states: &'static [ContinuousState],
     pub event_indicators: &'static [u32],
+    /// The model computes exact directional derivatives
+    /// ([`Model::directional_derivative`]), for both interfaces.
+    pub directional_derivatives: bool,
 }
 
 /// What one event-mode update tells the master.
@@ -179,5 +182,19 @@ pub trait Model: Clone + Send + 'static {
         _log: &mut StepLog,
     ) -> Result<EventUpdate, String> {
         Err("this model has no Model Exchange interface".into())
+    }
+
+    /// `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` at the current state, for a model
+    /// whose [`ModelExchange::directional_derivatives`] is true. The layer has checked that
+    /// every reference is a Real of the table and every seed finite; a pair the model has
+    /// no derivative for is an `Err` naming it.
+    fn directional_derivative(
+        &self,
+        _unknowns: &[u32],
+        _knowns: &[u32],
+        _seed: &[f64],
+        _out: &mut [f64],
+    ) -> Result<(), String> {
+        Err("this model provides no directional derivatives".into())
     }
 }

@@ -139,11 +139,17 @@ pub(crate) fn state_of<M: Model>(v: &Variable) -> Option<u32> {
     me.states.iter().find(|s| s.derivative == v.vr).map(|s| s.value)
 }
 
-/// The capability flags both interfaces of one standard declare alike.
-pub(crate) fn common_flags(standard_state: &str, directional: &str) -> String {
+/// Whether the model provides directional derivatives, as the XML writes it.
+pub(crate) fn directional<M: Model>() -> bool {
+    M::model_exchange().is_some_and(|me| me.directional_derivatives)
+}
+
+/// The capability flags the Model Exchange element of one standard declares.
+pub(crate) fn common_flags<M: Model>(standard_state: &str, directional_attr: &str) -> String {
     format!(
-        r#"needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSet{0}="true" canSerialize{0}="true" {directional}="false""#,
-        standard_state
+        r#"needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSet{0}="true" canSerialize{0}="true" {directional_attr}="{1}""#,
+        standard_state,
+        directional::<M>()
     )
 }
 
@@ -166,13 +172,14 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
             w,
             r#"  <ModelExchange modelIdentifier="{}" completedIntegratorStepNotNeeded="true" canNotUseMemoryManagementFunctions="true" {}/>"#,
             escape(info.model_identifier),
-            common_flags("FMUstate", "providesDirectionalDerivative")
+            common_flags::<M>("FMUstate", "providesDirectionalDerivative")
         );
     }
     let _ = writeln!(
         w,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#,
-        escape(info.model_identifier)
+        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="{}"/>"#,
+        escape(info.model_identifier),
+        directional::<M>()
     );
     shared_head::<M>(w, "fmi2");
     let _ = writeln!(w, "  <ModelVariables>");

@@ -111,6 +111,14 @@ pub trait Master: Standard {
     unsafe fn update<M: Model>(c: C) -> (Status, EventUpdate, bool);
     /// `CompletedIntegratorStep`: `enterEventMode` and `terminateSimulation`.
     unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]);
+    /// `Get*DirectionalDerivative(s)` with one value per reference.
+    unsafe fn directional<M: Model>(
+        c: C,
+        u: &[u32],
+        k: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Status;
     unsafe fn free<M: Model>(c: C);
     /// FMI 2.0's `fmi2SetupExperiment`; FMI 3.0 passes the experiment to `enter`, so the
     /// harness keeps it until then.
@@ -210,6 +218,10 @@ masters! {
             let u = EventUpdate { states_changed: info.valuesOfContinuousStatesChanged != fmi2False, next_event_time: next };
             (s, u, info.terminateSimulation != fmi2False)
         }
+        unsafe fn directional<M: Model>(c: C, u: &[u32], k: &[u32], seed: &[f64], out: &mut [f64]) -> Status {
+            assert_eq!((k.len(), u.len()), (seed.len(), out.len()), "FMI 2.0 has no separate counts");
+            api::fmi2GetDirectionalDerivative::<M>(c, u.as_ptr(), u.len(), k.as_ptr(), k.len(), seed.as_ptr(), out.as_mut_ptr())
+        }
         unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]) {
             let (mut ev, mut term) = (7, 7);
             let s = api::fmi2CompletedIntegratorStep::<M>(c, fmi2True, &mut ev, &mut term);
@@ -279,6 +291,9 @@ masters! {
             let s = api3::fmi3UpdateDiscreteStates::<M>(c, &mut need, &mut term, &mut nominals, &mut values, &mut defined, &mut next);
             assert!(!need && !nominals || s != 0, "one update reaches the fixed point; nominals are constants");
             (s, EventUpdate { states_changed: values, next_event_time: defined.then_some(next) }, term)
+        }
+        unsafe fn directional<M: Model>(c: C, u: &[u32], k: &[u32], seed: &[f64], out: &mut [f64]) -> Status {
+            api3::fmi3GetDirectionalDerivative::<M>(c, u.as_ptr(), u.len(), k.as_ptr(), k.len(), seed.as_ptr(), seed.len(), out.as_mut_ptr(), out.len())
         }
         unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]) {
             let (mut ev, mut term) = (true, true);
@@ -466,6 +481,16 @@ impl<M: Model, S: Master> Harness<M, S> {
     pub fn array(&self, array: Array, n: usize) -> (Status, Vec<f64>) {
         let mut v = vec![f64::NAN; n];
         (unsafe { S::get_array::<M>(self.c, array, v.as_mut_ptr(), n) }, v)
+    }
+    /// `J seed` over `unknowns` and `knowns`: the status and the sensitivities.
+    pub fn directional(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+    ) -> (Status, Vec<f64>) {
+        let mut out = vec![f64::NAN; unknowns.len()];
+        (unsafe { S::directional::<M>(self.c, unknowns, knowns, seed, &mut out) }, out)
     }
     pub fn set_time(&self, t: f64) -> Status {
         unsafe { S::set_time::<M>(self.c, t) }

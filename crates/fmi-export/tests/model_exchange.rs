@@ -35,6 +35,7 @@ for_both!(
     a_state_event_jumps_and_the_integrator_is_told,
     failures_in_event_mode_end_as_in_a_step,
     state_round_trips_replay_bit_for_bit,
+    directional_derivatives_are_the_exact_partials,
 );
 
 fn x<S: Master>(h: &H<S>) -> f64 {
@@ -265,12 +266,49 @@ fn state_round_trips_replay_bit_for_bit<S: Master>() {
     assert!(cs.saw(ERROR, &["ContinuousTimeMode, which Co-Simulation has not"]));
 }
 
+/// `J seed` from the model's partials, against finite differences of the derivatives, and
+/// the checks of its arguments.
+fn directional_derivatives_are_the_exact_partials<S: Master>() {
+    let h = H::<S>::init_me("jacobian");
+    assert_eq!((h.set_real(U, 3.0), h.set_integer(GAIN, 2)), (OK, OK));
+    assert_eq!(h.enter_continuous_time_mode(), OK);
+    assert_eq!(h.set_states(&[1.5]), OK);
+    let j = |seed: &[f64]| h.directional(&[DER_X, X, ABOVE_LEVEL], &[X, U], seed);
+    assert_eq!(j(&[1.0, 0.0]), (OK, vec![-1.0, 1.0, 1.0]));
+    assert_eq!(j(&[0.0, 1.0]), (OK, vec![2.0, 0.0, 0.0]));
+    assert_eq!(j(&[0.5, -2.0]), (OK, vec![-4.5, 0.5, 0.5]));
+    let der = |x: f64| {
+        assert_eq!(h.set_states(&[x]), OK);
+        h.array(Array::Derivatives, 1).1[0]
+    };
+    let eps = 1e-6;
+    let fd = (der(1.5 + eps) - der(1.5 - eps)) / (2.0 * eps);
+    assert!((fd - (-1.0)).abs() < 1e-9, "finite differences {fd}");
+    h.take_logged();
+    assert_eq!(h.directional(&[STEPS], &[X], &[1.0]).0, ERROR);
+    assert!(h.saw(ERROR, &["value reference 11 (steps) is"]), "{:?}", h.logged());
+    assert_eq!(h.directional(&[DER_X], &[K], &[1.0]).0, ERROR);
+    assert!(h.saw(ERROR, &["no derivative of 13 with respect to 100"]), "{:?}", h.logged());
+    assert_eq!(h.directional(&[DER_X], &[X], &[f64::NAN]).0, ERROR);
+    assert!(h.saw(ERROR, &["seed NaN is not finite"]));
+    // Co-Simulation instances have them too; a model without them says so.
+    let cs = H::<S>::init("cs");
+    assert_eq!(cs.directional(&[DER_X], &[U], &[1.0]), (OK, vec![1.0]));
+    let none = Harness::<CsToy, S>::init("none");
+    assert_eq!(none.directional(&[DER_X], &[U], &[1.0]).0, ERROR);
+    assert!(
+        none.saw(ERROR, &["not supported: providesDirectionalDerivative", "is false"]),
+        "{:?}",
+        none.logged()
+    );
+}
+
 #[test]
 fn the_descriptions_declare_model_exchange_from_the_table() {
     let two = model_description::model_description::<Toy>();
     for part in [
         r#"numberOfEventIndicators="1""#,
-        r#"<ModelExchange modelIdentifier="Toy" completedIntegratorStepNotNeeded="true" canNotUseMemoryManagementFunctions="true" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#,
+        r#"<ModelExchange modelIdentifier="Toy" completedIntegratorStepNotNeeded="true" canNotUseMemoryManagementFunctions="true" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="true"/>"#,
         "<Real unit=\"V/s\" derivative=\"4\"/>",
         "    <Derivatives>\n      <Unknown index=\"7\"/>\n    </Derivatives>\n    <InitialUnknowns>\n      <Unknown index=\"4\"/>\n      <Unknown index=\"5\"/>\n      <Unknown index=\"6\"/>\n      <Unknown index=\"7\"/>\n    </InitialUnknowns>",
     ] {
@@ -279,7 +317,7 @@ fn the_descriptions_declare_model_exchange_from_the_table() {
     assert!(two.find("<ModelExchange") < two.find("<CoSimulation"), "the schema's order");
     let three = description3::model_description::<Toy>();
     for part in [
-        r#"<ModelExchange modelIdentifier="Toy" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" providesAdjointDerivatives="false" providesPerElementDependencies="false" needsCompletedIntegratorStep="false" providesEvaluateDiscreteStates="false"/>"#,
+        r#"<ModelExchange modelIdentifier="Toy" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="true" providesAdjointDerivatives="false" providesPerElementDependencies="false" needsCompletedIntegratorStep="false" providesEvaluateDiscreteStates="false"/>"#,
         r#"<Float64 name="der(x)" valueReference="13" description="dx/dt" causality="local" variability="continuous" initial="calculated" unit="V/s" derivative="10"/>"#,
         "    <Output valueReference=\"12\"/>\n    <ContinuousStateDerivative valueReference=\"13\"/>\n    <InitialUnknown valueReference=\"10\"/>",
         "    <InitialUnknown valueReference=\"13\"/>\n    <EventIndicator valueReference=\"14\"/>\n  </ModelStructure>",

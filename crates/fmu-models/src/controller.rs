@@ -445,7 +445,8 @@ impl Model for ControllerFmu {
     }
 
     fn model_exchange() -> Option<&'static ModelExchange> {
-        static ME: ModelExchange = ModelExchange { states: &[], event_indicators: &[] };
+        static ME: ModelExchange =
+            ModelExchange { states: &[], event_indicators: &[], directional_derivatives: false };
         Some(&ME)
     }
 

@@ -99,7 +99,6 @@ impl EventSink for EventOutputs {
 const NO_SE: &str = "this FMU has no Scheduled Execution interface";
 const NO_CLOCKS: &str = "this FMU has no clocks";
 const NO_DEPENDENCIES: &str = "providesPerElementDependencies is false (ModelStructure declares every output as depending on all inputs)";
-const NO_DERIVATIVES: &str = "providesDirectionalDerivatives is false (estimate derivatives by finite differences over fmi3GetFMUState and fmi3SetFMUState)";
 
 /// Every FMI 3.0 function but `fmi3GetVersion`, for [`crate::__generic_entry_points!`]
 /// and [`crate::__thunks!`].
@@ -153,7 +152,7 @@ macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
     fmi3SerializedFMUStateSize(c: fmi3Instance, s: fmi3FMUState, size: *mut usize) -> fmi3Status = entry::serialized_size::<Fmi3, M>(c, F, s, size);
     fmi3SerializeFMUState(c: fmi3Instance, s: fmi3FMUState, b: *mut fmi3Byte, size: usize) -> fmi3Status = entry::serialize::<Fmi3, M>(c, F, s, (b, size));
     fmi3DeserializeFMUState(c: fmi3Instance, b: *const fmi3Byte, size: usize, s: *mut fmi3FMUState) -> fmi3Status = entry::deserialize::<Fmi3, M>(c, F, (b, size), s);
-    fmi3GetDirectionalDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_DERIVATIVES);
+    fmi3GetDirectionalDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::directional_derivative::<Fmi3, M>(c, F, (u, nu), (k, nk), (seed, ns), (sens, nsens));
     fmi3GetAdjointDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "providesAdjointDerivatives is false");
     fmi3EnterConfigurationMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "this FMU has no structural parameters");
     fmi3ExitConfigurationMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "this FMU has no structural parameters, so it is never in configuration mode");

@@ -8,8 +8,8 @@ use std::fmt::Write;
 use super::api::type_name;
 use super::TIME_VR;
 use crate::model_description::{
-    causality, common_flags, escape, guid, initial, is_initial_unknown, prolog, shared_head,
-    start_attr, state_of, unit_and_range, variability,
+    causality, common_flags, directional, escape, guid, initial, is_initial_unknown, prolog,
+    shared_head, start_attr, state_of, unit_and_range, variability,
 };
 use crate::table::{Causality, Variable};
 use crate::Model;
@@ -37,13 +37,14 @@ pub fn model_description<M: Model>() -> String {
             w,
             r#"  <ModelExchange modelIdentifier="{}" {} providesAdjointDerivatives="false" providesPerElementDependencies="false" needsCompletedIntegratorStep="false" providesEvaluateDiscreteStates="false"/>"#,
             escape(info.model_identifier),
-            common_flags("FMUState", "providesDirectionalDerivatives")
+            common_flags::<M>("FMUState", "providesDirectionalDerivatives")
         );
     }
     let _ = writeln!(
         w,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
-        escape(info.model_identifier)
+        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="{}" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
+        escape(info.model_identifier),
+        directional::<M>()
     );
     shared_head::<M>(w, "fmi3");
     let _ = writeln!(w, "  <ModelVariables>");

@@ -38,6 +38,7 @@ pub const X_NOMINAL: f64 = 2.0;
 static ME: ModelExchange = ModelExchange {
     states: &[ContinuousState { value: X, derivative: DER_X, nominal: X_NOMINAL }],
     event_indicators: &[ABOVE_LEVEL],
+    directional_derivatives: true,
 };
 
 static VARIABLES: [Variable; 11] = [
@@ -219,6 +220,29 @@ impl<const WITH_ME: bool> Model for Toy<WITH_ME> {
             log.event(format_args!("reset {} at t = {t}", self.steps));
         }
         Ok(EventUpdate { states_changed: reset, next_event_time: None })
+    }
+    fn directional_derivative(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        let moving = f64::from(u8::from(!self.hold));
+        for (o, &unknown) in out.iter_mut().zip(unknowns) {
+            *o = 0.0;
+            for (&known, s) in knowns.iter().zip(seed) {
+                let partial = match (unknown, known) {
+                    (DER_X, X) => -self.k * moving,
+                    (DER_X, U) => f64::from(self.gain) * moving,
+                    (X | ABOVE_LEVEL, X) => 1.0,
+                    (X | ABOVE_LEVEL, U) => 0.0,
+                    _ => return Err(format!("no derivative of {unknown} with respect to {known}")),
+                };
+                *o += partial * s;
+            }
+        }
+        Ok(())
     }
     fn save_state(&self, w: &mut Writer) {
         w.f64(self.u);
