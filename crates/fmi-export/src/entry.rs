@@ -886,7 +886,7 @@ unsafe fn with_me<S: Standard, M: Model>(
 ) -> Status {
     with_instance::<S, M>(c, func, LIVE, |inst| {
         if inst.interface != Interface::ModelExchange {
-            let why = "a Co-Simulation instance has no event mode and no continuous states (this is a Model Exchange call)";
+            let why = "a Co-Simulation instance has no event mode (hasEventMode is false) and no continuous states";
             return inst.refuse(func, format_args!("not supported: {why}"));
         }
         if inst.state as u16 & allowed == 0 {

@@ -86,7 +86,7 @@ fn calls_follow_the_model_exchange_state_machine<S: Master>() {
     assert!(
         cs.saw(
             ERROR,
-            &["not supported: a Co-Simulation instance has no event mode and no continuous states"]
+            &["not supported: a Co-Simulation instance has no event mode (hasEventMode is false) and no continuous states"]
         ),
         "{:?}",
         cs.logged()
