@@ -5,12 +5,19 @@
 # (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the two other SSP
 # masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy);
 # dask for python/inchworm_dask and poppy for python/inchworm_optics.
+# For the FMUs' other platforms (docs/platforms.md): Debian's Rust for its browsers
+# (rustc-web, cargo-web, rust-web-src: builds the standard library for another target),
+# the MinGW-w64 and aarch64 cross compilers and glibc, and Wine and qemu-user, which run
+# the cross tests; from PyPI, cargo-zigbuild and ziglang (zig links the Linux and macOS
+# libraries against glibc 2.17 symbol versions and Apple's libSystem stubs).
 # Idempotent: it only reaches the package registries for what is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for pkg in libclang-dev fonts-dejavu-core binutils libtbb12; do
+for pkg in libclang-dev fonts-dejavu-core binutils libtbb12 \
+    rustc-web cargo-web rust-web-src gcc-mingw-w64-x86-64 gcc-aarch64-linux-gnu \
+    libc6-dev-arm64-cross wine64 qemu-user; do
     dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -21,7 +28,7 @@ if [ ${#need[@]} -gt 0 ]; then
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
 fi
 
-PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6"
+PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1"
 [ -x .venv/bin/python ] || python3 -m venv .venv
 # Each pin checked on its installed version, so a venv made before a pin was added (or
 # with another version) gets exactly the pinned one, and a complete venv is left alone.

@@ -11,12 +11,16 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 
 use inchworm_fmi_abi::platform::Platform;
 use inchworm_fmi_export::{fmi3, model_description, Model};
 
+mod evidence;
+mod platforms;
 mod ssp;
+
+use platforms::{Output, Target};
 
 /// The FMI version of one packaged FMU: the one place where the two standards' files and
 /// folders differ.
@@ -213,49 +217,125 @@ fn target_dir(root: &Path) -> PathBuf {
         .unwrap_or_else(|| root.join("target"))
 }
 
-/// `cargo build --release --lib` of every FMU's package, in one cargo call.
-fn build(root: &Path, fmus: &[Fmu]) -> Result<(), String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root).args(["build", "--release", "--lib"]);
-    for f in fmus {
-        cmd.args(["-p", f.package]);
-    }
-    let status = cmd.status().map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !status.success() {
-        return Err(format!("cargo build of the FMU libraries failed ({status})"));
-    }
-    Ok(())
+/// The libraries of every FMU for one platform, in the order of `fmus()`.
+struct Built {
+    target: Target,
+    libraries: Vec<Vec<u8>>,
 }
 
-fn host() -> Result<&'static Platform, String> {
-    let (os, arch) = (std::env::consts::OS, std::env::consts::ARCH);
-    inchworm_fmi_abi::platform::host().ok_or_else(|| format!("no FMI platform names {os}/{arch}"))
+/// Builds (or takes from the cache) every FMU's library for each of `targets`, and the
+/// `inchworm` binary for the host, which goes to `dist/bin/inchworm`.
+///
+/// With `prebuilt`, builds nothing: every platform's libraries are read from
+/// `prebuilt/<FMI 3.0 tuple>/` (the release workflow's native jobs), and no binary is written.
+fn build(
+    root: &Path,
+    fmus: &[Fmu],
+    targets: &[Target],
+    prebuilt: Option<&Path>,
+) -> Result<Vec<Built>, String> {
+    let dir = target_dir(root);
+    let libs: Vec<Output> =
+        fmus.iter().map(|f| Output::Library { package: f.package, stem: f.lib_stem }).collect();
+    let mut built = Vec::new();
+    for t in targets {
+        let libraries = match prebuilt {
+            Some(p) => platforms::prebuilt(p, t, &libs)?,
+            None => platforms::build(root, &dir, t, "fmus", &libs)?,
+        };
+        built.push(Built { target: *t, libraries });
+    }
+    let host = targets.iter().find(|t| Some(t.platform) == inchworm_fmi_abi::platform::host());
+    if let (Some(host), None) = (host, prebuilt) {
+        let bin = platforms::build(
+            root,
+            &dir,
+            host,
+            "inchworm",
+            &[Output::Binary { package: "inchworm", name: "inchworm" }],
+        )?;
+        let out = root.join("dist").join("bin");
+        std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+        let path = out.join("inchworm");
+        // Through a new file renamed over the old, so a running `inchworm` is not touched.
+        let tmp = path.with_extension("partial");
+        let err = |e: std::io::Error| format!("{}: {e}", path.display());
+        std::fs::write(&tmp, &bin[0]).map_err(err)?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o755)).map_err(err)?;
+        }
+        std::fs::rename(&tmp, &path).map_err(err)?;
+        println!("fmu-build: wrote {}", path.display());
+    }
+    Ok(built)
 }
 
 fn dist_dir(root: &Path, standard: Standard) -> PathBuf {
     root.join("dist").join(standard.subdir())
 }
 
-fn package(root: &Path, f: &Fmu) -> Result<PathBuf, String> {
-    let host = host()?;
-    let folder = f.standard.binaries_folder(host).ok_or_else(|| {
-        format!("{:?} names no binaries folder for {}/{}", f.standard, host.os, host.arch)
-    })?;
-    let (prefix, ext) = (host.lib_prefix, host.lib_ext);
-    let lib = target_dir(root).join("release").join(format!("{prefix}{}.{ext}", f.lib_stem));
-    let binary = std::fs::read(&lib).map_err(|e| format!("{}: {e}", lib.display()))?;
+/// `binaries/<folder>/<identifier>.<ext>` of every platform the standard names, with the
+/// library of FMU number `index`; where two platforms share a folder (FMI 2.0's
+/// `darwin64`), one universal Mach-O file of both.
+fn binary_entries(
+    f: &Fmu,
+    index: usize,
+    built: &[Built],
+) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let mut folders: Vec<(&str, &Platform, Vec<&[u8]>)> = Vec::new();
+    for b in built {
+        let Some(folder) = f.standard.binaries_folder(b.target.platform) else { continue };
+        match folders.iter_mut().find(|(name, ..)| *name == folder) {
+            Some((_, _, slices)) => slices.push(&b.libraries[index]),
+            None => folders.push((folder, b.target.platform, vec![&b.libraries[index]])),
+        }
+    }
+    folders
+        .into_iter()
+        .map(|(folder, p, slices)| {
+            let bytes = if slices.len() > 1 {
+                platforms::universal_macho(&slices)?
+            } else {
+                slices[0].to_vec()
+            };
+            Ok((format!("binaries/{folder}/{}.{}", f.identifier, p.lib_ext), bytes))
+        })
+        .collect()
+}
+
+/// The FMI version's folder name in the compatibility tree and the platform it is filed
+/// under there (the one CI runs it on).
+fn cross_check_names(standard: Standard) -> (&'static str, &'static str) {
+    match standard {
+        Standard::Fmi2 => ("2.0", "linux64"),
+        Standard::Fmi3 => ("3.0", "x86_64-linux"),
+    }
+}
+
+/// Writes `dist/<subdir>/<Model>.fmu` (model description, every platform's binary, the
+/// documentation with figures, the reference results) and its compatibility-tree folder.
+fn package(root: &Path, f: &Fmu, index: usize, built: &[Built]) -> Result<PathBuf, String> {
     let xml = (f.model_description)();
     let dist = dist_dir(root, f.standard);
     std::fs::create_dir_all(&dist).map_err(|e| format!("{}: {e}", dist.display()))?;
     let out = dist.join(format!("{}.fmu", f.identifier));
-    let docs = (f.documentation)();
-    let entries: [(String, &[u8]); 3] = [
-        ("modelDescription.xml".into(), xml.as_bytes()),
-        (format!("binaries/{folder}/{}.{ext}", f.identifier), &binary),
-        ("documentation/index.html".into(), docs.as_bytes()),
-    ];
+    let refs = evidence::reference_files(root, f.identifier)?;
+    let mut entries: Vec<(String, Vec<u8>)> =
+        vec![("modelDescription.xml".into(), xml.into_bytes())];
+    entries.extend(binary_entries(f, index, built)?);
+    entries.extend(evidence::documentation(root, f.identifier, &(f.documentation)(), &refs)?);
+    let ls = evidence::LS_REF;
+    entries.push((format!("{ls}/fmi-ls-manifest.xml"), evidence::manifest(&refs).into_bytes()));
+    for r in &refs {
+        entries.push((format!("{ls}/{}", r.name), r.data.clone()));
+    }
+    let entries: Vec<(String, &[u8])> =
+        entries.iter().map(|(n, d)| (n.clone(), d.as_slice())).collect();
     write_zip(&out, &entries)?;
+    let (version, platform) = cross_check_names(f.standard);
+    evidence::cross_check_folder(&root.join("dist"), version, platform, f.identifier, &out, &refs)?;
     Ok(out)
 }
 
@@ -299,19 +379,58 @@ fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
     Ok(out)
 }
 
+/// What the command line asks for.
+#[derive(Debug, PartialEq)]
+struct Args {
+    check: bool,
+    /// Package the libraries found here instead of building them.
+    prebuilt: Option<PathBuf>,
+    /// The FMI 3.0 tuples of the platforms to build (default: all of `platforms::targets`).
+    platforms: Option<Vec<String>>,
+}
+
+fn parse_args(args: &[String]) -> Result<Args, String> {
+    let mut out = Args { check: false, prebuilt: None, platforms: None };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--check" => out.check = true,
+            "--prebuilt" => {
+                out.prebuilt = Some(PathBuf::from(it.next().ok_or("--prebuilt needs a folder")?))
+            }
+            "--platforms" => {
+                let list = it
+                    .next()
+                    .ok_or("--platforms needs a list, e.g. x86_64-linux,x86_64-windows")?;
+                let known: Vec<_> = platforms::targets().iter().map(|t| t.platform.fmi3).collect();
+                let list: Vec<String> = list.split(',').map(str::to_string).collect();
+                if let Some(bad) = list.iter().find(|p| !known.contains(&p.as_str())) {
+                    return Err(format!("unknown platform `{bad}` (known: {})", known.join(", ")));
+                }
+                out.platforms = Some(list);
+            }
+            other => {
+                return Err(format!(
+                "unknown argument `{other}` (options: --check, --platforms LIST, --prebuilt DIR)"
+            ))
+            }
+        }
+    }
+    Ok(out)
+}
+
 fn main() -> ExitCode {
     let root = workspace_root();
     let (fmus, systems) = (fmus(), systems());
     let files = committed_files(&fmus, &systems);
-    let check = match std::env::args().nth(1).as_deref() {
-        None => false,
-        Some("--check") => true,
-        Some(other) => {
-            eprintln!("fmu-build: unknown argument `{other}` (the only option is --check)");
+    let args = match parse_args(&std::env::args().skip(1).collect::<Vec<_>>()) {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("fmu-build: {e}");
             return ExitCode::from(2);
         }
     };
-    if check {
+    if args.check {
         let found = drift(&root, &files);
         if found.is_empty() {
             println!("fmu-build --check: {} generated files match the committed ones", files.len());
@@ -326,11 +445,17 @@ fn main() -> ExitCode {
         );
         return ExitCode::FAILURE;
     }
+    let targets: Vec<Target> = platforms::targets()
+        .into_iter()
+        .filter(|t| args.platforms.as_ref().is_none_or(|l| l.iter().any(|p| p == t.platform.fmi3)))
+        .collect();
     let run = || -> Result<(), String> {
-        build(&root, &fmus)?;
+        let built = build(&root, &fmus, &targets, args.prebuilt.as_deref())?;
         write_committed(&root, &files)?;
-        for f in &fmus {
-            println!("fmu-build: wrote {}", package(&root, f)?.display());
+        // The compatibility tree is written whole every time, so no removed model stays.
+        let _ = std::fs::remove_dir_all(root.join("dist").join("cross-check"));
+        for (i, f) in fmus.iter().enumerate() {
+            println!("fmu-build: wrote {}", package(&root, f, i, &built)?.display());
         }
         for s in &systems {
             println!("fmu-build: wrote {}", package_system(&root, s)?.display());
@@ -398,6 +523,26 @@ mod tests {
             "{found:#?}"
         );
         assert!(found[2].starts_with("modelDescription/Old.xml is not generated"), "{found:#?}");
+    }
+
+    #[test]
+    fn the_options_are_parsed_and_unknown_platforms_refused() {
+        let a = |v: &[&str]| parse_args(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        assert_eq!(a(&[]), Ok(Args { check: false, prebuilt: None, platforms: None }));
+        assert_eq!(a(&["--check"]), Ok(Args { check: true, prebuilt: None, platforms: None }));
+        assert_eq!(
+            a(&["--platforms", "x86_64-linux,x86_64-windows", "--prebuilt", "bin"]),
+            Ok(Args {
+                check: false,
+                prebuilt: Some("bin".into()),
+                platforms: Some(vec!["x86_64-linux".into(), "x86_64-windows".into()])
+            })
+        );
+        assert!(a(&["--platforms", "x86_64-linux,sparc-solaris"])
+            .unwrap_err()
+            .contains("sparc-solaris"));
+        assert!(a(&["--platforms"]).is_err());
+        assert!(a(&["--fast"]).unwrap_err().contains("--fast"));
     }
 
     #[test]

@@ -20,6 +20,9 @@ pub struct Platform {
     pub lib_prefix: &'static str,
     /// Shared-library extension, without the dot.
     pub lib_ext: &'static str,
+    /// The Rust target triple fmu-build compiles this platform's library for (the GNU
+    /// toolchain on Windows: MinGW-w64, which builds and tests on Linux).
+    pub rust_target: &'static str,
 }
 
 const fn row(
@@ -29,19 +32,44 @@ const fn row(
     fmi3: &'static str,
     lib_prefix: &'static str,
     lib_ext: &'static str,
+    rust_target: &'static str,
 ) -> Platform {
-    Platform { os, arch, fmi2, fmi3, lib_prefix, lib_ext }
+    Platform { os, arch, fmi2, fmi3, lib_prefix, lib_ext, rust_target }
 }
 
 /// Every platform the project knows how to name.
 pub const PLATFORMS: [Platform; 7] = [
-    row("linux", "x86_64", Some("linux64"), "x86_64-linux", "lib", "so"),
-    row("linux", "x86", Some("linux32"), "x86-linux", "lib", "so"),
-    row("linux", "aarch64", None, "aarch64-linux", "lib", "so"),
-    row("macos", "x86_64", Some("darwin64"), "x86_64-darwin", "lib", "dylib"),
-    row("macos", "aarch64", Some("darwin64"), "aarch64-darwin", "lib", "dylib"),
-    row("windows", "x86_64", Some("win64"), "x86_64-windows", "", "dll"),
-    row("windows", "x86", Some("win32"), "x86-windows", "", "dll"),
+    row(
+        "linux",
+        "x86_64",
+        Some("linux64"),
+        "x86_64-linux",
+        "lib",
+        "so",
+        "x86_64-unknown-linux-gnu",
+    ),
+    row("linux", "x86", Some("linux32"), "x86-linux", "lib", "so", "i686-unknown-linux-gnu"),
+    row("linux", "aarch64", None, "aarch64-linux", "lib", "so", "aarch64-unknown-linux-gnu"),
+    row(
+        "macos",
+        "x86_64",
+        Some("darwin64"),
+        "x86_64-darwin",
+        "lib",
+        "dylib",
+        "x86_64-apple-darwin",
+    ),
+    row(
+        "macos",
+        "aarch64",
+        Some("darwin64"),
+        "aarch64-darwin",
+        "lib",
+        "dylib",
+        "aarch64-apple-darwin",
+    ),
+    row("windows", "x86_64", Some("win64"), "x86_64-windows", "", "dll", "x86_64-pc-windows-gnu"),
+    row("windows", "x86", Some("win32"), "x86-windows", "", "dll", "i686-pc-windows-gnu"),
 ];
 
 /// The row of an operating system and processor, as `std::env::consts` names them.
@@ -70,5 +98,12 @@ mod tests {
         assert_eq!(of("linux", "x86_64").and_then(|p| p.fmi2), Some("linux64"));
         assert_eq!(of("linux", "aarch64").map(|p| (p.fmi2, p.fmi3)), Some((None, "aarch64-linux")));
         assert_eq!(of("windows", "x86_64").map(|p| (p.lib_prefix, p.lib_ext)), Some(("", "dll")));
+        for p in &PLATFORMS {
+            // The triple names the same processor and system as the row.
+            let arch = if p.arch == "x86" { "i686" } else { p.arch };
+            assert!(p.rust_target.starts_with(&format!("{arch}-")), "{p:?}");
+            let os = if p.os == "macos" { "apple-darwin" } else { p.os };
+            assert!(p.rust_target.contains(os), "{p:?}");
+        }
     }
 }

@@ -149,43 +149,63 @@ fn text(p: *const c_char) -> String {
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
-    /// The variable behind `vr`, if it exists and has type `kind`.
-    fn lookup(&self, vr: u32, kind: Kind) -> Result<&'static Variable, String> {
+    /// The variable behind `vr` (an array's first element), if it exists and has type
+    /// `kind`, and how many values it has.
+    fn lookup(&self, vr: u32, kind: Kind) -> Result<(&'static Variable, usize), String> {
         match self.variable(vr) {
             None if S::TIME_VR == Some(vr) => Err(format!(
                 "value reference {vr} is the independent variable time ({}, not settable)",
                 S::type_name(Kind::Real)
             )),
             None => Err(format!("unknown value reference {vr}")),
-            Some(v) if v.kind != kind => Err(format!(
+            Some((v, _)) if v.kind != kind => Err(format!(
                 "value reference {vr} ({}) is {}, not {}",
                 v.name,
                 S::type_name(v.kind),
                 S::type_name(kind)
             )),
-            Some(v) => Ok(v),
+            Some(found) => Ok(found),
         }
     }
 
-    fn read(&self, vr: u32, kind: Kind) -> Result<Value, String> {
+    /// The values of `vr` into `out` (room for exactly as many), through `conv`.
+    fn read<T>(
+        &self,
+        vr: u32,
+        kind: Kind,
+        out: &mut [T],
+        conv: fn(Value) -> T,
+    ) -> Result<(), String> {
         if kind == Kind::Real && S::TIME_VR == Some(vr) && self.variable(vr).is_none() {
-            return Ok(Value::Real(self.time));
+            out[0] = conv(Value::Real(self.time));
+            return Ok(());
         }
-        self.lookup(vr, kind)?;
-        match kind {
-            Kind::Real => self.model.get_real(vr).map(Value::Real),
-            Kind::Integer => self.model.get_integer(vr).map(Value::Integer),
-            Kind::Boolean => self.model.get_boolean(vr).map(Value::Boolean),
+        let (head, _) = self.lookup(vr, kind)?;
+        for (k, slot) in (0u32..).zip(out) {
+            // An array's elements are the table's rows after its first, one value
+            // reference apart (crate::arrays): the model knows only those.
+            let r = head.vr + k;
+            *slot = conv(match kind {
+                Kind::Real => self.model.get_real(r).map(Value::Real),
+                Kind::Integer => self.model.get_integer(r).map(Value::Integer),
+                Kind::Boolean => self.model.get_boolean(r).map(Value::Boolean),
+            }?);
         }
+        Ok(())
+    }
+
+    /// How many values the variables `vrs` of type `kind` have (time has one).
+    fn count_values(&self, vrs: &[u32], kind: Kind) -> Result<usize, String> {
+        vrs.iter().try_fold(0, |n, &r| match self.variable(r) {
+            None if kind == Kind::Real && S::TIME_VR == Some(r) => Ok(n + 1),
+            _ => self.lookup(r, kind).map(|(_, len)| n + len),
+        })
     }
 
     /// Sets one value: each stands alone, so a refused one keeps its previous value and
     /// does not stop the others.
-    fn write(&mut self, func: &str, vr: u32, kind: Kind, value: Value) -> Status {
-        let var = match self.lookup(vr, kind) {
-            Ok(v) => v,
-            Err(why) => return self.refuse(func, format_args!("{why}")),
-        };
+    fn write(&mut self, func: &str, var: &'static Variable, value: Value) -> Status {
+        let vr = var.vr;
         let settable = match self.state {
             State::Instantiated | State::InitializationMode => var.settable_before_init(),
             // Between events only continuous-time inputs change; a discrete one waits
@@ -223,12 +243,25 @@ impl<S: Standard, M: Model> Instance<S, M> {
         }
     }
 
-    /// Refuses a call whose value count is not one per scalar value reference.
-    fn check_counts(&self, func: &str, nvr: usize, nvalues: usize) -> Result<(), Status> {
-        if nvr == nvalues {
+    /// Refuses a call whose value count is not the number of values of its variables
+    /// (one per scalar, an FMI 3.0 array's length for an array).
+    fn check_counts(
+        &self,
+        func: &str,
+        vrs: &[u32],
+        kind: Kind,
+        nvalues: usize,
+    ) -> Result<(), Status> {
+        let n =
+            self.count_values(vrs, kind).map_err(|why| self.refuse(func, format_args!("{why}")))?;
+        if n == nvalues {
             return Ok(());
         }
-        Err(self.refuse(func, format_args!("nValues {nvalues} differs from nValueReferences {nvr} (every variable of this FMU is a scalar)")))
+        let nvr = vrs.len();
+        Err(match S::ARRAYS {
+            false => self.refuse(func, format_args!("nValues {nvalues} differs from nValueReferences {nvr} (every variable of this FMU is a scalar)")),
+            true => self.refuse(func, format_args!("nValues {nvalues} differs from the {n} values of the {nvr} value references (an array counts its elements)")),
+        })
     }
 
     /// The snapshot behind `state` if this instance handed it out.
@@ -470,17 +503,22 @@ pub unsafe fn get<S: Standard, M: Model, T>(
     conv: fn(Value) -> T,
 ) -> Status {
     with_instance::<S, M>(c, func, GETTABLE, |inst| {
-        if let Err(s) = inst.check_counts(func, nvr, nvalues) {
-            return s;
-        }
-        let (Some(vrs), Some(out)) = (slice(vr, nvr), slice_mut(values, nvr)) else {
+        let Some(vrs) = slice(vr, nvr) else {
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
-        for (r, out) in vrs.iter().zip(out) {
-            match inst.read(*r, kind) {
-                Ok(v) => *out = conv(v),
-                Err(why) => return inst.refuse(func, format_args!("{why}")),
+        if let Err(s) = inst.check_counts(func, vrs, kind, nvalues) {
+            return s;
+        }
+        let Some(mut out) = slice_mut(values, nvalues) else {
+            return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
+        };
+        for &r in vrs {
+            let n = inst.variable(r).map_or(1, |(_, len)| len);
+            let (these, rest) = std::mem::take(&mut out).split_at_mut(n);
+            if let Err(why) = inst.read(r, kind, these, conv) {
+                return inst.refuse(func, format_args!("{why}"));
             }
+            out = rest;
         }
         OK
     })
@@ -497,15 +535,28 @@ pub unsafe fn set<S: Standard, M: Model, T: Copy>(
     conv: fn(T) -> Value,
 ) -> Status {
     with_instance::<S, M>(c, func, SETTABLE, |inst| {
-        if let Err(s) = inst.check_counts(func, nvr, nvalues) {
+        let Some(vrs) = slice(vr, nvr) else {
+            return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
+        };
+        if let Err(s) = inst.check_counts(func, vrs, kind, nvalues) {
             return s;
         }
-        let (Some(vrs), Some(values)) = (slice(vr, nvr), slice(values, nvr)) else {
+        let Some(mut values) = slice(values, nvalues) else {
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
         let mut status = OK;
-        for (r, v) in vrs.iter().zip(values) {
-            status = status.max(inst.write(func, *r, kind, conv(*v)));
+        for &r in vrs {
+            if let Err(why) = inst.lookup(r, kind) {
+                return inst.refuse(func, format_args!("{why}"));
+            }
+            // Known and of this type, so it has rows; element k of an array is the row k
+            // after its first (crate::arrays).
+            let (first, n) = inst.rows(r).unwrap_or_default();
+            let (these, rest) = values.split_at(n);
+            for (var, v) in M::variables()[first..first + n].iter().zip(these) {
+                status = status.max(inst.write(func, var, conv(*v)));
+            }
+            values = rest;
         }
         status
     })
@@ -525,7 +576,7 @@ pub unsafe fn no_variables_of<S: Standard, M: Model>(
         Some([]) => OK,
         Some([r, ..]) if !values_null => {
             let why = match inst.variable(*r) {
-                Some(v) => format!(
+                Some((v, _)) => format!(
                     "value reference {r} ({}) is {}, not {ty}",
                     v.name,
                     S::type_name(v.kind)
@@ -1020,7 +1071,7 @@ pub unsafe fn set_continuous_states<S: Standard, M: Model>(
             return inst.refuse(func, format_args!("the array of continuous states is NULL"));
         };
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            let name = inst.variable(me::<M>().states[i].value).map_or("?", |v| v.name);
+            let name = inst.variable(me::<M>().states[i].value).map_or("?", |v| v.0.name);
             let why = format_args!(
                 "state {i} ({name}) = {} refused: continuous states must be finite; keeping all",
                 x[i]

@@ -7,6 +7,7 @@ use std::ffi::{CStr, CString};
 use std::fmt::{self, Write as _};
 use std::os::raw::c_int;
 
+use crate::arrays;
 pub use crate::standards::Facts;
 use crate::table::{Kind, Variable};
 use crate::{Model, StepLog};
@@ -274,9 +275,10 @@ pub struct Instance<S: Standard, M: Model> {
     pub snapshots: Vec<*mut Snapshot<M>>,
     /// Reused by every step, so reporting nothing allocates nothing.
     pub step_log: StepLog,
-    /// The table's positions sorted by value reference: a lookup per value without a
+    /// The standard's variables sorted by value reference, each with its table rows
+    /// (first, count: more than one for an FMI 3.0 array): a lookup per value without a
     /// scan of the table.
-    index: Box<[(u32, u32)]>,
+    index: Box<[(u32, u32, u32)]>,
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
@@ -286,8 +288,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
         interface: Interface,
         logging_on: bool,
     ) -> Self {
-        let mut index: Vec<(u32, u32)> =
-            M::variables().iter().enumerate().map(|(i, v)| (v.vr, i as u32)).collect();
+        let vars = M::variables();
+        let entries = match S::ARRAYS {
+            true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
+            false => arrays::scalar_entries(vars),
+        };
+        let mut index: Vec<(u32, u32, u32)> =
+            entries.iter().map(|e| (vars[e.first].vr, e.first as u32, e.len as u32)).collect();
         index.sort_unstable();
         Instance {
             magic: S::MAGIC,
@@ -328,9 +335,18 @@ impl<S: Standard, M: Model> Instance<S, M> {
         ERROR
     }
 
-    pub fn variable(&self, vr: u32) -> Option<&'static Variable> {
+    /// The table rows of the variable behind `vr`: the first (an array's first
+    /// element) and how many.
+    pub fn rows(&self, vr: u32) -> Option<(usize, usize)> {
         let i = self.index.binary_search_by_key(&vr, |e| e.0).ok()?;
-        M::variables().get(self.index[i].1 as usize)
+        let (_, first, len) = self.index[i];
+        Some((first as usize, len as usize))
+    }
+
+    /// The variable behind `vr` (an array's first element) and how many values it has.
+    pub fn variable(&self, vr: u32) -> Option<(&'static Variable, usize)> {
+        let (first, len) = self.rows(vr)?;
+        Some((M::variables().get(first)?, len))
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {

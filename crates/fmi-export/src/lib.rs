@@ -13,6 +13,7 @@
 //! glue is shared and each model is a small equations file.
 
 pub mod api;
+pub mod arrays;
 pub mod entry;
 mod export;
 pub mod ffi;

@@ -52,13 +52,18 @@ pub(crate) fn initial(i: Initial) -> &'static str {
     }
 }
 
-pub(crate) fn start_attr(s: Start) -> String {
+/// A start value as the XML writes it.
+pub(crate) fn start_text(s: Start) -> Option<String> {
     match s {
-        Start::None => String::new(),
-        Start::Real(v) => format!(" start=\"{}\"", real(v)),
-        Start::Integer(v) => format!(" start=\"{v}\""),
-        Start::Boolean(v) => format!(" start=\"{v}\""),
+        Start::None => None,
+        Start::Real(v) => Some(real(v)),
+        Start::Integer(v) => Some(format!("{v}")),
+        Start::Boolean(v) => Some(format!("{v}")),
     }
+}
+
+pub(crate) fn start_attr(s: Start) -> String {
+    start_text(s).map(|t| format!(" start=\"{t}\"")).unwrap_or_default()
 }
 
 fn type_name(k: Kind) -> &'static str {

@@ -40,6 +40,8 @@ facts! {
     /// (section 2.2.3) leaves Error only by `fmi3SetFMUState`, `fmi3Reset` or freeing, so
     /// there is no state in Error worth saving. The one rule in which they differ here.
     GET_STATE_IN_ERROR: bool = true, false;
+    /// FMI 3.0 declares a marked run of scalars as one array variable (crate::arrays).
+    ARRAYS: bool = false, true;
     /// The independent variable `time` FMI 3.0 requires, owned by the layer.
     TIME_VR: Option<u32> = None, Some(TIME_VR);
     /// FMI 3.0's logger has no instance-name argument, so the name leads the message.

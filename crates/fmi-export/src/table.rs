@@ -64,6 +64,10 @@ pub struct Variable {
     pub description: &'static str,
     /// How the layer's messages name this variable's values and range.
     pub wording: Wording,
+    /// On the first element `name[1]` of a run of scalars `name[1]` … `name[n]`: the
+    /// description of the whole, which FMI 3.0 declares as one array variable `name`
+    /// (see [`crate::arrays`]); FMI 2.0 keeps the scalars.
+    pub array: Option<&'static str>,
 }
 
 /// Words the layer puts into the messages about a variable, so that they speak the
@@ -103,6 +107,7 @@ impl Variable {
             max: None,
             description,
             wording: Wording::PLAIN,
+            array: None,
         }
     }
 
@@ -222,6 +227,13 @@ impl Variable {
     pub const fn with_range(mut self, min: f64, max: f64) -> Self {
         self.min = Some(min);
         self.max = Some(max);
+        self
+    }
+
+    /// Marks the first element `name[1]` of an array (FMI 3.0: one `name` with a
+    /// `<Dimension>`), described as a whole by `description`.
+    pub const fn array(mut self, description: &'static str) -> Self {
+        self.array = Some(description);
         self
     }
 

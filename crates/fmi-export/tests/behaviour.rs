@@ -719,7 +719,7 @@ fn fmi3_time_do_step_results_counts_and_absent_types() {
         assert_eq!(fmi3SetTime::<Toy>(h.c, 0.0), ERROR);
     }
     for part in [
-        "nValues 2 differs from nValueReferences 1",
+        "nValues 2 differs from the 1 values of the 1 value references",
         "value reference 11 (steps) is Int32, not UInt8",
         "value reference 0 (time) is Float64, not Int8",
         "fmi3EnterEventMode: not supported: a Co-Simulation instance has no event mode",

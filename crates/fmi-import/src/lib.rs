@@ -40,8 +40,8 @@ use std::sync::Arc;
 
 pub use binary::{fmi2_platform, fmi3_platform};
 pub use description::{
-    Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType, Variability,
-    Variable,
+    ArrayElement, Causality, CoSimulation, DefaultExperiment, Initial, ModelDescription, VarType,
+    Variability, Variable,
 };
 pub use error::{FmuError, ImportError, Status};
 
@@ -95,6 +95,8 @@ pub struct CsFmu {
     owner: u64,
     states: HashMap<u64, Saved>,
     next_state: u64,
+    /// The handles of FMI 3.0 array elements ([`ArrayElement`]), by handle.
+    elements: HashMap<u32, ArrayElement>,
     // Last: the unpacked directory goes after the library is unloaded. Shared by the
     // instances made with `instantiate_again`; removed with the last of them.
     unpacked: Arc<Unpacked>,
@@ -133,6 +135,11 @@ impl std::fmt::Debug for CsFmu {
             .finish_non_exhaustive()
     }
 }
+
+/// A backend's getter of one type, for [`CsFmu::get_values`].
+type Get<T> = fn(&mut dyn Backend, &mut Calls, &[u32], &mut [T]) -> Result<(), FmuError>;
+/// A backend's setter of one type.
+type Set<T> = fn(&mut dyn Backend, &mut Calls, &[u32], &[T]) -> Result<(), FmuError>;
 
 /// Panics unless a value-reference slice and a value slice have the same length (the C
 /// calls trust the lengths they are given).
@@ -210,10 +217,13 @@ impl CsFmu {
         } else {
             Box::new(Fmi2Backend::instantiate(binary, &setup).map_err(import)?)
         };
+        let elements =
+            description.variables.iter().filter_map(|v| v.element.map(|e| (v.vr, e))).collect();
         Ok(CsFmu {
             cx: Calls::new(model, instance_name.to_owned(), fmi3),
             backend: ManuallyDrop::new(backend),
             description,
+            elements,
             owner: NEXT_OWNER.fetch_add(1, Ordering::Relaxed),
             states: HashMap::new(),
             next_state: 0,
@@ -368,40 +378,147 @@ impl CsFmu {
         Ok(())
     }
 
-    /// `fmi2SetReal` / `fmi3SetFloat64`.
+    /// `fmi2SetReal` / `fmi3SetFloat64`. The references may include FMI 3.0 array
+    /// elements' handles ([`ArrayElement`]): see [`CsFmu::set_values`].
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), FmuError> {
         same_length("set_real", vrs.len(), values.len());
-        self.backend.set_f64(&mut self.cx, vrs, values)
+        self.set_values(
+            vrs,
+            values,
+            |b, cx, v, x| b.get_f64(cx, v, x),
+            |b, cx, v, x| b.set_f64(cx, v, x),
+        )
     }
 
-    /// `fmi2GetReal` / `fmi3GetFloat64`.
+    /// `fmi2GetReal` / `fmi3GetFloat64`, array elements included ([`CsFmu::get_values`]).
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<(), FmuError> {
         same_length("get_real", vrs.len(), values.len());
-        self.backend.get_f64(&mut self.cx, vrs, values)
+        self.get_values(vrs, values, |b, cx, v, x| b.get_f64(cx, v, x))
     }
 
-    /// `fmi2GetInteger` / `fmi3GetInt32`.
+    /// `fmi2GetInteger` / `fmi3GetInt32`, array elements included.
     pub fn get_integer(&mut self, vrs: &[u32], values: &mut [i32]) -> Result<(), FmuError> {
         same_length("get_integer", vrs.len(), values.len());
-        self.backend.get_i32(&mut self.cx, vrs, values)
+        self.get_values(vrs, values, |b, cx, v, x| b.get_i32(cx, v, x))
     }
 
-    /// `fmi2SetInteger` / `fmi3SetInt32`.
+    /// `fmi2SetInteger` / `fmi3SetInt32`, array elements included.
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Result<(), FmuError> {
         same_length("set_integer", vrs.len(), values.len());
-        self.backend.set_i32(&mut self.cx, vrs, values)
+        self.set_values(
+            vrs,
+            values,
+            |b, cx, v, x| b.get_i32(cx, v, x),
+            |b, cx, v, x| b.set_i32(cx, v, x),
+        )
     }
 
-    /// `fmi2SetBoolean` / `fmi3SetBoolean`.
+    /// `fmi2SetBoolean` / `fmi3SetBoolean`, array elements included.
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> Result<(), FmuError> {
         same_length("set_boolean", vrs.len(), values.len());
-        self.backend.set_bool(&mut self.cx, vrs, values)
+        self.set_values(
+            vrs,
+            values,
+            |b, cx, v, x| b.get_bool(cx, v, x),
+            |b, cx, v, x| b.set_bool(cx, v, x),
+        )
     }
 
-    /// `fmi2GetBoolean` / `fmi3GetBoolean`.
+    /// `fmi2GetBoolean` / `fmi3GetBoolean`, array elements included.
     pub fn get_boolean(&mut self, vrs: &[u32], values: &mut [bool]) -> Result<(), FmuError> {
         same_length("get_boolean", vrs.len(), values.len());
-        self.backend.get_bool(&mut self.cx, vrs, values)
+        self.get_values(vrs, values, |b, cx, v, x| b.get_bool(cx, v, x))
+    }
+
+    /// Whether `vrs` name no FMI 3.0 array element: then they go to the FMU as they are.
+    fn all_scalars(&self, vrs: &[u32]) -> bool {
+        self.elements.is_empty() || !vrs.iter().any(|r| self.elements.contains_key(r))
+    }
+
+    /// Reads `vrs` with `get`: the scalars in one call, then each array with an element
+    /// among them in one call of all its values (FMI 3.0 gets an array whole), from which
+    /// the elements are taken.
+    fn get_values<T: Copy + Default>(
+        &mut self,
+        vrs: &[u32],
+        values: &mut [T],
+        get: Get<T>,
+    ) -> Result<(), FmuError> {
+        if self.all_scalars(vrs) {
+            return get(&mut **self.backend, &mut self.cx, vrs, values);
+        }
+        let (scalar_vrs, at): (Vec<u32>, Vec<usize>) = vrs
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| !self.elements.contains_key(r))
+            .map(|(i, r)| (*r, i))
+            .unzip();
+        if !scalar_vrs.is_empty() {
+            let mut got = vec![T::default(); scalar_vrs.len()];
+            get(&mut **self.backend, &mut self.cx, &scalar_vrs, &mut got)?;
+            for (i, v) in at.into_iter().zip(got) {
+                values[i] = v;
+            }
+        }
+        for (array_vr, len) in self.arrays_among(vrs) {
+            let mut whole = vec![T::default(); len as usize];
+            get(&mut **self.backend, &mut self.cx, &[array_vr], &mut whole)?;
+            for (i, r) in vrs.iter().enumerate() {
+                match self.elements.get(r) {
+                    Some(e) if e.array_vr == array_vr => values[i] = whole[e.index as usize],
+                    _ => {}
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes `vrs` with `set`: the scalars in one call, then each array with an element
+    /// among them read whole with `get`, its elements replaced, and written whole (so an
+    /// element is set where the FMU allows getting its array: FMI 3.0 Initialization Mode
+    /// and after, where a master sets parameters).
+    fn set_values<T: Copy + Default>(
+        &mut self,
+        vrs: &[u32],
+        values: &[T],
+        get: Get<T>,
+        set: Set<T>,
+    ) -> Result<(), FmuError> {
+        if self.all_scalars(vrs) {
+            return set(&mut **self.backend, &mut self.cx, vrs, values);
+        }
+        let (scalar_vrs, scalar_values): (Vec<u32>, Vec<T>) = vrs
+            .iter()
+            .zip(values)
+            .filter(|(r, _)| !self.elements.contains_key(r))
+            .map(|(r, v)| (*r, *v))
+            .unzip();
+        if !scalar_vrs.is_empty() {
+            set(&mut **self.backend, &mut self.cx, &scalar_vrs, &scalar_values)?;
+        }
+        for (array_vr, len) in self.arrays_among(vrs) {
+            let mut whole = vec![T::default(); len as usize];
+            get(&mut **self.backend, &mut self.cx, &[array_vr], &mut whole)?;
+            for (r, v) in vrs.iter().zip(values) {
+                match self.elements.get(r) {
+                    Some(e) if e.array_vr == array_vr => whole[e.index as usize] = *v,
+                    _ => {}
+                }
+            }
+            set(&mut **self.backend, &mut self.cx, &[array_vr], &whole)?;
+        }
+        Ok(())
+    }
+
+    /// The arrays (value reference, length) that elements among `vrs` belong to, each once.
+    fn arrays_among(&self, vrs: &[u32]) -> Vec<(u32, u32)> {
+        let mut arrays: Vec<(u32, u32)> = Vec::new();
+        for e in vrs.iter().filter_map(|r| self.elements.get(r)) {
+            if !arrays.iter().any(|a| a.0 == e.array_vr) {
+                arrays.push((e.array_vr, e.len));
+            }
+        }
+        arrays
     }
 
     /// `fmi2SetString` / `fmi3SetString`.

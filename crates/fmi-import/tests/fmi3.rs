@@ -22,10 +22,22 @@ fn an_fmi3_fmu_loads_with_the_fmi2_variables() {
         f3.library_path().starts_with(f3.unpacked_dir().join("binaries/x86_64-linux"))
             || !cfg!(target_arch = "x86_64")
     );
+    // An FMI 3.0 array's element k is the FMI 2.0 scalar one value reference k after the
+    // array's (the tables are one), addressed by the same name.
     let names = |f: &CsFmu| {
-        f.variables().map(|v| (v.name.clone(), v.vr, v.ty, v.causality)).collect::<Vec<_>>()
+        let vr = |v: &inchworm_fmi_import::Variable| match v.element {
+            Some(e) => e.array_vr + e.index,
+            None => v.vr,
+        };
+        f.variables().map(|v| (v.name.clone(), vr(v), v.ty, v.causality)).collect::<Vec<_>>()
     };
     assert_eq!(names(&f3), names(&f2), "the independent time is left out, the rest matches");
+    let arrays: Vec<_> =
+        f3.variables().filter_map(|v| v.element).filter(|e| e.index == 0).collect();
+    assert_eq!(
+        arrays.iter().map(|e| (e.array_vr, e.len)).collect::<Vec<_>>(),
+        [(113, 5), (118, 5)]
+    );
     assert_eq!(f3.default_step_size(), Some(0.002));
     assert!(matches!(f3.var("time"), Err(FmuError::UnknownVariable { .. })));
     assert_eq!(f3.var_of("encoder_counts", VarType::Integer).unwrap().vr, 10);
@@ -92,4 +104,30 @@ fn both_fmi3_fmus_of_the_system_load() {
     let c = CsFmu::load(&dist("fmi3/InchwormController.fmu"), "controller3", false).unwrap();
     assert_eq!(c.fmi_version(), "3.0");
     assert_eq!(c.causality("encoder_counts").as_deref(), Some("input"));
+}
+
+#[test]
+fn array_elements_are_got_and_set_by_their_fmi2_names() {
+    let (mut f2, mut f3) = load_pair();
+    let names = ["play_radius[2]", "C", "play_weight[5]", "play_radius[4]"];
+    for f in [&mut f2, &mut f3] {
+        f.enter_initialization(None, 0.0, Some(1.0)).unwrap();
+        let vrs = f.vrs_of(&names, VarType::Real).unwrap();
+        let mut v = [0.0; 4];
+        f.get_real(&vrs, &mut v).unwrap();
+        assert_eq!(v, [30.0, 4e-6, 0.04, 60.0]);
+        f.set_real(&vrs, &[31.0, 5e-6, 0.045, 61.0]).unwrap();
+        f.get_real(&vrs, &mut v).unwrap();
+        assert_eq!(v, [31.0, 5e-6, 0.045, 61.0]);
+        let all: Vec<u32> =
+            (1..=5).map(|k| f.var(&format!("play_radius[{k}]")).unwrap().vr).collect();
+        let mut radii = [0.0; 5];
+        f.get_real(&all, &mut radii).unwrap();
+        assert_eq!(radii, [15.0, 31.0, 45.0, 61.0, 75.0], "only the elements named changed");
+        f.exit_initialization().unwrap();
+    }
+    // A NaN element is refused by the FMU, naming the element.
+    let vr = f3.var("play_weight[2]").unwrap().vr;
+    let e = f3.set_real(&[vr], &[f64::NAN]).unwrap_err().to_string();
+    assert!(e.contains("fmi3SetFloat64"), "{e}");
 }

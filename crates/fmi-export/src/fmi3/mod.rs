@@ -6,8 +6,9 @@
 //! `fmi3Error`.
 //!
 //! Types: `Real` variables are `Float64`, `Integer` are `Int32`, `Boolean` are `Boolean`;
-//! arrays keep the scalar names of the FMI 2.0 table (`play_radius[1]` …), which FMI 3.0's
-//! structured naming convention reads as names too. The independent variable `time`
+//! a run of scalars the table marks as an array (`play_radius[1]` … `[5]`) is one array
+//! variable `play_radius` with a `<Dimension>` ([`crate::arrays`]), get and set as all its
+//! values at once. The independent variable `time`
 //! (value reference [`TIME_VR`]) that FMI 3.0 requires is the layer's.
 
 pub mod api;

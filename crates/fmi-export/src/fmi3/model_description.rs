@@ -7,9 +7,10 @@ use std::fmt::Write;
 
 use super::api::type_name;
 use super::TIME_VR;
+use crate::arrays;
 use crate::model_description::{
     causality, common_flags, directional, escape, guid, initial, is_initial_unknown, prolog,
-    shared_head, start_attr, state_of, unit_and_range, variability,
+    shared_head, start_attr, start_text, state_of, unit_and_range, variability,
 };
 use crate::table::{Causality, Variable};
 use crate::Model;
@@ -52,28 +53,46 @@ pub fn model_description<M: Model>() -> String {
         w,
         r#"    <Float64 name="time" valueReference="{TIME_VR}" description="Simulation time" causality="independent" variability="continuous"/>"#
     );
-    for v in M::variables() {
+    let vars = M::variables();
+    let entries = arrays::fmi3_entries(vars).unwrap_or_else(|why| {
+        panic!("{}: the variable table's arrays: {why}", info.model_identifier)
+    });
+    for e in &entries {
+        let v = &vars[e.first];
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
         let mut attrs = unit_and_range(v);
         if let Some(state) = state_of::<M>(v) {
             let _ = write!(attrs, " derivative=\"{state}\"");
         }
+        let (name, description, start, close) = if e.is_array(vars) {
+            // One start value per element, in the serialization order (element 1 first).
+            let starts: Vec<String> =
+                vars[e.first..e.first + e.len].iter().filter_map(|x| start_text(x.start)).collect();
+            let start = match starts.len() {
+                0 => String::new(),
+                _ => format!(" start=\"{}\"", starts.join(" ")),
+            };
+            let close = format!("><Dimension start=\"{}\"/></{}>", e.len, type_name(v.kind));
+            (arrays::array_name(v), v.array.unwrap_or(v.description), start, close)
+        } else {
+            (v.name, v.description, start_attr(v.start), "/>".to_string())
+        };
         let _ = writeln!(
             w,
-            r#"    <{} name="{}" valueReference="{}" description="{}" causality="{}" variability="{}"{init}{attrs}{}/>"#,
+            r#"    <{} name="{}" valueReference="{}" description="{}" causality="{}" variability="{}"{init}{attrs}{start}{close}"#,
             type_name(v.kind),
-            escape(v.name),
+            escape(name),
             v.vr,
-            escape(v.description),
+            escape(description),
             causality(v.causality),
             variability(v.variability),
-            start_attr(v.start)
         );
     }
     let _ = writeln!(w, "  </ModelVariables>");
     let _ = writeln!(w, "  <ModelStructure>");
+    // An array is one unknown, under its first element's value reference.
     let vrs = |pred: &dyn Fn(&Variable) -> bool| -> Vec<u32> {
-        M::variables().iter().filter(|v| pred(v)).map(|v| v.vr).collect()
+        entries.iter().map(|e| &vars[e.first]).filter(|v| pred(v)).map(|v| v.vr).collect()
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
     let derivatives = vrs(&|v| state_of::<M>(v).is_some());

@@ -167,32 +167,36 @@ impl Backend for Fmi3Backend {
     }
 
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done {
-        let (i, f, n) = (self.instance.ptr(), self.api.get_float64, vrs.len());
-        cx.call("fmi3GetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
+        let (i, f) = (self.instance.ptr(), self.api.get_float64);
+        let (n, m) = (vrs.len(), out.len());
+        cx.call("fmi3GetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), m) }))
     }
 
     fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Done {
-        let (i, f, n) = (self.instance.ptr(), self.api.set_float64, vrs.len());
-        cx.call("fmi3SetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+        let (i, f) = (self.instance.ptr(), self.api.set_float64);
+        let (n, m) = (vrs.len(), values.len());
+        cx.call("fmi3SetFloat64", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), m) }))
     }
 
     fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Done {
-        let (i, f, n) = (self.instance.ptr(), self.api.get_int32, vrs.len());
-        cx.call("fmi3GetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), n) }))
+        let (i, f) = (self.instance.ptr(), self.api.get_int32);
+        let (n, m) = (vrs.len(), out.len());
+        cx.call("fmi3GetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, out.as_mut_ptr(), m) }))
     }
 
     fn set_i32(&mut self, cx: &mut Calls, vrs: &[u32], values: &[i32]) -> Done {
-        let (i, f, n) = (self.instance.ptr(), self.api.set_int32, vrs.len());
-        cx.call("fmi3SetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+        let (i, f) = (self.instance.ptr(), self.api.set_int32);
+        let (n, m) = (vrs.len(), values.len());
+        cx.call("fmi3SetInt32", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), m) }))
     }
 
     fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done {
         // Read as bytes: an FMU writing another byte than 0 or 1 must not make an invalid
         // Rust bool.
-        let mut raw = vec![0u8; vrs.len()];
-        let (i, f, n) = (self.instance.ptr(), self.api.get_boolean, vrs.len());
+        let mut raw = vec![0u8; out.len()];
+        let (i, f, n, m) = (self.instance.ptr(), self.api.get_boolean, vrs.len(), out.len());
         cx.call("fmi3GetBoolean", || {
-            status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr().cast::<fmi3Boolean>(), n) })
+            status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr().cast::<fmi3Boolean>(), m) })
         })?;
         for (v, r) in out.iter_mut().zip(raw) {
             *v = r != 0;
@@ -201,8 +205,8 @@ impl Backend for Fmi3Backend {
     }
 
     fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done {
-        let (i, f, n) = (self.instance.ptr(), self.api.set_boolean, vrs.len());
-        cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), n) }))
+        let (i, f, n, m) = (self.instance.ptr(), self.api.set_boolean, vrs.len(), values.len());
+        cx.call("fmi3SetBoolean", || status(unsafe { f(i, vrs.as_ptr(), n, values.as_ptr(), m) }))
     }
 
     fn get_string(&mut self, cx: &mut Calls, vrs: &[u32], raw: &mut [*const c_char]) -> Done {

@@ -30,6 +30,7 @@ impl Standard for Fmi2 {
                     start: None,
                     description: attr(a, "description").map(str::to_owned),
                     declared_type: None,
+                    element: None,
                 };
                 self.current = Some((var, false, pos));
             }

@@ -1,13 +1,19 @@
 //! FMI 3.0 variables: one element per variable, named by its type (`<Float64>`, `<Int32>`,
 //! …), arrays marked by `<Dimension>` children. `<Float64>` is a Real, `<Int32>` an
 //! Integer, `<Boolean>` and `<String>` as in FMI 2.0. Every variable is checked (name,
-//! valueReference, causality, variability, initial, start), but the other types (Float32,
-//! the other integer widths, Enumeration, Binary, Clock), arrays and the independent
-//! variable are not added to [`ModelDescription::variables`](super::ModelDescription):
-//! the master's scalar calls cannot address them, so asking for one is "unknown variable".
+//! valueReference, causality, variability, initial, start). An array of those types with
+//! one dimension of a fixed size (`<Dimension start="n"/>`) is added as its elements
+//! `name[1]` … `name[n]` (the structured naming of FMI 2.0's scalars, so one name
+//! addresses an element in either standard), each with an [`ArrayElement`]; the other
+//! types (Float32, the other integer widths, Enumeration, Binary, Clock), other arrays and
+//! the independent variable are not added to
+//! [`ModelDescription::variables`](super::ModelDescription): the master's scalar calls
+//! cannot address them, so asking for one is "unknown variable".
 
-use super::{attr, is_boolean, is_double, Causality, Doc, Element, Standard, VarType};
-use super::{Variability, Variable};
+use super::{
+    attr, is_boolean, is_double, ArrayElement, Causality, Doc, Element, Standard, VarType,
+};
+use super::{Variability, Variable, MAX_ARRAY_ELEMENTS};
 use crate::ImportError;
 
 /// What a type element's `start` items must parse as.
@@ -32,16 +38,19 @@ fn start_item(element: &str) -> Option<fn(&str) -> bool> {
     })
 }
 
-/// The variable element being read: kept, at its end, unless it is an array.
+/// The variable element being read: kept at its end, as its elements if it is an array.
 struct Pending {
     var: Option<Variable>,
-    array: bool,
+    /// Each `<Dimension>`'s fixed size, `None` for one sized by a structural parameter.
+    dims: Vec<Option<u32>>,
     pos: usize,
 }
 
 #[derive(Default)]
 pub(super) struct Fmi3 {
     current: Option<Pending>,
+    /// Array elements added so far, against [`MAX_ARRAY_ELEMENTS`].
+    elements: usize,
 }
 
 impl Standard for Fmi3 {
@@ -49,7 +58,7 @@ impl Standard for Fmi3 {
         let (a, name, pos) = (e.attrs, e.name, e.pos);
         if e.depth == 3 && name == "Dimension" {
             if let Some(p) = self.current.as_mut() {
-                p.array = true;
+                p.dims.push(attr(a, "start").and_then(|n| n.parse().ok()));
             }
             return Ok(());
         }
@@ -90,11 +99,12 @@ impl Standard for Fmi3 {
             start,
             description: attr(a, "description").map(str::to_owned),
             declared_type: attr(a, "declaredType").map(str::to_owned),
+            element: None,
         });
         if var.is_none() {
             doc.claim_name(&var_name, pos)?;
         }
-        self.current = Some(Pending { var, array: false, pos });
+        self.current = Some(Pending { var, dims: Vec::new(), pos });
         Ok(())
     }
 
@@ -103,8 +113,35 @@ impl Standard for Fmi3 {
             return Ok(());
         }
         match self.current.take() {
-            Some(Pending { var: Some(v), array: false, pos }) => doc.add_variable(v, pos),
-            Some(Pending { var: Some(v), array: true, pos }) => doc.claim_name(&v.name, pos),
+            Some(Pending { var: Some(v), dims, pos }) if dims.is_empty() => {
+                doc.add_variable(v, pos)
+            }
+            Some(Pending { var: Some(v), dims, pos }) => {
+                doc.claim_name(&v.name, pos)?;
+                let len = match dims[..] {
+                    [Some(n)] if n > 0 && v.ty != VarType::String => n,
+                    _ => return Ok(()),
+                };
+                if self.elements + len as usize > MAX_ARRAY_ELEMENTS {
+                    return Ok(());
+                }
+                self.elements += len as usize;
+                // One start item per element; a list of another length gives none.
+                let starts: Vec<&str> = v
+                    .start
+                    .as_deref()
+                    .map(|s| s.split_ascii_whitespace().collect())
+                    .unwrap_or_default();
+                for index in 0..len {
+                    let start =
+                        (starts.len() == len as usize).then(|| starts[index as usize].to_owned());
+                    let element = ArrayElement { array_vr: v.vr, index, len };
+                    let name = format!("{}[{}]", v.name, index + 1);
+                    let e = Variable { name, start, element: Some(element), ..v.clone() };
+                    doc.add_variable(e, pos)?;
+                }
+                Ok(())
+            }
             _ => Ok(()),
         }
     }

@@ -122,7 +122,26 @@ pub struct Variable {
     pub description: Option<String>,
     /// The type element's `declaredType` (a `<SimpleType>` name), if any.
     pub declared_type: Option<String>,
+    /// For element `name[k]` of an FMI 3.0 array (one dimension of a fixed size): which.
+    /// Its `vr` is then not the FMU's but a handle of the importer's, unique among the
+    /// FMU's value references, which [`crate::CsFmu`] turns into the array's value
+    /// reference and the element's position in it.
+    pub element: Option<ArrayElement>,
 }
+
+/// Where an element of an FMI 3.0 array is: the array's value reference, the element's
+/// 0-based position in the standard's serialization order, the array's length.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ArrayElement {
+    pub array_vr: u32,
+    pub index: u32,
+    pub len: u32,
+}
+
+/// The most elements of FMI 3.0 arrays a description may expand into addressable
+/// scalars, over all its arrays: the work and memory of reading an untrusted file stay
+/// bounded. Larger arrays are read and checked, but not addressed.
+pub const MAX_ARRAY_ELEMENTS: usize = 65_536;
 
 /// `<CoSimulation>`: the identifier of the binary and the capability flags a master uses.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -176,7 +195,29 @@ impl ModelDescription {
                 xml.len()
             )));
         }
-        Doc::new(xml).run()
+        let mut md = Doc::new(xml).run()?;
+        md.assign_element_handles();
+        Ok(md)
+    }
+
+    /// Gives each array element a handle for its `vr`: the largest numbers no variable of
+    /// the FMU uses, counted down from `u32::MAX`, in document order.
+    fn assign_element_handles(&mut self) {
+        let used: std::collections::HashSet<u32> =
+            self.variables.iter().filter(|v| v.element.is_none()).map(|v| v.vr).collect();
+        let mut next = u32::MAX;
+        for v in self.variables.iter_mut().filter(|v| v.element.is_some()) {
+            while used.contains(&next) {
+                next -= 1;
+            }
+            v.vr = next;
+            next -= 1;
+        }
+    }
+
+    /// Where the element behind handle `vr` is, if `vr` is an element's handle.
+    pub fn element(&self, vr: u32) -> Option<ArrayElement> {
+        self.variables.iter().find(|v| v.vr == vr).and_then(|v| v.element)
     }
 
     /// The variable called `name`.
@@ -763,9 +804,18 @@ mod fmi3_tests {
                 ("x", VarType::Real, Variability::Continuous),
                 ("n", VarType::Integer, Variability::Fixed),
                 ("b", VarType::Boolean, Variability::Discrete),
+                ("a[1]", VarType::Real, Variability::Tunable),
+                ("a[2]", VarType::Real, Variability::Tunable),
                 ("y", VarType::Real, Variability::Continuous),
             ]
         );
+        // The array's elements: handles from the top of the value references, each with
+        // its place in the array and its own start item.
+        let (a1, a2) = (md.variable("a[1]").unwrap(), md.variable("a[2]").unwrap());
+        assert_eq!((a1.vr, a2.vr), (u32::MAX, u32::MAX - 1));
+        assert_eq!(md.element(a2.vr), Some(ArrayElement { array_vr: 4, index: 1, len: 2 }));
+        assert_eq!((a1.start.as_deref(), a2.start.as_deref()), (Some("1"), Some("2")));
+        assert!(md.variable("a").is_none() && md.element(4).is_none());
         assert_eq!(md.variable("n").unwrap().start.as_deref(), Some("3"));
     }
 

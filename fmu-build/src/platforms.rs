@@ -1,0 +1,495 @@
+//! The platforms every FMU carries a binary for, how each is built on one Debian machine,
+//! and the cache that builds each once per change of its sources (docs/platforms.md).
+//!
+//! - x86-64 Linux with rustup's toolchain, linked by `cargo-zigbuild` against glibc 2.17
+//!   symbol versions (the `.2.17` suffix of the target), so the libraries load on any
+//!   glibc from 2.17 (RHEL 7) on, not only on the build machine's.
+//! - aarch64 Linux (also glibc 2.17), 64-bit Windows (MinGW-w64's linker) and both Macs
+//!   (zig with Apple's libSystem stubs) with Debian's `rustc-web` / `cargo-web`, which build
+//!   the standard library for the target from `rust-web-src` (`-Zbuild-std`), as rustup
+//!   has no other target's standard library here.
+//!
+//! A platform's libraries are cached outside the clone under a key that hashes everything
+//! that goes into them: the recipe below, the toolchain's versions, `Cargo.lock`, the
+//! workspace manifest, `.cargo/config.toml` and every file of the packages in the
+//! libraries' dependency tree. A cache hit copies the libraries and runs no compiler; any
+//! change to one of those inputs misses and builds that platform once.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use inchworm_fmi_abi::platform::{self, Platform};
+use sha2::{Digest, Sha256};
+
+/// Bumped whenever the build commands below change, so no cached library of an older
+/// recipe is reused.
+const RECIPE: &str = "fmu-build platforms 2";
+
+/// The glibc whose symbol versions the Linux libraries and binary are linked against:
+/// glibc 2.17 (RHEL/CentOS 7, 2012) is the oldest that zig links for both x86-64 and
+/// aarch64 (the first glibc with an aarch64 port).
+pub const GLIBC_FLOOR: &str = "2.17";
+
+/// How one platform's libraries are linked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Linker {
+    /// `cargo zigbuild` (zig as the C linker), against glibc `GLIBC_FLOOR` on Linux.
+    Zig,
+    /// A GCC cross linker from Debian.
+    Gcc(&'static str),
+}
+
+/// One platform fmu-build builds.
+#[derive(Clone, Copy, Debug)]
+pub struct Target {
+    pub platform: &'static Platform,
+    /// Built with Debian's `rustc-web` and `-Zbuild-std` instead of rustup's toolchain.
+    pub build_std: bool,
+    pub linker: Linker,
+}
+
+impl Target {
+    /// What `--target` says: the Rust triple, with the glibc version on Linux for zig.
+    pub fn cargo_target(&self) -> String {
+        let triple = self.platform.rust_target;
+        if self.linker == Linker::Zig && self.platform.os == "linux" {
+            format!("{triple}.{GLIBC_FLOOR}")
+        } else {
+            triple.to_string()
+        }
+    }
+
+    fn out_dir(&self, target_dir: &Path) -> PathBuf {
+        self.cargo_dir(target_dir).join(self.platform.rust_target).join("release")
+    }
+
+    /// Debian's toolchain builds in a folder of its own, so the two compilers never
+    /// invalidate each other's build scripts.
+    fn cargo_dir(&self, target_dir: &Path) -> PathBuf {
+        if self.build_std {
+            target_dir.join("rustc-web")
+        } else {
+            target_dir.to_path_buf()
+        }
+    }
+
+    fn cargo(&self) -> String {
+        if self.build_std {
+            DEBIAN_CARGO.into()
+        } else {
+            std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
+        }
+    }
+}
+
+const DEBIAN_CARGO: &str = "/usr/bin/cargo";
+const DEBIAN_RUSTC: &str = "/usr/bin/rustc";
+
+fn row(fmi3: &str) -> &'static Platform {
+    platform::PLATFORMS.iter().find(|p| p.fmi3 == fmi3).expect("a row of the platform table")
+}
+
+/// Every platform, the host first.
+pub fn targets() -> Vec<Target> {
+    let t = |fmi3, build_std, linker| Target { platform: row(fmi3), build_std, linker };
+    vec![
+        t("x86_64-linux", false, Linker::Zig),
+        t("aarch64-linux", true, Linker::Zig),
+        t("x86_64-windows", true, Linker::Gcc("x86_64-w64-mingw32-gcc")),
+        t("x86_64-darwin", true, Linker::Zig),
+        t("aarch64-darwin", true, Linker::Zig),
+    ]
+}
+
+/// The environment of every build command: the venv's `bin/` (cargo-zigbuild, and the
+/// python that has `ziglang`) ahead of the caller's PATH.
+fn path_with_venv(root: &Path) -> std::ffi::OsString {
+    let venv = root.join(".venv").join("bin");
+    let mut paths = vec![venv];
+    if let Some(p) = std::env::var_os("PATH") {
+        paths.extend(std::env::split_paths(&p));
+    }
+    std::env::join_paths(paths).expect("PATH entries without separators")
+}
+
+fn command(root: &Path, target: &Target, target_dir: &Path) -> Command {
+    let mut cmd = Command::new(target.cargo());
+    cmd.current_dir(root).env("PATH", path_with_venv(root));
+    cmd.env("CARGO_TARGET_DIR", target.cargo_dir(target_dir));
+    if target.build_std {
+        // Debian's cargo with Debian's rustc, whatever rustup puts first on PATH; the
+        // standard library is built from rust-web-src, which needs the nightly flag.
+        cmd.env("RUSTC", DEBIAN_RUSTC).env("RUSTC_BOOTSTRAP", "1");
+        cmd.env_remove("RUSTUP_TOOLCHAIN").env_remove("CARGO");
+    }
+    cmd.arg(if target.linker == Linker::Zig { "zigbuild" } else { "build" });
+    if let Linker::Gcc(linker) = target.linker {
+        let var = format!(
+            "CARGO_TARGET_{}_LINKER",
+            target.platform.rust_target.to_uppercase().replace('-', "_")
+        );
+        cmd.env(var, linker);
+    }
+    if target.platform.os == "macos" {
+        // Cargo strips debug information on macOS with `rust-objcopy`, which Debian's
+        // rustc-web does not ship; the release profile has no debug information to strip.
+        cmd.env("CARGO_PROFILE_RELEASE_STRIP", "false");
+    }
+    cmd.args(["--release", "--target", &target.cargo_target()]);
+    if target.build_std {
+        cmd.arg("-Zbuild-std=std,panic_abort,panic_unwind");
+    }
+    cmd
+}
+
+/// One output to build for a platform: a cdylib of a package, or a binary.
+#[derive(Clone, Copy, Debug)]
+pub enum Output {
+    Library { package: &'static str, stem: &'static str },
+    Binary { package: &'static str, name: &'static str },
+}
+
+/// The file cargo writes `output` to for `target`.
+pub fn file_name(target: &Target, output: &Output) -> String {
+    let p = target.platform;
+    match output {
+        Output::Library { stem, .. } => format!("{}{stem}.{}", p.lib_prefix, p.lib_ext),
+        Output::Binary { name, .. } => {
+            format!("{name}{}", if p.os == "windows" { ".exe" } else { "" })
+        }
+    }
+}
+
+/// Reads `outputs` for `target` from `dir/<FMI 3.0 tuple>/`, where a release workflow's
+/// native build jobs put them (.github/workflows/release.yml).
+pub fn prebuilt(dir: &Path, target: &Target, outputs: &[Output]) -> Result<Vec<Vec<u8>>, String> {
+    let d = dir.join(target.platform.fmi3);
+    outputs
+        .iter()
+        .map(|o| {
+            let p = d.join(file_name(target, o));
+            std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))
+        })
+        .collect()
+}
+
+/// Builds `outputs` for `target` (or takes them from the cache) and returns the bytes of
+/// each, in order.
+pub fn build(
+    root: &Path,
+    target_dir: &Path,
+    target: &Target,
+    label: &str,
+    outputs: &[Output],
+) -> Result<Vec<Vec<u8>>, String> {
+    let files: Vec<String> = outputs.iter().map(|o| file_name(target, o)).collect();
+    let key = cache_key(root, target, outputs)?;
+    let entry =
+        cache_dir().map(|d| d.join(format!("{}-{label}-{}", target.platform.fmi3, &key[..16])));
+    if let Some(entry) = &entry {
+        if let Ok(found) = files.iter().map(|f| std::fs::read(entry.join(f))).collect() {
+            println!(
+                "fmu-build: {label} for {} from the cache ({})",
+                target.platform.fmi3,
+                entry.display()
+            );
+            return Ok(found);
+        }
+    }
+    // A miss builds in the cache's own build folder when there is a cache, not in the
+    // clone's target folder: the standard library and the dependencies of every cross
+    // target are then compiled once per machine and toolchain, and a change of the FMU
+    // sources in a fresh clone (CI) recompiles only the workspace's own crates.
+    let shared = cache_dir().map(|d| d.join("build"));
+    let target_dir = shared.as_deref().unwrap_or(target_dir);
+    let start = std::time::Instant::now();
+    let libraries: Vec<&str> = outputs
+        .iter()
+        .filter_map(|o| match o {
+            Output::Library { package, .. } => Some(*package),
+            Output::Binary { .. } => None,
+        })
+        .collect();
+    if !libraries.is_empty() {
+        let mut cmd = command(root, target, target_dir);
+        cmd.arg("--lib");
+        for p in &libraries {
+            cmd.args(["-p", p]);
+        }
+        run(cmd, target)?;
+    }
+    for o in outputs {
+        if let Output::Binary { package, name } = o {
+            let mut cmd = command(root, target, target_dir);
+            cmd.args(["-p", package, "--bin", name]);
+            run(cmd, target)?;
+        }
+    }
+    let secs = start.elapsed().as_secs_f64();
+    println!("fmu-build: built {label} for {} in {secs:.0} s", target.platform.fmi3);
+    let out = target.out_dir(target_dir);
+    let found: Vec<Vec<u8>> = files
+        .iter()
+        .map(|f| std::fs::read(out.join(f)).map_err(|e| format!("{}: {e}", out.join(f).display())))
+        .collect::<Result<_, _>>()?;
+    if let Some(entry) = entry {
+        store(&entry, &files, &found);
+    }
+    Ok(found)
+}
+
+fn run(mut cmd: Command, target: &Target) -> Result<(), String> {
+    let status = cmd.status().map_err(|e| {
+        format!(
+            "cannot run {:?} for {} ({e}): run scripts/setup.sh, which installs the toolchains",
+            cmd.get_program(),
+            target.platform.fmi3
+        )
+    })?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("the build for {} failed ({status})", target.platform.fmi3))
+    }
+}
+
+/// `$INCHWORM_BINARY_CACHE`, else `$XDG_CACHE_HOME/inchworm/binaries`, else
+/// `~/.cache/inchworm/binaries`; none (always build) if none of them is set.
+pub fn cache_dir() -> Option<PathBuf> {
+    if let Some(d) = std::env::var_os("INCHWORM_BINARY_CACHE") {
+        return Some(PathBuf::from(d));
+    }
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    Some(base.join("inchworm").join("binaries"))
+}
+
+/// How many entries of one platform the cache keeps (several worktrees or branches share
+/// one cache); the oldest beyond that are removed when a new one is stored.
+const KEPT_PER_PLATFORM: usize = 4;
+
+fn store(entry: &Path, files: &[String], data: &[Vec<u8>]) {
+    let Some(parent) = entry.parent() else { return };
+    let tmp = entry.with_extension(format!("partial{}", std::process::id()));
+    let written = std::fs::create_dir_all(&tmp).is_ok()
+        && files.iter().zip(data).all(|(f, d)| std::fs::write(tmp.join(f), d).is_ok())
+        && std::fs::rename(&tmp, entry).is_ok();
+    if !written {
+        let _ = std::fs::remove_dir_all(&tmp);
+        eprintln!("fmu-build: could not store {} in the cache (built anyway)", entry.display());
+        return;
+    }
+    let name = entry.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    let prefix = &name[..name.len().saturating_sub(16)];
+    let mut same: Vec<(std::time::SystemTime, PathBuf)> = std::fs::read_dir(parent)
+        .into_iter()
+        .flatten()
+        .filter_map(Result::ok)
+        .filter(|e| {
+            let n = e.file_name();
+            let n = n.to_string_lossy();
+            n.starts_with(prefix) && n.len() == name.len()
+        })
+        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+        .collect();
+    same.sort();
+    while same.len() > KEPT_PER_PLATFORM {
+        let _ = std::fs::remove_dir_all(same.remove(0).1);
+    }
+}
+
+/// The first line of what `program args` prints, or why it could not run.
+fn version(program: &str, args: &[&str], path: &std::ffi::OsStr) -> String {
+    match Command::new(program).args(args).env("PATH", path).output() {
+        Ok(o) => String::from_utf8_lossy(&o.stdout).trim().to_string(),
+        Err(e) => format!("{program}: {e}"),
+    }
+}
+
+/// The SHA-256 of everything that goes into `outputs` for `target`, in hex.
+pub fn cache_key(root: &Path, target: &Target, outputs: &[Output]) -> Result<String, String> {
+    let mut h = Sha256::new();
+    let mut put = |label: &str, bytes: &[u8]| {
+        h.update((label.len() as u64).to_le_bytes());
+        h.update(label.as_bytes());
+        h.update((bytes.len() as u64).to_le_bytes());
+        h.update(bytes);
+    };
+    put("recipe", RECIPE.as_bytes());
+    put("target", format!("{target:?} {}", target.cargo_target()).as_bytes());
+    put("outputs", format!("{outputs:?}").as_bytes());
+    let path = path_with_venv(root);
+    let rustc = if target.build_std {
+        DEBIAN_RUSTC.to_string()
+    } else {
+        std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into())
+    };
+    put("rustc", version(&rustc, &["-vV"], &path).as_bytes());
+    put("cargo", version(&target.cargo(), &["-V"], &path).as_bytes());
+    match target.linker {
+        Linker::Zig => {
+            put("cargo-zigbuild", version("cargo-zigbuild", &["-V"], &path).as_bytes());
+            put("zig", version("python-zig", &["version"], &path).as_bytes());
+        }
+        Linker::Gcc(gcc) => put("linker", version(gcc, &["--version"], &path).as_bytes()),
+    }
+    for name in ["Cargo.lock", "Cargo.toml", ".cargo/config.toml"] {
+        put(name, &std::fs::read(root.join(name)).unwrap_or_default());
+    }
+    let mut files = Vec::new();
+    for dir in package_dirs(root, outputs)? {
+        if dir == root {
+            // The root package: its manifest (hashed above) and its sources.
+            list(&root.join("src"), &mut files);
+            list(&root.join("build.rs"), &mut files);
+        } else {
+            list(&dir, &mut files);
+        }
+    }
+    files.sort();
+    files.dedup();
+    for f in files {
+        let rel = f.strip_prefix(root).unwrap_or(&f).to_string_lossy().into_owned();
+        put(&rel, &std::fs::read(&f).map_err(|e| format!("{}: {e}", f.display()))?);
+    }
+    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Every file under `p` (or `p` itself), skipping build output and hidden folders.
+fn list(p: &Path, out: &mut Vec<PathBuf>) {
+    if p.is_file() {
+        out.push(p.to_path_buf());
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(p) else { return };
+    for e in entries.filter_map(Result::ok) {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with('.') || name == "target" {
+            continue;
+        }
+        list(&e.path(), out);
+    }
+}
+
+/// The folders of the workspace packages `outputs` are built from, with all their path
+/// dependencies (normal and build), as `cargo tree` lists them.
+fn package_dirs(root: &Path, outputs: &[Output]) -> Result<Vec<PathBuf>, String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.current_dir(root).args(["tree", "--prefix", "none", "-e", "normal,build", "--locked"]);
+    cmd.args(["--target", "all"]);
+    for o in outputs {
+        let (Output::Library { package, .. } | Output::Binary { package, .. }) = o;
+        cmd.args(["-p", package]);
+    }
+    let out = cmd.output().map_err(|e| format!("cannot run cargo tree: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo tree failed: {}", String::from_utf8_lossy(&out.stderr)));
+    }
+    let mut dirs: Vec<PathBuf> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| {
+            let start = l.find(" (/")? + 2;
+            let end = start + l[start..].find(')')?;
+            Some(PathBuf::from(&l[start..end]))
+        })
+        .filter(|d| d.starts_with(root))
+        .collect();
+    dirs.sort();
+    dirs.dedup();
+    Ok(dirs)
+}
+
+/// A Mach-O universal ("fat") file of thin 64-bit Mach-O `slices`: FMI 2.0 has one macOS
+/// folder, `darwin64`, for both processors. Each slice is aligned to 2^14 bytes (the arm64
+/// page size), as Apple's `lipo` does.
+pub fn universal_macho(slices: &[&[u8]]) -> Result<Vec<u8>, String> {
+    const ALIGN: u32 = 14;
+    let mut header = Vec::new();
+    header.extend(0xcafe_babe_u32.to_be_bytes());
+    header.extend((slices.len() as u32).to_be_bytes());
+    let mut offset = 1usize << ALIGN;
+    let mut body = Vec::new();
+    for s in slices {
+        if s.len() < 12 || s[..4] != 0xfeed_facf_u32.to_le_bytes() {
+            return Err("a slice is not a little-endian 64-bit Mach-O file".into());
+        }
+        let (cpu, sub) = (&s[4..8], &s[8..12]);
+        header.extend(u32::from_le_bytes(cpu.try_into().unwrap()).to_be_bytes());
+        header.extend(u32::from_le_bytes(sub.try_into().unwrap()).to_be_bytes());
+        header.extend((offset as u32).to_be_bytes());
+        header.extend((s.len() as u32).to_be_bytes());
+        header.extend(ALIGN.to_be_bytes());
+        body.push((offset, *s));
+        offset += s.len().next_multiple_of(1 << ALIGN);
+    }
+    let mut out = header;
+    for (at, s) in body {
+        out.resize(at, 0);
+        out.extend_from_slice(s);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_platform_has_a_row_and_linux_is_linked_against_the_floor() {
+        let t = targets();
+        assert_eq!(t[0].platform, platform::host().unwrap(), "the host first");
+        let tuples: Vec<_> = t.iter().map(|t| t.platform.fmi3).collect();
+        assert_eq!(
+            tuples,
+            ["x86_64-linux", "aarch64-linux", "x86_64-windows", "x86_64-darwin", "aarch64-darwin"]
+        );
+        assert_eq!(t[0].cargo_target(), "x86_64-unknown-linux-gnu.2.17");
+        assert_eq!(t[1].cargo_target(), "aarch64-unknown-linux-gnu.2.17");
+        assert_eq!(t[2].cargo_target(), "x86_64-pc-windows-gnu");
+        assert_eq!(t[4].cargo_target(), "aarch64-apple-darwin");
+        let dir = Path::new("/t");
+        assert_eq!(t[2].out_dir(dir), Path::new("/t/rustc-web/x86_64-pc-windows-gnu/release"));
+        assert_eq!(t[0].out_dir(dir), Path::new("/t/x86_64-unknown-linux-gnu/release"));
+        let lib = Output::Library { package: "x", stem: "p" };
+        assert_eq!(file_name(&t[2], &lib), "p.dll");
+        assert_eq!(file_name(&t[4], &lib), "libp.dylib");
+        assert_eq!(file_name(&t[2], &Output::Binary { package: "x", name: "b" }), "b.exe");
+    }
+
+    #[test]
+    fn a_universal_file_holds_each_slice_at_its_aligned_offset() {
+        let thin = |cpu: u32, len: usize| {
+            let mut v = 0xfeed_facf_u32.to_le_bytes().to_vec();
+            v.extend(cpu.to_le_bytes());
+            v.extend(3u32.to_le_bytes());
+            v.resize(len, 0xab);
+            v
+        };
+        let (x86, arm) = (thin(0x0100_0007, 20_000), thin(0x0100_000c, 100));
+        let fat = universal_macho(&[&x86, &arm]).unwrap();
+        let be = |at: usize| u32::from_be_bytes(fat[at..at + 4].try_into().unwrap());
+        assert_eq!((be(0), be(4)), (0xcafe_babe, 2));
+        assert_eq!((be(8), be(12), be(16), be(20), be(24)), (0x0100_0007, 3, 16384, 20_000, 14));
+        assert_eq!((be(28), be(36), be(40)), (0x0100_000c, 49152, 100));
+        assert_eq!(&fat[16384..36384], &x86[..]);
+        assert_eq!(&fat[49152..], &arm[..]);
+        assert!(universal_macho(&[b"not a mach-o file"]).is_err());
+    }
+
+    #[test]
+    fn the_key_is_stable_and_covers_the_dependency_tree_only() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let t = targets()[0];
+        let out = [Output::Library { package: "inchworm-plant-fmu", stem: "inchworm_plant_fmu" }];
+        let a = cache_key(root, &t, &out).unwrap();
+        assert_eq!(a, cache_key(root, &t, &out).unwrap());
+        let dirs = package_dirs(root, &out).unwrap();
+        assert!(dirs.contains(&root.join("crates/plant")), "{dirs:?}");
+        assert!(!dirs.contains(&root.join("crates/bridge")), "{dirs:?}");
+        let other = [Output::Library { package: "inchworm-mount-fmu", stem: "inchworm_mount_fmu" }];
+        assert_ne!(a, cache_key(root, &t, &other).unwrap());
+    }
+}
