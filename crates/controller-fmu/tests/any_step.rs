@@ -25,8 +25,10 @@ fn instant(p: f64) -> Option<u64> {
 
 /// Every output of the controller, as bits.
 fn outputs<S: Master>(c: &Harness<ControllerFmu, S>) -> Vec<u64> {
-    let reals = [10, 11, 12, 16, 17, 18, 19, 21].into_iter().chain(30..40);
+    let reals = [10, 11, 12, 16, 17, 18, 19, 21].into_iter();
     let mut v: Vec<u64> = reals.map(|vr| ok(c.real(vr)).to_bits()).collect();
+    // The estimator's ten weights: scalars in FMI 2.0, one array in FMI 3.0.
+    v.extend(ok(c.reals(30, 10)).iter().map(|w| w.to_bits()));
     v.extend([13, 14, 15, 20].map(|vr| ok(c.integer(vr)) as u64));
     v.push(ok(c.boolean(22)) as u64);
     v

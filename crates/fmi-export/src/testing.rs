@@ -129,6 +129,9 @@ pub trait Master: Standard {
     unsafe fn reset<M: Model>(c: C) -> Status;
     unsafe fn get_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *mut f64) -> Status;
     unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status;
+    /// The values of the array whose first element is `vr`: FMI 2.0's scalars `vr` …
+    /// `vr + n - 1`, FMI 3.0's array variable `vr` whole (crate::arrays).
+    unsafe fn get_array<M: Model>(c: C, vr: u32, v: &mut [f64]) -> Status;
     unsafe fn get_integer<M: Model>(c: C, vr: u32) -> (Status, i32);
     unsafe fn set_integer<M: Model>(c: C, vr: u32, v: i32) -> Status;
     unsafe fn get_boolean<M: Model>(c: C, vr: u32) -> (Status, bool);
@@ -253,6 +256,10 @@ masters! {
         unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
             api::fmi2SetReal::<M>(c, vr, n, v)
         }
+        unsafe fn get_array<M: Model>(c: C, vr: u32, v: &mut [f64]) -> Status {
+            let vrs: Vec<u32> = (vr..).take(v.len()).collect();
+            api::fmi2GetReal::<M>(c, vrs.as_ptr(), v.len(), v.as_mut_ptr())
+        }
         unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
             api::fmi2DoStep::<M>(c, t, h, fmi2True)
         }
@@ -326,6 +333,9 @@ masters! {
         }
         unsafe fn set_reals<M: Model>(c: C, vr: *const u32, n: usize, v: *const f64) -> Status {
             api3::fmi3SetFloat64::<M>(c, vr, n, v, n)
+        }
+        unsafe fn get_array<M: Model>(c: C, vr: u32, v: &mut [f64]) -> Status {
+            api3::fmi3GetFloat64::<M>(c, &vr, 1, v.as_mut_ptr(), v.len())
         }
         unsafe fn step<M: Model>(c: C, t: f64, h: f64) -> Status {
             let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
@@ -465,6 +475,12 @@ impl<M: Model, S: Master> Harness<M, S> {
     pub fn real(&self, vr: u32) -> (Status, f64) {
         let mut v = f64::NAN;
         let s = unsafe { S::get_reals::<M>(self.c, &vr, 1, &mut v) };
+        (s, v)
+    }
+    /// The `n` values of the array whose first element is `vr`, in either standard.
+    pub fn reals(&self, vr: u32, n: usize) -> (Status, Vec<f64>) {
+        let mut v = vec![f64::NAN; n];
+        let s = unsafe { S::get_array::<M>(self.c, vr, &mut v) };
         (s, v)
     }
     pub fn integer(&self, vr: u32) -> (Status, i32) {
