@@ -106,7 +106,7 @@ pub trait Master: Standard {
         on: bool,
     ) -> (C, Self::Keep);
     /// One Model Exchange array of `n` values.
-    unsafe fn get_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status;
+    unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status;
     /// `NewDiscreteStates`/`UpdateDiscreteStates`: the update and `terminateSimulation`.
     unsafe fn update<M: Model>(c: C) -> (Status, EventUpdate, bool);
     /// `CompletedIntegratorStep`: `enterEventMode` and `terminateSimulation`.
@@ -205,7 +205,7 @@ masters! {
             let c = api::fmi2Instantiate::<M>(name.as_ptr(), ty, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
             (c, f)
         }
-        unsafe fn get_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
+        unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
             match array {
                 Array::States => api::fmi2GetContinuousStates::<M>(c, out, n),
                 Array::Derivatives => api::fmi2GetDerivatives::<M>(c, out, n),
@@ -285,7 +285,7 @@ masters! {
             };
             (c, ())
         }
-        unsafe fn get_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
+        unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
             match array {
                 Array::States => api3::fmi3GetContinuousStates::<M>(c, out, n),
                 Array::Derivatives => api3::fmi3GetContinuousStateDerivatives::<M>(c, out, n),
@@ -496,7 +496,7 @@ impl<M: Model, S: Master> Harness<M, S> {
     /// One Model Exchange array: the status and the values (NaN where none was written).
     pub fn array(&self, array: Array, n: usize) -> (Status, Vec<f64>) {
         let mut v = vec![f64::NAN; n];
-        (unsafe { S::get_array::<M>(self.c, array, v.as_mut_ptr(), n) }, v)
+        (unsafe { S::continuous_array::<M>(self.c, array, v.as_mut_ptr(), n) }, v)
     }
     /// `J seed` over `unknowns` and `knowns`: the status and the sensitivities.
     pub fn directional(

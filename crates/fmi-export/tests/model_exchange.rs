@@ -121,7 +121,7 @@ fn arrays_are_checked_and_nan_states_refused<S: Master>() {
     assert!(v.iter().all(|v| v.is_nan()), "nothing written on a refusal");
     assert!(h.saw(ERROR, &["2 event indicators asked for, this FMU has 1"]), "{:?}", h.logged());
     assert_eq!(h.array(Array::EventIndicators, 1), (OK, vec![-LEVEL]));
-    let null = unsafe { S::get_array::<Toy>(h.c, Array::States, std::ptr::null_mut(), 1) };
+    let null = unsafe { S::continuous_array::<Toy>(h.c, Array::States, std::ptr::null_mut(), 1) };
     assert_eq!(null, ERROR);
     assert!(h.saw(ERROR, &["the array of continuous states is NULL"]));
     assert_eq!(h.enter_continuous_time_mode(), OK);
