@@ -262,15 +262,21 @@ const PROFILE_FIG5: i32 = 1;
 /// Per 2 ms instant: reference, encoder position, the DAC sample the plant receives.
 type Row = (f64, f64, [f64; 3]);
 
+/// The reference FMU with the Fig. 5 profile, initialized.
+fn fig5_reference<S: Master>() -> Harness<ReferenceFmu, S> {
+    let refr = Harness::<ReferenceFmu, S>::new("reference");
+    assert_eq!((refr.setup(), refr.enter()), (0, 0));
+    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
+    assert_eq!(refr.exit(), 0);
+    refr
+}
+
 /// Plant + controller + reference FMUs on a Jacobi grid of step `h` (counted points),
 /// recorded at the 2 ms instants.
 fn fig5<S: Master>(h: f64, end: f64) -> Vec<Row> {
     let plant = Harness::<PlantFmu, S>::init("plant");
     let ctrl = Harness::<ControllerFmu, S>::init("controller");
-    let refr = Harness::<ReferenceFmu, S>::new("reference");
-    assert_eq!((refr.setup(), refr.enter()), (0, 0));
-    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
-    assert_eq!(refr.exit(), 0);
+    let refr = fig5_reference::<S>();
     let mut rows = Vec::new();
     let n = (end / h).round() as usize;
     for k in 0..=n {
@@ -387,10 +393,7 @@ fn a_state_saved_between_instants_replays_bit_for_bit() {
 fn fig5_me<S: Master>(end: f64) -> (Vec<Row>, Vec<f64>) {
     let plant = Harness::<PlantFmu, S>::init("plant");
     let ctrl = Harness::<ControllerFmu, S>::init_me("controller");
-    let refr = Harness::<ReferenceFmu, S>::new("reference");
-    assert_eq!((refr.setup(), refr.enter()), (0, 0));
-    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
-    assert_eq!(refr.exit(), 0);
+    let refr = fig5_reference::<S>();
     let (mut rows, mut events) = (Vec::new(), vec![0.0]);
     let n = (end / T).round() as usize;
     for k in 0..=n {

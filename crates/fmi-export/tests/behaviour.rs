@@ -4,6 +4,7 @@
 //! round trips, corrupt and forged blobs, the Error and Fatal states, long strings from
 //! outside, and threads. What only one standard has is at the end.
 
+#[macro_use]
 mod toy;
 
 use std::ffi::{c_void, CString};
@@ -21,14 +22,6 @@ const WARNING: i32 = 1;
 const ERROR: i32 = 3;
 const FATAL: i32 = 4;
 const DT: f64 = 0.01;
-
-/// Each generic test below, once per standard.
-macro_rules! for_both {
-    ($($test:ident),* $(,)?) => {
-        mod fmi2 { $( #[test] fn $test() { super::$test::<super::Fmi2>() } )* }
-        mod fmi3 { $( #[test] fn $test() { super::$test::<super::Fmi3>() } )* }
-    };
-}
 
 for_both!(
     calls_out_of_order_are_refused_and_logged,

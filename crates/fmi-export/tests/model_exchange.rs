@@ -4,6 +4,7 @@
 //! states, the event update with its jump, failures, and state round trips; and the
 //! generated `<ModelExchange>`, `derivative=` and indicator declarations.
 
+#[macro_use]
 mod toy;
 
 use inchworm_fmi_export::api::Fmi2;
@@ -19,13 +20,6 @@ type H<S> = Harness<Toy, S>;
 const OK: i32 = 0;
 const ERROR: i32 = 3;
 const FATAL: i32 = 4;
-
-macro_rules! for_both {
-    ($($test:ident),* $(,)?) => {
-        mod fmi2 { $( #[test] fn $test() { super::$test::<super::Fmi2>() } )* }
-        mod fmi3 { $( #[test] fn $test() { super::$test::<super::Fmi3>() } )* }
-    };
-}
 
 for_both!(
     calls_follow_the_model_exchange_state_machine,

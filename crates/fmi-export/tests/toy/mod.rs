@@ -8,6 +8,14 @@
 //! indicator `x - LEVEL` turns non-negative) the event update resets `x` to 0 and counts
 //! the reset in `steps`. [`CsToy`] is the same model without Model Exchange.
 
+/// Runs each generic test of a test file, once per standard.
+macro_rules! for_both {
+    ($($test:ident),* $(,)?) => {
+        mod fmi2 { $( #[test] fn $test() { super::$test::<super::Fmi2>() } )* }
+        mod fmi3 { $( #[test] fn $test() { super::$test::<super::Fmi3>() } )* }
+    };
+}
+
 use inchworm_fmi_export::{
     ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
     Variable, Writer,
