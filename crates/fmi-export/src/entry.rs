@@ -168,20 +168,22 @@ impl<S: Standard, M: Model> Instance<S, M> {
         }
     }
 
-    /// The values of `vr` into `out` (room for exactly as many), through `conv`.
+    /// The values of `vr` into the start of `out` (counted, so there is room), through
+    /// `conv`; returns how many. One lookup per variable: it is the per-value cost of
+    /// every `Get*`.
     fn read<T>(
         &self,
         vr: u32,
         kind: Kind,
         out: &mut [T],
         conv: fn(Value) -> T,
-    ) -> Result<(), String> {
+    ) -> Result<usize, String> {
         if kind == Kind::Real && S::TIME_VR == Some(vr) && self.variable(vr).is_none() {
             out[0] = conv(Value::Real(self.time));
-            return Ok(());
+            return Ok(1);
         }
-        let (head, _) = self.lookup(vr, kind)?;
-        for (k, slot) in (0u32..).zip(out) {
+        let (head, len) = self.lookup(vr, kind)?;
+        for (k, slot) in (0u32..).zip(&mut out[..len]) {
             // An array's elements are the table's rows after its first, one value
             // reference apart (crate::arrays): the model knows only those.
             let r = head.vr + k;
@@ -191,14 +193,16 @@ impl<S: Standard, M: Model> Instance<S, M> {
                 Kind::Boolean => self.model.get_boolean(r).map(Value::Boolean),
             }?);
         }
-        Ok(())
+        Ok(len)
     }
 
     /// How many values the variables `vrs` of type `kind` have (time has one).
     fn count_values(&self, vrs: &[u32], kind: Kind) -> Result<usize, String> {
-        vrs.iter().try_fold(0, |n, &r| match self.variable(r) {
-            None if kind == Kind::Real && S::TIME_VR == Some(r) => Ok(n + 1),
-            _ => self.lookup(r, kind).map(|(_, len)| n + len),
+        vrs.iter().try_fold(0, |n, &r| {
+            if kind == Kind::Real && S::TIME_VR == Some(r) && self.variable(r).is_none() {
+                return Ok(n + 1);
+            }
+            self.lookup(r, kind).map(|(_, len)| n + len)
         })
     }
 
@@ -513,12 +517,10 @@ pub unsafe fn get<S: Standard, M: Model, T>(
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
         for &r in vrs {
-            let n = inst.variable(r).map_or(1, |(_, len)| len);
-            let (these, rest) = std::mem::take(&mut out).split_at_mut(n);
-            if let Err(why) = inst.read(r, kind, these, conv) {
-                return inst.refuse(func, format_args!("{why}"));
+            match inst.read(r, kind, out, conv) {
+                Ok(n) => out = &mut std::mem::take(&mut out)[n..],
+                Err(why) => return inst.refuse(func, format_args!("{why}")),
             }
-            out = rest;
         }
         OK
     })

@@ -136,14 +136,16 @@ pub struct Plant {
     scan_stats: ScanStats,
 }
 
-/// How many long scans ran and how many the bound proved clear without scanning, and how
-/// many steps the quiet step took.
+/// How many long scans ran and how many the bound proved clear without scanning, how
+/// many steps the quiet step took, and how many stops (located events and turns of `ξ`)
+/// the event loop made: what a step's cost follows.
 #[doc(hidden)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScanStats {
     pub scanned: u64,
     pub skipped: u64,
     pub quiet: u64,
+    pub stops: u64,
 }
 
 impl Plant {

@@ -320,6 +320,7 @@ impl Plant {
             }
         }
         report.event_budget_exhausted = stops >= budget;
+        self.scan_stats.stops += u64::from(stops);
         if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);
