@@ -32,8 +32,11 @@ const _: () = {
 /// each so that every entry point names the states it is allowed in as a mask. FMI 3.0
 /// Co-Simulation without event mode (section 4.2) is the same machine with fewer states:
 /// its Step Mode is StepComplete, and it never enters StepInProgress, StepFailed or
-/// StepCanceled ([`Standard::STATES`]). The codes are also those of the serialized-state
-/// frame, so a blob saved through one standard restores through the other.
+/// StepCanceled ([`Standard::STATES`]). Model Exchange (FMI 2.0 section 3.2.3, FMI 3.0
+/// section 3.2) shares Instantiated, InitializationMode, Terminated, Error and Fatal and
+/// adds EventMode and ContinuousTimeMode; which states an instance may be in is its
+/// [`Interface`]'s. The codes are also those of the serialized-state frame, so a blob
+/// saved through one standard restores through the other.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
 pub enum State {
@@ -46,6 +49,8 @@ pub enum State {
     Terminated = 1 << 6,
     Error = 1 << 7,
     Fatal = 1 << 8,
+    EventMode = 1 << 9,
+    ContinuousTimeMode = 1 << 10,
 }
 
 impl State {
@@ -61,6 +66,40 @@ impl State {
             State::Terminated => "Terminated",
             State::Error => "Error",
             State::Fatal => "Fatal",
+            State::EventMode => "EventMode",
+            State::ContinuousTimeMode => "ContinuousTimeMode",
+        }
+    }
+}
+
+/// The interface an instance was instantiated for: one model, one core, two sets of
+/// states and calls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interface {
+    CoSimulation,
+    ModelExchange,
+}
+
+impl Interface {
+    /// The states an instance of this interface can be in, so that a saved state of the
+    /// other interface is refused rather than restored into a state machine without it.
+    pub fn states(self) -> u16 {
+        let only_other = match self {
+            Interface::CoSimulation => State::EventMode as u16 | State::ContinuousTimeMode as u16,
+            Interface::ModelExchange => {
+                State::StepComplete as u16
+                    | State::StepInProgress as u16
+                    | State::StepFailed as u16
+                    | State::StepCanceled as u16
+            }
+        };
+        crate::entry::ALL_STATES & !only_other
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "Co-Simulation",
+            Interface::ModelExchange => "Model Exchange",
         }
     }
 }
@@ -222,6 +261,7 @@ pub struct Instance<S: Standard, M: Model> {
     pub magic: u64,
     pub name: CString,
     pub callbacks: S::Callbacks,
+    pub interface: Interface,
     /// Categories whose debug messages (status OK) reach the logger.
     pub categories: Categories,
     pub state: State,
@@ -283,7 +323,12 @@ impl Index {
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
-    pub fn new(name: CString, callbacks: S::Callbacks, logging_on: bool) -> Self {
+    pub fn new(
+        name: CString,
+        callbacks: S::Callbacks,
+        interface: Interface,
+        logging_on: bool,
+    ) -> Self {
         let vars = M::variables();
         let entries = match S::ARRAYS {
             true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
@@ -295,6 +340,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             magic: S::MAGIC,
             name,
             callbacks,
+            interface,
             categories: if logging_on { Categories::ALL } else { Categories::NONE },
             state: State::Instantiated,
             model: M::new(),

@@ -2,10 +2,12 @@
 //!
 //! The public types and the plant's state live here; the event-driven exact solver in
 //! `solver`, its per-configuration propagator cache in `configs`, the state bytes in
-//! `state`, the encoder noise in `noise`.
+//! `state`, the encoder noise in `noise`; the same plant in continuous time, for a master
+//! that integrates it (Model Exchange), in `continuous`.
 
 pub mod analog;
 mod configs;
+pub mod continuous;
 pub mod hysteresis;
 pub mod linear;
 mod noise;
