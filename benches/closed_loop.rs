@@ -1,20 +1,207 @@
-//! `cargo bench -p inchworm --bench closed_loop`: the closed loop through both FMUs over
-//! 600 s of the Figs. 6–7 staircase (prefilter on), stepped by the Rust master
-//! (`inchworm run` on dist/InchwormSystemOpen.ssp), by the direct coupling of the crates, and
-//! by a plain Jacobi loop in FMPy, all in this one run; prints wall times, real-time
-//! factors and the ratio, and checks that all three end on the same encoder count.
+//! `cargo bench -p inchworm --bench closed_loop`: the closed loop over 600 s of the
+//! Figs. 6–7 staircase (prefilter on, 2 ms Jacobi), four ways in this one run:
+//!
+//! * the Rust master stepping both FMUs (the loop of `inchworm run` on
+//!   dist/InchwormSystemOpen.ssp, its rows streamed to a sink);
+//! * the crates coupled directly (no FMI), recording the scenario's full row every step;
+//! * a plain Jacobi loop in FMPy on the same FMUs (`benches/fmpy_jacobi.py`, through the
+//!   repository's `.venv/bin/python`; skipped, with the reason printed, without it);
+//! * a speed anchor in C (`benches/rk4_anchor.c`, compiled here with the system `cc`):
+//!   fixed-step RK4 of the plant's quiet 14-state linear system alone, checked against
+//!   its exact propagation.
+//!
+//! Each loop's wall time and its own CPU time (this thread's for the Rust loops, the
+//! loop's for the others): on a loaded machine the wall time adds the waits for a core,
+//! which fall unevenly on a 1 s run and a 20 s one, so the ratios are taken on CPU time
+//! and the wall ratios printed beside them. The two Rust loops alternate, best of
+//! `REPEATS` each. Prints real-time factors, per-step costs, the ratios against the issue's
+//! targets and the load average, and checks that the three loops end on the same encoder
+//! count.
+//!
+//! For a profile, `CLOSED_LOOP_ONLY=master` (or `direct`) runs that loop alone, once, over
+//! `CLOSED_LOOP_SECONDS` (default 600) of the staircase: under `valgrind --tool=callgrind`,
+//! two durations' difference is the cost of the steps between them (docs/plant-solver.md).
 
+use std::io::Write;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use inchworm_controller::Params;
-use inchworm_cosim::master::run;
-use inchworm_plant::PlantParams;
+use inchworm_cosim::master::{Options, System};
+use inchworm_plant::linear::{ix, system_matrix, Matrix, Vector, N};
+use inchworm_plant::{Mode, PlantParams};
 use inchworm_scenarios::closed_loop::run as direct;
-use inchworm_scenarios::scenario;
+use inchworm_scenarios::scenario::{self, Scenario};
 
 const DURATION: f64 = 600.0;
+const H: f64 = 0.002;
+const REPEATS: usize = 3;
+/// The anchor's RK4 step: 5 µs, the largest of the plant bench's RK4 steps that stays
+/// within 1 count of the tight gait trace (the 4 kHz stack mode needs it).
+const RK4_STEP: f64 = 5e-6;
+/// Simulated seconds of the anchor: enough to time, short of the 600 s it would take minutes for.
+const RK4_SECONDS: f64 = 20.0;
+
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "unknown".into())
+}
+
+/// CPU time (s) this thread has used.
+fn thread_cpu() -> f64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes into the timespec it is given.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    assert_eq!(rc, 0, "clock_gettime(CLOCK_THREAD_CPUTIME_ID)");
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// One run of one loop: its wall and CPU seconds for `sim_s` simulated, and the final
+/// encoder count (none for the anchor, which has no encoder).
+struct Timed {
+    wall: f64,
+    cpu: f64,
+    sim_s: f64,
+    final_count: Option<i64>,
+}
+
+impl Timed {
+    /// Times `f`, which returns the final encoder count.
+    fn of(sim_s: f64, f: impl FnOnce() -> i64) -> Timed {
+        let (t, c) = (Instant::now(), thread_cpu());
+        let count = f();
+        Timed {
+            wall: t.elapsed().as_secs_f64(),
+            cpu: thread_cpu() - c,
+            sim_s,
+            final_count: Some(count),
+        }
+    }
+
+    /// Simulated seconds per CPU second.
+    fn speed(&self) -> f64 {
+        self.sim_s / self.cpu
+    }
+
+    fn print(&self, what: &str, note: &str) {
+        println!(
+            "  {what:<34} {:>7.3} s CPU {:>7.3} s wall | {:>6.0}x real time (CPU; {:>5.0}x wall) | {:>6.2} us CPU per 2 ms step | {note}",
+            self.cpu,
+            self.wall,
+            self.speed(),
+            self.sim_s / self.wall,
+            self.cpu / (self.sim_s / H) * 1e6,
+        );
+    }
+}
+
+/// The master's loop, `inchworm run`'s: rows streamed to a sink (here keeping the last).
+fn master_loop(ssp: &Path, opts: &Options) -> i64 {
+    let sim = System::load(ssp).and_then(|s| s.initialise(opts)).expect("system");
+    let mut last = 0.0;
+    sim.run_into(
+        |_, row| {
+            last = row[0];
+            Ok::<(), inchworm_cosim::Error>(())
+        },
+        |_| {},
+    )
+    .expect("master run");
+    last as i64
+}
+
+/// The crates coupled directly over `seconds`.
+fn direct_loop(s: &Scenario, controller: &Params, seconds: f64) -> i64 {
+    let d = direct(PlantParams::fia20(), controller.clone(), |t| s.reference.value(0, t), seconds)
+        .expect("direct run");
+    *d.column("plant.encoder_counts").unwrap().last().unwrap() as i64
+}
+
+/// The FMPy loop, or why it did not run.
+fn fmpy(root: &Path, dist: &Path) -> Result<Timed, String> {
+    let python = root.join(".venv/bin/python");
+    if !python.is_file() {
+        return Err(format!("{} missing (scripts/setup.sh makes it)", python.display()));
+    }
+    let out = Command::new(&python)
+        .arg(root.join("benches/fmpy_jacobi.py"))
+        .arg(dist)
+        .arg(DURATION.to_string())
+        .output()
+        .map_err(|e| format!("{}: {e}", python.display()))?;
+    if !out.status.success() {
+        return Err(format!(
+            "benches/fmpy_jacobi.py failed: {}",
+            String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("")
+        ));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let f: Vec<f64> = text.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect();
+    match f[..] {
+        [sim_s, wall, count, cpu] => {
+            Ok(Timed { wall, cpu, sim_s, final_count: Some(count as i64) })
+        }
+        _ => Err(format!("benches/fmpy_jacobi.py printed `{}`", text.trim())),
+    }
+}
+
+/// The C anchor: its times for `RK4_SECONDS` of the quiet plant and the largest deviation
+/// of its end state from the exact propagation, relative to the state's size.
+fn anchor(root: &Path) -> Result<(Timed, f64), String> {
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rk4_anchor");
+    let cc = Command::new("cc")
+        .args(["-O3", "-march=native", "-std=c99", "-o"])
+        .arg(&exe)
+        .arg(root.join("benches/rk4_anchor.c"))
+        .output()
+        .map_err(|e| format!("cc: {e}"))?;
+    if !cc.status.success() {
+        return Err(format!("cc failed: {}", String::from_utf8_lossy(&cc.stderr)));
+    }
+    let p = PlantParams::fia20();
+    // HOLD, every hysteresis element sticking: the quiet step's system.
+    let a = system_matrix(&p, Mode::Hold, p.play_weight.iter().sum());
+    // From rest, the extension channel commanded to 5 V: the stack's ringing transient.
+    let mut z0 = Vector::zeros();
+    z0[ix::ONE] = 1.0;
+    z0[ix::UX] = 5.0;
+    let steps = (RK4_SECONDS / RK4_STEP).round() as u64;
+    let mut input = String::new();
+    for i in 0..N {
+        for j in 0..N {
+            input += &format!("{:e} ", a[(i, j)]);
+        }
+    }
+    for v in z0.iter() {
+        input += &format!("{v:e} ");
+    }
+    input += &format!("{RK4_STEP:e} {steps}\n");
+    let mut child = Command::new(&exe)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{}: {e}", exe.display()))?;
+    child.stdin.take().expect("piped").write_all(input.as_bytes()).map_err(|e| e.to_string())?;
+    let out = child.wait_with_output().map_err(|e| e.to_string())?;
+    let v: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    if !out.status.success() || v.len() != N + 2 {
+        return Err(format!("{} failed ({})", exe.display(), out.status));
+    }
+    // The exact propagation: e^{A 2 ms} applied once per 2 ms step.
+    let phi: Matrix = (a * H).exp();
+    let mut z = z0;
+    for _ in 0..(RK4_SECONDS / H).round() as u64 {
+        z = phi * z;
+    }
+    let scale = z.amax();
+    let dev = (0..N).map(|i| (v[i + 2] - z[i]).abs()).fold(0.0, f64::max) / scale;
+    Ok((Timed { wall: v[0], cpu: v[1], sim_s: RK4_SECONDS, final_count: None }, dev))
+}
 
 fn main() {
     // The package is the workspace root: dist/ and .venv/ live there.
@@ -22,6 +209,7 @@ fn main() {
     let dist = root.join("dist");
     let ssp = dist.join("InchwormSystemOpen.ssp");
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
+    let load_before = load_average();
     let s = scenario::by_name("staircase").expect("a scenario");
     let controller = Params { prefilter: true, ..Params::default() };
     // The staircase scenario's options, cut to 600 s and to the one column compared, so
@@ -29,42 +217,88 @@ fn main() {
     let mut opts = s.options(&PlantParams::fia20(), &controller);
     opts.stop_time = Some(DURATION);
     opts.outputs = vec!["plant.encoder_counts".into()];
-    let t = Instant::now();
-    let master = run(&ssp, &opts, |_| {}).expect("master run");
-    let master_s = t.elapsed().as_secs_f64();
-    let master_final = *master.column("plant.encoder_counts").unwrap().last().unwrap() as i64;
 
-    let t = Instant::now();
-    let d = direct(PlantParams::fia20(), controller, |t| s.reference.value(0, t), DURATION)
-        .expect("direct run");
-    let direct_s = t.elapsed().as_secs_f64();
-    let direct_final = *d.column("plant.encoder_counts").unwrap().last().unwrap() as i64;
-
-    let python = root.join(".venv/bin/python");
-    let out = Command::new(&python)
-        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/fmpy_jacobi.py"))
-        .arg(&dist)
-        .arg(DURATION.to_string())
-        .output();
-    let fmpy = out.ok().filter(|o| o.status.success()).and_then(|o| {
-        let s = String::from_utf8_lossy(&o.stdout).to_string();
-        let f: Vec<f64> = s.split_whitespace().skip(1).filter_map(|x| x.parse().ok()).collect();
-        (f.len() == 3).then(|| (f[1], f[2] as i64))
-    });
-
-    println!("closed loop through both FMUs, {DURATION:.0} s of the Figs. 6-7 staircase, prefilter on, 2 ms Jacobi");
-    println!("  Rust master (inchworm run, SSP):   {master_s:>7.3} s wall, {:>6.0}x real time, final encoder {master_final}", DURATION / master_s);
-    println!("  crates coupled directly (no FMI):  {direct_s:>7.3} s wall, {:>6.0}x real time, final encoder {direct_final}", DURATION / direct_s);
-    match fmpy {
-        Some((wall, final_count)) => {
-            println!("  FMPy Jacobi loop (Python):         {wall:>7.3} s wall, {:>6.0}x real time, final encoder {final_count}", DURATION / wall);
-            println!("ratio: the Rust master is {:.1}x faster than the FMPy loop", wall / master_s);
-            assert_eq!(final_count, master_final, "FMPy and the Rust master disagree");
-        }
-        None => println!(
-            "  FMPy Jacobi loop: not run ({} missing or failed; run scripts/setup.sh)",
-            python.display()
-        ),
+    if let Ok(only) = std::env::var("CLOSED_LOOP_ONLY") {
+        let seconds: f64 = std::env::var("CLOSED_LOOP_SECONDS")
+            .map(|v| v.parse().expect("CLOSED_LOOP_SECONDS: seconds"))
+            .unwrap_or(DURATION);
+        opts.stop_time = Some(seconds);
+        let t = match only.as_str() {
+            "master" => Timed::of(seconds, || master_loop(&ssp, &opts)),
+            "direct" => Timed::of(seconds, || direct_loop(&s, &controller, seconds)),
+            _ => panic!("CLOSED_LOOP_ONLY: master or direct, not `{only}`"),
+        };
+        t.print(&only, &format!("final encoder {}", t.final_count.expect("a count")));
+        return;
     }
-    assert_eq!(master_final, direct_final, "the master and the direct coupling disagree");
+
+    let keep_best = |best: &mut Option<Timed>, t: Timed| {
+        if best.as_ref().is_none_or(|b| t.cpu < b.cpu) {
+            *best = Some(t);
+        }
+    };
+    let (mut master, mut coupled) = (None, None);
+    for _ in 0..REPEATS {
+        keep_best(&mut master, Timed::of(DURATION, || master_loop(&ssp, &opts)));
+        keep_best(&mut coupled, Timed::of(DURATION, || direct_loop(&s, &controller, DURATION)));
+    }
+    let (master, coupled) = (master.expect("runs"), coupled.expect("runs"));
+    let fmpy = fmpy(root, &dist);
+    let anchor = anchor(root);
+    let load_after = load_average();
+
+    println!(
+        "closed loop, {DURATION:.0} s of the Figs. 6-7 staircase, prefilter on, 2 ms Jacobi (Rust: best of {REPEATS} alternating runs)"
+    );
+    let count = |t: &Timed| format!("final encoder {}", t.final_count.expect("a count"));
+    master.print("Rust master, both FMUs (SSP)", &count(&master));
+    coupled.print("crates coupled directly (no FMI)", &count(&coupled));
+    match &fmpy {
+        Ok(f) => f.print("FMPy Jacobi loop, same FMUs", &count(f)),
+        Err(why) => println!("  FMPy Jacobi loop: not run: {why}"),
+    }
+    match &anchor {
+        Ok((a, dev)) => a.print(
+            "C RK4 anchor (quiet plant, 5 us)",
+            &format!(
+                "{RK4_SECONDS:.0} s simulated, end state within {dev:.1e} of the exact propagation"
+            ),
+        ),
+        Err(why) => println!("  C RK4 anchor: not run: {why}"),
+    }
+    println!("ratios (CPU time; wall time in brackets):");
+    println!(
+        "  master: {:.0}x real time, {:.2} of the 2000x target; {:.2} us per step more than the direct coupling, {:.2}x its time ({:.2}x)",
+        master.speed(),
+        master.speed() / 2000.0,
+        (master.cpu - coupled.cpu) / (DURATION / H) * 1e6,
+        master.cpu / coupled.cpu,
+        master.wall / coupled.wall
+    );
+    if let Ok(f) = &fmpy {
+        println!(
+            "  master vs the FMPy loop: {:.1}x faster ({:.1}x), target 15x",
+            master.speed() / f.speed(),
+            f.wall / master.wall
+        );
+    }
+    if let Ok((a, _)) = &anchor {
+        println!(
+            "  master (both FMUs, events and all) vs the C RK4 of the quiet plant alone: {:.1}x faster per simulated second ({:.1}x)",
+            master.speed() / a.speed(),
+            (a.wall / a.sim_s) / (master.wall / master.sim_s)
+        );
+    }
+    println!("machine load average (1, 5, 15 min): {load_before} before, {load_after} after");
+
+    if let Ok(f) = &fmpy {
+        assert_eq!(f.final_count, master.final_count, "FMPy and the Rust master disagree");
+    }
+    assert_eq!(
+        master.final_count, coupled.final_count,
+        "the master and the direct coupling disagree"
+    );
+    if let Ok((_, dev)) = anchor {
+        assert!(dev < 1e-6, "the C RK4 anchor strays from the exact propagation: {dev:e}");
+    }
 }

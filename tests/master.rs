@@ -2,7 +2,7 @@
 //! coupling, parameter sets, Gauss–Seidel, and a clear error for every bad file or name.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use inchworm_controller::Params;
 use inchworm_cosim::master::{run, Coupling, InputTable, Options};
@@ -10,15 +10,9 @@ use inchworm_cosim::trace::Trace;
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::closed_loop::run as direct;
 
-fn dist(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
-    assert!(
-        p.is_file(),
-        "{} is missing: run `cargo run --release -p fmu-build` first",
-        p.display()
-    );
-    p
-}
+#[path = "support/dist.rs"]
+mod dist;
+use dist::dist;
 
 fn options(parameter_set: Option<&str>, coupling: Coupling) -> Options {
     Options {

@@ -138,6 +138,10 @@ fn command(root: &Path, target: &Target, target_dir: &Path) -> Command {
     cmd.args(["--release", "--target", &target.cargo_target()]);
     if target.build_std {
         cmd.arg("-Zbuild-std=std,panic_abort,panic_unwind");
+        // The build folder is shared by every clone (see `build`): with times alone, a
+        // worktree whose sources are older than another's last build took that build's
+        // crates as fresh. Checksums make a different source a rebuild, whatever its time.
+        cmd.arg("-Zchecksum-freshness");
     }
     cmd
 }
@@ -196,11 +200,13 @@ pub fn build(
             return Ok(found);
         }
     }
-    // A miss builds in the cache's own build folder when there is a cache, not in the
-    // clone's target folder: the standard library and the dependencies of every cross
-    // target are then compiled once per machine and toolchain, and a change of the FMU
-    // sources in a fresh clone (CI) recompiles only the workspace's own crates.
-    let shared = cache_dir().map(|d| d.join("build"));
+    // A cross target's miss builds in the cache's own build folder when there is a cache,
+    // not in the clone's target folder: the standard library and the dependencies of every
+    // cross target are then compiled once per machine and toolchain, and a change of the
+    // FMU sources in a fresh clone (CI) recompiles only the workspace's own crates. Clones
+    // and worktrees share that folder, so cargo must judge freshness by the sources'
+    // contents, not their times (see `command`); the host target keeps the clone's.
+    let shared = cache_dir().map(|d| d.join("build")).filter(|_| target.build_std);
     let target_dir = shared.as_deref().unwrap_or(target_dir);
     let start = std::time::Instant::now();
     let libraries: Vec<&str> = outputs

@@ -262,15 +262,21 @@ const PROFILE_FIG5: i32 = 1;
 /// Per 2 ms instant: reference, encoder position, the DAC sample the plant receives.
 type Row = (f64, f64, [f64; 3]);
 
+/// The reference FMU with the Fig. 5 profile, initialized.
+fn fig5_reference<S: Master>() -> Harness<ReferenceFmu, S> {
+    let refr = Harness::<ReferenceFmu, S>::new("reference");
+    assert_eq!((refr.setup(), refr.enter()), (0, 0));
+    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
+    assert_eq!(refr.exit(), 0);
+    refr
+}
+
 /// Plant + controller + reference FMUs on a Jacobi grid of step `h` (counted points),
 /// recorded at the 2 ms instants.
 fn fig5<S: Master>(h: f64, end: f64) -> Vec<Row> {
     let plant = Harness::<PlantFmu, S>::init("plant");
     let ctrl = Harness::<ControllerFmu, S>::init("controller");
-    let refr = Harness::<ReferenceFmu, S>::new("reference");
-    assert_eq!((refr.setup(), refr.enter()), (0, 0));
-    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
-    assert_eq!(refr.exit(), 0);
+    let refr = fig5_reference::<S>();
     let mut rows = Vec::new();
     let n = (end / h).round() as usize;
     for k in 0..=n {
@@ -376,4 +382,105 @@ fn a_state_saved_between_instants_replays_bit_for_bit() {
     assert_eq!(b.deserialize(&bytes), 0, "{:?}", b.logged());
     assert_eq!(drive(&b, 301, 400), first);
     assert_eq!(a.free_state(s), 0);
+}
+
+// ---- Model Exchange: the same instants as time events ------------------------------
+
+/// Fig. 5 with the controller as Model Exchange: each event is the time event it asked
+/// for, where the master hands it the plant's encoder and the reference, runs the event
+/// update and steps the plant and reference FMUs (Co-Simulation, 2 ms) to the next one
+/// with the DAC sample just written. Returns the rows of [`fig5`] and the event times.
+fn fig5_me<S: Master>(end: f64) -> (Vec<Row>, Vec<f64>) {
+    let plant = Harness::<PlantFmu, S>::init("plant");
+    let ctrl = Harness::<ControllerFmu, S>::init_me("controller");
+    let refr = fig5_reference::<S>();
+    let (mut rows, mut events) = (Vec::new(), vec![0.0]);
+    let n = (end / T).round() as usize;
+    for k in 0..=n {
+        let t = k as f64 * T;
+        let r = ok(refr.real(1));
+        assert_eq!(
+            ctrl.set_integer(ENCODER_COUNTS, ok(plant.integer(plant_vr::ENCODER_COUNTS))),
+            0
+        );
+        assert_eq!(ctrl.set_real(REFERENCE, r), 0);
+        let (status, update, terminate) = ctrl.update();
+        assert_eq!((status, update.states_changed, terminate), (0, false, false), "{t}");
+        let next = update.next_event_time.expect("a time event at every instant");
+        let dac = [10, 11, 12].map(|vr| ok(ctrl.real(vr)));
+        rows.push((r, ok(plant.real(plant_vr::ENCODER_POSITION)), dac));
+        if k == n {
+            break;
+        }
+        assert_eq!(ctrl.enter_continuous_time_mode(), 0);
+        // Between events the outputs hold, whatever the continuous input does.
+        let held = outputs(&ctrl);
+        assert_eq!((ctrl.set_time(0.5 * (t + next)), ctrl.set_real(REFERENCE, -r)), (0, 0));
+        assert_eq!(outputs(&ctrl), held);
+        assert_eq!(plant.set_reals(&plant_vr::DAC, &dac), 0);
+        for (what, status) in [("plant", plant.step(t, T)), ("reference", refr.step(t, T))] {
+            assert!(status == 0 || status == 1, "{what} at {t}: status {status}");
+        }
+        assert_eq!((ctrl.set_time(next), ctrl.enter_event_mode()), (0, 0));
+        events.push(next);
+    }
+    (rows, events)
+}
+
+/// The closed loop through the ME controller is the 2 ms Jacobi loop bit for bit: the
+/// event at s_n writes the sample latched at s_(n-1) and latches the encoder at s_n, as a
+/// 2 ms step does. Its time events are the counted instants n × 2 ms, exactly.
+#[test]
+fn the_model_exchange_controller_closes_the_2_ms_loop_bit_for_bit() {
+    let end = 0.9;
+    let two = fig5::<Fmi2>(T, end);
+    assert!((settle_time(&two, 1e-6).unwrap() - 0.788).abs() < 1e-9);
+    for (standard, (rows, events)) in
+        [("FMI 2.0", fig5_me::<Fmi2>(end)), ("FMI 3.0", fig5_me::<Fmi3>(end))]
+    {
+        assert_eq!(rows.len(), two.len(), "{standard}");
+        for (i, (a, b)) in rows.iter().zip(&two).enumerate() {
+            assert_eq!(format!("{a:?}"), format!("{b:?}"), "{standard}: instant {i}");
+        }
+        for (k, e) in events.iter().enumerate() {
+            assert_eq!(e.to_bits(), (k as f64 * T).to_bits(), "{standard}: event {k}");
+        }
+        eprintln!(
+            "{standard}: {} time events, settles within 1 um at {:?} s",
+            events.len(),
+            settle_time(&rows, 1e-6)
+        );
+    }
+}
+
+/// An event between instants (another FMU's, say) writes nothing and latches nothing; a
+/// late event catches up every instant it passed, as a long step does; the instance has
+/// no continuous states or indicators.
+#[test]
+fn events_off_the_grid_follow_the_step_rule() {
+    use inchworm_fmi_export::entry::Array;
+    let me = Harness::<ControllerFmu, Fmi2>::init_me("me");
+    let cs = controller::<Fmi2>("cs", 60e-6);
+    assert_eq!(me.set_real(REFERENCE, 60e-6), 0);
+    assert_eq!((me.array(Array::States, 0).0, me.array(Array::EventIndicators, 0).0), (0, 0));
+    assert_eq!(me.array(Array::Derivatives, 1).0, 3, "no continuous states");
+    assert_eq!(me.update().1.next_event_time, Some(T), "after the latch at 0: the write at s_1");
+    let at = |t: f64| {
+        assert_eq!(
+            (me.enter_continuous_time_mode(), me.set_time(t), me.enter_event_mode()),
+            (0, 0, 0)
+        );
+        let (s, u, _) = me.update();
+        assert_eq!(s, 0);
+        u.next_event_time.unwrap()
+    };
+    assert_eq!(at(0.0013), T, "between instants: nothing due");
+    assert_eq!(outputs(&me), {
+        assert_eq!(cs.step(0.0, 0.0013), 0);
+        outputs(&cs)
+    });
+    // Late by 3.5 samples: every write up to 0.0083 s is made, and the latch at 0.008 s.
+    assert_eq!(at(0.0083), 5.0 * T);
+    assert_eq!(cs.step(0.0013, 0.007), 0);
+    assert_eq!(outputs(&me), outputs(&cs));
 }

@@ -732,6 +732,7 @@ impl System {
             )?,
             values: vec![0.0; destinations.len()],
             port_values: vec![0.0; record_ports.len()],
+            row: vec![0.0; record.len()],
             destinations,
             record,
             record_names,
@@ -766,6 +767,8 @@ pub struct Simulation {
     record_names: Vec<String>,
     record_batches: Batches,
     port_values: Vec<f64>,
+    /// The row [`Simulation::sample_row`] fills, kept so that a step's row allocates nothing.
+    row: Vec<f64>,
     input: Option<InputTable>,
     input_columns: Vec<Option<usize>>,
     coupling: Coupling,
@@ -795,10 +798,7 @@ impl Simulation {
     }
 
     fn input_value(&self, i: usize, t: f64) -> f64 {
-        match (self.input_columns[i], &self.input) {
-            (Some(col), Some(table)) => table.value(col, t),
-            _ => 0.0,
-        }
+        system_input(&self.input_columns, self.input.as_ref(), i, t)
     }
 
     /// Sets the inputs of component `only` (every component if `None`) from the latest
@@ -837,16 +837,23 @@ impl Simulation {
 
     /// The recorded variables now, in the order of [`Simulation::record_names`].
     pub fn sample(&mut self) -> Result<Vec<f64>, Error> {
+        self.sample_row().map(<[f64]>::to_vec)
+    }
+
+    /// [`Simulation::sample`] into a buffer the simulation keeps: valid until the next call.
+    pub fn sample_row(&mut self) -> Result<&[f64], Error> {
         self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
         let t = self.time();
         let mut ports = self.port_values.iter();
-        self.record
-            .iter()
-            .map(|p| match p {
-                Probe::Port(_) => Ok(*ports.next().expect("one value per recorded port")),
-                Probe::SystemInput(i) => Ok(self.input_value(*i, t)),
-            })
-            .collect()
+        for (out, p) in self.row.iter_mut().zip(&self.record) {
+            *out = match p {
+                Probe::Port(_) => *ports.next().expect("one value per recorded port"),
+                Probe::SystemInput(i) => {
+                    system_input(&self.input_columns, self.input.as_ref(), *i, t)
+                }
+            };
+        }
+        Ok(&self.row)
     }
 
     /// One communication step from `k h` to `(k + 1) h`.
@@ -910,16 +917,25 @@ impl Simulation {
         mut progress: impl FnMut(f64),
     ) -> Result<(), E> {
         let n = self.n_steps;
-        sink(0.0, &self.sample()?)?;
+        sink(0.0, self.sample_row()?)?;
         for k in 0..n {
             if let Some(flag) = &self.stop {
                 flag.check()?;
             }
             self.step()?;
-            sink(self.time(), &self.sample()?)?;
+            let t = self.time();
+            sink(t, self.sample_row()?)?;
             progress((k + 1) as f64 / n as f64);
         }
         Ok(self.terminate()?)
+    }
+}
+
+/// System input `i` at `t`: its column of the input table, or 0 without one.
+fn system_input(columns: &[Option<usize>], input: Option<&InputTable>, i: usize, t: f64) -> f64 {
+    match (columns[i], input) {
+        (Some(col), Some(table)) => table.value(col, t),
+        _ => 0.0,
     }
 }
 

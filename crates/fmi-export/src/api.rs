@@ -13,10 +13,47 @@
 
 use std::os::raw::c_char;
 
-use crate::entry::{self, Value, AFTER_STEP, GETTABLE, LIVE, SETTABLE};
+use crate::entry::{self, Array, EventSink, Value, AFTER_STEP, GETTABLE, LIVE, SETTABLE};
 use crate::ffi::*;
-use crate::instance::{Line, Standard, State};
-use crate::Kind;
+use crate::instance::{Interface, Line, Standard, State};
+use crate::{EventUpdate, Kind};
+
+/// `fmi2EventInfo` of `fmi2FunctionTypes.h`, which only Model Exchange uses.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct fmi2EventInfo {
+    pub newDiscreteStatesNeeded: fmi2Boolean,
+    pub terminateSimulation: fmi2Boolean,
+    pub nominalsOfContinuousStatesChanged: fmi2Boolean,
+    pub valuesOfContinuousStatesChanged: fmi2Boolean,
+    pub nextEventTimeDefined: fmi2Boolean,
+    pub nextEventTime: fmi2Real,
+}
+
+impl EventSink for *mut fmi2EventInfo {
+    fn any_null(&self) -> bool {
+        self.is_null()
+    }
+    unsafe fn write(&self, u: &EventUpdate, terminate: bool) {
+        **self = fmi2EventInfo {
+            newDiscreteStatesNeeded: fmi2False,
+            terminateSimulation: fmi2Boolean::from(terminate),
+            nominalsOfContinuousStatesChanged: fmi2False,
+            valuesOfContinuousStatesChanged: fmi2Boolean::from(u.states_changed),
+            nextEventTimeDefined: fmi2Boolean::from(u.next_event_time.is_some()),
+            nextEventTime: u.next_event_time.unwrap_or(0.0),
+        };
+    }
+}
+
+/// The interface `fmuType` asks for.
+fn interface(ty: fmi2Type) -> (Interface, Option<&'static str>) {
+    match ty {
+        fmi2CoSimulation => (Interface::CoSimulation, None),
+        fmi2ModelExchange => (Interface::ModelExchange, None),
+        _ => (Interface::CoSimulation, Some(BAD_TYPE)),
+    }
+}
 
 /// FMI 2.0 as the core sees it.
 pub struct Fmi2;
@@ -55,8 +92,7 @@ pub fn fmi2GetVersion() -> *const c_char {
     fmi2Version.as_ptr() as *const c_char
 }
 
-const CS_ONLY: &str = "this FMU implements Co-Simulation only (fmuType must be fmi2CoSimulation)";
-const NO_DERIVATIVES: &str = "providesDirectionalDerivative is false (estimate derivatives by finite differences over fmi2GetFMUstate and fmi2SetFMUstate)";
+const BAD_TYPE: &str = "fmuType is neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)";
 const NO_INTERPOLATION: &str =
     "canInterpolateInputs is false (inputs are held constant over each communication step)";
 const SYNCHRONOUS: &str =
@@ -68,12 +104,22 @@ const SYNCHRONOUS: &str =
 #[macro_export]
 macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
     fmi2SetDebugLogging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status = entry::set_debug_logging::<Fmi2, M>(c, F, on != fmi2False, n, cats);
-    fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, functions: *const fmi2CallbackFunctions, visible: fmi2Boolean, logging: fmi2Boolean) -> fmi2Component = entry::instantiate::<Fmi2, M>(F, functions.as_ref().copied(), name, guid, (ty != fmi2CoSimulation).then_some(CS_ONLY), logging != fmi2False);
+    fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, functions: *const fmi2CallbackFunctions, visible: fmi2Boolean, logging: fmi2Boolean) -> fmi2Component = entry::instantiate::<Fmi2, M>(F, functions.as_ref().copied(), name, guid, interface(ty), logging != fmi2False);
     fmi2FreeInstance(c: fmi2Component) -> () = entry::free_instance::<Fmi2, M>(c);
     fmi2SetupExperiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, t0: fmi2Real, sd: fmi2Boolean, t1: fmi2Real) -> fmi2Status = entry::setup_experiment::<Fmi2, M>(c, F, t0, (sd != fmi2False).then_some(t1));
     fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status = entry::enter_initialization::<Fmi2, M>(c, F, None);
     fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status = entry::exit_initialization::<Fmi2, M>(c, F);
     fmi2Terminate(c: fmi2Component) -> fmi2Status = entry::terminate::<Fmi2, M>(c, F);
+    fmi2EnterEventMode(c: fmi2Component) -> fmi2Status = entry::enter_event_mode::<Fmi2, M>(c, F);
+    fmi2NewDiscreteStates(c: fmi2Component, info: *mut fmi2EventInfo) -> fmi2Status = entry::update_discrete_states::<Fmi2, M>(c, F, info);
+    fmi2EnterContinuousTimeMode(c: fmi2Component) -> fmi2Status = entry::enter_continuous_time_mode::<Fmi2, M>(c, F);
+    fmi2CompletedIntegratorStep(c: fmi2Component, no_prior: fmi2Boolean, ev: *mut fmi2Boolean, term: *mut fmi2Boolean) -> fmi2Status = entry::completed_integrator_step::<Fmi2, M, _>(c, F, (ev, term), fmi2False);
+    fmi2SetTime(c: fmi2Component, t: fmi2Real) -> fmi2Status = entry::set_time::<Fmi2, M>(c, F, t);
+    fmi2SetContinuousStates(c: fmi2Component, x: *const fmi2Real, n: usize) -> fmi2Status = entry::set_continuous_states::<Fmi2, M>(c, F, (x, n));
+    fmi2GetDerivatives(c: fmi2Component, dx: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::Derivatives, (dx, n));
+    fmi2GetEventIndicators(c: fmi2Component, z: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::EventIndicators, (z, n));
+    fmi2GetContinuousStates(c: fmi2Component, x: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::States, (x, n));
+    fmi2GetNominalsOfContinuousStates(c: fmi2Component, x: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::Nominals, (x, n));
     fmi2Reset(c: fmi2Component) -> fmi2Status = entry::reset::<Fmi2, M>(c, F);
     fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status = entry::get::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Real, Value::real);
     fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status = entry::get::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Integer, Value::integer);
@@ -89,7 +135,7 @@ macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
     fmi2SerializedFMUstateSize(c: fmi2Component, s: fmi2FMUstate, size: *mut usize) -> fmi2Status = entry::serialized_size::<Fmi2, M>(c, F, s, size);
     fmi2SerializeFMUstate(c: fmi2Component, s: fmi2FMUstate, b: *mut fmi2Byte, size: usize) -> fmi2Status = entry::serialize::<Fmi2, M>(c, F, s, (b as *mut u8, size));
     fmi2DeSerializeFMUstate(c: fmi2Component, b: *const fmi2Byte, size: usize, s: *mut fmi2FMUstate) -> fmi2Status = entry::deserialize::<Fmi2, M>(c, F, (b as *const u8, size), s);
-    fmi2GetDirectionalDerivative(c: fmi2Component, u: *const fmi2ValueReference, nu: usize, k: *const fmi2ValueReference, nk: usize, dk: *const fmi2Real, du: *mut fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, GETTABLE, NO_DERIVATIVES);
+    fmi2GetDirectionalDerivative(c: fmi2Component, u: *const fmi2ValueReference, nu: usize, k: *const fmi2ValueReference, nk: usize, dk: *const fmi2Real, du: *mut fmi2Real) -> fmi2Status = entry::directional_derivative::<Fmi2, M>(c, F, (u, nu), (k, nk), (dk, nk), (du, nu));
     fmi2SetRealInputDerivatives(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, o: *const fmi2Integer, v: *const fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, SETTABLE, NO_INTERPOLATION);
     fmi2GetRealOutputDerivatives(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, o: *const fmi2Integer, v: *mut fmi2Real) -> fmi2Status = entry::unsupported::<Fmi2, M>(c, F, AFTER_STEP, "maxOutputDerivativeOrder is 0");
     fmi2DoStep(c: fmi2Component, t: fmi2Real, h: fmi2Real, no_prior: fmi2Boolean) -> fmi2Status = entry::do_step::<Fmi2, M>(c, F, t, h, None);

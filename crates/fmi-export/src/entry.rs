@@ -14,8 +14,10 @@
 //! state restore are allowed; a Rust panic (a bug) returns Fatal and moves it to Fatal,
 //! from which only freeing the instance is allowed.
 //!
-//! A Model Exchange interface adds its entry points here, over the same instance: its
-//! states are further bits of [`State`], its calls further functions of this shape.
+//! Model Exchange is the same instance with its own states (EventMode and
+//! ContinuousTimeMode, further bits of [`State`]) and its own calls, functions of the same
+//! shape; an ME call on a Co-Simulation instance is refused by its mask, and a
+//! Co-Simulation call on an ME instance likewise.
 #![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
 
 use std::ffi::{c_void, CStr};
@@ -24,8 +26,8 @@ use std::os::raw::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::instance::*;
-use crate::table::{Admission, Kind, Variable};
-use crate::{model_description, state_blob, Message, Model};
+use crate::table::{Admission, Kind, Variability, Variable};
+use crate::{model_description, state_blob, EventUpdate, Message, Model, StepLog};
 
 pub use crate::instance::{Standard, Status};
 
@@ -37,16 +39,28 @@ const SF: u16 = State::StepFailed as u16;
 const SCA: u16 = State::StepCanceled as u16;
 const T: u16 = State::Terminated as u16;
 const E: u16 = State::Error as u16;
+const EM: u16 = State::EventMode as u16;
+const CTM: u16 = State::ContinuousTimeMode as u16;
 
 /// The allowed-state masks, named for the calls that use them.
 pub const INSTANTIATED: u16 = I;
 pub const INITIALIZATION: u16 = IM;
 pub const STEPPING: u16 = SC;
 pub const STEP_ENDED: u16 = SC | SF | SCA;
-pub const LIVE: u16 = I | IM | SC | SIP | SF | SCA | T | E;
-pub const GETTABLE: u16 = IM | SC | SF | SCA | T | E;
-pub const SETTABLE: u16 = I | IM | SC;
-pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E;
+pub const TERMINABLE: u16 = STEP_ENDED | EM | CTM;
+pub const LIVE: u16 = I | IM | SC | SIP | SF | SCA | T | E | EM | CTM;
+pub const GETTABLE: u16 = IM | SC | SF | SCA | T | E | EM | CTM;
+pub const SETTABLE: u16 = I | IM | SC | EM | CTM;
+pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E | EM | CTM;
+/// Model Exchange (FMI 2.0 section 3.2.3, FMI 3.0 section 3.2): time moves in both
+/// modes; the integrator sets states only between events; states, derivatives and
+/// indicators are readable once initialized (the model is built at exit from
+/// initialization); nominals are constants of the table.
+pub const TIMED: u16 = EM | CTM;
+pub const EVENT_MODE: u16 = EM;
+pub const CONTINUOUS_TIME: u16 = CTM;
+pub const ME_READABLE: u16 = EM | CTM | T | E;
+pub const NOMINALS: u16 = I | IM | EM | CTM | T | E;
 pub const STATUS_CALLS: u16 = SC | SIP | SF | SCA | T;
 pub const AFTER_STEP: u16 = SC | SF | SCA | T | E;
 /// Every state the core has; a standard has those of [`Standard::STATES`].
@@ -154,20 +168,22 @@ impl<S: Standard, M: Model> Instance<S, M> {
         }
     }
 
-    /// The values of `vr` into `out` (room for exactly as many), through `conv`.
+    /// The values of `vr` into the start of `out` (counted, so there is room), through
+    /// `conv`; returns how many. One lookup per variable: it is the per-value cost of
+    /// every `Get*`.
     fn read<T>(
         &self,
         vr: u32,
         kind: Kind,
         out: &mut [T],
         conv: fn(Value) -> T,
-    ) -> Result<(), String> {
+    ) -> Result<usize, String> {
         if kind == Kind::Real && S::TIME_VR == Some(vr) && self.variable(vr).is_none() {
             out[0] = conv(Value::Real(self.time));
-            return Ok(());
+            return Ok(1);
         }
-        let (head, _) = self.lookup(vr, kind)?;
-        for (k, slot) in (0u32..).zip(out) {
+        let (head, len) = self.lookup(vr, kind)?;
+        for (k, slot) in (0u32..).zip(&mut out[..len]) {
             // An array's elements are the table's rows after its first, one value
             // reference apart (crate::arrays): the model knows only those.
             let r = head.vr + k;
@@ -177,14 +193,16 @@ impl<S: Standard, M: Model> Instance<S, M> {
                 Kind::Boolean => self.model.get_boolean(r).map(Value::Boolean),
             }?);
         }
-        Ok(())
+        Ok(len)
     }
 
     /// How many values the variables `vrs` of type `kind` have (time has one).
     fn count_values(&self, vrs: &[u32], kind: Kind) -> Result<usize, String> {
-        vrs.iter().try_fold(0, |n, &r| match self.variable(r) {
-            None if kind == Kind::Real && S::TIME_VR == Some(r) => Ok(n + 1),
-            _ => self.lookup(r, kind).map(|(_, len)| n + len),
+        vrs.iter().try_fold(0, |n, &r| {
+            if kind == Kind::Real && S::TIME_VR == Some(r) && self.variable(r).is_none() {
+                return Ok(n + 1);
+            }
+            self.lookup(r, kind).map(|(_, len)| n + len)
         })
     }
 
@@ -194,6 +212,11 @@ impl<S: Standard, M: Model> Instance<S, M> {
         let vr = var.vr;
         let settable = match self.state {
             State::Instantiated | State::InitializationMode => var.settable_before_init(),
+            // Between events only continuous-time inputs change; a discrete one waits
+            // for event mode, where the model sees it.
+            State::ContinuousTimeMode => {
+                var.settable_after_init() && var.variability == Variability::Continuous
+            }
             _ => var.settable_after_init(),
         };
         if !settable {
@@ -279,14 +302,15 @@ fn log_early<S: Standard>(cb: &S::Callbacks, name: *const c_char, func: &str, wh
     emit::<S>(cb, name, ERROR, LogCategory::StatusError, format_args!("{func}: {why}"));
 }
 
-/// Creates an instance after checking its name, the interface-specific `refusal` the
-/// standard's glue found, and the token, which must be this build's GUID.
+/// Creates an instance of `interface` after checking its name, the interface-specific
+/// `refusal` the standard's glue found, that the model has the interface, and the token,
+/// which must be this build's GUID.
 pub unsafe fn instantiate<S: Standard, M: Model>(
     func: &str,
     callbacks: Option<S::Callbacks>,
     name: *const c_char,
     token: *const c_char,
-    refusal: Option<&str>,
+    (interface, refusal): (Interface, Option<&str>),
     logging_on: bool,
 ) -> *mut c_void {
     let result = catch_unwind(AssertUnwindSafe(|| {
@@ -301,6 +325,9 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
         if let Some(why) = refusal {
             return fail(format_args!("{why}"));
         }
+        if interface == Interface::ModelExchange && M::model_exchange().is_none() {
+            return fail(format_args!("not supported: this FMU implements Co-Simulation only"));
+        }
         let (arg, guid) = (S::TOKEN_ARG, model_description::guid::<M>());
         if token.is_null() {
             return fail(format_args!("{arg} is NULL"));
@@ -310,7 +337,8 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
             let given = Clip(&given);
             return fail(format_args!("{arg} \"{given}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"));
         }
-        let inst = Instance::<S, M>::new(CStr::from_ptr(name).to_owned(), cb, logging_on);
+        let name = CStr::from_ptr(name).to_owned();
+        let inst = Instance::<S, M>::new(name, cb, interface, logging_on);
         Box::into_raw(Box::new(inst)) as *mut c_void
     }));
     result.unwrap_or(std::ptr::null_mut())
@@ -433,12 +461,15 @@ pub unsafe fn enter_initialization<S: Standard, M: Model>(
 }
 
 /// Without event mode, FMI 3.0 Co-Simulation goes straight to Step Mode, which is the
-/// core's StepComplete.
+/// core's StepComplete; Model Exchange of both standards to EventMode.
 pub unsafe fn exit_initialization<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
     with_instance::<S, M>(c, func, INITIALIZATION, |inst| {
         match inst.model.exit_initialization(inst.start_time) {
             Ok(()) => {
-                inst.state = State::StepComplete;
+                inst.state = match inst.interface {
+                    Interface::CoSimulation => State::StepComplete,
+                    Interface::ModelExchange => State::EventMode,
+                };
                 OK
             }
             Err(why) => {
@@ -450,7 +481,7 @@ pub unsafe fn exit_initialization<S: Standard, M: Model>(c: *mut c_void, func: &
 }
 
 pub unsafe fn terminate<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
-    with_instance::<S, M>(c, func, STEP_ENDED, |inst| {
+    with_instance::<S, M>(c, func, TERMINABLE, |inst| {
         inst.state = State::Terminated;
         OK
     })
@@ -486,12 +517,10 @@ pub unsafe fn get<S: Standard, M: Model, T>(
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
         for &r in vrs {
-            let n = inst.variable(r).map_or(1, |(_, len)| len);
-            let (these, rest) = std::mem::take(&mut out).split_at_mut(n);
-            if let Err(why) = inst.read(r, kind, these, conv) {
-                return inst.refuse(func, format_args!("{why}"));
+            match inst.read(r, kind, out, conv) {
+                Ok(n) => out = &mut std::mem::take(&mut out)[n..],
+                Err(why) => return inst.refuse(func, format_args!("{why}")),
             }
-            out = rest;
         }
         OK
     })
@@ -667,10 +696,8 @@ pub unsafe fn do_step<S: Standard, M: Model>(
         if let Err(why) = inst.model.check_step(t, h) {
             return inst.refuse(func, format_args!("{why}"));
         }
-        let mut log = std::mem::take(&mut inst.step_log);
-        log.reset(inst.wants(LogCategory::Events));
-        let result = inst.model.do_step(t, h, &mut log);
-        let status = match result {
+        let result = inst.with_step_log(|model, log| model.do_step(t, h, log));
+        match result {
             Ok(()) => {
                 // The master's clock is the reference: following it keeps t and the FMU
                 // time equal however the master accumulates it.
@@ -678,22 +705,7 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                 if let Some(o) = &outputs {
                     o.report(false, inst.time);
                 }
-                let mut status = OK;
-                for m in log.drain() {
-                    match m {
-                        Message::Event(text) => {
-                            inst.log(OK, LogCategory::Events, format_args!("{text}"))
-                        }
-                        Message::Warning(text) => {
-                            inst.log(
-                                WARNING,
-                                LogCategory::StatusWarning,
-                                format_args!("{func}: {text}"),
-                            );
-                            status = WARNING;
-                        }
-                    }
-                }
+                let status = inst.report_step_log(func);
                 inst.last_step_status = status;
                 status
             }
@@ -705,10 +717,38 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                 }
                 inst.refuse(func, format_args!("{why}"))
             }
-        };
-        inst.step_log = log;
-        status
+        }
     })
+}
+
+impl<S: Standard, M: Model> Instance<S, M> {
+    /// Runs `f` with the instance's reusable [`StepLog`], reset to what is wanted now.
+    fn with_step_log<T>(&mut self, f: impl FnOnce(&mut M, &mut StepLog) -> T) -> T {
+        let mut log = std::mem::take(&mut self.step_log);
+        log.reset(self.wants(LogCategory::Events));
+        let result = f(&mut self.model, &mut log);
+        self.step_log = log;
+        result
+    }
+
+    /// Logs what the model reported in its last step or update: OK, or Warning if it
+    /// warned.
+    fn report_step_log(&mut self, func: &str) -> Status {
+        let mut log = std::mem::take(&mut self.step_log);
+        let mut status = OK;
+        for m in log.drain() {
+            match m {
+                Message::Event(text) => self.log(OK, LogCategory::Events, format_args!("{text}")),
+                Message::Warning(text) => {
+                    let why = format_args!("{func}: {text}");
+                    self.log(WARNING, LogCategory::StatusWarning, why);
+                    status = WARNING;
+                }
+            }
+        }
+        self.step_log = log;
+        status
+    }
 }
 
 /// Communication points from `t += h` and from `k · h` differ by rounding; they are the
@@ -860,6 +900,13 @@ pub unsafe fn deserialize<S: Standard, M: Model>(
                 format_args!("serialized state was saved in FMI 2.0 state {s}, which {v} has not"),
             );
         }
+        if header.state as u16 & inst.interface.states() == 0 {
+            let (s, i) = (S::state_name(header.state), inst.interface.name());
+            return inst.refuse(
+                func,
+                format_args!("serialized state was saved in state {s}, which {i} has not"),
+            );
+        }
         let model = match state_blob::load_model::<M>(payload) {
             Ok(m) => m,
             Err(why) => return inst.refuse(func, format_args!("model state refused: {why}")),
@@ -872,5 +919,280 @@ pub unsafe fn deserialize<S: Standard, M: Model>(
             stop_time: header.stop_time,
         };
         inst.store_snapshot(slot, snap)
+    })
+}
+
+/// The model's Model Exchange declaration. Only reached through an instance of that
+/// interface, which [`instantiate`] creates only for a model that has one.
+fn me<M: Model>() -> &'static crate::ModelExchange {
+    const NONE: crate::ModelExchange =
+        crate::ModelExchange { states: &[], event_indicators: &[], directional_derivatives: false };
+    M::model_exchange().unwrap_or(&NONE)
+}
+
+/// Runs `body` on a Model Exchange instance in one of the `allowed` states.
+unsafe fn with_me<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    body: impl FnOnce(&mut Instance<S, M>) -> Status,
+) -> Status {
+    with_instance::<S, M>(c, func, LIVE, |inst| {
+        if inst.interface != Interface::ModelExchange {
+            let why = "a Co-Simulation instance has no event mode (hasEventMode is false) and no continuous states";
+            return inst.refuse(func, format_args!("not supported: {why}"));
+        }
+        if inst.state as u16 & allowed == 0 {
+            let state = S::state_name(inst.state);
+            let why = format_args!("illegal call sequence: not allowed in state {state}");
+            return inst.refuse(func, why);
+        }
+        body(inst)
+    })
+}
+
+/// The four arrays of Model Exchange, each in the order of its declaration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Array {
+    States,
+    Derivatives,
+    EventIndicators,
+    Nominals,
+}
+
+impl Array {
+    fn len<M: Model>(self) -> usize {
+        match self {
+            Array::EventIndicators => me::<M>().event_indicators.len(),
+            _ => me::<M>().states.len(),
+        }
+    }
+    fn allowed(self) -> u16 {
+        match self {
+            Array::Nominals => NOMINALS,
+            _ => ME_READABLE,
+        }
+    }
+    fn what(self) -> &'static str {
+        match self {
+            Array::States => "continuous states",
+            Array::Derivatives => "state derivatives",
+            Array::EventIndicators => "event indicators",
+            Array::Nominals => "nominals of continuous states",
+        }
+    }
+}
+
+/// Refuses an array whose length is not the model's count.
+fn check_len<S: Standard, M: Model>(
+    inst: &Instance<S, M>,
+    func: &str,
+    array: Array,
+    n: usize,
+) -> Result<(), Status> {
+    let want = array.len::<M>();
+    if n == want {
+        return Ok(());
+    }
+    let what = array.what();
+    Err(inst.refuse(func, format_args!("{n} {what} asked for, this FMU has {want}")))
+}
+
+/// `Get*` of one Model Exchange array.
+pub unsafe fn get_array<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    array: Array,
+    (out, n): (*mut f64, usize),
+) -> Status {
+    with_me::<S, M>(c, func, array.allowed(), |inst| {
+        if let Err(s) = check_len(inst, func, array, n) {
+            return s;
+        }
+        let Some(out) = slice_mut(out, n) else {
+            return inst.refuse(func, format_args!("the array of {} is NULL", array.what()));
+        };
+        let decl = me::<M>();
+        for (i, out) in out.iter_mut().enumerate() {
+            let vr = match array {
+                Array::States => decl.states[i].value,
+                Array::Derivatives => decl.states[i].derivative,
+                Array::EventIndicators => decl.event_indicators[i],
+                Array::Nominals => {
+                    *out = decl.states[i].nominal;
+                    continue;
+                }
+            };
+            match inst.model.get_real(vr) {
+                Ok(v) => *out = v,
+                Err(why) => return inst.refuse(func, format_args!("{why}")),
+            }
+        }
+        OK
+    })
+}
+
+/// FMI 3.0's `fmi3GetNumberOf*`.
+pub unsafe fn get_count<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    array: Array,
+    out: *mut usize,
+) -> Status {
+    with_me::<S, M>(c, func, LIVE, |inst| {
+        if out.is_null() {
+            return inst.refuse(func, format_args!("the count's pointer is NULL"));
+        }
+        *out = array.len::<M>();
+        OK
+    })
+}
+
+pub unsafe fn set_time<S: Standard, M: Model>(c: *mut c_void, func: &str, t: f64) -> Status {
+    with_me::<S, M>(c, func, TIMED, |inst| {
+        if !t.is_finite() {
+            return inst.refuse(func, format_args!("time {t} is not finite"));
+        }
+        inst.time = t;
+        OK
+    })
+}
+
+/// The integrator's states: all finite or none taken, so a diverging integrator leaves
+/// the model at its last consistent states (the rule of NaN inputs).
+pub unsafe fn set_continuous_states<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    (x, n): (*const f64, usize),
+) -> Status {
+    with_me::<S, M>(c, func, CONTINUOUS_TIME, |inst| {
+        if let Err(s) = check_len(inst, func, Array::States, n) {
+            return s;
+        }
+        let Some(x) = slice(x, n) else {
+            return inst.refuse(func, format_args!("the array of continuous states is NULL"));
+        };
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            let name = inst.variable(me::<M>().states[i].value).map_or("?", |v| v.0.name);
+            let why = format_args!(
+                "state {i} ({name}) = {} refused: continuous states must be finite; keeping all",
+                x[i]
+            );
+            return inst.refuse(func, why);
+        }
+        match inst.model.set_continuous_states(x) {
+            Ok(()) => OK,
+            Err(why) => inst.refuse(func, format_args!("{why}")),
+        }
+    })
+}
+
+pub unsafe fn enter_event_mode<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
+    with_me::<S, M>(c, func, TIMED, |inst| {
+        inst.state = State::EventMode;
+        OK
+    })
+}
+
+pub unsafe fn enter_continuous_time_mode<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+) -> Status {
+    with_me::<S, M>(c, func, EVENT_MODE, |inst| {
+        inst.state = State::ContinuousTimeMode;
+        OK
+    })
+}
+
+/// The model has no step events and never ends the simulation: both flags false.
+pub unsafe fn completed_integrator_step<S: Standard, M: Model, B: Copy>(
+    c: *mut c_void,
+    func: &str,
+    (enter_event_mode, terminate): (*mut B, *mut B),
+    no: B,
+) -> Status {
+    with_me::<S, M>(c, func, CONTINUOUS_TIME, |inst| {
+        if enter_event_mode.is_null() || terminate.is_null() {
+            let why = "enterEventMode or terminateSimulation is NULL";
+            return inst.refuse(func, format_args!("{why}"));
+        }
+        (*enter_event_mode, *terminate) = (no, no);
+        OK
+    })
+}
+
+/// Where a standard wants the outcome of one event-mode update: FMI 2.0's
+/// `fmi2EventInfo`, FMI 3.0's six pointers.
+pub trait EventSink {
+    fn any_null(&self) -> bool;
+    /// Writes the update; `terminate` is true only when the model failed.
+    ///
+    /// # Safety
+    /// [`EventSink::any_null`] is false.
+    unsafe fn write(&self, u: &EventUpdate, terminate: bool);
+}
+
+/// One pass of the event iteration at the instance's time. The model reaches its fixed
+/// point in one update, so the master is never asked for another.
+pub unsafe fn update_discrete_states<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    out: impl EventSink,
+) -> Status {
+    with_me::<S, M>(c, func, EVENT_MODE, |inst| {
+        if out.any_null() {
+            return inst.refuse(func, format_args!("an argument for the event's outcome is NULL"));
+        }
+        let t = inst.time;
+        match inst.with_step_log(|model, log| model.update_discrete_states(t, log)) {
+            Ok(update) => {
+                out.write(&update, false);
+                inst.report_step_log(func)
+            }
+            Err(why) => {
+                inst.state = State::Error;
+                out.write(&EventUpdate::default(), true);
+                inst.refuse(func, format_args!("{why}"))
+            }
+        }
+    })
+}
+
+/// `GetDirectionalDerivative(s)`: `sensitivity = J seed` over the given unknowns and
+/// knowns, from the model's exact partial derivatives.
+pub unsafe fn directional_derivative<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    (unknowns, nu): (*const u32, usize),
+    (knowns, nk): (*const u32, usize),
+    (seed, ns): (*const f64, usize),
+    (out, no): (*mut f64, usize),
+) -> Status {
+    with_instance::<S, M>(c, func, GETTABLE, |inst| {
+        if !M::model_exchange().is_some_and(|me| me.directional_derivatives) {
+            let why = format_args!("not supported: {}", S::NO_DIRECTIONAL_DERIVATIVES);
+            return inst.refuse(func, why);
+        }
+        if ns != nk || no != nu {
+            let why = format_args!("{ns} seeds for {nk} knowns, {no} sensitivities for {nu} unknowns (every variable of this FMU is a scalar)");
+            return inst.refuse(func, why);
+        }
+        let (Some(u), Some(k), Some(seed), Some(out)) =
+            (slice(unknowns, nu), slice(knowns, nk), slice(seed, ns), slice_mut(out, no))
+        else {
+            return inst.refuse(func, format_args!("an array argument is NULL"));
+        };
+        for &vr in u.iter().chain(k) {
+            if let Err(why) = inst.lookup(vr, Kind::Real) {
+                return inst.refuse(func, format_args!("{why}"));
+            }
+        }
+        if let Some(s) = seed.iter().find(|s| !s.is_finite()) {
+            return inst.refuse(func, format_args!("seed {s} is not finite"));
+        }
+        match inst.model.directional_derivative(u, k, seed, out) {
+            Ok(()) => OK,
+            Err(why) => inst.refuse(func, format_args!("{why}")),
+        }
     })
 }

@@ -43,6 +43,7 @@ macro_rules! export_fmi2 {
             #![allow(non_snake_case, clippy::missing_safety_doc, clippy::too_many_arguments)]
             use super::*;
             use $crate::api as __api;
+            use $crate::api::fmi2EventInfo;
             use $crate::ffi::*;
             type M = $model;
 

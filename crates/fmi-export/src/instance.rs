@@ -32,8 +32,11 @@ const _: () = {
 /// each so that every entry point names the states it is allowed in as a mask. FMI 3.0
 /// Co-Simulation without event mode (section 4.2) is the same machine with fewer states:
 /// its Step Mode is StepComplete, and it never enters StepInProgress, StepFailed or
-/// StepCanceled ([`Standard::STATES`]). The codes are also those of the serialized-state
-/// frame, so a blob saved through one standard restores through the other.
+/// StepCanceled ([`Standard::STATES`]). Model Exchange (FMI 2.0 section 3.2.3, FMI 3.0
+/// section 3.2) shares Instantiated, InitializationMode, Terminated, Error and Fatal and
+/// adds EventMode and ContinuousTimeMode; which states an instance may be in is its
+/// [`Interface`]'s. The codes are also those of the serialized-state frame, so a blob
+/// saved through one standard restores through the other.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
 pub enum State {
@@ -46,6 +49,8 @@ pub enum State {
     Terminated = 1 << 6,
     Error = 1 << 7,
     Fatal = 1 << 8,
+    EventMode = 1 << 9,
+    ContinuousTimeMode = 1 << 10,
 }
 
 impl State {
@@ -61,6 +66,40 @@ impl State {
             State::Terminated => "Terminated",
             State::Error => "Error",
             State::Fatal => "Fatal",
+            State::EventMode => "EventMode",
+            State::ContinuousTimeMode => "ContinuousTimeMode",
+        }
+    }
+}
+
+/// The interface an instance was instantiated for: one model, one core, two sets of
+/// states and calls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interface {
+    CoSimulation,
+    ModelExchange,
+}
+
+impl Interface {
+    /// The states an instance of this interface can be in, so that a saved state of the
+    /// other interface is refused rather than restored into a state machine without it.
+    pub fn states(self) -> u16 {
+        let only_other = match self {
+            Interface::CoSimulation => State::EventMode as u16 | State::ContinuousTimeMode as u16,
+            Interface::ModelExchange => {
+                State::StepComplete as u16
+                    | State::StepInProgress as u16
+                    | State::StepFailed as u16
+                    | State::StepCanceled as u16
+            }
+        };
+        crate::entry::ALL_STATES & !only_other
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "Co-Simulation",
+            Interface::ModelExchange => "Model Exchange",
         }
     }
 }
@@ -222,6 +261,7 @@ pub struct Instance<S: Standard, M: Model> {
     pub magic: u64,
     pub name: CString,
     pub callbacks: S::Callbacks,
+    pub interface: Interface,
     /// Categories whose debug messages (status OK) reach the logger.
     pub categories: Categories,
     pub state: State,
@@ -235,26 +275,72 @@ pub struct Instance<S: Standard, M: Model> {
     pub snapshots: Vec<*mut Snapshot<M>>,
     /// Reused by every step, so reporting nothing allocates nothing.
     pub step_log: StepLog,
-    /// The standard's variables sorted by value reference, each with its table rows
-    /// (first, count: more than one for an FMI 3.0 array): a lookup per value without a
-    /// scan of the table.
-    index: Box<[(u32, u32, u32)]>,
+    /// The standard's variables by value reference, each with its table rows (first,
+    /// count: more than one for an FMI 3.0 array).
+    index: Index,
+}
+
+/// Value reference → the variable's table rows. The models number their variables
+/// densely, so a lookup is one load; a sparse numbering, which a direct table would make
+/// large, is searched by binary search.
+enum Index {
+    /// (first row + 1, count) at the reference, (0, 0) where there is none.
+    Direct(Box<[(u32, u32)]>),
+    /// (reference, first row, count), sorted.
+    Sorted(Box<[(u32, u32, u32)]>),
+}
+
+impl Index {
+    /// The index of the variables `(reference, first row, count)`.
+    fn new(entries: impl Iterator<Item = (u32, u32, u32)>) -> Index {
+        let mut sorted: Vec<(u32, u32, u32)> = entries.collect();
+        sorted.sort_unstable();
+        let top = sorted.last().map_or(0, |e| e.0 as usize);
+        if top <= 4 * sorted.len() + 64 {
+            let mut direct = vec![(0u32, 0u32); top + 1];
+            for &(vr, first, len) in &sorted {
+                direct[vr as usize] = (first + 1, len);
+            }
+            Index::Direct(direct.into_boxed_slice())
+        } else {
+            Index::Sorted(sorted.into_boxed_slice())
+        }
+    }
+
+    /// The first row and the count of the variable behind `vr`.
+    fn rows(&self, vr: u32) -> Option<(usize, usize)> {
+        match self {
+            Index::Direct(d) => {
+                let &(first, len) = d.get(vr as usize)?;
+                Some(((first as usize).checked_sub(1)?, len as usize))
+            }
+            Index::Sorted(s) => {
+                let (_, first, len) = s[s.binary_search_by_key(&vr, |e| e.0).ok()?];
+                Some((first as usize, len as usize))
+            }
+        }
+    }
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
-    pub fn new(name: CString, callbacks: S::Callbacks, logging_on: bool) -> Self {
+    pub fn new(
+        name: CString,
+        callbacks: S::Callbacks,
+        interface: Interface,
+        logging_on: bool,
+    ) -> Self {
         let vars = M::variables();
         let entries = match S::ARRAYS {
             true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
             false => arrays::scalar_entries(vars),
         };
-        let mut index: Vec<(u32, u32, u32)> =
-            entries.iter().map(|e| (vars[e.first].vr, e.first as u32, e.len as u32)).collect();
-        index.sort_unstable();
+        let index =
+            Index::new(entries.iter().map(|e| (vars[e.first].vr, e.first as u32, e.len as u32)));
         Instance {
             magic: S::MAGIC,
             name,
             callbacks,
+            interface,
             categories: if logging_on { Categories::ALL } else { Categories::NONE },
             state: State::Instantiated,
             model: M::new(),
@@ -264,7 +350,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             last_step_status: OK,
             snapshots: Vec::new(),
             step_log: StepLog::default(),
-            index: index.into_boxed_slice(),
+            index,
         }
     }
 
@@ -292,9 +378,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
     /// The table rows of the variable behind `vr`: the first (an array's first
     /// element) and how many.
     pub fn rows(&self, vr: u32) -> Option<(usize, usize)> {
-        let i = self.index.binary_search_by_key(&vr, |e| e.0).ok()?;
-        let (_, first, len) = self.index[i];
-        Some((first as usize, len as usize))
+        self.index.rows(vr)
     }
 
     /// The variable behind `vr` (an array's first element) and how many values it has.
@@ -343,7 +427,7 @@ pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> &str {
 
 #[cfg(test)]
 mod tests {
-    use super::Clip;
+    use super::{Clip, Index};
 
     #[test]
     fn long_strings_from_outside_are_cut() {
@@ -351,5 +435,35 @@ mod tests {
         let long = "é".repeat(200);
         let cut = Clip(&long).to_string();
         assert_eq!(cut, format!("{}… (400 bytes)", "é".repeat(Clip::MAX)));
+    }
+
+    /// Both forms find every reference's rows, and nothing in a hole or past the end.
+    #[test]
+    fn dense_and_sparse_references_find_their_rows() {
+        // (reference, first row, count): an array of three among scalars.
+        let rows = |refs: &[u32]| -> Vec<(u32, u32, u32)> {
+            let mut first = 0;
+            refs.iter()
+                .enumerate()
+                .map(|(i, &vr)| {
+                    let len = if i == 1 { 3 } else { 1 };
+                    first += len;
+                    (vr, first - len, len)
+                })
+                .collect()
+        };
+        let dense = rows(&[7, 1, 2, 3, 10, 4]);
+        let sparse = rows(&[7, 1, 1_000_000, 3, 70_000]);
+        let (d, s) = (Index::new(dense.iter().copied()), Index::new(sparse.iter().copied()));
+        assert!(matches!(d, Index::Direct(_)));
+        assert!(matches!(s, Index::Sorted(_)));
+        for (index, entries) in [(&d, &dense), (&s, &sparse)] {
+            for &(vr, first, len) in entries {
+                assert_eq!(index.rows(vr), Some((first as usize, len as usize)), "reference {vr}");
+            }
+            for vr in [0, 5, 6, 8, 11, 69_999, 1_000_001, u32::MAX] {
+                assert_eq!(index.rows(vr), None, "reference {vr}");
+            }
+        }
     }
 }

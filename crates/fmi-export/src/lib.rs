@@ -26,7 +26,7 @@ mod table;
 pub mod testing;
 
 pub use inchworm_state_bytes::{Reader, Writer};
-pub use instance::{Clip, Facts, LogCategory, Standard, State};
+pub use instance::{Clip, Facts, Interface, LogCategory, Standard, State};
 pub use table::{
     Admission, Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording,
 };
@@ -81,9 +81,41 @@ impl StepLog {
     }
 }
 
-/// A simulation model exported as an FMI 2.0 or 3.0 Co-Simulation FMU. (Model Exchange,
-/// when it comes, adds defaulted methods here: continuous states, their derivatives,
-/// event indicators.)
+/// One continuous state of a Model Exchange interface: the variable that holds it, the
+/// variable that holds its derivative (both Reals of the table, read through
+/// [`Model::get_real`]), and the magnitude the integrator scales its error by.
+#[derive(Clone, Copy, Debug)]
+pub struct ContinuousState {
+    pub value: u32,
+    pub derivative: u32,
+    pub nominal: f64,
+}
+
+/// What a model adds for Model Exchange: its continuous states and its event indicators
+/// (Reals of the table whose sign changes are the state events). The layer reads them by
+/// value reference, so the XML's `derivative=` attributes, `<Derivatives>` and
+/// `<EventIndicator>` lists and the C arrays all come from this one declaration.
+#[derive(Clone, Copy, Debug)]
+pub struct ModelExchange {
+    pub states: &'static [ContinuousState],
+    pub event_indicators: &'static [u32],
+    /// The model computes exact directional derivatives
+    /// ([`Model::directional_derivative`]), for both interfaces.
+    pub directional_derivatives: bool,
+}
+
+/// What one event-mode update tells the master.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventUpdate {
+    /// A jump: the integrator must restart from the states it reads back.
+    pub states_changed: bool,
+    /// The next time event, if the model has one scheduled.
+    pub next_event_time: Option<f64>,
+}
+
+/// A simulation model exported as an FMI 2.0 or 3.0 FMU: Co-Simulation always, and Model
+/// Exchange when [`Model::model_exchange`] declares its states (the methods after it have
+/// defaults for a model without).
 ///
 /// The export layer has already checked every value reference against [`Model::variables`]
 /// (it exists, has the right type, may be set in the current state) before a getter or
@@ -128,4 +160,42 @@ pub trait Model: Clone + Send + 'static {
     /// Restores what [`Model::save_state`] wrote, into a fresh model whose parameters the
     /// layer has already restored; on error the layer discards the model.
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+
+    /// The Model Exchange interface; `None` (the default): Co-Simulation only, and the XML
+    /// has no `<ModelExchange>`.
+    fn model_exchange() -> Option<&'static ModelExchange> {
+        None
+    }
+
+    /// Sets the continuous states, in the order of [`ModelExchange::states`], from the
+    /// master's integrator (finite, checked by the layer).
+    fn set_continuous_states(&mut self, _x: &[f64]) -> Result<(), String> {
+        Err("this model has no continuous states".into())
+    }
+
+    /// Event mode at time `t`: the discrete-time equations and the jumps. Called once per
+    /// `NewDiscreteStates`/`UpdateDiscreteStates`; a model whose one update reaches the
+    /// fixed point of its event iteration never asks for another. An `Err` moves the
+    /// instance to Error, as a failed step does.
+    fn update_discrete_states(
+        &mut self,
+        _t: f64,
+        _log: &mut StepLog,
+    ) -> Result<EventUpdate, String> {
+        Err("this model has no Model Exchange interface".into())
+    }
+
+    /// `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` at the current state, for a model
+    /// whose [`ModelExchange::directional_derivatives`] is true. The layer has checked that
+    /// every reference is a Real of the table and every seed finite; a pair the model has
+    /// no derivative for is an `Err` naming it.
+    fn directional_derivative(
+        &self,
+        _unknowns: &[u32],
+        _knowns: &[u32],
+        _seed: &[f64],
+        _out: &mut [f64],
+    ) -> Result<(), String> {
+        Err("this model provides no directional derivatives".into())
+    }
 }

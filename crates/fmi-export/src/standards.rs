@@ -52,6 +52,8 @@ facts! {
     VALUE_ARGS: &'static str = "vr or value", "valueReferences or values";
     /// How it calls the token checked at instantiation.
     TOKEN_ARG: &'static str = "fmuGUID", "instantiationToken";
+    /// Why `Get*DirectionalDerivative` is refused by a model without them.
+    NO_DIRECTIONAL_DERIVATIVES: &'static str = "providesDirectionalDerivative is false (estimate derivatives by finite differences over fmi2GetFMUstate and fmi2SetFMUstate)", "providesDirectionalDerivatives is false (estimate derivatives by finite differences over fmi3GetFMUState and fmi3SetFMUState)";
     /// How it spells an FMU state.
     FMU_STATE: &'static str = "FMUstate", "FMUState";
 }

@@ -80,6 +80,8 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
         s if s == State::StepFailed as u16 => State::StepFailed,
         s if s == State::StepCanceled as u16 => State::StepCanceled,
         s if s == State::Terminated as u16 => State::Terminated,
+        s if s == State::EventMode as u16 => State::EventMode,
+        s if s == State::ContinuousTimeMode as u16 => State::ContinuousTimeMode,
         s => return Err(format!("serialized state has an invalid FMI state {s}")),
     };
     let time = f64_at(take(8)?);

@@ -206,6 +206,18 @@ impl Variable {
         Variable::new(name, vr, kind, role, Start::None, unit, description)
     }
 
+    /// A Real the model computes for Model Exchange (a state derivative, an event
+    /// indicator): local, continuous, calculated.
+    pub const fn local(
+        name: &'static str,
+        vr: u32,
+        unit: Option<&'static str>,
+        description: &'static str,
+    ) -> Self {
+        let role = (Causality::Local, Variability::Continuous, Some(Initial::Calculated));
+        Variable::new(name, vr, Kind::Real, role, Start::None, unit, description)
+    }
+
     /// Piecewise constant: changes only at communication points.
     pub const fn discrete(mut self) -> Self {
         self.variability = Variability::Discrete;

@@ -12,12 +12,13 @@ use std::ffi::{c_char, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::sync::Mutex;
 
-use crate::api::{self, Fmi2};
+use crate::api::{self, fmi2EventInfo, Fmi2};
+use crate::entry::Array;
 use crate::ffi::*;
 use crate::fmi3::api::{self as api3, Fmi3};
-use crate::instance::{Standard, Status};
+use crate::instance::{Interface, Standard, Status};
 use crate::model_description::guid;
-use crate::{state_blob, Model};
+use crate::{state_blob, EventUpdate, Model};
 
 /// Messages logged, as "status|category|message".
 pub struct Log(pub Mutex<Vec<String>>);
@@ -93,14 +94,31 @@ pub trait Master: Standard {
     const DESERIALIZE: &'static str;
     const SET_DEBUG_LOGGING: &'static str;
     const INSTANTIATE: &'static str;
+    const SET_STATES: &'static str;
+    const UPDATE: &'static str;
 
-    /// Instantiates, or NULL.
+    /// Instantiates for `interface`, or NULL.
     unsafe fn instantiate<M: Model>(
+        interface: Interface,
         name: &CStr,
         token: &CStr,
         log: &Log,
         on: bool,
     ) -> (C, Self::Keep);
+    /// One Model Exchange array of `n` values.
+    unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status;
+    /// `NewDiscreteStates`/`UpdateDiscreteStates`: the update and `terminateSimulation`.
+    unsafe fn update<M: Model>(c: C) -> (Status, EventUpdate, bool);
+    /// `CompletedIntegratorStep`: `enterEventMode` and `terminateSimulation`.
+    unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]);
+    /// `Get*DirectionalDerivative(s)` with one value per reference.
+    unsafe fn directional<M: Model>(
+        c: C,
+        u: &[u32],
+        k: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Status;
     unsafe fn free<M: Model>(c: C);
     /// FMI 2.0's `fmi2SetupExperiment`; FMI 3.0 passes the experiment to `enter`, so the
     /// harness keeps it until then.
@@ -131,6 +149,10 @@ pub trait Master: Standard {
     unsafe fn state_size<M: Model>(c: C, s: C, size: *mut usize) -> Status;
     unsafe fn serialize<M: Model>(c: C, s: C, b: *mut u8, size: usize) -> Status;
     unsafe fn deserialize<M: Model>(c: C, b: *const u8, size: usize, s: *mut C) -> Status;
+    unsafe fn set_time<M: Model>(c: C, t: f64) -> Status;
+    unsafe fn set_states<M: Model>(c: C, x: *const f64, n: usize) -> Status;
+    unsafe fn enter_event_mode<M: Model>(c: C) -> Status;
+    unsafe fn enter_continuous_time_mode<M: Model>(c: C) -> Status;
 }
 
 const fn b2(b: bool) -> fmi2Boolean {
@@ -168,14 +190,45 @@ masters! {
         DESERIALIZE = "fmi2DeSerializeFMUstate" | "fmi3DeserializeFMUState";
         SET_DEBUG_LOGGING = "fmi2SetDebugLogging" | "fmi3SetDebugLogging";
         INSTANTIATE = "fmi2Instantiate" | "fmi3InstantiateCoSimulation";
+        SET_STATES = "fmi2SetContinuousStates" | "fmi3SetContinuousStates";
+        UPDATE = "fmi2NewDiscreteStates" | "fmi3UpdateDiscreteStates";
     }
     Fmi2(api) {
         type Keep = Box<fmi2CallbackFunctions>;
 
-        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, Self::Keep) {
+        unsafe fn instantiate<M: Model>(interface: Interface, name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, Self::Keep) {
             let f = Box::new(callbacks(log));
-            let c = api::fmi2Instantiate::<M>(name.as_ptr(), fmi2CoSimulation, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
+            let ty = match interface {
+                Interface::CoSimulation => fmi2CoSimulation,
+                Interface::ModelExchange => fmi2ModelExchange,
+            };
+            let c = api::fmi2Instantiate::<M>(name.as_ptr(), ty, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
             (c, f)
+        }
+        unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
+            match array {
+                Array::States => api::fmi2GetContinuousStates::<M>(c, out, n),
+                Array::Derivatives => api::fmi2GetDerivatives::<M>(c, out, n),
+                Array::EventIndicators => api::fmi2GetEventIndicators::<M>(c, out, n),
+                Array::Nominals => api::fmi2GetNominalsOfContinuousStates::<M>(c, out, n),
+            }
+        }
+        unsafe fn update<M: Model>(c: C) -> (Status, EventUpdate, bool) {
+            let mut info = fmi2EventInfo { newDiscreteStatesNeeded: 7, ..Default::default() };
+            let s = api::fmi2NewDiscreteStates::<M>(c, &mut info);
+            assert!(info.newDiscreteStatesNeeded == fmi2False || s != 0, "one update reaches the fixed point");
+            let next = (info.nextEventTimeDefined != fmi2False).then_some(info.nextEventTime);
+            let u = EventUpdate { states_changed: info.valuesOfContinuousStatesChanged != fmi2False, next_event_time: next };
+            (s, u, info.terminateSimulation != fmi2False)
+        }
+        unsafe fn directional<M: Model>(c: C, u: &[u32], k: &[u32], seed: &[f64], out: &mut [f64]) -> Status {
+            assert_eq!((k.len(), u.len()), (seed.len(), out.len()), "FMI 2.0 has no separate counts");
+            api::fmi2GetDirectionalDerivative::<M>(c, u.as_ptr(), u.len(), k.as_ptr(), k.len(), seed.as_ptr(), out.as_mut_ptr())
+        }
+        unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]) {
+            let (mut ev, mut term) = (7, 7);
+            let s = api::fmi2CompletedIntegratorStep::<M>(c, fmi2True, &mut ev, &mut term);
+            (s, [ev != fmi2False, term != fmi2False])
         }
         unsafe fn setup<M: Model>(c: C, start: f64, stop: Option<f64>) -> Status {
             api::fmi2SetupExperiment::<M>(c, fmi2False, 0.0, start, b2(stop.is_some()), stop.unwrap_or(0.0))
@@ -223,11 +276,36 @@ masters! {
     Fmi3(api3) {
         type Keep = ();
 
-        unsafe fn instantiate<M: Model>(name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
+        unsafe fn instantiate<M: Model>(interface: Interface, name: &CStr, token: &CStr, log: &Log, on: bool) -> (C, ()) {
             let (env, logger) = crate::fmi3::testing::log_callback(log);
             let (res, required) = (std::ptr::null(), std::ptr::null());
-            let c = api3::fmi3InstantiateCoSimulation::<M>(name.as_ptr(), token.as_ptr(), res, false, on, false, false, required, 0, env, logger, None);
+            let c = match interface {
+                Interface::CoSimulation => api3::fmi3InstantiateCoSimulation::<M>(name.as_ptr(), token.as_ptr(), res, false, on, false, false, required, 0, env, logger, None),
+                Interface::ModelExchange => api3::fmi3InstantiateModelExchange::<M>(name.as_ptr(), token.as_ptr(), res, false, on, env, logger),
+            };
             (c, ())
+        }
+        unsafe fn continuous_array<M: Model>(c: C, array: Array, out: *mut f64, n: usize) -> Status {
+            match array {
+                Array::States => api3::fmi3GetContinuousStates::<M>(c, out, n),
+                Array::Derivatives => api3::fmi3GetContinuousStateDerivatives::<M>(c, out, n),
+                Array::EventIndicators => api3::fmi3GetEventIndicators::<M>(c, out, n),
+                Array::Nominals => api3::fmi3GetNominalsOfContinuousStates::<M>(c, out, n),
+            }
+        }
+        unsafe fn update<M: Model>(c: C) -> (Status, EventUpdate, bool) {
+            let (mut need, mut term, mut nominals, mut values, mut defined, mut next) = (true, true, true, true, true, f64::NAN);
+            let s = api3::fmi3UpdateDiscreteStates::<M>(c, &mut need, &mut term, &mut nominals, &mut values, &mut defined, &mut next);
+            assert!(!need && !nominals || s != 0, "one update reaches the fixed point; nominals are constants");
+            (s, EventUpdate { states_changed: values, next_event_time: defined.then_some(next) }, term)
+        }
+        unsafe fn directional<M: Model>(c: C, u: &[u32], k: &[u32], seed: &[f64], out: &mut [f64]) -> Status {
+            api3::fmi3GetDirectionalDerivative::<M>(c, u.as_ptr(), u.len(), k.as_ptr(), k.len(), seed.as_ptr(), seed.len(), out.as_mut_ptr(), out.len())
+        }
+        unsafe fn completed_step<M: Model>(c: C) -> (Status, [bool; 2]) {
+            let (mut ev, mut term) = (true, true);
+            let s = api3::fmi3CompletedIntegratorStep::<M>(c, true, &mut ev, &mut term);
+            (s, [ev, term])
         }
         // FMI 3.0 takes the experiment at `enter`.
         unsafe fn setup<M: Model>(_: C, _: f64, _: Option<f64>) -> Status {
@@ -281,6 +359,10 @@ masters! {
     set_state(c: C, s: C) -> Status = fmi2SetFMUstate | fmi3SetFMUState;
     free_state(c: C, s: *mut C) -> Status = fmi2FreeFMUstate | fmi3FreeFMUState;
     state_size(c: C, s: C, size: *mut usize) -> Status = fmi2SerializedFMUstateSize | fmi3SerializedFMUStateSize;
+    set_time(c: C, t: f64) -> Status = fmi2SetTime | fmi3SetTime;
+    set_states(c: C, x: *const f64, n: usize) -> Status = fmi2SetContinuousStates | fmi3SetContinuousStates;
+    enter_event_mode(c: C) -> Status = fmi2EnterEventMode | fmi3EnterEventMode;
+    enter_continuous_time_mode(c: C) -> Status = fmi2EnterContinuousTimeMode | fmi3EnterContinuousTimeMode;
 }
 
 /// One instance of `M` under standard `S` (FMI 2.0 unless named).
@@ -312,9 +394,34 @@ impl<M: Model, S: Master> Harness<M, S> {
 
     /// Instantiates with `token`: the harness, or what was logged instead.
     pub fn try_with_token(name: &str, token: &CStr, logging_on: bool) -> Result<Self, Vec<String>> {
+        Self::try_interface(Interface::CoSimulation, name, token, logging_on)
+    }
+
+    /// A Model Exchange instance in state Instantiated.
+    pub fn new_me(name: &str) -> Self {
+        let token = CString::new(guid::<M>()).unwrap();
+        Self::try_interface(Interface::ModelExchange, name, &token, false)
+            .unwrap_or_else(|log| panic!("instantiation failed: {log:?}"))
+    }
+
+    /// A Model Exchange instance in Event Mode at t = 0, right after initialization.
+    pub fn init_me(name: &str) -> Self {
+        let h = Self::new_me(name);
+        assert_eq!((h.setup(), h.enter()), (0, 0));
+        assert_eq!(h.exit(), 0, "{:?}", h.logged());
+        h
+    }
+
+    /// Instantiates `interface` with `token`: the harness, or what was logged instead.
+    pub fn try_interface(
+        interface: Interface,
+        name: &str,
+        token: &CStr,
+        logging_on: bool,
+    ) -> Result<Self, Vec<String>> {
         let log = Box::new(Log(Mutex::new(Vec::new())));
         let cname = CString::new(name).unwrap();
-        let (c, keep) = unsafe { S::instantiate::<M>(&cname, token, &log, logging_on) };
+        let (c, keep) = unsafe { S::instantiate::<M>(interface, &cname, token, &log, logging_on) };
         if c.is_null() {
             return Err(log.0.lock().unwrap().clone());
         }
@@ -384,6 +491,42 @@ impl<M: Model, S: Master> Harness<M, S> {
     }
     pub fn step(&self, t: f64, h: f64) -> Status {
         unsafe { S::step::<M>(self.c, t, h) }
+    }
+
+    /// One Model Exchange array: the status and the values (NaN where none was written).
+    pub fn array(&self, array: Array, n: usize) -> (Status, Vec<f64>) {
+        let mut v = vec![f64::NAN; n];
+        (unsafe { S::continuous_array::<M>(self.c, array, v.as_mut_ptr(), n) }, v)
+    }
+    /// `J seed` over `unknowns` and `knowns`: the status and the sensitivities.
+    pub fn directional(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+    ) -> (Status, Vec<f64>) {
+        let mut out = vec![f64::NAN; unknowns.len()];
+        (unsafe { S::directional::<M>(self.c, unknowns, knowns, seed, &mut out) }, out)
+    }
+    pub fn set_time(&self, t: f64) -> Status {
+        unsafe { S::set_time::<M>(self.c, t) }
+    }
+    pub fn set_states(&self, x: &[f64]) -> Status {
+        unsafe { S::set_states::<M>(self.c, x.as_ptr(), x.len()) }
+    }
+    pub fn enter_event_mode(&self) -> Status {
+        unsafe { S::enter_event_mode::<M>(self.c) }
+    }
+    pub fn enter_continuous_time_mode(&self) -> Status {
+        unsafe { S::enter_continuous_time_mode::<M>(self.c) }
+    }
+    /// One event-mode update: status, what it says, `terminateSimulation`.
+    pub fn update(&self) -> (Status, EventUpdate, bool) {
+        unsafe { S::update::<M>(self.c) }
+    }
+    /// `CompletedIntegratorStep`: status, `[enterEventMode, terminateSimulation]`.
+    pub fn completed_step(&self) -> (Status, [bool; 2]) {
+        unsafe { S::completed_step::<M>(self.c) }
     }
 
     pub fn logged(&self) -> Vec<String> {

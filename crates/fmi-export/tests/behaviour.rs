@@ -4,6 +4,7 @@
 //! round trips, corrupt and forged blobs, the Error and Fatal states, long strings from
 //! outside, and threads. What only one standard has is at the end.
 
+#[macro_use]
 mod toy;
 
 use std::ffi::{c_void, CString};
@@ -21,14 +22,6 @@ const WARNING: i32 = 1;
 const ERROR: i32 = 3;
 const FATAL: i32 = 4;
 const DT: f64 = 0.01;
-
-/// Each generic test below, once per standard.
-macro_rules! for_both {
-    ($($test:ident),* $(,)?) => {
-        mod fmi2 { $( #[test] fn $test() { super::$test::<super::Fmi2>() } )* }
-        mod fmi3 { $( #[test] fn $test() { super::$test::<super::Fmi3>() } )* }
-    };
-}
 
 for_both!(
     calls_out_of_order_are_refused_and_logged,
@@ -495,18 +488,13 @@ fn fmi2_instantiate_refuses_model_exchange_a_wrong_guid_and_no_name() {
     let log = inchworm_fmi_export::testing::Log(Default::default());
     let f = inchworm_fmi_export::testing::callbacks(&log);
     let guid = CString::new(model_description::guid::<Toy>()).unwrap();
+    let cs_guid = CString::new(model_description::guid::<CsToy>()).unwrap();
     let null = std::ptr::null();
     unsafe {
-        assert!(fmi2Instantiate::<Toy>(
-            c"x".as_ptr(),
-            fmi2ModelExchange,
-            guid.as_ptr(),
-            null,
-            &f,
-            0,
-            0
-        )
-        .is_null());
+        let x = c"x".as_ptr();
+        assert!(fmi2Instantiate::<CsToy>(x, fmi2ModelExchange, cs_guid.as_ptr(), null, &f, 0, 0)
+            .is_null());
+        assert!(fmi2Instantiate::<Toy>(x, 2, guid.as_ptr(), null, &f, 0, 0).is_null());
         assert!(fmi2Instantiate::<Toy>(
             c"x".as_ptr(),
             fmi2CoSimulation,
@@ -535,7 +523,8 @@ fn fmi2_instantiate_refuses_model_exchange_a_wrong_guid_and_no_name() {
     assert_eq!(
         *log.0.lock().unwrap(),
         [
-            "3|logStatusError|fmi2Instantiate: this FMU implements Co-Simulation only (fmuType must be fmi2CoSimulation)".to_string(),
+            "3|logStatusError|fmi2Instantiate: not supported: this FMU implements Co-Simulation only".to_string(),
+            "3|logStatusError|fmi2Instantiate: fmuType is neither fmi2ModelExchange (0) nor fmi2CoSimulation (1)".to_string(),
             format!("3|logStatusError|fmi2Instantiate: fmuGUID \"{{wrong}}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"),
             "3|logStatusError|fmi2Instantiate: instanceName is NULL or empty".to_string(),
         ]
@@ -594,9 +583,17 @@ fn fmi3_instantiate_checks_interface_token_and_event_mode() {
     let (n, t, null) = (c"me".as_ptr(), token.as_ptr(), std::ptr::null());
     let vr = [1u32];
     unsafe {
-        assert!(
-            fmi3InstantiateModelExchange::<Toy>(n, t, null, false, false, env, logger).is_null()
+        let cs_token = CString::new(model_description::guid::<CsToy>()).unwrap();
+        let cs_only = fmi3InstantiateModelExchange::<CsToy>(
+            n,
+            cs_token.as_ptr(),
+            null,
+            false,
+            false,
+            env,
+            logger,
         );
+        assert!(cs_only.is_null());
         assert!(fmi3InstantiateScheduledExecution::<Toy>(
             n, t, null, false, false, env, logger, None, None, None
         )
@@ -651,7 +648,7 @@ fn fmi3_instantiate_checks_interface_token_and_event_mode() {
         *log.0.lock().unwrap(),
         [
             "3|logStatusError|me: fmi3InstantiateModelExchange: not supported: this FMU implements Co-Simulation only",
-            "3|logStatusError|me: fmi3InstantiateScheduledExecution: not supported: this FMU implements Co-Simulation only",
+            "3|logStatusError|me: fmi3InstantiateScheduledExecution: not supported: this FMU has no Scheduled Execution interface",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: eventModeUsed requested, but this FMU has no event mode (hasEventMode=\"false\")",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: requiredIntermediateVariables given, but this FMU provides no intermediate updates",
             "3|logStatusError|me: fmi3InstantiateCoSimulation: instantiationToken is NULL",
@@ -718,8 +715,8 @@ fn fmi3_time_do_step_results_counts_and_absent_types() {
         "nValues 2 differs from the 1 values of the 1 value references",
         "value reference 11 (steps) is Int32, not UInt8",
         "value reference 0 (time) is Float64, not Int8",
-        "fmi3EnterEventMode: not supported: hasEventMode is false",
-        "fmi3SetTime: not supported: this FMU implements Co-Simulation only (no Model Exchange)",
+        "fmi3EnterEventMode: not supported: a Co-Simulation instance has no event mode",
+        "fmi3SetTime: not supported: a Co-Simulation instance has no event mode",
     ] {
         assert!(h.saw(ERROR, &[part]), "{part}: {:?}", h.logged());
     }

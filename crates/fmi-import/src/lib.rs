@@ -100,6 +100,9 @@ pub struct CsFmu {
     next_state: u64,
     /// The handles of FMI 3.0 array elements ([`ArrayElement`]), by handle.
     elements: HashMap<u32, ArrayElement>,
+    /// The smallest element handle (`u32::MAX` with none): the handles count down from
+    /// the top, so a reference below it is a scalar without a lookup.
+    lowest_handle: u32,
     // Last: the unpacked directory goes after the library is unloaded. Shared by the
     // instances made with `instantiate_again`; removed with the last of them.
     unpacked: Arc<Unpacked>,
@@ -238,12 +241,13 @@ impl CsFmu {
         } else {
             Box::new(Fmi2Backend::instantiate(binary, &setup).map_err(import)?)
         };
-        let elements =
+        let elements: HashMap<u32, ArrayElement> =
             description.variables.iter().filter_map(|v| v.element.map(|e| (v.vr, e))).collect();
         Ok(CsFmu {
             cx: Calls::new(model, instance_name.to_owned(), fmi3),
             backend: ManuallyDrop::new(backend),
             description,
+            lowest_handle: elements.keys().copied().min().unwrap_or(u32::MAX),
             elements,
             owner: NEXT_OWNER.fetch_add(1, Ordering::Relaxed),
             states: HashMap::new(),
@@ -453,7 +457,7 @@ impl CsFmu {
 
     /// Whether `vrs` name no FMI 3.0 array element: then they go to the FMU as they are.
     fn all_scalars(&self, vrs: &[u32]) -> bool {
-        self.elements.is_empty() || !vrs.iter().any(|r| self.elements.contains_key(r))
+        vrs.iter().all(|&r| r < self.lowest_handle || !self.elements.contains_key(&r))
     }
 
     /// Reads `vrs` with `get`: the scalars in one call, then each array with an element

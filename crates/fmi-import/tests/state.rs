@@ -119,11 +119,9 @@ fn without_the_capability_state_calls_are_unsupported_naming_the_flag() {
         .map(|(n, b)| {
             if n == "modelDescription.xml" {
                 let md = String::from_utf8(b).unwrap();
-                let md = common::replace_once(
-                    &md,
-                    r#"canGetAndSetFMUState="true""#,
-                    r#"canGetAndSetFMUState="false""#,
-                );
+                // In <ModelExchange> and <CoSimulation> alike.
+                let md =
+                    md.replace(r#"canGetAndSetFMUState="true""#, r#"canGetAndSetFMUState="false""#);
                 (n, md.into_bytes())
             } else {
                 (n, b)

@@ -21,11 +21,20 @@
 //! add the master's staleness: a latch reads the value of the last communication point
 //! `<= s_n` (< h old) and a write reaches the plant at the first one `>= s_(n+1)` (< h
 //! late). docs/model.md §5 has the table.
+//!
+//! As Model Exchange the controller has no continuous states and one time event per
+//! sample instant (`nextEventTime`). The event update at `T` runs what a step ending at `T`
+//! runs (every write at an instant `<= T` not yet made), then the latch at `T` itself if `T`
+//! is an instant: the same instants, inputs and samples as Co-Simulation, so a master that
+//! hands the plant's encoder to the controller at each event closes the same loop as a
+//! Jacobi master at 2 ms. Between events the outputs hold.
 
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
 };
-use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
+use inchworm_fmi_export::{
+    EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit, Variable, Writer,
+};
 
 mod vr {
     pub const ENCODER_COUNTS: u32 = 1;
@@ -256,6 +265,48 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
 }
 
 impl ControllerFmu {
+    /// Runs the instants of a step from `t` to `end`: the latch at every `s_n` in
+    /// `[t, end)`, the write at every `s_n` in `(t, end]`; only `end` and the clock decide
+    /// which (`t` names the step in messages and anchors a clock restored from format 1).
+    fn advance(&mut self, t: f64, end: f64, log: &mut StepLog) -> Result<(), String> {
+        let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
+        let clock = &mut self.clock;
+        let origin = *clock.origin.get_or_insert(t);
+        // Counted instants: s_n is the same number whichever steps led to it.
+        let instant = |n: u64| origin + n as f64 * SAMPLE_PERIOD;
+        loop {
+            let (counts, reference) = match clock.latch {
+                Some(latched) => latched,
+                // The latch at s_ticks, if this step holds it: [t, end).
+                None if before(instant(clock.ticks), end) => (self.encoder_counts, self.reference),
+                None => break,
+            };
+            // The write at s_(ticks+1), if this step reaches it: (t, end].
+            if after(instant(clock.ticks + 1), end) {
+                clock.latch = Some((counts, reference));
+                break;
+            }
+            clock.latch = None;
+            clock.ticks += 1;
+            let s = c.tick(i64::from(counts), reference);
+            if s.no_root {
+                log.warning(format_args!(
+                    "at t = {t} s the estimated inverse scale factor has no root for a full step in its bracket (non-monotone map): no full steps this move"
+                ));
+            }
+            if s.iterated {
+                log.event(format_args!(
+                    "control iteration near t = {t} s: {} full step(s) and fraction {:.4}, disturbance estimate {:.4} um",
+                    s.n_steps,
+                    s.fraction,
+                    s.disturbance_estimate * 1e6
+                ));
+            }
+            self.last = Some(s);
+        }
+        Ok(())
+    }
+
     /// The outputs before the first write: the parked sample, estimates at their start,
     /// the servo error of the inputs latched at s_0 once a step has passed it (so the
     /// outputs hold until s_1), of the current inputs before.
@@ -390,43 +441,25 @@ impl Model for ControllerFmu {
     // Any step size is accepted (the layer refuses h <= 0): no check_step.
 
     fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
-        let c = self.controller.as_mut().ok_or("the controller is not initialized")?;
-        let end = t + h;
-        let clock = &mut self.clock;
-        let origin = *clock.origin.get_or_insert(t);
-        // Counted instants: s_n is the same number whichever steps led to it.
+        self.advance(t, t + h, log)
+    }
+
+    fn model_exchange() -> Option<&'static ModelExchange> {
+        static ME: ModelExchange =
+            ModelExchange { states: &[], event_indicators: &[], directional_derivatives: false };
+        Some(&ME)
+    }
+
+    fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
+        self.advance(t, t, log)?;
+        let origin = self.clock.origin.unwrap_or(t);
         let instant = |n: u64| origin + n as f64 * SAMPLE_PERIOD;
-        loop {
-            let (counts, reference) = match clock.latch {
-                Some(latched) => latched,
-                // The latch at s_ticks, if this step holds it: [t, end).
-                None if before(instant(clock.ticks), end) => (self.encoder_counts, self.reference),
-                None => break,
-            };
-            // The write at s_(ticks+1), if this step reaches it: (t, end].
-            if after(instant(clock.ticks + 1), end) {
-                clock.latch = Some((counts, reference));
-                break;
-            }
-            clock.latch = None;
-            clock.ticks += 1;
-            let s = c.tick(i64::from(counts), reference);
-            if s.no_root {
-                log.warning(format_args!(
-                    "at t = {t} s the estimated inverse scale factor has no root for a full step in its bracket (non-monotone map): no full steps this move"
-                ));
-            }
-            if s.iterated {
-                log.event(format_args!(
-                    "control iteration near t = {t} s: {} full step(s) and fraction {:.4}, disturbance estimate {:.4} um",
-                    s.n_steps,
-                    s.fraction,
-                    s.disturbance_estimate * 1e6
-                ));
-            }
-            self.last = Some(s);
+        if self.clock.latch.is_none() && same_time(instant(self.clock.ticks), t) {
+            self.clock.latch = Some((self.encoder_counts, self.reference));
         }
-        Ok(())
+        // The write at s_(ticks+1) when inputs are latched, else the latch at s_ticks.
+        let next = instant(self.clock.ticks + u64::from(self.clock.latch.is_some()));
+        Ok(EventUpdate { states_changed: false, next_event_time: Some(next) })
     }
 
     fn save_state(&self, w: &mut Writer) {

@@ -2,8 +2,12 @@
 //! interface of docs/model.md §5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
-use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
-use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, N_PLAYS};
+use inchworm_fmi_export::{
+    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
+    Variable, Writer,
+};
+use inchworm_plant::continuous::{N_INDICATORS, N_STATES};
+use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport, N_PLAYS};
 
 /// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
 mod vr {
@@ -46,12 +50,16 @@ mod vr {
     pub const REL_TOL: u32 = 130;
     pub const ENCODER_NOISE: u32 = 131;
     pub const NOISE_SEED: u32 = 132;
+    /// Model Exchange: derivatives `DERIVATIVE + i` of the continuous states in order, the
+    /// event indicators `INDICATOR + i`.
+    pub const DERIVATIVE: u32 = 220;
+    pub const INDICATOR: u32 = 240;
 }
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
-static VARIABLES: [Variable; 47] = [
+static VARIABLES: [Variable; 81] = [
     Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
     Variable::input("dac_nonearth", vr::DAC_NONEARTH, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
     Variable::input("dac_extension", vr::DAC_EXTENSION, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
@@ -99,9 +107,70 @@ static VARIABLES: [Variable; 47] = [
     Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6),
     Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001),
     Variable::integer_parameter("noise_seed", vr::NOISE_SEED, 1, None, "Seed of the encoder noise generator"),
+    Variable::local("node1_displacement", 200, Some("m"), "Node 1 displacement from rest, x1 - L_p/3 (a continuous state of Model Exchange)"),
+    Variable::local("node1_velocity", 201, Some("m/s"), "Node 1 velocity v1 (a continuous state of Model Exchange)"),
+    Variable::local("node2_displacement", 202, Some("m"), "Node 2 displacement from rest, x2 - 2 L_p/3 (a continuous state of Model Exchange)"),
+    Variable::local("node2_velocity", 203, Some("m/s"), "Node 2 velocity v2 (a continuous state of Model Exchange)"),
+    Variable::local("node3_velocity", 204, Some("m/s"), "Node 3 (non-earth brake) velocity v3 (a continuous state of Model Exchange)"),
+    Variable::local("runner_velocity", 205, Some("m/s"), "Runner velocity v4 (a continuous state of Model Exchange)"),
+    Variable::local("bessel_extension", 206, Some("V"), "Extension channel: Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("bessel_extension_rate", 207, Some("V/s"), "Extension channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("bessel_earth", 208, Some("V"), "Earth channel: Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("bessel_earth_rate", 209, Some("V/s"), "Earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("bessel_nonearth", 210, Some("V"), "Non-earth channel: Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("bessel_nonearth_rate", 211, Some("V/s"), "Non-earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
+    Variable::local("der(node1_displacement)", 220, Some("m/s"), "Rate of node1_displacement"),
+    Variable::local("der(node1_velocity)", 221, Some("m/s2"), "Rate of node1_velocity"),
+    Variable::local("der(node2_displacement)", 222, Some("m/s"), "Rate of node2_displacement"),
+    Variable::local("der(node2_velocity)", 223, Some("m/s2"), "Rate of node2_velocity"),
+    Variable::local("der(extension)", 224, Some("m/s"), "Rate of extension"),
+    Variable::local("der(node3_velocity)", 225, Some("m/s2"), "Rate of node3_velocity"),
+    Variable::local("der(runner_position)", 226, Some("m/s"), "Rate of runner_position"),
+    Variable::local("der(runner_velocity)", 227, Some("m/s2"), "Rate of runner_velocity"),
+    Variable::local("der(bessel_extension)", 228, Some("V/s"), "Rate of bessel_extension"),
+    Variable::local("der(bessel_extension_rate)", 229, Some("V/s2"), "Rate of bessel_extension_rate"),
+    Variable::local("der(voltage_extension)", 230, Some("V/s"), "Rate of voltage_extension"),
+    Variable::local("der(bessel_earth)", 231, Some("V/s"), "Rate of bessel_earth"),
+    Variable::local("der(bessel_earth_rate)", 232, Some("V/s2"), "Rate of bessel_earth_rate"),
+    Variable::local("der(voltage_earth)", 233, Some("V/s"), "Rate of voltage_earth"),
+    Variable::local("der(bessel_nonearth)", 234, Some("V/s"), "Rate of bessel_nonearth"),
+    Variable::local("der(bessel_nonearth_rate)", 235, Some("V/s2"), "Rate of bessel_nonearth_rate"),
+    Variable::local("der(voltage_nonearth)", 236, Some("V/s"), "Rate of voltage_nonearth"),
+    Variable::local("earth_switch", 240, Some("V"), "voltage_earth - V_th: the earth brake switches where it changes sign"),
+    Variable::local("nonearth_switch", 241, Some("V"), "voltage_nonearth - V_th: the non-earth brake switches where it changes sign"),
+    Variable::local("slip_onset_up", 242, Some("V"), "xi - the next slip onset above: an element starts to slip upward where it reaches 0"),
+    Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0"),
+    Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0"),
 ];
 
-static UNITS: [Unit; 10] = [
+/// Model Exchange (docs/model.md §5): the continuous states in the order of
+/// `inchworm_plant::continuous` (value references of the states and of their derivatives
+/// `der(…)`, 220 + index), and the event indicators, 240 + index.
+static ME: ModelExchange = ModelExchange {
+    states: &[
+        ContinuousState { value: 200, derivative: 220, nominal: 1e-2 },
+        ContinuousState { value: 201, derivative: 221, nominal: 10.0 },
+        ContinuousState { value: 202, derivative: 222, nominal: 1e-2 },
+        ContinuousState { value: 203, derivative: 223, nominal: 10.0 },
+        ContinuousState { value: 13, derivative: 224, nominal: 1e-2 },
+        ContinuousState { value: 204, derivative: 225, nominal: 10.0 },
+        ContinuousState { value: 12, derivative: 226, nominal: 1e-2 },
+        ContinuousState { value: 205, derivative: 227, nominal: 10.0 },
+        ContinuousState { value: 206, derivative: 228, nominal: 10.0 },
+        ContinuousState { value: 207, derivative: 229, nominal: 10000.0 },
+        ContinuousState { value: 16, derivative: 230, nominal: 100.0 },
+        ContinuousState { value: 208, derivative: 231, nominal: 10.0 },
+        ContinuousState { value: 209, derivative: 232, nominal: 10000.0 },
+        ContinuousState { value: 14, derivative: 233, nominal: 100.0 },
+        ContinuousState { value: 210, derivative: 234, nominal: 10.0 },
+        ContinuousState { value: 211, derivative: 235, nominal: 10000.0 },
+        ContinuousState { value: 15, derivative: 236, nominal: 100.0 },
+    ],
+    event_indicators: &[240, 241, 242, 243, 244],
+    directional_derivatives: true,
+};
+
+static UNITS: [Unit; 14] = [
     Unit { name: "s", kg: 0, m: 0, s: 1, a: 0 },
     Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
     Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 },
@@ -112,6 +181,10 @@ static UNITS: [Unit; 10] = [
     Unit { name: "N/V", kg: 0, m: -1, s: 1, a: 1 },
     Unit { name: "F", kg: -1, m: -2, s: 4, a: 2 },
     Unit { name: "Hz", kg: 0, m: 0, s: -1, a: 0 },
+    Unit { name: "m/s", kg: 0, m: 1, s: -1, a: 0 },
+    Unit { name: "m/s2", kg: 0, m: 1, s: -2, a: 0 },
+    Unit { name: "V/s", kg: 1, m: 2, s: -4, a: -1 },
+    Unit { name: "V/s2", kg: 1, m: 2, s: -5, a: -1 },
 ];
 
 static INFO: ModelInfo = ModelInfo {
@@ -155,6 +228,58 @@ const REST: Outputs = Outputs {
 impl PlantFmu {
     fn outputs(&self) -> Outputs {
         self.plant.as_ref().map_or(REST, Plant::outputs)
+    }
+
+    fn built(&self) -> Result<&Plant, String> {
+        self.plant.as_ref().ok_or_else(|| "the plant is built at exit from initialization".into())
+    }
+
+    /// A Model Exchange Real: a continuous state (at rest before initialization), its
+    /// derivative or an event indicator; `None` for any other reference.
+    fn continuous(&self, r: u32) -> Option<Result<f64, String>> {
+        if let Some(i) = ME.states.iter().position(|s| s.value == r) {
+            let x = self.plant.as_ref().map_or([0.0; N_STATES], Plant::continuous_states);
+            return Some(Ok(x[i]));
+        }
+        let at =
+            |base: u32, n: usize| (base..base + n as u32).contains(&r).then(|| (r - base) as usize);
+        let plant = self.plant.as_ref();
+        let rest = || inchworm_plant::continuous::at_rest(&self.params, self.dac);
+        let value = if let Some(i) = at(vr::DERIVATIVE, N_STATES) {
+            plant.map_or_else(|| rest().0, |p| p.derivatives(self.dac))[i]
+        } else {
+            let i = at(vr::INDICATOR, N_INDICATORS)?;
+            plant.map_or_else(|| rest().1, Plant::event_indicators)[i]
+        };
+        Some(match value.is_finite() {
+            true => Ok(value),
+            false => Err(format!("value reference {r} is not finite ({value}): the state has left what the plant can represent")),
+        })
+    }
+
+    /// Logs what a step or an event update reported.
+    fn report(plant: &Plant, report: &StepReport, before: Mode, log: &mut StepLog) {
+        if report.brake_events > 0 {
+            log.event(format_args!(
+                "{} brake switch(es) in the step ending at t = {} s, first at {:?} s; mode {:?} -> {:?}",
+                report.brake_events,
+                plant.time(),
+                report.first_brake_event,
+                before,
+                plant.mode()
+            ));
+        }
+        if report.slips > 0 {
+            log.warning(format_args!(
+                "both brakes open: the runner slipped (FREE entered {} time(s), {} in all) before t = {} s",
+                report.slips,
+                plant.outputs().slip_events,
+                plant.time()
+            ));
+        }
+        if report.event_budget_exhausted {
+            log.warning(format_args!("event detection suspended in the step ending at t = {} s: too many events (chattering at a threshold)", plant.time()));
+        }
     }
 }
 
@@ -210,6 +335,9 @@ impl Model for PlantFmu {
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
+        if let Some(v) = self.continuous(r) {
+            return v;
+        }
         let o = self.outputs();
         Ok(match r {
             vr::ENCODER_POSITION => o.encoder_position,
@@ -277,26 +405,56 @@ impl Model for PlantFmu {
         let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
         let before = plant.mode();
         let report = plant.step(self.dac, h).map_err(|e| e.to_string())?;
-        if report.brake_events > 0 {
-            log.event(format_args!(
-                "{} brake switch(es) in the step ending at t = {} s, first at {:?} s; mode {:?} -> {:?}",
-                report.brake_events,
-                plant.time(),
-                report.first_brake_event,
-                before,
-                plant.mode()
-            ));
-        }
-        if report.slips > 0 {
-            log.warning(format_args!(
-                "both brakes open: the runner slipped (FREE entered {} time(s), {} in all) before t = {} s",
-                report.slips,
-                plant.outputs().slip_events,
-                plant.time()
-            ));
-        }
-        if report.event_budget_exhausted {
-            log.warning(format_args!("event detection suspended in the step ending at t = {} s: too many events (chattering at a threshold)", plant.time()));
+        PlantFmu::report(plant, &report, before, log);
+        Ok(())
+    }
+
+    fn model_exchange() -> Option<&'static ModelExchange> {
+        Some(&ME)
+    }
+
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), String> {
+        let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
+        let x: &[f64; N_STATES] = x.try_into().map_err(|_| "wrong number of states")?;
+        plant.set_continuous_states(x);
+        Ok(())
+    }
+
+    fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
+        let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
+        let before = plant.mode();
+        let event = plant.event_update(self.dac, t);
+        PlantFmu::report(plant, &event.step, before, log);
+        Ok(EventUpdate { states_changed: event.states_changed, next_event_time: None })
+    }
+
+    fn directional_derivative(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        let j = self.built()?.jacobian();
+        let state = |r: u32| ME.states.iter().position(|s| s.value == r);
+        let input = |r: u32| {
+            [vr::DAC_EXTENSION, vr::DAC_EARTH, vr::DAC_NONEARTH].iter().position(|&d| d == r)
+        };
+        for (o, &u) in out.iter_mut().zip(unknowns) {
+            let derivative = (vr::DERIVATIVE..vr::DERIVATIVE + N_STATES as u32)
+                .contains(&u)
+                .then(|| (u - vr::DERIVATIVE) as usize);
+            *o = 0.0;
+            for (&k, s) in knowns.iter().zip(seed) {
+                let partial = match (derivative, state(u), state(k), input(k)) {
+                    (Some(i), _, Some(c), _) => j.states[(i, c)],
+                    (Some(i), _, _, Some(c)) => j.inputs[(i, c)],
+                    (None, Some(i), Some(c), _) => f64::from(u8::from(i == c)),
+                    (None, Some(_), _, Some(_)) => 0.0,
+                    _ => return Err(format!("no directional derivative of value reference {u} with respect to {k} (unknowns: state derivatives and continuous states; knowns: continuous states and DAC inputs)")),
+                };
+                *o += partial * s;
+            }
         }
         Ok(())
     }

@@ -1,7 +1,8 @@
 //! The hot path allocates nothing with logging off: `Set*`, `Get*` and `DoStep` of the
 //! plant and the controller FMU, through FMI 2.0 and FMI 3.0, counted per call on this
 //! thread: the plant in a steady loop of gaits (brake switches and all), the controller
-//! in a closed loop against a synthetic encoder that makes it move and iterate.
+//! in a closed loop against a synthetic encoder that makes it move and iterate; outputs and
+//! parameters of every type.
 
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
@@ -15,6 +16,7 @@ use counting_alloc::allocations;
 const PLANT_DAC: [u32; 3] = [1, 2, 3];
 const OUTPUTS: [u32; 6] = [11, 12, 13, 14, 15, 16];
 const PLANT_COUNTS: u32 = 10;
+const PLANT_K_P: u32 = 101;
 const H: f64 = 0.002;
 
 /// Forward gaits, sample by sample: the allocations counted in each kind of call.
@@ -41,6 +43,8 @@ fn plant<S: Master>() -> [u64; 3] {
             assert_eq!(h.real(vr).0, 0);
         }
         assert_eq!(h.integer(PLANT_COUNTS).0, 0);
+        // A parameter too: it is read through a copy of the parameter set.
+        assert_eq!(h.real(PLANT_K_P), (0, 3.0e7));
         let get = allocations();
         if warm {
             counted[0] += set - before;
@@ -58,6 +62,9 @@ const REFERENCE: u32 = 2;
 const DAC: [u32; 3] = [10, 11, 12];
 const CODES: [u32; 3] = [13, 14, 15];
 const N_STEPS: u32 = 20;
+const PREFILTER: u32 = 101;
+const DEADBAND: u32 = 104;
+const SAMPLES_PER_STEP: u32 = 105;
 
 /// A synthetic encoder moving 2 nm per powered extension sample: the allocations counted
 /// in each kind of call.
@@ -83,6 +90,10 @@ fn controller<S: Master>() -> [u64; 3] {
         for vr in CODES {
             assert_eq!(h.integer(vr).0, 0);
         }
+        // Parameters of each type, read through a copy of the parameters.
+        assert_eq!(h.real(DEADBAND), (0, 0.0));
+        assert_eq!(h.integer(SAMPLES_PER_STEP), (0, 100));
+        assert_eq!(h.boolean(PREFILTER), (0, false));
         moves = moves.max(h.integer(N_STEPS).1);
         let get = allocations();
         counts += if dac[2] > 5.0 { 2 } else { -1 } * i32::from(dac[1] > 5.0);

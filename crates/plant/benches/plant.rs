@@ -13,7 +13,10 @@
 //!   per-step median and p99, real-time factor, the ratio, and a check that both paths
 //!   give the same bits;
 //! * the quiet 2 ms step (the plant parked at 0 V after the gaits): per-step median and p99
-//!   of the quiet step against the event loop alone, and a check that both give the same bits.
+//!   of the quiet step against the event loop alone, and a check that both give the same bits;
+//! * the distribution of the default path's 2 ms step over the gait sequence (each step's
+//!   least time over three runs), and the steps by the stops they make (located events and
+//!   turns of `ξ`): which steps make the p99.
 //!
 //! Wall-clock figures mean something only on an idle machine; `docs/plant-solver.md` gives
 //! the stable measure, callgrind instruction counts (`crates/plant/examples/quiet.rs`).
@@ -205,6 +208,87 @@ fn compare_quiet(gaits: &[Dac]) {
     );
 }
 
+/// One step of the default path: its cost (µs, the least over the runs), its stops
+/// (located events and turns of `ξ`), its brake switches, and whether the quiet step took it.
+#[derive(Clone, Copy)]
+struct Timed {
+    us: f64,
+    stops: u64,
+    brakes: u32,
+    quiet: bool,
+}
+
+/// The default path over the gait sequence, each step timed in `RUNS` runs and its least
+/// time kept (what the step costs with the interruptions of a loaded machine filtered out):
+/// the distribution, and the steps by how many stops they made.
+fn distribution(seq: &[Dac]) {
+    const RUNS: usize = 3;
+    let mut steps: Vec<Timed> = Vec::new();
+    for run in 0..RUNS {
+        let mut plant = Plant::new(PlantParams::fia20()).unwrap();
+        for (k, d) in seq.iter().enumerate() {
+            let before = plant.scan_stats();
+            let t = Instant::now();
+            let report = plant.step(*d, H).unwrap();
+            let us = t.elapsed().as_secs_f64() * 1e6;
+            let after = plant.scan_stats();
+            let step = Timed {
+                us,
+                stops: after.stops - before.stops,
+                brakes: report.brake_events,
+                quiet: after.quiet > before.quiet,
+            };
+            if run == 0 {
+                steps.push(step);
+            } else {
+                steps[k].us = steps[k].us.min(us);
+            }
+        }
+    }
+    // The first second builds every configuration's tables: not a steady step.
+    let steady = &steps[500..];
+    let mut us: Vec<f64> = steady.iter().map(|s| s.us).collect();
+    us.sort_by(f64::total_cmp);
+    let p99 = percentile(&us, 0.99);
+    println!("default path over the gait sequence after its first second, each step's least time over {RUNS} runs:");
+    println!(
+        "  all {} steps: median {:.2} us | p90 {:.2} us | p99 {p99:.2} us | p99.9 {:.2} us | max {:.2} us",
+        us.len(),
+        percentile(&us, 0.5),
+        percentile(&us, 0.9),
+        percentile(&us, 0.999),
+        us[us.len() - 1]
+    );
+    println!("  by stops in the step | steps | share | median | p99 | mean brake switches | share of the steps at or above the p99");
+    type Member = fn(&Timed) -> bool;
+    let classes: [(&str, Member); 6] = [
+        ("quiet step", |s| s.quiet),
+        ("event loop, 0 stops", |s| !s.quiet && s.stops == 0),
+        ("1-2 stops", |s| (1..=2).contains(&s.stops)),
+        ("3-5 stops", |s| (3..=5).contains(&s.stops)),
+        ("6-10 stops", |s| (6..=10).contains(&s.stops)),
+        ("more than 10", |s| s.stops > 10),
+    ];
+    let tail = steady.iter().filter(|s| s.us >= p99).count().max(1);
+    for (name, member) in classes {
+        let of: Vec<&Timed> = steady.iter().filter(|s| member(s)).collect();
+        if of.is_empty() {
+            continue;
+        }
+        let mut t: Vec<f64> = of.iter().map(|s| s.us).collect();
+        t.sort_by(f64::total_cmp);
+        println!(
+            "  {name:<20} | {:>5} | {:>4.1} % | {:>5.2} us | {:>5.2} us | {:>4.2} | {:>5.1} %",
+            of.len(),
+            100.0 * of.len() as f64 / steady.len() as f64,
+            percentile(&t, 0.5),
+            percentile(&t, 0.99),
+            of.iter().map(|s| f64::from(s.brakes)).sum::<f64>() / of.len() as f64,
+            100.0 * of.iter().filter(|s| s.us >= p99).count() as f64 / tail as f64
+        );
+    }
+}
+
 fn run_rk4(h: f64, seq: &[Dac]) -> Run {
     let mut plant = Rk4Plant::new(PlantParams::fia20(), h);
     let mut counts = Vec::with_capacity(seq.len());
@@ -269,6 +353,8 @@ fn main() {
     compare_paths(&seq);
     println!();
     compare_quiet(&seq);
+    println!();
+    distribution(&seq);
     println!();
     println!("fixed-step RK4 of the same equations (memories updated per step, brake switches bisected to 1 ns):");
     println!("  step    | vs reference (1 s) | vs tight trace (60 s) | per 2 ms step | real time");

@@ -2,10 +2,12 @@
 //!
 //! The public types and the plant's state live here; the event-driven exact solver in
 //! `solver`, its per-configuration propagator cache in `configs`, the state bytes in
-//! `state`, the encoder noise in `noise`.
+//! `state`, the encoder noise in `noise`; the same plant in continuous time, for a master
+//! that integrates it (Model Exchange), in `continuous`.
 
 pub mod analog;
 mod configs;
+pub mod continuous;
 pub mod hysteresis;
 pub mod linear;
 mod noise;
@@ -134,14 +136,16 @@ pub struct Plant {
     scan_stats: ScanStats,
 }
 
-/// How many long scans ran and how many the bound proved clear without scanning, and how
-/// many steps the quiet step took.
+/// How many long scans ran and how many the bound proved clear without scanning, how
+/// many steps the quiet step took, and how many stops (located events and turns of `ξ`)
+/// the event loop made: what a step's cost follows.
 #[doc(hidden)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScanStats {
     pub scanned: u64,
     pub skipped: u64,
     pub quiet: u64,
+    pub stops: u64,
 }
 
 impl Plant {

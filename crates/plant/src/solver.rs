@@ -320,6 +320,7 @@ impl Plant {
             }
         }
         report.event_budget_exhausted = stops >= budget;
+        self.scan_stats.stops += u64::from(stops);
         if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);
@@ -656,7 +657,7 @@ impl Plant {
     }
 
     /// Applies the brake switches and the hysteresis changes found at the current state.
-    fn handle_event(&mut self, report: &mut StepReport) {
+    pub(crate) fn handle_event(&mut self, report: &mut StepReport) {
         let vth = self.params.v_th;
         let earth_closed = self.earth[2] < vth;
         let nonearth_closed = self.nonearth[2] >= vth;

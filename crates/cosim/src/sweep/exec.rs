@@ -78,13 +78,14 @@ fn simulate(
     let text = |e: Error| e.to_string();
     let mut reducer: Box<dyn RowMetrics + '_> =
         metrics.stream(sim.record_names()).map_err(|e| e.to_string())?;
-    reducer.push(0.0, &sim.sample().map_err(text)?);
+    reducer.push(0.0, sim.sample_row().map_err(text)?);
     for _ in 0..sim.n_steps() {
         // A stop (SIGINT/SIGTERM in the binary) ends the run between two steps, as in
         // `inchworm run`, so the unpacked FMUs are removed on the way out.
         stop.check().map_err(text)?;
         sim.step().map_err(text)?;
-        reducer.push(sim.time(), &sim.sample().map_err(text)?);
+        let t = sim.time();
+        reducer.push(t, sim.sample_row().map_err(text)?);
     }
     reducer.finish().map_err(|e| e.to_string())
 }

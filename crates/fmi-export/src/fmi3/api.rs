@@ -13,9 +13,9 @@
 use std::os::raw::c_char;
 
 use super::ffi::*;
-use crate::entry::{self, StepOutputs, Value, GETTABLE, LIVE, SETTABLE};
-use crate::instance::{Line, Standard, State};
-use crate::Kind;
+use crate::entry::{self, Array, EventSink, StepOutputs, Value, GETTABLE, LIVE, SETTABLE};
+use crate::instance::{Interface, Line, Standard, State};
+use crate::{EventUpdate, Kind};
 
 /// FMI 3.0 Co-Simulation without event mode, as the core sees it.
 pub struct Fmi3;
@@ -70,12 +70,35 @@ fn cs_refusal(event_mode: bool, n_required: usize) -> Option<&'static str> {
     }
 }
 
-const CS_ONLY: &str = "this FMU implements Co-Simulation only";
+/// The six outputs of `fmi3UpdateDiscreteStates`.
+pub struct EventOutputs {
+    pub need_update: *mut fmi3Boolean,
+    pub terminate: *mut fmi3Boolean,
+    pub nominals_changed: *mut fmi3Boolean,
+    pub values_changed: *mut fmi3Boolean,
+    pub next_time_defined: *mut fmi3Boolean,
+    pub next_time: *mut fmi3Float64,
+}
+
+impl EventSink for EventOutputs {
+    fn any_null(&self) -> bool {
+        [self.need_update, self.terminate, self.nominals_changed, self.values_changed]
+            .into_iter()
+            .chain([self.next_time_defined])
+            .any(|p| p.is_null())
+            || self.next_time.is_null()
+    }
+    unsafe fn write(&self, u: &EventUpdate, terminate: bool) {
+        (*self.need_update, *self.terminate, *self.nominals_changed) = (false, terminate, false);
+        *self.values_changed = u.states_changed;
+        *self.next_time_defined = u.next_event_time.is_some();
+        *self.next_time = u.next_event_time.unwrap_or(0.0);
+    }
+}
+
+const NO_SE: &str = "this FMU has no Scheduled Execution interface";
 const NO_CLOCKS: &str = "this FMU has no clocks";
-const NOT_ME: &str = "this FMU implements Co-Simulation only (no Model Exchange)";
-const NO_EVENT_MODE: &str = "hasEventMode is false, so the FMU is never in event mode";
 const NO_DEPENDENCIES: &str = "providesPerElementDependencies is false (ModelStructure declares every output as depending on all inputs)";
-const NO_DERIVATIVES: &str = "providesDirectionalDerivatives is false (estimate derivatives by finite differences over fmi3GetFMUState and fmi3SetFMUState)";
 
 /// Every FMI 3.0 function but `fmi3GetVersion`, for [`crate::__generic_entry_points!`]
 /// and [`crate::__thunks!`].
@@ -83,13 +106,13 @@ const NO_DERIVATIVES: &str = "providesDirectionalDerivatives is false (estimate 
 #[macro_export]
 macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
     fmi3SetDebugLogging(c: fmi3Instance, on: fmi3Boolean, n: usize, cats: *const fmi3String) -> fmi3Status = entry::set_debug_logging::<Fmi3, M>(c, F, on, n, cats);
-    fmi3InstantiateModelExchange(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback) -> fmi3Instance = entry::refuse_instantiation::<Fmi3>(F, (env, log), name, CS_ONLY);
-    fmi3InstantiateCoSimulation(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, event_mode: fmi3Boolean, early: fmi3Boolean, req: *const fmi3ValueReference, nreq: usize, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, update: fmi3IntermediateUpdateCallback) -> fmi3Instance = entry::instantiate::<Fmi3, M>(F, Some((env, log)), name, token, cs_refusal(event_mode, nreq), logging);
-    fmi3InstantiateScheduledExecution(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, clock: fmi3ClockUpdateCallback, lock: fmi3LockPreemptionCallback, unlock: fmi3UnlockPreemptionCallback) -> fmi3Instance = entry::refuse_instantiation::<Fmi3>(F, (env, log), name, CS_ONLY);
+    fmi3InstantiateModelExchange(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback) -> fmi3Instance = entry::instantiate::<Fmi3, M>(F, Some((env, log)), name, token, (Interface::ModelExchange, None), logging);
+    fmi3InstantiateCoSimulation(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, event_mode: fmi3Boolean, early: fmi3Boolean, req: *const fmi3ValueReference, nreq: usize, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, update: fmi3IntermediateUpdateCallback) -> fmi3Instance = entry::instantiate::<Fmi3, M>(F, Some((env, log)), name, token, (Interface::CoSimulation, cs_refusal(event_mode, nreq)), logging);
+    fmi3InstantiateScheduledExecution(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, clock: fmi3ClockUpdateCallback, lock: fmi3LockPreemptionCallback, unlock: fmi3UnlockPreemptionCallback) -> fmi3Instance = entry::refuse_instantiation::<Fmi3>(F, (env, log), name, NO_SE);
     fmi3FreeInstance(c: fmi3Instance) -> () = entry::free_instance::<Fmi3, M>(c);
     fmi3EnterInitializationMode(c: fmi3Instance, td: fmi3Boolean, tol: fmi3Float64, t0: fmi3Float64, sd: fmi3Boolean, t1: fmi3Float64) -> fmi3Status = entry::enter_initialization::<Fmi3, M>(c, F, Some((t0, sd.then_some(t1))));
     fmi3ExitInitializationMode(c: fmi3Instance) -> fmi3Status = entry::exit_initialization::<Fmi3, M>(c, F);
-    fmi3EnterEventMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "hasEventMode is false (fmi3DoStep never asks for event handling)");
+    fmi3EnterEventMode(c: fmi3Instance) -> fmi3Status = entry::enter_event_mode::<Fmi3, M>(c, F);
     fmi3Terminate(c: fmi3Instance) -> fmi3Status = entry::terminate::<Fmi3, M>(c, F);
     fmi3Reset(c: fmi3Instance) -> fmi3Status = entry::reset::<Fmi3, M>(c, F);
     fmi3GetFloat32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Float32, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Float32", (vr, n), false);
@@ -129,7 +152,7 @@ macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
     fmi3SerializedFMUStateSize(c: fmi3Instance, s: fmi3FMUState, size: *mut usize) -> fmi3Status = entry::serialized_size::<Fmi3, M>(c, F, s, size);
     fmi3SerializeFMUState(c: fmi3Instance, s: fmi3FMUState, b: *mut fmi3Byte, size: usize) -> fmi3Status = entry::serialize::<Fmi3, M>(c, F, s, (b, size));
     fmi3DeserializeFMUState(c: fmi3Instance, b: *const fmi3Byte, size: usize, s: *mut fmi3FMUState) -> fmi3Status = entry::deserialize::<Fmi3, M>(c, F, (b, size), s);
-    fmi3GetDirectionalDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_DERIVATIVES);
+    fmi3GetDirectionalDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::directional_derivative::<Fmi3, M>(c, F, (u, nu), (k, nk), (seed, ns), (sens, nsens));
     fmi3GetAdjointDerivative(c: fmi3Instance, u: *const fmi3ValueReference, nu: usize, k: *const fmi3ValueReference, nk: usize, seed: *const fmi3Float64, ns: usize, sens: *mut fmi3Float64, nsens: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "providesAdjointDerivatives is false");
     fmi3EnterConfigurationMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "this FMU has no structural parameters");
     fmi3ExitConfigurationMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "this FMU has no structural parameters, so it is never in configuration mode");
@@ -142,21 +165,21 @@ macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
     fmi3SetShiftDecimal(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, sh: *const fmi3Float64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_CLOCKS);
     fmi3SetShiftFraction(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, cnt: *const fmi3UInt64, res: *const fmi3UInt64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_CLOCKS);
     fmi3EvaluateDiscreteStates(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "providesEvaluateDiscreteStates is false");
-    fmi3UpdateDiscreteStates(c: fmi3Instance, a: *mut fmi3Boolean, b: *mut fmi3Boolean, d: *mut fmi3Boolean, e: *mut fmi3Boolean, f: *mut fmi3Boolean, t: *mut fmi3Float64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_EVENT_MODE);
-    fmi3EnterContinuousTimeMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3CompletedIntegratorStep(c: fmi3Instance, no_prior: fmi3Boolean, ev: *mut fmi3Boolean, term: *mut fmi3Boolean) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3SetTime(c: fmi3Instance, t: fmi3Float64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3SetContinuousStates(c: fmi3Instance, x: *const fmi3Float64, n: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetContinuousStateDerivatives(c: fmi3Instance, dx: *mut fmi3Float64, n: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetEventIndicators(c: fmi3Instance, z: *mut fmi3Float64, n: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetContinuousStates(c: fmi3Instance, x: *mut fmi3Float64, n: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetNominalsOfContinuousStates(c: fmi3Instance, x: *mut fmi3Float64, n: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetNumberOfEventIndicators(c: fmi3Instance, n: *mut usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
-    fmi3GetNumberOfContinuousStates(c: fmi3Instance, n: *mut usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NOT_ME);
+    fmi3UpdateDiscreteStates(c: fmi3Instance, a: *mut fmi3Boolean, b: *mut fmi3Boolean, d: *mut fmi3Boolean, e: *mut fmi3Boolean, f: *mut fmi3Boolean, t: *mut fmi3Float64) -> fmi3Status = entry::update_discrete_states::<Fmi3, M>(c, F, EventOutputs { need_update: a, terminate: b, nominals_changed: d, values_changed: e, next_time_defined: f, next_time: t });
+    fmi3EnterContinuousTimeMode(c: fmi3Instance) -> fmi3Status = entry::enter_continuous_time_mode::<Fmi3, M>(c, F);
+    fmi3CompletedIntegratorStep(c: fmi3Instance, no_prior: fmi3Boolean, ev: *mut fmi3Boolean, term: *mut fmi3Boolean) -> fmi3Status = entry::completed_integrator_step::<Fmi3, M, _>(c, F, (ev, term), false);
+    fmi3SetTime(c: fmi3Instance, t: fmi3Float64) -> fmi3Status = entry::set_time::<Fmi3, M>(c, F, t);
+    fmi3SetContinuousStates(c: fmi3Instance, x: *const fmi3Float64, n: usize) -> fmi3Status = entry::set_continuous_states::<Fmi3, M>(c, F, (x, n));
+    fmi3GetContinuousStateDerivatives(c: fmi3Instance, dx: *mut fmi3Float64, n: usize) -> fmi3Status = entry::get_array::<Fmi3, M>(c, F, Array::Derivatives, (dx, n));
+    fmi3GetEventIndicators(c: fmi3Instance, z: *mut fmi3Float64, n: usize) -> fmi3Status = entry::get_array::<Fmi3, M>(c, F, Array::EventIndicators, (z, n));
+    fmi3GetContinuousStates(c: fmi3Instance, x: *mut fmi3Float64, n: usize) -> fmi3Status = entry::get_array::<Fmi3, M>(c, F, Array::States, (x, n));
+    fmi3GetNominalsOfContinuousStates(c: fmi3Instance, x: *mut fmi3Float64, n: usize) -> fmi3Status = entry::get_array::<Fmi3, M>(c, F, Array::Nominals, (x, n));
+    fmi3GetNumberOfEventIndicators(c: fmi3Instance, n: *mut usize) -> fmi3Status = entry::get_count::<Fmi3, M>(c, F, Array::EventIndicators, n);
+    fmi3GetNumberOfContinuousStates(c: fmi3Instance, n: *mut usize) -> fmi3Status = entry::get_count::<Fmi3, M>(c, F, Array::States, n);
     fmi3EnterStepMode(c: fmi3Instance) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "hasEventMode is false, so the FMU is never in event mode (fmi3ExitInitializationMode enters step mode)");
     fmi3GetOutputDerivatives(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, o: *const fmi3Int32, v: *mut fmi3Float64, nv: usize) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "maxOutputDerivativeOrder is 0");
     fmi3DoStep(c: fmi3Instance, t: fmi3Float64, h: fmi3Float64, no_prior: fmi3Boolean, ev: *mut fmi3Boolean, term: *mut fmi3Boolean, early: *mut fmi3Boolean, last: *mut fmi3Float64) -> fmi3Status = entry::do_step::<Fmi3, M>(c, F, t, h, Some(StepOutputs { event_handling_needed: ev, terminate_simulation: term, early_return: early, last_successful_time: last }));
-    fmi3ActivateModelPartition(c: fmi3Instance, clock: fmi3ValueReference, t: fmi3Float64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, "this FMU implements Co-Simulation only (no Scheduled Execution)");
+    fmi3ActivateModelPartition(c: fmi3Instance, clock: fmi3ValueReference, t: fmi3Float64) -> fmi3Status = entry::unsupported::<Fmi3, M>(c, F, LIVE, NO_SE);
 } } }
 
 __fmi3_entry_points!(__generic_entry_points);

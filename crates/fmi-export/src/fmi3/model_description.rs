@@ -9,8 +9,8 @@ use super::api::type_name;
 use super::TIME_VR;
 use crate::arrays;
 use crate::model_description::{
-    causality, escape, guid, initial, is_initial_unknown, prolog, shared_head, start_attr,
-    start_text, unit_and_range, variability,
+    causality, common_flags, directional, escape, guid, initial, is_initial_unknown, prolog,
+    shared_head, start_attr, start_text, state_of, unit_and_range, variability,
 };
 use crate::table::{Causality, Variable};
 use crate::Model;
@@ -33,10 +33,19 @@ pub fn model_description<M: Model>() -> String {
         escape(info.version),
         env!("CARGO_PKG_VERSION")
     );
+    if M::model_exchange().is_some() {
+        let _ = writeln!(
+            w,
+            r#"  <ModelExchange modelIdentifier="{}" {} providesAdjointDerivatives="false" providesPerElementDependencies="false" needsCompletedIntegratorStep="false" providesEvaluateDiscreteStates="false"/>"#,
+            escape(info.model_identifier),
+            common_flags::<M>("FMUState", "providesDirectionalDerivatives")
+        );
+    }
     let _ = writeln!(
         w,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
-        escape(info.model_identifier)
+        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="{}" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
+        escape(info.model_identifier),
+        directional::<M>()
     );
     shared_head::<M>(w, "fmi3");
     let _ = writeln!(w, "  <ModelVariables>");
@@ -51,7 +60,10 @@ pub fn model_description<M: Model>() -> String {
     for e in &entries {
         let v = &vars[e.first];
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
-        let attrs = unit_and_range(v);
+        let mut attrs = unit_and_range(v);
+        if let Some(state) = state_of::<M>(v) {
+            let _ = write!(attrs, " derivative=\"{state}\"");
+        }
         let (name, description, start, close) = if e.is_array(vars) {
             // One start value per element, in the serialization order (element 1 first).
             let starts: Vec<String> =
@@ -83,12 +95,18 @@ pub fn model_description<M: Model>() -> String {
         entries.iter().map(|e| &vars[e.first]).filter(|v| pred(v)).map(|v| v.vr).collect()
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
-    let initial_unknowns = vrs(&is_initial_unknown);
-    for vr in outputs {
-        let _ = writeln!(w, "    <Output valueReference=\"{vr}\"/>");
-    }
-    for vr in initial_unknowns {
-        let _ = writeln!(w, "    <InitialUnknown valueReference=\"{vr}\"/>");
+    let derivatives = vrs(&|v| state_of::<M>(v).is_some());
+    let initial_unknowns = vrs(&is_initial_unknown::<M>);
+    let indicators = M::model_exchange().map_or(&[][..], |me| me.event_indicators);
+    for (tag, list) in [
+        ("Output", &outputs[..]),
+        ("ContinuousStateDerivative", &derivatives[..]),
+        ("InitialUnknown", &initial_unknowns[..]),
+        ("EventIndicator", indicators),
+    ] {
+        for vr in list {
+            let _ = writeln!(w, "    <{tag} valueReference=\"{vr}\"/>");
+        }
     }
     let _ = writeln!(w, "  </ModelStructure>");
     let _ = writeln!(w, "</fmiModelDescription>");

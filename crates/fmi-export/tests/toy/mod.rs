@@ -2,8 +2,24 @@
 //! `dx/dt = u - k x`, one explicit Euler step per communication step, with one variable of
 //! every type and role the layer handles, and deliberate failures on chosen inputs (a
 //! step refusal, a model failure, a panic) so that every path of the layer is reachable.
+//!
+//! As Model Exchange it is the same equation with `x` the continuous state, and one event
+//! with a jump, like Reference-FMUs' BouncingBall: when `x` rises through [`LEVEL`] (the
+//! indicator `x - LEVEL` turns non-negative) the event update resets `x` to 0 and counts
+//! the reset in `steps`. [`CsToy`] is the same model without Model Exchange.
 
-use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
+/// Runs each generic test of a test file, once per standard.
+macro_rules! for_both {
+    ($($test:ident),* $(,)?) => {
+        mod fmi2 { $( #[test] fn $test() { super::$test::<super::Fmi2>() } )* }
+        mod fmi3 { $( #[test] fn $test() { super::$test::<super::Fmi3>() } )* }
+    };
+}
+
+use inchworm_fmi_export::{
+    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
+    Variable, Writer,
+};
 
 pub const U: u32 = 1;
 pub const GAIN: u32 = 2;
@@ -11,6 +27,8 @@ pub const HOLD: u32 = 3;
 pub const X: u32 = 10;
 pub const STEPS: u32 = 11;
 pub const POSITIVE: u32 = 12;
+pub const DER_X: u32 = 13;
+pub const ABOVE_LEVEL: u32 = 14;
 pub const K: u32 = 100;
 pub const EVENT_EVERY: u32 = 101;
 pub const CLAMP_X: u32 = 102;
@@ -20,8 +38,18 @@ pub const FAIL: f64 = 7.0;
 pub const PANIC: f64 = 6.0;
 /// The largest step `check_step` takes.
 pub const MAX_STEP: f64 = 1.0;
+/// Where Model Exchange resets `x`.
+pub const LEVEL: f64 = 5.0;
+/// The nominal of `x`.
+pub const X_NOMINAL: f64 = 2.0;
 
-static VARIABLES: [Variable; 9] = [
+static ME: ModelExchange = ModelExchange {
+    states: &[ContinuousState { value: X, derivative: DER_X, nominal: X_NOMINAL }],
+    event_indicators: &[ABOVE_LEVEL],
+    directional_derivatives: true,
+};
+
+static VARIABLES: [Variable; 11] = [
     Variable::input("u", U, 0.0, Some("V"), "Drive")
         .with_range(0.0, 10.0)
         .worded("drive volts", "drive range"),
@@ -30,6 +58,8 @@ static VARIABLES: [Variable; 9] = [
     Variable::output("x", X, Kind::Real, Some("V"), "State"),
     Variable::output("steps", STEPS, Kind::Integer, None, "Steps taken"),
     Variable::output("positive", POSITIVE, Kind::Boolean, None, "x > 0"),
+    Variable::local("der(x)", DER_X, Some("V/s"), "dx/dt"),
+    Variable::local("above_level", ABOVE_LEVEL, Some("V"), "x - LEVEL: the reset's indicator"),
     Variable::parameter("k", K, 1.0, Some("1/s"), "Decay rate, > 0"),
     Variable::integer_parameter(
         "event_every",
@@ -53,13 +83,15 @@ static INFO: ModelInfo = ModelInfo {
     units: &[
         Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 },
         Unit { name: "1/s", kg: 0, m: 0, s: -1, a: 0 },
+        Unit { name: "V/s", kg: 1, m: 2, s: -4, a: -1 },
     ],
     log_events: "Every event_every steps",
     documentation_html: "<p>Toy</p>",
 };
 
+/// The toy; `Toy<false>` declares no Model Exchange interface.
 #[derive(Clone, Debug, Default)]
-pub struct Toy {
+pub struct Toy<const WITH_ME: bool = true> {
     u: f64,
     gain: i32,
     hold: bool,
@@ -70,7 +102,28 @@ pub struct Toy {
     clamp_x: bool,
 }
 
-impl Model for Toy {
+pub type CsToy = Toy<false>;
+
+impl<const WITH_ME: bool> Toy<WITH_ME> {
+    fn derivative(&self) -> f64 {
+        match self.hold {
+            true => 0.0,
+            false => f64::from(self.gain) * self.u - self.k * self.x,
+        }
+    }
+    /// The deliberate failures.
+    fn check_drive(&self) -> Result<(), String> {
+        if self.u == PANIC {
+            panic!("the toy panics on u = {PANIC}");
+        }
+        match self.u == FAIL {
+            true => Err(format!("the toy fails on u = {FAIL}")),
+            false => Ok(()),
+        }
+    }
+}
+
+impl<const WITH_ME: bool> Model for Toy<WITH_ME> {
     fn info() -> &'static ModelInfo {
         &INFO
     }
@@ -85,6 +138,8 @@ impl Model for Toy {
             U => Ok(self.u),
             X => Ok(self.x),
             K => Ok(self.k),
+            DER_X => Ok(self.derivative()),
+            ABOVE_LEVEL => Ok(self.x - LEVEL),
             _ => Err(format!("no Real {vr}")),
         }
     }
@@ -143,15 +198,8 @@ impl Model for Toy {
         }
     }
     fn do_step(&mut self, _t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
-        if self.u == PANIC {
-            panic!("the toy panics on u = {PANIC}");
-        }
-        if self.u == FAIL {
-            return Err(format!("the toy fails on u = {FAIL}"));
-        }
-        if !self.hold {
-            self.x += h * (f64::from(self.gain) * self.u - self.k * self.x);
-        }
+        self.check_drive()?;
+        self.x += h * self.derivative();
         if self.clamp_x {
             self.x = self.x.clamp(-100.0, 100.0);
         }
@@ -161,6 +209,46 @@ impl Model for Toy {
         }
         if self.x > 9.5 {
             log.warning(format_args!("x = {} is close to its limit", self.x));
+        }
+        Ok(())
+    }
+    fn model_exchange() -> Option<&'static ModelExchange> {
+        WITH_ME.then_some(&ME)
+    }
+    fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), String> {
+        self.x = x[0];
+        Ok(())
+    }
+    fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
+        self.check_drive()?;
+        let reset = self.x >= LEVEL;
+        if reset {
+            self.x = 0.0;
+            self.steps += 1;
+            log.event(format_args!("reset {} at t = {t}", self.steps));
+        }
+        Ok(EventUpdate { states_changed: reset, next_event_time: None })
+    }
+    fn directional_derivative(
+        &self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        seed: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        let moving = f64::from(u8::from(!self.hold));
+        for (o, &unknown) in out.iter_mut().zip(unknowns) {
+            *o = 0.0;
+            for (&known, s) in knowns.iter().zip(seed) {
+                let partial = match (unknown, known) {
+                    (DER_X, X) => -self.k * moving,
+                    (DER_X, U) => f64::from(self.gain) * moving,
+                    (X | ABOVE_LEVEL, X) => 1.0,
+                    (X | ABOVE_LEVEL, U) => 0.0,
+                    _ => return Err(format!("no derivative of {unknown} with respect to {known}")),
+                };
+                *o += partial * s;
+            }
         }
         Ok(())
     }

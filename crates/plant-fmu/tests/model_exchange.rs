@@ -1,0 +1,133 @@
+//! The plant's Model Exchange interface through the FMI entry points of both standards:
+//! the exact directional derivatives against central differences of
+//! `GetDerivatives`/`GetContinuousStateDerivatives`, for every state and DAC input, and a
+//! brake switch as a state event.
+
+use inchworm_fmi_export::api::Fmi2;
+use inchworm_fmi_export::entry::Array;
+use inchworm_fmi_export::fmi3::api::Fmi3;
+use inchworm_fmi_export::testing::{Harness, Master};
+use inchworm_fmu_models::PlantFmu;
+
+const N: usize = 17;
+const DAC: [u32; 3] = [3, 1, 2]; // extension, earth, non-earth
+const MODE: u32 = 17;
+const DERIVATIVE: u32 = 220;
+
+/// The value references of the continuous states, from the description.
+fn states() -> Vec<u32> {
+    vec![200, 201, 202, 203, 13, 204, 12, 205, 206, 207, 16, 208, 209, 14, 210, 211, 15]
+}
+
+/// A state in HOLD with every mode of the stack and both chains moving.
+fn moving() -> [f64; N] {
+    [
+        1e-7, 0.02, 3e-7, -0.01, 6e-6, 0.05, 0.0, 0.0, 4.0, 900.0, 35.0, 2.0, 300.0, 25.0, 1.0,
+        -50.0, 12.0,
+    ]
+}
+
+fn fd_check<S: Master>() {
+    let h = Harness::<PlantFmu, S>::init_me("jacobian");
+    assert_eq!(h.set_reals(&DAC, &[6.0, 3.0, 2.0]), 0);
+    assert_eq!(h.update().0, 0);
+    assert_eq!(h.enter_continuous_time_mode(), 0);
+    let x0 = moving();
+    assert_eq!(h.set_states(&x0), 0, "{:?}", h.logged());
+    let der: Vec<u32> = (0..N as u32).map(|i| DERIVATIVE + i).collect();
+    let f = |x: &[f64; N]| {
+        assert_eq!(h.set_states(x), 0);
+        let (s, d) = h.array(Array::Derivatives, N);
+        assert_eq!(s, 0);
+        d
+    };
+    let kind = [
+        1e-5, 1e-2, 1e-5, 1e-2, 1e-5, 1e-2, 1e-5, 1e-2, 1.0, 1e3, 1.0, 1.0, 1e3, 1.0, 1.0, 1e3, 1.0,
+    ];
+    let mut worst: f64 = 0.0;
+    let mut compare = |column: &[f64], fd: &[f64]| {
+        let amax = column.iter().chain(fd).fold(0.0f64, |m, v| m.max(v.abs()));
+        for (j, d) in column.iter().zip(fd) {
+            worst = worst.max((j - d).abs() / j.abs().max(1e-6 * amax).max(f64::MIN_POSITIVE));
+        }
+    };
+    for (c, vr) in states().into_iter().enumerate() {
+        let mut seed = [0.0; N];
+        seed[c] = 1.0;
+        assert_eq!(h.set_states(&x0), 0);
+        let (s, column) = h.directional(&der, &states(), &seed);
+        assert_eq!(s, 0, "{:?}", h.logged());
+        let eps = 1e-6 * (x0[c].abs() + kind[c]);
+        let (mut hi, mut lo) = (x0, x0);
+        hi[c] += eps;
+        lo[c] -= eps;
+        let (fh, fl) = (f(&hi), f(&lo));
+        let fd: Vec<f64> = fh.iter().zip(&fl).map(|(a, b)| (a - b) / (2.0 * eps)).collect();
+        compare(&column, &fd);
+        // The states' own sensitivities are the identity.
+        let (_, own) = h.directional(&[vr], &states(), &seed);
+        assert_eq!(own, [1.0]);
+    }
+    assert_eq!(h.set_states(&x0), 0);
+    for vr in DAC {
+        let (s, column) = h.directional(&der, &[vr], &[1.0]);
+        assert_eq!(s, 0);
+        let base = h.real(vr).1;
+        let at = |v: f64| {
+            assert_eq!(h.set_real(vr, v), 0, "a continuous input between events");
+            h.array(Array::Derivatives, N).1
+        };
+        let (fh, fl) = (at(base + 1e-3), at(base - 1e-3));
+        assert_eq!(h.set_real(vr, base), 0);
+        let fd: Vec<f64> = fh.iter().zip(&fl).map(|(a, b)| (a - b) / 2e-3).collect();
+        compare(&column, &fd);
+    }
+    eprintln!(
+        "{}: directional derivatives against central differences, worst relative error {worst:.2e}",
+        S::VERSION
+    );
+    assert!(worst < 1e-6, "{worst}");
+    assert_eq!(
+        h.directional(&[DERIVATIVE], &[100], &[1.0]).0,
+        3,
+        "no derivative with respect to a parameter"
+    );
+}
+
+#[test]
+fn directional_derivatives_match_finite_differences_fmi2() {
+    fd_check::<Fmi2>();
+}
+
+#[test]
+fn directional_derivatives_match_finite_differences_fmi3() {
+    fd_check::<Fmi3>();
+}
+
+/// The earth amplifier set above V_th in HOLD: its indicator is positive, and the event
+/// update opens the earth brake (FREE with the non-earth brake open) and says so.
+fn brake_switch<S: Master>() {
+    let h = Harness::<PlantFmu, S>::init_me("switch");
+    assert_eq!(h.update().0, 0);
+    assert_eq!(h.enter_continuous_time_mode(), 0);
+    let mut x = [0.0; N];
+    x[13] = 55.0;
+    assert_eq!(h.set_states(&x), 0);
+    let (s, z) = h.array(Array::EventIndicators, 5);
+    assert_eq!((s, z[0]), (0, 5.0), "earth volts − V_th");
+    assert_eq!(h.enter_event_mode(), 0);
+    let (s, u, term) = h.update();
+    assert_eq!(
+        (s, u.states_changed, term),
+        (1, false, false),
+        "FREE is a warning: {:?}",
+        h.logged()
+    );
+    assert_eq!(h.integer(MODE), (0, 4));
+}
+
+#[test]
+fn a_brake_switch_is_a_state_event() {
+    brake_switch::<Fmi2>();
+    brake_switch::<Fmi3>();
+}
