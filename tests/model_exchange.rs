@@ -4,9 +4,8 @@
 //! staircase within 2 counts, and the closed loop with both components as ME at master
 //! steps of 1, 0.5 and 0.1 ms settling within one 2 ms sample of the 2 ms run.
 //!
-//! They need FMUs with `<ModelExchange>` in dist/ (the plant's and the controller's
-//! Model Exchange, branch h/me): ignored until those are built there. `INCHWORM_DIST`
-//! points them at another folder of built FMUs.
+//! They run on dist/ (`cargo run --release -p fmu-build`); `INCHWORM_DIST` points them
+//! at another folder of built FMUs.
 
 use std::path::PathBuf;
 
@@ -71,7 +70,6 @@ fn fig5(stop: f64) -> Options {
 }
 
 #[test]
-#[ignore = "needs the plant's Model Exchange in dist/ (h/me)"]
 fn the_me_plant_gives_the_cs_trace_over_the_fig5_run() {
     let o = fig5(10.0);
     let cs = run(&Interfaces::default(), &o);
@@ -82,7 +80,6 @@ fn the_me_plant_gives_the_cs_trace_over_the_fig5_run() {
 }
 
 #[test]
-#[ignore = "needs the plant's Model Exchange in dist/ (h/me)"]
 fn the_me_plant_gives_the_cs_trace_over_20_s_of_the_staircase() {
     let s = scenario::by_name("staircase").unwrap();
     let controller = Params { prefilter: true, ..Params::default() };
@@ -95,7 +92,6 @@ fn the_me_plant_gives_the_cs_trace_over_20_s_of_the_staircase() {
 }
 
 #[test]
-#[ignore = "needs the plant's and the controller's Model Exchange in dist/ (h/me)"]
 fn the_me_loop_settles_like_the_2_ms_run_at_finer_master_steps() {
     let o = fig5(2.0);
     let settle = |t: &Trace| LoopView::new(t).unwrap().settle_time(1e-6).expect("settles");
