@@ -195,9 +195,11 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         let title = format!("inchworm run {}", args.file.display());
         super::write_png(png, |p| plot::trace_png(&title, &sample.finish(), p))?;
     }
+    // A Model Exchange component can run slower than real time: "0x" would hide by how much.
+    let speed = end / wall;
+    let digits = if speed < 10.0 { 2 } else { 0 };
     println!(
-        "{end} s simulated in {wall:.3} s ({:.0}x real time); {} variables, {rows} rows",
-        end / wall,
+        "{end} s simulated in {wall:.3} s ({speed:.digits$}x real time); {} variables, {rows} rows",
         names.len(),
     );
     Ok(())
