@@ -195,7 +195,7 @@ static INFO: ModelInfo = ModelInfo {
     default_start_time: 0.0,
     default_stop_time: 1.0,
     default_step_size: 0.002,
-    default_tolerance: 1e-9,
+    default_tolerance: 1e-8,
     units: &UNITS,
     log_events: "Model events: brake switches, mode changes, slips",
     documentation_html: include_str!("plant.html"),
