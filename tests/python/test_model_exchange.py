@@ -173,18 +173,38 @@ RMS_TOLERANCE = {"feedback_only": 0.1e-9, "full_control": 0.5e-9}
 FEEDBACK_ONLY = {"feedforward": False, "use_scale_factor_estimate": False, "use_disturbance_estimate": False}
 
 
-@pytest.mark.skipif(not os.environ.get("INCHWORM_ME_FIG5"), reason="10 s of Fig. 5 through FMPy's CVode takes minutes: set INCHWORM_ME_FIG5=1")
-@pytest.mark.parametrize("variant", ["full_control", "feedback_only"])
-def test_closed_loop_with_model_exchange_reproduces_fig5(variant, tmp_path):
-    cs = cs_fig5(tmp_path)[variant]
+def me_fig5(version, variant, samples):
     start = {} if variant == "full_control" else FEEDBACK_ONLY
-    rows, counts = me_master.run(fmu("plant", "2.0"), 5000, controller_path=fmu("controller", "2.0"),
+    rows, counts = me_master.run(fmu("plant", version), samples, controller_path=fmu("controller", version),
                                  controller_bools=start)
-    me = [(t, c, dac) for t, c, _, _, dac in rows]
+    return [(t, c, dac) for t, c, _, _, dac in rows], counts
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_closed_loop_with_model_exchange_settles_as_cs(version, tmp_path):
+    """CI-sized Fig. 5: full control for 1 s with both FMUs as Model Exchange settles
+    within 1 µm at the sample of the Co-Simulation run, in both standards."""
+    cs = cs_fig5(tmp_path)["full_control"][:500]
+    me, counts = me_fig5(version, "full_control", 500)
+    s_cs, s_me = settle_time(cs), settle_time(me)
+    worst = max(abs(a[1] - b[1]) for a, b in zip(me, cs))
+    print(f"FMI {version} full control to 1 s: settles within 1 um at {s_me} s (CS {s_cs} s); "
+          f"worst encoder difference {worst} counts; {counts}")
+    assert s_cs is not None and abs(s_cs - 0.788) < 1e-9
+    assert s_me is not None and abs(s_me - s_cs) < 1e-9
+    assert worst <= 2
+
+
+@pytest.mark.skipif(not os.environ.get("INCHWORM_ME_FIG5"), reason="10 s of Fig. 5 through FMPy's CVode takes minutes: set INCHWORM_ME_FIG5=1")
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+@pytest.mark.parametrize("variant", ["full_control", "feedback_only"])
+def test_closed_loop_with_model_exchange_reproduces_fig5(variant, version, tmp_path):
+    cs = cs_fig5(tmp_path)[variant]
+    me, counts = me_fig5(version, variant, 5000)
     s_cs, s_me = settle_time(cs), settle_time(me)
     rms_cs, rms_me = parked_rms(cs), parked_rms(me)
     worst = max(abs(a[1] - b[1]) for a, b in zip(me, cs))
-    print(f"{variant}: settles within 1 um at {s_me} s (CS {s_cs} s); parked RMS 6-10 s {rms_me * 1e9:.3f} nm "
+    print(f"FMI {version} {variant}: settles within 1 um at {s_me} s (CS {s_cs} s); parked RMS 6-10 s {rms_me * 1e9:.3f} nm "
           f"(CS {rms_cs * 1e9:.3f} nm); worst encoder difference {worst} counts; {counts}")
     assert s_me is not None and abs(s_me - s_cs) < 1e-9
     assert abs(rms_me - rms_cs) < RMS_TOLERANCE[variant]
