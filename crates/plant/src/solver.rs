@@ -259,6 +259,85 @@ impl Watch<'_> {
     }
 }
 
+/// Whether any of four consecutive scan points may stop the scan: the point-by-point test of
+/// `full_scan_inline` on four lanes at once (the same IEEE comparisons, products and sums,
+/// so the same decisions; `maxpd` and `f64::max` differ only on a NaN or a zero's sign, and a
+/// lane with a NaN counts as a stop). `false` means every point is clear; on `true` the
+/// caller decides the points one by one.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn group_may_stop(
+    w: &Watch,
+    [ve, vn, xi, rate]: [&[f64; 4]; 4],
+    xi_prev: f64,
+    rate_prev: f64,
+    dt: f64,
+) -> bool {
+    use std::arch::x86_64::*;
+    // SAFETY: every load is of a whole `[f64; 4]`.
+    unsafe {
+        let (ve, vn) = (_mm256_loadu_pd(ve.as_ptr()), _mm256_loadu_pd(vn.as_ptr()));
+        let (x, r) = (_mm256_loadu_pd(xi.as_ptr()), _mm256_loadu_pd(rate.as_ptr()));
+        let vth = _mm256_set1_pd(w.vth);
+        let nan = _mm256_or_pd(
+            _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_UNORD_Q>(ve, ve),
+                _mm256_cmp_pd::<_CMP_UNORD_Q>(vn, vn),
+            ),
+            _mm256_or_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(x, x), _mm256_cmp_pd::<_CMP_UNORD_Q>(r, r)),
+        );
+        // Earth closed ⇔ V_E < V_th, non-earth closed ⇔ V_N ≥ V_th: a stop is the other side.
+        let earth = if w.earth_closed {
+            _mm256_cmp_pd::<_CMP_GE_OQ>(ve, vth)
+        } else {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(ve, vth)
+        };
+        let nonearth = if w.nonearth_closed {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(vn, vth)
+        } else {
+            _mm256_cmp_pd::<_CMP_GE_OQ>(vn, vth)
+        };
+        let (up, down) = (_mm256_set1_pd(w.up), _mm256_set1_pd(w.down));
+        let play = if w.direction != 0.0 {
+            let reversal = _mm256_cmp_pd::<_CMP_LE_OQ>(
+                _mm256_mul_pd(_mm256_set1_pd(w.direction), r),
+                _mm256_setzero_pd(),
+            );
+            let onset = if w.direction > 0.0 {
+                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up)
+            } else {
+                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down)
+            };
+            _mm256_or_pd(reversal, onset)
+        } else {
+            let onset = _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down),
+            );
+            // Each point against the one before it: the previous group's last, then these.
+            let xp = _mm256_set_pd(xi[2], xi[1], xi[0], xi_prev);
+            let rp = _mm256_set_pd(rate[2], rate[1], rate[0], rate_prev);
+            let turn = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_mul_pd(r, rp), _mm256_setzero_pd());
+            let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+            let reach = _mm256_mul_pd(
+                _mm256_mul_pd(
+                    _mm256_set1_pd(dt),
+                    _mm256_add_pd(_mm256_and_pd(rp, abs), _mm256_and_pd(r, abs)),
+                ),
+                _mm256_set1_pd(w.xi_row[ix::VX]),
+            );
+            let cross = _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(_mm256_add_pd(_mm256_max_pd(xp, x), reach), up),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(_mm256_sub_pd(_mm256_min_pd(xp, x), reach), down),
+            );
+            _mm256_or_pd(onset, _mm256_and_pd(turn, cross))
+        };
+        let any = _mm256_or_pd(_mm256_or_pd(nan, play), _mm256_or_pd(earth, nonearth));
+        _mm256_movemask_pd(any) != 0
+    }
+}
+
 impl Plant {
     /// Advances by `h` seconds with the DAC volts held (zero-order hold). Volts outside
     /// 0–10 V are clamped and a non-finite value counts as 0 V; the FMU layer refuses
@@ -559,6 +638,17 @@ impl Plant {
             let vn = chain.scanned4::<AVX>(g, 0, n);
             let xi = cfg.scanned4::<AVX>(g, 0, z);
             let rate = cfg.scanned4::<AVX>(g, 1, z);
+            #[cfg(target_arch = "x86_64")]
+            if AVX && 4 * g + 4 <= points {
+                // SAFETY: `AVX` callers run with AVX.
+                let may_stop = unsafe {
+                    group_may_stop(watch, [&ve, &vn, &xi, &rate], xi_prev, rate_prev, dt)
+                };
+                if !may_stop {
+                    (xi_prev, rate_prev) = (xi[3], rate[3]);
+                    continue;
+                }
+            }
             for l in 0..4 {
                 let k = 4 * g + l + 1;
                 if k > points {
