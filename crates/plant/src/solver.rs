@@ -879,7 +879,7 @@ mod tests {
             rng ^= rng << 17;
             // Spread over many binades, both signs, and some exact zeros.
             let m = (rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            if rng % 7 == 0 {
+            if rng.is_multiple_of(7) {
                 0.0
             } else {
                 m * 2f64.powi((rng % 40) as i32 - 30)
