@@ -43,10 +43,9 @@ class Me:
         self.nx = md.numberOfContinuousStates
         self.nz = md.numberOfEventIndicators
         cls = FMU3Model if self.fmi3 else FMU2Model
-        token = md.instantiationToken if self.fmi3 else md.guid
-        kw = {"instantiationToken": token} if self.fmi3 else {"guid": token}
+        # FMPy passes FMI 3.0's instantiation token under the name `guid` as well.
         self.fmu = cls(unzipDirectory=extract(path), modelIdentifier=md.modelExchange.modelIdentifier,
-                       instanceName=name, **kw)
+                       instanceName=name, guid=md.guid)
         self.fmu.instantiate()
         if self.fmi3:
             self.fmu.enterInitializationMode(startTime=0.0)

@@ -60,12 +60,12 @@ def _python_value(ty, text):
     return float(text)
 
 
-def inchworm(ssp, stop, names, parameter_set=None, params=()):
-    """`inchworm run` with no --input."""
+def inchworm(ssp, stop, names, parameter_set=None, params=(), h=H):
+    """`inchworm run` with no --input, at master step `h`."""
     fd, out = tempfile.mkstemp(suffix=".csv", prefix="inchworm-run-")
     os.close(fd)
     out = pathlib.Path(out)
-    cmd = [str(EXE), "run", str(ssp), "--stop-time", str(stop), "--step-size", str(H), "--out", str(out)]
+    cmd = [str(EXE), "run", str(ssp), "--stop-time", str(stop), "--step-size", str(h), "--out", str(out)]
     if parameter_set:
         cmd += ["--parameter-set", parameter_set]
     for p in params:
@@ -80,7 +80,7 @@ def inchworm(ssp, stop, names, parameter_set=None, params=()):
     return rows[:, 0], {n: rows[:, i + 1] for i, n in enumerate(names)}
 
 
-def fmpy(ssp, stop, names, parameter_set=None):
+def fmpy(ssp, stop, names, parameter_set=None, h=H):
     """FMPy's SSP master; `parameter_set` by name, from the SSD's bindings, each
     parameter typed as its .ssv says (FMPy's own read_ssv would turn `false` into true)."""
     from fmpy.ssp.simulation import simulate_ssp
@@ -94,17 +94,18 @@ def fmpy(ssp, stop, names, parameter_set=None):
             for v, (ty, text) in vals.items()
         ]
         ps = types.SimpleNamespace(parameters=params)
-    r = simulate_ssp(str(ssp), stop_time=stop, step_size=H, parameter_set=ps)
+    r = simulate_ssp(str(ssp), stop_time=stop, step_size=h, parameter_set=ps)
     return r["time"], {n: np.asarray(r[n]) for n in names}
 
 
-def ecos(ssp, stop, names, parameter_set=None):
-    """Ecos's SSP loader; names as `component.variable`, Ecos's `component::variable`."""
+def ecos(ssp, stop, names, parameter_set=None, h=H):
+    """Ecos's SSP loader at step `h`; names as `component.variable`, Ecos's
+    `component::variable`."""
     from ecospy import EcosSimulation
 
     types_ = _types(ssp, names)
     labels, cols = [], {n: [] for n in names}
-    with EcosSimulation(ssp_path=str(ssp), step_size=H) as sim:
+    with EcosSimulation(ssp_path=str(ssp), step_size=h) as sim:
         sim.init(parameter_set=parameter_set)
 
         def sample():
@@ -115,16 +116,16 @@ def ecos(ssp, stop, names, parameter_set=None):
                 cols[n].append(get(ident))
 
         sample()
-        for _ in range(int(round(stop / H))):
+        for _ in range(int(round(stop / h))):
             sim.step()
             sample()
         sim.terminate()
     return np.array(labels), {n: np.array(v) for n, v in cols.items()}
 
 
-def libcosim(ssp_dir, stop, names):
+def libcosim(ssp_dir, stop, names, h=H):
     """libcosim's SSP loader on the unpacked SSP `ssp_dir` (it applies each component's
-    first binding); fixed step 2 ms."""
+    first binding); fixed step `h`."""
     from libcosimpy import _internal
     from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
@@ -135,7 +136,7 @@ def libcosim(ssp_dir, stop, names):
     # libcosimpy dereferences a NULL slave on a wrong path: check it first.
     assert (pathlib.Path(ssp_dir) / "SystemStructure.ssd").is_file(), ssp_dir
     try:
-        ex = CosimExecution.from_ssp_file(str(ssp_dir), step_size=int(round(H * 1e9)))
+        ex = CosimExecution.from_ssp_file(str(ssp_dir), step_size=int(round(h * 1e9)))
     except AssertionError as e:
         # from_ssp_file hides the loader's message; libcosim keeps it.
         raise AssertionError(f"libcosim: {_internal.get_last_error_message()}") from e
@@ -148,7 +149,7 @@ def libcosim(ssp_dir, stop, names):
         (var,) = [x for x in ex.slave_variables(index[c]) if x.name.decode() == v]
         refs[n] = (index[c], var.reference, var.type)
     labels, cols = [], {n: [] for n in names}
-    for _ in range(int(round(stop / H))):
+    for _ in range(int(round(stop / h))):
         ex.step()
         labels.append(ex.status().current_time * 1e-9)
         for n, (i, vr, ty) in refs.items():

@@ -5,7 +5,9 @@ the closed loop with the plant and the controller as Model Exchange reproduces F
 (settle sample and holding RMS of the Co-Simulation run)."""
 import csv
 import os
+import pathlib
 import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -61,15 +63,23 @@ def at_samples(result):
     return result[[last[k] for k in sorted(last)]]
 
 
+# FMPy's Model Exchange defaults: the tolerance is the default experiment's (1e-8), the
+# output interval 1 ms (FMPy derives it from the stop time, not from stepSize), and CVode
+# may take 500 steps per output interval. At 1e-9 the steps after each entry into DRIVE
+# exceed that in 1 ms (docs/model.md §5), so the 1e-9 variant uses 0.5 ms.
+CVODE_RUNS = {"defaults": (None, None), "rtol-1e-9": (1e-9, 0.0005)}
+
+
 @pytest.mark.parametrize("version", ["2.0", "3.0"])
-@pytest.mark.parametrize("rtol", [None, 1e-8], ids=["defaults", "rtol-1e-8"])
-def test_cvode_reproduces_the_check_trace(version, rtol, reference_rows, tmp_path, monkeypatch):
-    """`simulate_fmu(fmi_type="ModelExchange", solver="CVode")` on the trace's gait input.
-    The output interval is 0.5 ms: FMPy lets CVode take at most 500 steps per output
-    interval, and following the DRIVE ring to these tolerances takes more than that in
-    2 ms. The encoder is read from the continuous runner position at each sample."""
+@pytest.mark.parametrize("run", sorted(CVODE_RUNS))
+def test_cvode_reproduces_the_check_trace(version, run, reference_rows, tmp_path, monkeypatch):
+    """`simulate_fmu(fmi_type="ModelExchange", solver="CVode")` on the trace's gait input,
+    at FMPy's defaults and at rtol 1e-9. The encoder is read from the continuous runner
+    position at each sample."""
+    rtol, interval = CVODE_RUNS[run]
+    assert float(read_model_description(fmu("plant", version)).defaultExperiment.tolerance) == 1e-8
     steps, events = [0], [0]
-    original_reset, original_step = me_master.CVodeSolver.reset, me_master.CVodeSolver.step
+    original_reset = me_master.CVodeSolver.reset
 
     def reset(self, time):
         steps[0] += me_master.Counted._nst(self)
@@ -81,7 +91,7 @@ def test_cvode_reproduces_the_check_trace(version, rtol, reference_rows, tmp_pat
     write_gait_input(reference_rows, path)
     signals = np.genfromtxt(path, delimiter=",", names=True)
     result = simulate_fmu(fmu("plant", version), fmi_type="ModelExchange", solver="CVode",
-                          relative_tolerance=rtol, stop_time=1.0, output_interval=0.0005,
+                          relative_tolerance=rtol, stop_time=1.0, output_interval=interval,
                           input=signals, output=["runner_position", "mode"])
     rows = at_samples(result)
     assert len(rows) == 501
@@ -90,10 +100,31 @@ def test_cvode_reproduces_the_check_trace(version, rtol, reference_rows, tmp_pat
     ref = np.array([r["encoder_counts_after"] for r in reference_rows])
     dev = np.abs(counts - ref)
     k = int(np.argmax(dev))
-    print(f"FMI {version}, rtol {rtol or 'default (1e-9)'}: worst {dev[k]} count(s) at t = {0.002 * (k + 1):.3f} s, "
+    print(f"FMI {version}, {run}: worst {dev[k]} count(s) at t = {0.002 * (k + 1):.3f} s, "
           f"{events[0]} events, at least {steps[0]} CVode steps (before the last re-initialization)")
     assert dev[k] <= 2
     assert np.array_equal(rows["mode"][1:], np.array([r["mode_after"] for r in reference_rows]))
+
+
+def test_fmpy_simulate_command_runs_model_exchange_at_its_defaults(reference_rows, tmp_path):
+    """The command users run: `fmpy simulate --interface-type ModelExchange --solver CVode`
+    with nothing but the gait input, through the first two gaits (four entries into DRIVE,
+    where 1e-9 ran out of CVode's steps)."""
+    gait = tmp_path / "gait.csv"
+    write_gait_input(reference_rows, gait)
+    out = tmp_path / "out.csv"
+    fmpy = pathlib.Path(sys.executable).with_name("fmpy")
+    run = subprocess.run([str(fmpy), "simulate", fmu("plant", "2.0"), "--interface-type", "ModelExchange",
+                          "--solver", "CVode", "--stop-time", "0.4", "--input-file", str(gait),
+                          "--output-file", str(out)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    result = np.genfromtxt(out, delimiter=",", names=True)
+    rows = at_samples(result)
+    assert len(rows) == 201
+    counts = np.round(rows["runner_position"][1:] / Q_ENC).astype(int)
+    ref = np.array([r["encoder_counts_after"] for r in reference_rows[:200]])
+    assert int(np.max(np.abs(counts - ref))) <= 2
+    assert abs(counts[-1] * Q_ENC - 51.458e-6) < 0.02e-6  # s7 of the second gait, §2.9
 
 
 def cs_fig5(tmp_path):
@@ -133,27 +164,49 @@ def parked_rms(rows, lo=6.0, hi=10.0, reference=100e-6):
 
 
 # Measured (2026-12-02): feedback only 236.339 nm against 236.429 nm, within the issue's
-# 0.1 nm; full control 3.303 nm against 3.027 nm. The two integrations differ by up to 2
-# counts at samples on a rounding boundary, and in regulation the controller acts on
-# single counts, so its parked samples are not the same ones: the issue's 0.1 nm is not
-# met for full control, and this bound holds what was measured.
+# 0.1 nm; full control 3.303 nm against 3.027 nm. The loops part at 1.230 s: the runner
+# parks 0.435 counts above a rounding boundary in CS and 0.545 in ME, so the controller
+# reads one count more at its decision samples. That is no integration error to remove:
+# CS itself is 0.037 counts off its converged run (events located to 1 ns), and one count
+# given to the CS loop at one instant moves this RMS by -0.07 ... +0.21 nm (docs/model.md
+# §5). The full-control bound holds what was measured.
 RMS_TOLERANCE = {"feedback_only": 0.1e-9, "full_control": 0.5e-9}
 
 FEEDBACK_ONLY = {"feedforward": False, "use_scale_factor_estimate": False, "use_disturbance_estimate": False}
 
 
-@pytest.mark.skipif(not os.environ.get("INCHWORM_ME_FIG5"), reason="10 s of Fig. 5 through FMPy's CVode takes minutes: set INCHWORM_ME_FIG5=1")
-@pytest.mark.parametrize("variant", ["full_control", "feedback_only"])
-def test_closed_loop_with_model_exchange_reproduces_fig5(variant, tmp_path):
-    cs = cs_fig5(tmp_path)[variant]
+def me_fig5(version, variant, samples):
     start = {} if variant == "full_control" else FEEDBACK_ONLY
-    rows, counts = me_master.run(fmu("plant", "2.0"), 5000, controller_path=fmu("controller", "2.0"),
+    rows, counts = me_master.run(fmu("plant", version), samples, controller_path=fmu("controller", version),
                                  controller_bools=start)
-    me = [(t, c, dac) for t, c, _, _, dac in rows]
+    return [(t, c, dac) for t, c, _, _, dac in rows], counts
+
+
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+def test_closed_loop_with_model_exchange_settles_as_cs(version, tmp_path):
+    """CI-sized Fig. 5: full control for 1 s with both FMUs as Model Exchange settles
+    within 1 µm at the sample of the Co-Simulation run, in both standards."""
+    cs = cs_fig5(tmp_path)["full_control"][:500]
+    me, counts = me_fig5(version, "full_control", 500)
+    s_cs, s_me = settle_time(cs), settle_time(me)
+    worst = max(abs(a[1] - b[1]) for a, b in zip(me, cs))
+    print(f"FMI {version} full control to 1 s: settles within 1 um at {s_me} s (CS {s_cs} s); "
+          f"worst encoder difference {worst} counts; {counts}")
+    assert s_cs is not None and abs(s_cs - 0.788) < 1e-9
+    assert s_me is not None and abs(s_me - s_cs) < 1e-9
+    assert worst <= 2
+
+
+@pytest.mark.skipif(not os.environ.get("INCHWORM_ME_FIG5"), reason="10 s of Fig. 5 through FMPy's CVode takes minutes: set INCHWORM_ME_FIG5=1")
+@pytest.mark.parametrize("version", ["2.0", "3.0"])
+@pytest.mark.parametrize("variant", ["full_control", "feedback_only"])
+def test_closed_loop_with_model_exchange_reproduces_fig5(variant, version, tmp_path):
+    cs = cs_fig5(tmp_path)[variant]
+    me, counts = me_fig5(version, variant, 5000)
     s_cs, s_me = settle_time(cs), settle_time(me)
     rms_cs, rms_me = parked_rms(cs), parked_rms(me)
     worst = max(abs(a[1] - b[1]) for a, b in zip(me, cs))
-    print(f"{variant}: settles within 1 um at {s_me} s (CS {s_cs} s); parked RMS 6-10 s {rms_me * 1e9:.3f} nm "
+    print(f"FMI {version} {variant}: settles within 1 um at {s_me} s (CS {s_cs} s); parked RMS 6-10 s {rms_me * 1e9:.3f} nm "
           f"(CS {rms_cs * 1e9:.3f} nm); worst encoder difference {worst} counts; {counts}")
     assert s_me is not None and abs(s_me - s_cs) < 1e-9
     assert abs(rms_me - rms_cs) < RMS_TOLERANCE[variant]

@@ -151,20 +151,31 @@ fn text(p: *const c_char) -> String {
 impl<S: Standard, M: Model> Instance<S, M> {
     /// The variable behind `vr` (an array's first element), if it exists and has type
     /// `kind`, and how many values it has.
+    #[inline]
     fn lookup(&self, vr: u32, kind: Kind) -> Result<(&'static Variable, usize), String> {
         match self.variable(vr) {
-            None if S::TIME_VR == Some(vr) => Err(format!(
+            Some(found) if found.0.kind == kind => Ok(found),
+            _ => Err(self.lookup_error(vr, kind)),
+        }
+    }
+
+    /// Why [`Self::lookup`] refuses `vr`: out of the hot path of every `Get*` and `Set*`.
+    #[cold]
+    #[inline(never)]
+    fn lookup_error(&self, vr: u32, kind: Kind) -> String {
+        match self.variable(vr) {
+            None if S::TIME_VR == Some(vr) => format!(
                 "value reference {vr} is the independent variable time ({}, not settable)",
                 S::type_name(Kind::Real)
-            )),
-            None => Err(format!("unknown value reference {vr}")),
-            Some((v, _)) if v.kind != kind => Err(format!(
+            ),
+            None => format!("unknown value reference {vr}"),
+            // Known, so of another type.
+            Some((v, _)) => format!(
                 "value reference {vr} ({}) is {}, not {}",
                 v.name,
                 S::type_name(v.kind),
                 S::type_name(kind)
-            )),
-            Some(found) => Ok(found),
+            ),
         }
     }
 
@@ -178,11 +189,15 @@ impl<S: Standard, M: Model> Instance<S, M> {
         out: &mut [T],
         conv: fn(Value) -> T,
     ) -> Result<usize, String> {
-        if kind == Kind::Real && S::TIME_VR == Some(vr) && self.variable(vr).is_none() {
-            out[0] = conv(Value::Real(self.time));
-            return Ok(1);
-        }
-        let (head, len) = self.lookup(vr, kind)?;
+        // One look-up: time (FMI 3.0) is the reference no variable has.
+        let (head, len) = match self.variable(vr) {
+            Some(found) if found.0.kind == kind => found,
+            None if kind == Kind::Real && S::TIME_VR == Some(vr) => {
+                out[0] = conv(Value::Real(self.time));
+                return Ok(1);
+            }
+            _ => return Err(self.lookup_error(vr, kind)),
+        };
         for (k, slot) in (0u32..).zip(&mut out[..len]) {
             // An array's elements are the table's rows after its first, one value
             // reference apart (crate::arrays): the model knows only those.
@@ -198,11 +213,10 @@ impl<S: Standard, M: Model> Instance<S, M> {
 
     /// How many values the variables `vrs` of type `kind` have (time has one).
     fn count_values(&self, vrs: &[u32], kind: Kind) -> Result<usize, String> {
-        vrs.iter().try_fold(0, |n, &r| {
-            if kind == Kind::Real && S::TIME_VR == Some(r) && self.variable(r).is_none() {
-                return Ok(n + 1);
-            }
-            self.lookup(r, kind).map(|(_, len)| n + len)
+        vrs.iter().try_fold(0, |n, &r| match self.variable(r) {
+            Some((v, len)) if v.kind == kind => Ok(n + len),
+            None if kind == Kind::Real && S::TIME_VR == Some(r) => Ok(n + 1),
+            _ => Err(self.lookup_error(r, kind)),
         })
     }
 

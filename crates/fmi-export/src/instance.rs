@@ -308,6 +308,7 @@ impl Index {
     }
 
     /// The first row and the count of the variable behind `vr`.
+    #[inline]
     fn rows(&self, vr: u32) -> Option<(usize, usize)> {
         match self {
             Index::Direct(d) => {
@@ -377,11 +378,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
 
     /// The table rows of the variable behind `vr`: the first (an array's first
     /// element) and how many.
+    #[inline]
     pub fn rows(&self, vr: u32) -> Option<(usize, usize)> {
         self.index.rows(vr)
     }
 
     /// The variable behind `vr` (an array's first element) and how many values it has.
+    #[inline]
     pub fn variable(&self, vr: u32) -> Option<(&'static Variable, usize)> {
         let (first, len) = self.rows(vr)?;
         Some((M::variables().get(first)?, len))

@@ -6,7 +6,7 @@ use inchworm_fmi_export::{
     ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
     Variable, Writer,
 };
-use inchworm_plant::continuous::{N_INDICATORS, N_STATES};
+use inchworm_plant::continuous::{EventBudget, N_INDICATORS, N_STATES};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport, N_PLAYS};
 
 /// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
@@ -195,7 +195,7 @@ static INFO: ModelInfo = ModelInfo {
     default_start_time: 0.0,
     default_stop_time: 1.0,
     default_step_size: 0.002,
-    default_tolerance: 1e-9,
+    default_tolerance: 1e-8,
     units: &UNITS,
     log_events: "Model events: brake switches, mode changes, slips",
     documentation_html: include_str!("plant.html"),
@@ -208,6 +208,10 @@ pub struct PlantFmu {
     params: PlantParams,
     dac: Dac,
     plant: Option<Plant>,
+    /// Model Exchange: the start time and the event updates of the current 2 ms window.
+    /// Not part of the FMU state: a restored state starts a fresh window.
+    start: f64,
+    budget: EventBudget,
 }
 
 /// Outputs before the plant exists (instantiated / initialization mode): at rest, docs/model.md §2.7.
@@ -331,7 +335,13 @@ impl Model for PlantFmu {
     }
 
     fn new() -> Self {
-        PlantFmu { params: PlantParams::fia20(), dac: Dac::default(), plant: None }
+        PlantFmu {
+            params: PlantParams::fia20(),
+            dac: Dac::default(),
+            plant: None,
+            start: 0.0,
+            budget: EventBudget::default(),
+        }
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
@@ -395,9 +405,10 @@ impl Model for PlantFmu {
         Err(format!("no settable Boolean with value reference {r}"))
     }
 
-    fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
+    fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
         let plant = Plant::new(self.params.clone()).map_err(|e| format!("invalid {e}"))?;
         self.plant = Some(plant);
+        (self.start, self.budget) = (start_time, EventBudget::default());
         Ok(())
     }
 
@@ -422,6 +433,7 @@ impl Model for PlantFmu {
 
     fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
         let plant = self.plant.as_mut().ok_or("the plant is not initialized")?;
+        self.budget.spend(t, self.start)?;
         let before = plant.mode();
         let event = plant.event_update(self.dac, t);
         PlantFmu::report(plant, &event.step, before, log);
@@ -482,6 +494,7 @@ impl Model for PlantFmu {
         } else if !plant.is_empty() {
             return Err("plant FMU state: trailing bytes after an uninitialized plant".into());
         }
+        self.budget = EventBudget::default();
         Ok(())
     }
 }

@@ -131,3 +131,52 @@ fn a_brake_switch_is_a_state_event() {
     brake_switch::<Fmi2>();
     brake_switch::<Fmi3>();
 }
+
+/// A master chattering at the non-earth threshold: the non-earth volts set alternately just
+/// above and below V_th, each followed by an event update (LOCKED and HOLD in turn). The
+/// 20 000 updates of a 2 ms window succeed (the first window's include the one at exit
+/// from initialization), the next window starts afresh, and one update too many fails with
+/// the reason, asks the master to terminate and leaves the instance in the Error state.
+fn chattering<S: Master>() {
+    let h = Harness::<PlantFmu, S>::init_me("chatter");
+    assert_eq!(h.update().0, 0);
+    let mut x = [0.0; N];
+    let mut k = 0u32;
+    let mut chatter = |t: f64| {
+        assert_eq!(h.enter_continuous_time_mode(), 0);
+        assert_eq!(h.set_time(t), 0);
+        k += 1;
+        x[16] = if k % 2 == 1 { 50.0 + 1e-6 } else { 50.0 - 1e-6 };
+        assert_eq!(h.set_states(&x), 0);
+        assert_eq!(h.enter_event_mode(), 0);
+        let (s, _, term) = h.update();
+        (s, term, h.integer(MODE).1, k % 2 == 1)
+    };
+    for i in 0..19_999 {
+        let (s, term, mode, above) = chatter(1e-3 + f64::from(i) * 1e-8);
+        assert_eq!(
+            (s, term, mode),
+            (0, false, if above { 2 } else { 1 }),
+            "first window, update {i}"
+        );
+    }
+    for i in 0..20_000 {
+        let (s, term, _, _) = chatter(2.5e-3 + f64::from(i) * 1e-8);
+        assert_eq!((s, term), (0, false), "second window, update {i}");
+    }
+    let t = 2.5e-3 + 20_000.0 * 1e-8;
+    let (s, term, _, _) = chatter(t);
+    assert_eq!((s, term), (3, true), "one update too many");
+    let logged = h.take_logged();
+    let last = logged.last().expect("the refusal is logged");
+    let why = format!("more than 20000 event updates in the 2 ms from t = 0.002 s (at t = {t} s)");
+    assert!(last.contains("logStatusError") && last.contains(&why), "{last}");
+    // The Error state takes no further event mode.
+    assert_eq!(h.enter_event_mode(), 3);
+}
+
+#[test]
+fn chattering_beyond_the_event_budget_is_an_error_that_terminates() {
+    chattering::<Fmi2>();
+    chattering::<Fmi3>();
+}

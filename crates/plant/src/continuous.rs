@@ -232,3 +232,62 @@ pub fn at_rest(p: &PlantParams, dac: Dac) -> ([f64; N_STATES], [f64; N_INDICATOR
     let rest = (&z, &e, &n);
     (rates(&a, &linear::chain_matrix(p), rest), indicators(p, Mode::Hold, &h, rest))
 }
+
+/// Event-mode updates a Model Exchange plant takes per 2 ms window, the Co-Simulation
+/// solver's budget of located events per 2 ms (a nominal gait makes a few dozen). Beyond
+/// it a master is locating an endless sequence of events at one threshold (chattering): the
+/// FMU can't suspend the master's root finding as the exact solver suspends its own, so
+/// the update fails instead of letting the master spin.
+pub const EVENTS_PER_2_MS: u32 = 20_000;
+
+/// Counts the event updates of the 2 ms window `[t0 + 2k ms, t0 + 2(k + 1) ms)` the master
+/// is in.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventBudget {
+    window: i64,
+    used: u32,
+}
+
+impl EventBudget {
+    /// Spends one update at time `t` of a run that started at `t0`; `Err` with the reason
+    /// once the window's [`EVENTS_PER_2_MS`] are spent.
+    pub fn spend(&mut self, t: f64, t0: f64) -> Result<(), String> {
+        // Saturating float-to-int: a window index needs no more than the time can say.
+        let window = ((t - t0) / 0.002).floor() as i64;
+        if window != self.window {
+            *self = EventBudget { window, used: 0 };
+        }
+        if self.used >= EVENTS_PER_2_MS {
+            let start = t0 + 0.002 * window as f64;
+            return Err(format!("more than {EVENTS_PER_2_MS} event updates in the 2 ms from t = {start} s (at t = {t} s): the master is locating an endless sequence of events at one threshold (chattering)"));
+        }
+        self.used += 1;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_budget_is_per_2_ms_window_from_the_start() {
+        let mut b = EventBudget::default();
+        let t0 = 0.5;
+        for _ in 0..EVENTS_PER_2_MS {
+            assert_eq!(b.spend(0.5011, t0), Ok(()));
+        }
+        let why = b.spend(0.5019, t0).unwrap_err();
+        assert!(
+            why.contains(
+                "more than 20000 event updates in the 2 ms from t = 0.5 s (at t = 0.5019 s)"
+            ),
+            "{why}"
+        );
+        // The next window starts afresh; so does a window the master returns to later.
+        assert_eq!(b.spend(0.5021, t0), Ok(()));
+        assert_eq!(b.used, 1);
+        assert_eq!(b.spend(0.5011, t0), Ok(()));
+        assert_eq!(b.used, 1);
+    }
+}

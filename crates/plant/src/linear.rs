@@ -541,7 +541,8 @@ impl<const D: usize> Propagators<D> {
 /// nalgebra's `dot` of four rows with `z` (rows point-minor, see `scan_lanes`), one row per
 /// lane: for 4 components `(p₀ + p₂) + (p₁ + p₃)`; from 8 on, eight accumulators
 /// `accₘ = 0 + p_m (+ p_{m+8} …)`, `res = 0 + (acc₀ + acc₄)`, `+ (acc₁ + acc₅)`, …, then the
-/// remaining products one by one.
+/// remaining products one by one. The additions of the zeros they start from are left out:
+/// `0 + x` is `x` but for the sign of a zero, and the scan only compares these values.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]
@@ -556,17 +557,16 @@ unsafe fn dot4_avx<const D: usize>(rows: &[f64], z: &SVector<f64, D>) -> [f64; 4
         let res = if D == 4 {
             _mm256_add_pd(_mm256_add_pd(p(0), p(2)), _mm256_add_pd(p(1), p(3)))
         } else {
-            let zero = _mm256_setzero_pd();
-            let mut acc = [zero; 8];
-            let mut i = 0;
+            let mut acc: [__m256d; 8] = std::array::from_fn(p);
+            let mut i = 8;
             while D - i >= 8 {
                 for (m, a) in acc.iter_mut().enumerate() {
                     *a = _mm256_add_pd(*a, p(i + m));
                 }
                 i += 8;
             }
-            let mut res = zero;
-            for m in 0..4 {
+            let mut res = _mm256_add_pd(acc[0], acc[4]);
+            for m in 1..4 {
                 res = _mm256_add_pd(res, _mm256_add_pd(acc[m], acc[m + 4]));
             }
             for k in i..D {

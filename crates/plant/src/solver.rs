@@ -189,15 +189,42 @@ pub(crate) struct Watch<'a> {
 }
 
 impl Watch<'_> {
+    #[inline(always)]
     fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
         (e[2] < self.vth) != self.earth_closed || (n[2] >= self.vth) != self.nonearth_closed
     }
 
+    /// `ξ` as `xi_row.dot(z)` computes it, from the row's only non-zero entries (`Y3`, `VX`,
+    /// `C0`, see `linear::xi_row`): nalgebra's dot adds the other products as ±0 terms in
+    /// an order that leaves these three summed as `(p_Y3 + p_VX) + p_C0`, so the value is
+    /// the same but for the sign of a zero, and the event loop only compares it (a ±0
+    /// compares equal). The state it is taken on is finite, or the step is refused whatever
+    /// the decisions (a non-finite state stays non-finite).
+    #[inline(always)]
+    fn xi(&self, z: &Vector) -> f64 {
+        let r = self.xi_row;
+        let v = (r[ix::Y3] * z[ix::Y3] + r[ix::VX] * z[ix::VX]) + r[ix::C0] * z[ix::C0];
+        debug_assert!(v == r.dot(z) || !v.is_finite());
+        v
+    }
+
+    /// `rate_row.dot(z)` from its only non-zero entries (`V3`, `BX1`, `VX`, see
+    /// `linear::drive_rate_row`), as [`Self::xi`]: `(p_V3 + p_BX1) + p_VX`.
+    #[inline(always)]
+    fn rate(&self, z: &Vector) -> f64 {
+        let r = self.rate_row;
+        let v = (r[ix::V3] * z[ix::V3] + r[ix::BX1] * z[ix::BX1]) + r[ix::VX] * z[ix::VX];
+        debug_assert!(v == r.dot(z) || !v.is_finite());
+        v
+    }
+
+    #[inline(always)]
     fn play_event(&self, z: &Vector) -> bool {
-        self.play_event_at(self.xi_row.dot(z), self.rate_row.dot(z))
+        self.play_event_at(self.xi(z), self.rate(z))
     }
 
     /// `rate` has the sign of `ξ̇`.
+    #[inline(always)]
     fn play_event_at(&self, xi: f64, rate: f64) -> bool {
         if self.direction != 0.0 {
             self.direction * rate <= 0.0
@@ -210,6 +237,7 @@ impl Watch<'_> {
 
     /// Whether `ξ`, turning round between two points `dt` apart, may reach a threshold in
     /// between: its excursion beyond the end values is below `dt · max|ξ̇|`.
+    #[inline(always)]
     fn extremum_may_cross(&self, xi0: f64, xi1: f64, rate0: f64, rate1: f64, dt: f64) -> bool {
         let reach = dt * (rate0.abs() + rate1.abs()) * self.xi_row[ix::VX];
         xi0.max(xi1) + reach >= self.up || xi0.min(xi1) - reach <= self.down
@@ -225,8 +253,88 @@ impl Watch<'_> {
         rate0.abs().max(rate1.abs()) > TURN_NOISE * scale(z0).max(scale(z1))
     }
 
+    #[inline(always)]
     fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
         self.brakes_changed(e, n) || self.play_event(z)
+    }
+}
+
+/// Whether any of four consecutive scan points may stop the scan: the point-by-point test of
+/// `full_scan_inline` on four lanes at once (the same IEEE comparisons, products and sums,
+/// so the same decisions; `maxpd` and `f64::max` differ only on a NaN or a zero's sign, and a
+/// lane with a NaN counts as a stop). `false` means every point is clear; on `true` the
+/// caller decides the points one by one.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn group_may_stop(
+    w: &Watch,
+    [ve, vn, xi, rate]: [&[f64; 4]; 4],
+    xi_prev: f64,
+    rate_prev: f64,
+    dt: f64,
+) -> bool {
+    use std::arch::x86_64::*;
+    // SAFETY: every load is of a whole `[f64; 4]`.
+    unsafe {
+        let (ve, vn) = (_mm256_loadu_pd(ve.as_ptr()), _mm256_loadu_pd(vn.as_ptr()));
+        let (x, r) = (_mm256_loadu_pd(xi.as_ptr()), _mm256_loadu_pd(rate.as_ptr()));
+        let vth = _mm256_set1_pd(w.vth);
+        let nan = _mm256_or_pd(
+            _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_UNORD_Q>(ve, ve),
+                _mm256_cmp_pd::<_CMP_UNORD_Q>(vn, vn),
+            ),
+            _mm256_or_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(x, x), _mm256_cmp_pd::<_CMP_UNORD_Q>(r, r)),
+        );
+        // Earth closed ⇔ V_E < V_th, non-earth closed ⇔ V_N ≥ V_th: a stop is the other side.
+        let earth = if w.earth_closed {
+            _mm256_cmp_pd::<_CMP_GE_OQ>(ve, vth)
+        } else {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(ve, vth)
+        };
+        let nonearth = if w.nonearth_closed {
+            _mm256_cmp_pd::<_CMP_LT_OQ>(vn, vth)
+        } else {
+            _mm256_cmp_pd::<_CMP_GE_OQ>(vn, vth)
+        };
+        let (up, down) = (_mm256_set1_pd(w.up), _mm256_set1_pd(w.down));
+        let play = if w.direction != 0.0 {
+            let reversal = _mm256_cmp_pd::<_CMP_LE_OQ>(
+                _mm256_mul_pd(_mm256_set1_pd(w.direction), r),
+                _mm256_setzero_pd(),
+            );
+            let onset = if w.direction > 0.0 {
+                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up)
+            } else {
+                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down)
+            };
+            _mm256_or_pd(reversal, onset)
+        } else {
+            let onset = _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down),
+            );
+            // Each point against the one before it: the previous group's last, then these.
+            let xp = _mm256_set_pd(xi[2], xi[1], xi[0], xi_prev);
+            let rp = _mm256_set_pd(rate[2], rate[1], rate[0], rate_prev);
+            let turn = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_mul_pd(r, rp), _mm256_setzero_pd());
+            let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+            let reach = _mm256_mul_pd(
+                _mm256_mul_pd(
+                    _mm256_set1_pd(dt),
+                    _mm256_add_pd(_mm256_and_pd(rp, abs), _mm256_and_pd(r, abs)),
+                ),
+                _mm256_set1_pd(w.xi_row[ix::VX]),
+            );
+            let cross = _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(_mm256_add_pd(_mm256_max_pd(xp, x), reach), up),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(_mm256_sub_pd(_mm256_min_pd(xp, x), reach), down),
+            );
+            _mm256_or_pd(onset, _mm256_and_pd(turn, cross))
+        };
+        let any = _mm256_or_pd(_mm256_or_pd(nan, play), _mm256_or_pd(earth, nonearth));
+        _mm256_movemask_pd(any) != 0
     }
 }
 
@@ -249,13 +357,11 @@ impl Plant {
         }
         let before = Snapshot::take(self);
         let report = self.advance_held(dac, h);
+        // Three plain loops: the chained iterator cost ~390 instructions a step.
         let finite = self.time.is_finite()
-            && self
-                .z
-                .iter()
-                .chain(self.earth.iter())
-                .chain(self.nonearth.iter())
-                .all(|v| v.is_finite());
+            && self.z.iter().all(|v| v.is_finite())
+            && self.earth.iter().all(|v| v.is_finite())
+            && self.nonearth.iter().all(|v| v.is_finite());
         if !finite {
             let time = before.time;
             before.restore(self);
@@ -373,16 +479,16 @@ impl Plant {
         let hit = watch.event(&z1, &e1, &n1);
         // With no play sliding, ξ may cross a threshold and come back inside the piece:
         // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
-        let rate0 = watch.rate_row.dot(&z0);
-        let rate1 = watch.rate_row.dot(&z1);
+        let rate0 = watch.rate(&z0);
+        let rate1 = watch.rate(&z1);
         let mut extremum = false;
         if !hit
             && watch.direction == 0.0
             && rate0 * rate1 < 0.0
             && watch.turns(&z0, &z1, rate0, rate1)
         {
-            let xi0 = watch.xi_row.dot(&z0);
-            let xi1 = watch.xi_row.dot(&z1);
+            let xi0 = watch.xi(&z0);
+            let xi1 = watch.xi(&z1);
             let dt = TICK * (1u64 << level) as f64;
             extremum = watch.extremum_may_cross(xi0, xi1, rate0, rate1, dt);
         }
@@ -391,7 +497,7 @@ impl Plant {
             return (1 << level, false);
         }
         let stop = |z: &Vector, e: &Chain, n: &Chain| {
-            watch.event(z, e, n) || (extremum && watch.rate_row.dot(z) * rate0 <= 0.0)
+            watch.event(z, e, n) || (extremum && watch.rate(z) * rate0 <= 0.0)
         };
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
@@ -447,10 +553,10 @@ impl Plant {
         if watch.event(&z1, &e1, &n1) {
             return false;
         }
-        let (rate0, rate1) = (watch.rate_row.dot(&self.z), watch.rate_row.dot(&z1));
+        let (rate0, rate1) = (watch.rate(&self.z), watch.rate(&z1));
         if watch.direction == 0.0 && rate0 * rate1 < 0.0 && watch.turns(&self.z, &z1, rate0, rate1)
         {
-            let (xi0, xi1) = (watch.xi_row.dot(&self.z), watch.xi_row.dot(&z1));
+            let (xi0, xi1) = (watch.xi(&self.z), watch.xi(&z1));
             if watch.extremum_may_cross(xi0, xi1, rate0, rate1, TICK * ticks as f64) {
                 return false;
             }
@@ -523,13 +629,24 @@ impl Plant {
         let chain = &self.chain;
         let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
         let dt = TICK * (1u64 << chain.scan_level) as f64;
-        let mut xi_prev = watch.xi_row.dot(z);
-        let mut rate_prev = watch.rate_row.dot(z);
+        let mut xi_prev = watch.xi(z);
+        let mut rate_prev = watch.rate(z);
         for g in 0..points.div_ceil(4) {
             let ve = chain.scanned4::<AVX>(g, 0, e);
             let vn = chain.scanned4::<AVX>(g, 0, n);
             let xi = cfg.scanned4::<AVX>(g, 0, z);
             let rate = cfg.scanned4::<AVX>(g, 1, z);
+            #[cfg(target_arch = "x86_64")]
+            if AVX && 4 * g + 4 <= points {
+                // SAFETY: `AVX` callers run with AVX.
+                let may_stop = unsafe {
+                    group_may_stop(watch, [&ve, &vn, &xi, &rate], xi_prev, rate_prev, dt)
+                };
+                if !may_stop {
+                    (xi_prev, rate_prev) = (xi[3], rate[3]);
+                    continue;
+                }
+            }
             for l in 0..4 {
                 let k = 4 * g + l + 1;
                 if k > points {
@@ -644,6 +761,10 @@ impl Plant {
             cfg.watched[0] == linear::xi_row(&self.params, self.hysteresis.sticking_weight())
                 && cfg.watched[1] == linear::drive_rate_row(&self.params, self.mode)
         );
+        debug_assert!((0..linear::N).all(|i| {
+            ([ix::Y3, ix::VX, ix::C0].contains(&i) || cfg.watched[0][i] == 0.0)
+                && ([ix::V3, ix::BX1, ix::VX].contains(&i) || cfg.watched[1][i] == 0.0)
+        }));
         Watch {
             vth: self.params.v_th,
             earth_closed: self.earth_closed,
@@ -709,8 +830,25 @@ impl Plant {
                 linear::drive_rate_row(&self.params, self.mode).dot(&self.z),
             ),
         };
-        self.hysteresis.sync(xi, rate_sign(rate));
-        self.armed = Armed::of(&self.hysteresis);
+        if self.armed.keeps(xi) {
+            // Inside the keep interval `sync` keeps every memory and slips nothing
+            // (`Hysteresis::sync_keeps`); of what it derives only the direction changes,
+            // and `Armed` weighs it only for slipping elements. The quiet step's shortcut,
+            // taken at the start of every event-loop step and after most of its stops.
+            debug_assert!(self.hysteresis.sync_keeps(xi, rate_sign(rate)));
+            self.hysteresis.direction = rate_sign(rate);
+            self.armed.sync_direction(&self.hysteresis);
+            debug_assert!({
+                let fresh = Armed::of(&self.hysteresis);
+                fresh.up.to_bits() == self.armed.up.to_bits()
+                    && fresh.down.to_bits() == self.armed.down.to_bits()
+                    && fresh.c0.to_bits() == self.armed.c0.to_bits()
+                    && fresh.direction.to_bits() == self.armed.direction.to_bits()
+            });
+        } else {
+            self.hysteresis.sync(xi, rate_sign(rate));
+            self.armed = Armed::of(&self.hysteresis);
+        }
         self.z[ix::C0] = self.armed.c0;
     }
 
@@ -721,5 +859,55 @@ impl Plant {
         }
         // f64::round rounds half away from zero, as docs/model.md §2.6 asks.
         self.encoder_counts = (x / self.params.q_enc).round() as i64;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::PlantParams;
+
+    /// `Watch::xi` and `Watch::rate` give the values of the dense dot products of the
+    /// watched rows, bit for bit (but the sign of a zero), in every mode and sticking weight.
+    #[test]
+    fn sparse_watched_rows_are_the_dense_dot_products() {
+        let p = PlantParams::fia20();
+        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            // Spread over many binades, both signs, and some exact zeros.
+            let m = (rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            if rng.is_multiple_of(7) {
+                0.0
+            } else {
+                m * 2f64.powi((rng % 40) as i32 - 30)
+            }
+        };
+        let mut compared = 0;
+        for mode in [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free] {
+            for w_s in [0.0, 0.04, 0.3] {
+                let (xi_row, rate_row) =
+                    (linear::xi_row(&p, w_s), linear::drive_rate_row(&p, mode));
+                let watch = Watch {
+                    vth: p.v_th,
+                    earth_closed: true,
+                    nonearth_closed: false,
+                    xi_row: &xi_row,
+                    rate_row: &rate_row,
+                    direction: 0.0,
+                    up: 1.0,
+                    down: -1.0,
+                };
+                for _ in 0..2000 {
+                    let z = Vector::from_fn(|_, _| next());
+                    assert_eq!(watch.xi(&z), xi_row.dot(&z));
+                    assert_eq!(watch.rate(&z), rate_row.dot(&z));
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 24_000);
     }
 }

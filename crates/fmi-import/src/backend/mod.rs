@@ -119,7 +119,18 @@ impl Calls {
         self.check(function, status)
     }
 
+    #[inline]
     fn check(&mut self, function: &'static str, status: Status) -> Done {
+        if status == Status::Ok {
+            return Ok(());
+        }
+        self.check_not_ok(function, status)
+    }
+
+    /// [`Self::check`] of a status other than OK, out of the path of every call.
+    #[cold]
+    #[inline(never)]
+    fn check_not_ok(&mut self, function: &'static str, status: Status) -> Done {
         match status {
             Status::Ok => Ok(()),
             Status::Warning => {
