@@ -225,7 +225,8 @@ pub struct Propagators<const D: usize> {
     pub scan: Vec<SVector<f64, D>>,
     /// The scan rows four points at a time, point-minor: `scan_lanes[((g·w + o)·D + i)·4 + l]`
     /// is component `i` of `scan[(4g + l)·w + o]` (zero rows pad the last group), so one
-    /// register holds one component of four points' rows.
+    /// register holds one component of four points' rows. Only the x86-64 AVX scan reads it.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     scan_lanes: Vec<f64>,
     /// Bounds of every watched functional over all scan points of a piece, from the state
     /// alone (see [`ScanBound`]); `None` if the configuration's long-time propagator isn't finite.
