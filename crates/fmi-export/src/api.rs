@@ -18,17 +18,8 @@ use crate::ffi::*;
 use crate::instance::{Interface, Line, Standard, State};
 use crate::{EventUpdate, Kind};
 
-/// `fmi2EventInfo` of `fmi2FunctionTypes.h`, which only Model Exchange uses.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default)]
-pub struct fmi2EventInfo {
-    pub newDiscreteStatesNeeded: fmi2Boolean,
-    pub terminateSimulation: fmi2Boolean,
-    pub nominalsOfContinuousStatesChanged: fmi2Boolean,
-    pub valuesOfContinuousStatesChanged: fmi2Boolean,
-    pub nextEventTimeDefined: fmi2Boolean,
-    pub nextEventTime: fmi2Real,
-}
+/// `fmi2EventInfo`, which only Model Exchange uses: the ABI crate's, which the importer shares.
+pub use crate::ffi::fmi2EventInfo;
 
 impl EventSink for *mut fmi2EventInfo {
     fn any_null(&self) -> bool {
