@@ -238,7 +238,7 @@ pub fn at_rest(p: &PlantParams, dac: Dac) -> ([f64; N_STATES], [f64; N_INDICATOR
 /// it a master is locating an endless sequence of events at one threshold (chattering): the
 /// FMU can't suspend the master's root finding as the exact solver suspends its own, so
 /// the update fails instead of letting the master spin.
-pub const EVENTS_PER_2_MS: u32 = 20_000;
+pub const EVENTS_PER_2_MS: u32 = crate::solver::EVENTS_PER_2_MS;
 
 /// Counts the event updates of the 2 ms window `[t0 + 2k ms, t0 + 2(k + 1) ms)` the master
 /// is in.

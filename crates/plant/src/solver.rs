@@ -97,12 +97,12 @@ const TURN_NOISE: f64 = 1e-12;
 /// amplitude): event detection is suspended for the rest of that step and the step reports
 /// it. Each stop costs at most one bisection, so this bounds the work of a step by its
 /// length.
-const EVENTS_PER_2_MS: u64 = 20_000;
+pub(crate) const EVENTS_PER_2_MS: u32 = 20_000;
 
 /// The event budget of a step of `h` seconds.
 fn event_budget(h: f64) -> u32 {
     let periods = (h / 0.002).ceil().max(1.0) as u64;
-    u32::try_from(periods.saturating_mul(EVENTS_PER_2_MS)).unwrap_or(u32::MAX)
+    u32::try_from(periods.saturating_mul(u64::from(EVENTS_PER_2_MS))).unwrap_or(u32::MAX)
 }
 
 /// A scan of fewer points than this is cheaper than the bound that could skip it.
