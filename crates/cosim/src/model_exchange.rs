@@ -75,6 +75,19 @@ pub struct MeStats {
     pub step_events: u64,
 }
 
+/// One line for a log or a command line's summary: `inchworm run` prints it for each ME
+/// component.
+impl std::fmt::Display for MeStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
+        write!(
+            f,
+            "{} integrator steps, {} derivative and {} Jacobian-product evaluations, {} state, {} time and {} step events",
+            s.steps, s.derivatives, s.jacobian_products, s.state_events, s.time_events, s.step_events
+        )
+    }
+}
+
 /// One Model Exchange component and how it is integrated.
 pub struct MeRun {
     pub(crate) fmu: MeFmu,
@@ -445,5 +458,26 @@ impl MeRun {
                 (false, false) => Ended::Target,
             },
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_read_as_one_line_naming_each_count() {
+        let s = MeStats {
+            steps: 413_624,
+            derivatives: 599_342,
+            jacobian_products: 153_986,
+            state_events: 228,
+            time_events: 0,
+            step_events: 1,
+        };
+        assert_eq!(
+            s.to_string(),
+            "413624 integrator steps, 599342 derivative and 153986 Jacobian-product evaluations, 228 state, 0 time and 1 step events"
+        );
     }
 }
