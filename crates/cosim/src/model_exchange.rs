@@ -34,7 +34,9 @@
 
 use std::cell::RefCell;
 
-use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, OdeSolverStopReason, Vector};
+use diffsol::{
+    NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, OdeSolverStopReason, Vector, VectorCommon,
+};
 
 use crate::fmu::{FmuError, MeFmu};
 use crate::Error;
@@ -73,6 +75,19 @@ pub struct MeStats {
     pub step_events: u64,
 }
 
+/// One line for a log or a command line's summary: `inchworm run` prints it for each ME
+/// component.
+impl std::fmt::Display for MeStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = self;
+        write!(
+            f,
+            "{} integrator steps, {} derivative and {} Jacobian-product evaluations, {} state, {} time and {} step events",
+            s.steps, s.derivatives, s.jacobian_products, s.state_events, s.time_events, s.step_events
+        )
+    }
+}
+
 /// One Model Exchange component and how it is integrated.
 pub struct MeRun {
     pub(crate) fmu: MeFmu,
@@ -106,7 +121,9 @@ struct Eval<'f> {
     states: &'f [u32],
     derivatives: &'f [u32],
     directional: bool,
+    /// `f(x)` and the shifted state of [`Eval::finite_difference`], reused.
     scratch: Vec<f64>,
+    shifted: Vec<f64>,
     name: &'f str,
 }
 
@@ -174,15 +191,18 @@ impl Eval<'_> {
             return Ok(());
         }
         let eps = f64::EPSILON.sqrt() * (1.0 + nx) / nv;
-        let mut f0 = std::mem::take(&mut self.scratch);
+        // `f(x)` and `x + ε v` in buffers kept across calls: no allocation per product.
+        let (mut f0, mut shifted) =
+            (std::mem::take(&mut self.scratch), std::mem::take(&mut self.shifted));
         f0.resize(x.len(), 0.0);
+        shifted.clear();
+        shifted.extend(x.iter().zip(v).map(|(a, b)| a + eps * b));
         self.at(t, x)?;
         self.fmu.get_derivatives(&mut f0)?;
-        let shifted: Vec<f64> = x.iter().zip(v).map(|(a, b)| a + eps * b).collect();
         self.at(t, &shifted)?;
         self.fmu.get_derivatives(out)?;
         out.iter_mut().zip(&f0).for_each(|(o, f)| *o = (*o - f) / eps);
-        self.scratch = f0;
+        (self.scratch, self.shifted) = (f0, shifted);
         Ok(())
     }
 
@@ -198,6 +218,29 @@ impl Eval<'_> {
             self.fail(e, z);
         }
     }
+}
+
+/// `fmi*CompletedIntegratorStep` after an accepted step, unless the FMU said it needs none
+/// (`not_needed`): whether the FMU asks for a step event. Its asking to terminate is an
+/// error of `component` at `t`.
+fn completed_step(
+    fmu: &mut MeFmu,
+    not_needed: bool,
+    component: &str,
+    t: f64,
+) -> Result<bool, Error> {
+    if not_needed {
+        return Ok(false);
+    }
+    let (event, terminate) = fmu.completed_integrator_step(true)?;
+    if terminate {
+        return Err(Error::Integration {
+            component: component.to_owned(),
+            time: t,
+            message: "the FMU asked to terminate the simulation (completed integrator step)".into(),
+        });
+    }
+    Ok(event)
 }
 
 impl MeRun {
@@ -332,6 +375,7 @@ impl MeRun {
             derivatives: &self.derivatives,
             directional,
             scratch: Vec::new(),
+            shifted: Vec::new(),
             name: &name,
         });
         let take = |cell: &RefCell<Eval<'_>>| cell.borrow_mut().error.take();
@@ -355,36 +399,33 @@ impl MeRun {
             }
             let mut solver = solver.map_err(|e| failed(e, t0))?;
             solver.set_stop_time(t1).map_err(|e| failed(e, t0))?;
+            let mut y = solver.state().y.clone();
             loop {
                 let r = solver.step();
                 if let Some(e) = take(&cell) {
                     return Err(e);
                 }
                 let at = solver.state().t;
-                let (t, y, ended) = match r.map_err(|e| failed(e, at))? {
-                    OdeSolverStopReason::InternalTimestep => (at, solver.state().y.clone(), None),
+                // The state of the step's end (or of the root) into `y`, which lives as long
+                // as this integration: no allocation per accepted step.
+                let (t, ended) = match r.map_err(|e| failed(e, at))? {
+                    OdeSolverStopReason::InternalTimestep => {
+                        y.copy_from(solver.state().y);
+                        (at, None)
+                    }
                     OdeSolverStopReason::TstopReached => {
-                        (t1, solver.state().y.clone(), Some(Ended::Target))
+                        y.copy_from(solver.state().y);
+                        (t1, Some(Ended::Target))
                     }
                     OdeSolverStopReason::RootFound(t, _) => {
-                        let y = solver.interpolate(t).map_err(|e| failed(e, t))?;
-                        (t, y, Some(Ended::StateEvent))
+                        solver.interpolate_inplace(t, &mut y).map_err(|e| failed(e, t))?;
+                        (t, Some(Ended::StateEvent))
                     }
                 };
                 let mut eval = cell.borrow_mut();
                 eval.stats.steps += 1;
-                eval.at(t, &y.clone_as_vec())?;
-                let step_event = if completed_not_needed {
-                    false
-                } else {
-                    let (event, terminate) = eval.fmu.completed_integrator_step(true)?;
-                    if terminate {
-                        let why =
-                            "the FMU asked to terminate the simulation (completed integrator step)";
-                        return Err(error(t, why.into()));
-                    }
-                    event
-                };
+                eval.at(t, y.inner().as_slice())?;
+                let step_event = completed_step(eval.fmu, completed_not_needed, &name, t)?;
                 match (ended, step_event) {
                     (Some(e), _) => break (t, e),
                     (None, true) => break (t, Ended::StepEvent),
@@ -407,17 +448,8 @@ impl MeRun {
         self.fmu.get_event_indicators(&mut after)?;
         self.stats.steps += 1;
         let crossed = before.iter().zip(&after).any(|(a, b)| (*a > 0.0) != (*b > 0.0));
-        let (event, terminate) = if self.fmu.completed_integrator_step_not_needed() {
-            (false, false)
-        } else {
-            self.fmu.completed_integrator_step(true)?
-        };
-        if terminate {
-            return Err(self.error(
-                t1,
-                "the FMU asked to terminate the simulation (completed integrator step)",
-            ));
-        }
+        let not_needed = self.fmu.completed_integrator_step_not_needed();
+        let event = completed_step(&mut self.fmu, not_needed, &self.name, t1)?;
         Ok((
             t1,
             match (crossed, event) {
@@ -426,5 +458,26 @@ impl MeRun {
                 (false, false) => Ended::Target,
             },
         ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_read_as_one_line_naming_each_count() {
+        let s = MeStats {
+            steps: 413_624,
+            derivatives: 599_342,
+            jacobian_products: 153_986,
+            state_events: 228,
+            time_events: 0,
+            step_events: 1,
+        };
+        assert_eq!(
+            s.to_string(),
+            "413624 integrator steps, 599342 derivative and 153986 Jacobian-product evaluations, 228 state, 0 time and 1 step events"
+        );
     }
 }
