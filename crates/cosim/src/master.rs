@@ -793,6 +793,7 @@ impl System {
             columns,
             record_names,
             input: opts.input.clone(),
+            input_rows: vec![0; input_columns.len()],
             input_columns,
             coupling: opts.coupling,
             h,
@@ -828,6 +829,8 @@ pub struct Simulation {
     row: Vec<f64>,
     input: Option<InputTable>,
     input_columns: Vec<Option<usize>>,
+    /// Per system input, the row of the input table it was read from last.
+    input_rows: Vec<usize>,
     coupling: Coupling,
     h: f64,
     n_steps: u64,
@@ -854,10 +857,6 @@ impl Simulation {
         &self.record_names
     }
 
-    fn input_value(&self, i: usize, t: f64) -> f64 {
-        system_input(&self.input_columns, self.input.as_ref(), i, t)
-    }
-
     /// Sets the inputs of component `only` (every component if `None`) from the latest
     /// outputs and the system inputs at the current time.
     fn feed(&mut self, only: Option<usize>) -> Result<(), Error> {
@@ -868,7 +867,8 @@ impl Simulation {
                 let v = match feed {
                     Feed::Latest(j) => self.latest[j],
                     Feed::SystemInput(j) => {
-                        let v = self.input_value(j, t);
+                        let row = &mut self.input_rows[j];
+                        let v = system_input(&self.input_columns, self.input.as_ref(), j, t, row);
                         // A CSV value for an Integer input: out of 32 bits, the cast
                         // would saturate silently.
                         let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
@@ -906,7 +906,8 @@ impl Simulation {
                 Column::Latest(j) => self.latest[j],
                 Column::Read(k) => self.port_values[k],
                 Column::SystemInput(i) => {
-                    system_input(&self.input_columns, self.input.as_ref(), i, t)
+                    let row = &mut self.input_rows[i];
+                    system_input(&self.input_columns, self.input.as_ref(), i, t, row)
                 }
             };
         }
@@ -988,10 +989,17 @@ impl Simulation {
     }
 }
 
-/// System input `i` at `t`: its column of the input table, or 0 without one.
-fn system_input(columns: &[Option<usize>], input: Option<&InputTable>, i: usize, t: f64) -> f64 {
+/// System input `i` at `t`: its column of the input table (near `row`, the row it was read
+/// from last: [`InputTable::value_near`]), or 0 without one.
+fn system_input(
+    columns: &[Option<usize>],
+    input: Option<&InputTable>,
+    i: usize,
+    t: f64,
+    row: &mut usize,
+) -> f64 {
     match (columns[i], input) {
-        (Some(col), Some(table)) => table.value(col, t),
+        (Some(col), Some(table)) => table.value_near(col, t, row),
         _ => 0.0,
     }
 }
