@@ -988,8 +988,10 @@ impl<S: Standard, M: Model> Instance<S, M> {
 }
 
 /// Communication points from `t += h` and from `k · h` differ by rounding; they are the
-/// same point when within 1e-9 of the time (and within a few ulps at t = 0).
-pub(crate) fn same_time(a: f64, b: f64) -> bool {
+/// same point when within 1e-9 of the time (and within a few ulps at t = 0). The rule of
+/// every `DoStep`'s time, and of a model whose own instants must meet it (the controller's
+/// sample clock).
+pub fn same_time(a: f64, b: f64) -> bool {
     let scale = a.abs().max(b.abs());
     (a - b).abs() <= (1e-9 * scale).max(4.0 * f64::EPSILON * scale).max(f64::MIN_POSITIVE)
 }

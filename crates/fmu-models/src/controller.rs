@@ -32,6 +32,9 @@
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
 };
+// The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0) are
+// one point, so an instant the master reaches up to rounding counts as reached.
+use inchworm_fmi_export::same_time;
 use inchworm_fmi_export::{
     EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit, Variable, Writer,
 };
@@ -202,13 +205,6 @@ struct Clock {
     /// The inputs latched at `s_ticks` while the write at `s_(ticks+1)` is still ahead;
     /// `None` exactly when the communication point is a sample instant.
     latch: Option<(i32, f64)>,
-}
-
-/// The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0)
-/// are one point, so an instant the master reaches up to rounding counts as reached.
-fn same_time(a: f64, b: f64) -> bool {
-    let scale = a.abs().max(b.abs());
-    (a - b).abs() <= (1e-9 * scale).max(4.0 * f64::EPSILON * scale).max(f64::MIN_POSITIVE)
 }
 
 /// `s` lies before `end` and is not `end` up to rounding.
