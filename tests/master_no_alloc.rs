@@ -25,7 +25,13 @@ fn steady_loop(ssp: &str, coupling: Coupling, steps: usize) -> (u64, bool) {
         parameter_set: None,
         // A move, then back: both gait directions inside the counted steps.
         input: Some(InputTable::steps("reference", &[(0.0, 60e-6), (1.5, -20e-6)]).unwrap()),
-        outputs: vec!["plant.encoder_counts".into(), "plant.runner_position".into()],
+        // An Integer that feeds the controller, a Real and a Boolean read for the rows
+        // alone: every kind of read the master makes.
+        outputs: vec![
+            "plant.encoder_counts".into(),
+            "plant.runner_position".into(),
+            "plant.earth_closed".into(),
+        ],
     };
     let mut sim = System::load(&dist(ssp)).unwrap().initialise(&opts).unwrap();
     for _ in 0..500 {

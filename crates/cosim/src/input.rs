@@ -83,8 +83,48 @@ impl InputTable {
     }
 
     pub fn value(&self, column: usize, t: f64) -> f64 {
-        let tol = 1e-9 * t.abs().max(1e-3);
-        let i = self.rows.partition_point(|(rt, _)| *rt <= t + tol);
-        self.rows[i.saturating_sub(1)].1[column]
+        self.value_near(column, t, &mut 0)
+    }
+
+    /// [`InputTable::value`] for a caller whose times advance a little at a time (a
+    /// master's steps): `row` is the row found last, tried first, then the one after it,
+    /// and only then searched for; it is updated to the row that holds at `t`.
+    pub fn value_near(&self, column: usize, t: f64, row: &mut usize) -> f64 {
+        let at = t + 1e-9 * t.abs().max(1e-3);
+        // The row that holds at `at`: the last one of its time at or before it (the first
+        // row before every time).
+        let holds = |r: usize| {
+            (r == 0 || self.rows[r].0 <= at) && self.rows.get(r + 1).is_none_or(|n| n.0 > at)
+        };
+        if !(*row < self.rows.len() && holds(*row)) {
+            *row = match *row + 1 < self.rows.len() && holds(*row + 1) {
+                true => *row + 1,
+                false => self.rows.partition_point(|(rt, _)| *rt <= at).saturating_sub(1),
+            };
+        }
+        self.rows[*row].1[column]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::InputTable;
+
+    /// From any row it was left at, forward or back, the value is the search's.
+    #[test]
+    fn a_value_near_the_last_row_is_the_value() {
+        let t = InputTable::parse("time,a\n0.1,1\n0.3,2\n0.3,3\n0.5,4\n").unwrap();
+        let times: [f64; 10] = [0.0, 0.05, 0.1, 0.1 - 1e-12, 0.2, 0.3, 0.3 - 1e-12, 0.4, 0.5, 7.0];
+        for start in 0..5 {
+            for &at in times.iter().chain(times.iter().rev()) {
+                let mut row = start;
+                let searched = {
+                    let i = t.rows.partition_point(|(rt, _)| *rt <= at + 1e-9 * at.abs().max(1e-3));
+                    t.rows[i.saturating_sub(1)].1[0]
+                };
+                assert_eq!(t.value_near(0, at, &mut row), searched, "t = {at} from row {start}");
+                assert_eq!(t.value(0, at), searched, "t = {at}");
+            }
+        }
     }
 }

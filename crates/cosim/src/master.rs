@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::archive::cut;
-use crate::fmu::{CsFmu, FmuError, FmuState, MeFmu, Var, VarType};
+use crate::fmu::{CsFmu, FmuError, FmuState, Loaded, MeFmu, ModelDescription, Var, VarType};
 pub use crate::input::InputTable;
 use crate::model_exchange::{MeRun, MeStats, Tolerance};
 use crate::ssp::{Archive, End, TypedValue};
@@ -64,6 +64,17 @@ enum Probe {
     SystemInput(usize),
 }
 
+/// Where a row finds one recorded value.
+#[derive(Clone, Copy, Debug)]
+enum Column {
+    /// A port that feeds an input: its latest read, `latest[j]`.
+    Latest(usize),
+    /// A port read for the rows alone: `port_values[k]`.
+    Read(usize),
+    /// A system input at the row's time.
+    SystemInput(usize),
+}
+
 struct Component {
     name: String,
     fmu: Fmu,
@@ -116,26 +127,13 @@ impl Fmu {
         })
     }
 
-    /// Loads `source` as component `name`: as Model Exchange if `me` asks for it (and,
-    /// for [`Want::MeIfOffered`], the FMU has it); else as Co-Simulation, or as Model
-    /// Exchange if the FMU has no Co-Simulation (an ME-only FMU).
-    fn open(source: &Path, name: &str, me: Want, tolerance: Tolerance) -> Result<Fmu, FmuError> {
-        let model_exchange = || {
-            let fmu = MeFmu::load(source, name, false)?;
-            Ok(Fmu::Me(MeRun::new(fmu, name, tolerance)))
-        };
-        let cs = || match CsFmu::load(source, name, false) {
-            Err(FmuError::NotCoSimulation { .. }) => model_exchange(),
-            other => other.map(Fmu::Cs),
-        };
-        match me {
-            Want::Me => model_exchange(),
-            Want::MeIfOffered => match model_exchange() {
-                Err(FmuError::NotModelExchange { .. }) => cs(),
-                other => other,
-            },
-            Want::Cs => cs(),
-        }
+    /// Loads `source` as component `name`, in the interface [`Want::is_me`] picks from
+    /// its description.
+    fn open(source: &Path, name: &str, want: Want, tolerance: Tolerance) -> Result<Fmu, FmuError> {
+        Ok(match MeFmu::load_either(source, name, false, |md| want.is_me(md))? {
+            Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)),
+            Loaded::Cs(fmu) => Fmu::Cs(fmu),
+        })
     }
 }
 
@@ -159,6 +157,19 @@ enum Want {
     Me,
     /// Model Exchange where offered: `*`.
     MeIfOffered,
+}
+
+impl Want {
+    /// Whether a component asking for this runs as Model Exchange, by what its FMU's
+    /// `description` offers: named, always (an FMU without Model Exchange is then
+    /// refused); `*`, where offered; else only an FMU without Co-Simulation.
+    fn is_me(self, description: &ModelDescription) -> bool {
+        match self {
+            Want::Me => true,
+            Want::MeIfOffered => description.model_exchange.is_some(),
+            Want::Cs => description.co_simulation.is_none(),
+        }
+    }
 }
 
 impl Interfaces {
@@ -260,6 +271,12 @@ pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), Error> {
 
 /// Ports grouped by component and type, each group one `fmi2Get*`/`fmi2Set*` call: per step
 /// the master crosses the FMI boundary once per group instead of once per variable.
+///
+/// A group of inputs whose values are those its last `Set*` gave is not set again: FMI
+/// 2.0 and 3.0 inputs keep their values until set (neither standard has an input that
+/// forgets), so the call would change nothing, and a closed loop's slow inputs (a
+/// reference that holds for seconds, an encoder count between moves) cost no call at all.
+/// The values compare by their bits, so any change, a zero's sign included, is set.
 struct Batches {
     groups: Vec<Group>,
 }
@@ -273,6 +290,9 @@ struct Group {
     reals: Vec<f64>,
     integers: Vec<i32>,
     booleans: Vec<bool>,
+    /// The FMU holds this group's values as last set: the last `Set*` of it succeeded and
+    /// nothing has given the inputs other values since ([`Batches::forget`]).
+    held: bool,
 }
 
 impl Batches {
@@ -299,6 +319,7 @@ impl Batches {
                         reals: vec![],
                         integers: vec![],
                         booleans: vec![],
+                        held: false,
                     });
                     groups.last_mut().expect("just pushed")
                 }
@@ -341,6 +362,8 @@ impl Batches {
         Ok(())
     }
 
+    /// Sets `values` (by slot) on the groups of component `only` (every component if
+    /// `None`); a group that holds these values already is skipped.
     fn write(
         &mut self,
         components: &mut [Component],
@@ -348,26 +371,48 @@ impl Batches {
         only: Option<usize>,
     ) -> Result<(), Error> {
         for g in self.groups.iter_mut().filter(|g| only.is_none_or(|c| c == g.component)) {
-            let f = &mut components[g.component].fmu;
+            let mut changed = !g.held;
             match g.ty {
                 VarType::Real => {
-                    g.slots.iter().zip(&mut g.reals).for_each(|(&s, v)| *v = values[s]);
-                    f.set_real(&g.vrs, &g.reals)?;
+                    for (&s, v) in g.slots.iter().zip(&mut g.reals) {
+                        changed |= v.to_bits() != values[s].to_bits();
+                        *v = values[s];
+                    }
                 }
                 VarType::Boolean => {
-                    g.slots.iter().zip(&mut g.booleans).for_each(|(&s, v)| *v = values[s] != 0.0);
-                    f.set_boolean(&g.vrs, &g.booleans)?;
+                    for (&s, v) in g.slots.iter().zip(&mut g.booleans) {
+                        changed |= *v != (values[s] != 0.0);
+                        *v = values[s] != 0.0;
+                    }
                 }
                 _ => {
-                    g.slots
-                        .iter()
-                        .zip(&mut g.integers)
-                        .for_each(|(&s, v)| *v = values[s].round() as i32);
-                    f.set_integer(&g.vrs, &g.integers)?;
+                    for (&s, v) in g.slots.iter().zip(&mut g.integers) {
+                        let i = values[s].round() as i32;
+                        changed |= *v != i;
+                        *v = i;
+                    }
                 }
             }
+            if !changed {
+                continue;
+            }
+            // Held again only once the FMU has taken them: a refused call is made again.
+            g.held = false;
+            let f = &mut components[g.component].fmu;
+            match g.ty {
+                VarType::Real => f.set_real(&g.vrs, &g.reals)?,
+                VarType::Boolean => f.set_boolean(&g.vrs, &g.booleans)?,
+                _ => f.set_integer(&g.vrs, &g.integers)?,
+            }
+            g.held = true;
         }
         Ok(())
+    }
+
+    /// The FMUs' inputs may now hold other values than the last set (a restored FMU
+    /// state): the next [`Batches::write`] sets every group.
+    fn forget(&mut self) {
+        self.groups.iter_mut().for_each(|g| g.held = false);
     }
 }
 
@@ -474,12 +519,7 @@ impl System {
             let fmu = match earlier.map(|e| &components[e].fmu) {
                 Some(first)
                     if first.can_instantiate_again()
-                        && first.is_model_exchange()
-                            == match me {
-                                Want::Me => true,
-                                Want::MeIfOffered => first.description().model_exchange.is_some(),
-                                Want::Cs => first.description().co_simulation.is_none(),
-                            } =>
+                        && first.is_model_exchange() == me.is_me(first.description()) =>
                 {
                     first.again(&c.name, tolerance).map_err(component)?
                 }
@@ -719,9 +759,25 @@ impl System {
             feeds[dst.component].push((*dst, feed));
         }
         let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
-        let record_ports: Vec<Port> = record
+        // A recorded port that feeds an input is read by every step already: the row
+        // takes that read (nothing sets a component's inputs between its read and the
+        // row), and only the other ports cost a call of their own.
+        let mut record_ports: Vec<Port> = Vec::new();
+        let columns: Vec<Column> = record
             .iter()
-            .filter_map(|p| if let Probe::Port(p) = p { Some(*p) } else { None })
+            .map(|probe| match *probe {
+                Probe::SystemInput(i) => Column::SystemInput(i),
+                Probe::Port(p) => {
+                    let same = |q: &Port| (q.component, q.vr) == (p.component, p.vr);
+                    match sources.iter().position(same) {
+                        Some(j) => Column::Latest(j),
+                        None => {
+                            record_ports.push(p);
+                            Column::Read(record_ports.len() - 1)
+                        }
+                    }
+                }
+            })
             .collect();
         let mut sim = Simulation {
             latest: vec![0.0; sources.len()],
@@ -734,9 +790,10 @@ impl System {
             port_values: vec![0.0; record_ports.len()],
             row: vec![0.0; record.len()],
             destinations,
-            record,
+            columns,
             record_names,
             input: opts.input.clone(),
+            input_rows: vec![0; input_columns.len()],
             input_columns,
             coupling: opts.coupling,
             h,
@@ -763,7 +820,8 @@ pub struct Simulation {
     destination_batches: Batches,
     /// The values about to be written to `destinations`.
     values: Vec<f64>,
-    record: Vec<Probe>,
+    /// Where each value of a row comes from, in the order of `record_names`.
+    columns: Vec<Column>,
     record_names: Vec<String>,
     record_batches: Batches,
     port_values: Vec<f64>,
@@ -771,6 +829,8 @@ pub struct Simulation {
     row: Vec<f64>,
     input: Option<InputTable>,
     input_columns: Vec<Option<usize>>,
+    /// Per system input, the row of the input table it was read from last.
+    input_rows: Vec<usize>,
     coupling: Coupling,
     h: f64,
     n_steps: u64,
@@ -797,10 +857,6 @@ impl Simulation {
         &self.record_names
     }
 
-    fn input_value(&self, i: usize, t: f64) -> f64 {
-        system_input(&self.input_columns, self.input.as_ref(), i, t)
-    }
-
     /// Sets the inputs of component `only` (every component if `None`) from the latest
     /// outputs and the system inputs at the current time.
     fn feed(&mut self, only: Option<usize>) -> Result<(), Error> {
@@ -811,7 +867,8 @@ impl Simulation {
                 let v = match feed {
                     Feed::Latest(j) => self.latest[j],
                     Feed::SystemInput(j) => {
-                        let v = self.input_value(j, t);
+                        let row = &mut self.input_rows[j];
+                        let v = system_input(&self.input_columns, self.input.as_ref(), j, t, row);
                         // A CSV value for an Integer input: out of 32 bits, the cast
                         // would saturate silently.
                         let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
@@ -844,12 +901,13 @@ impl Simulation {
     pub fn sample_row(&mut self) -> Result<&[f64], Error> {
         self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
         let t = self.time();
-        let mut ports = self.port_values.iter();
-        for (out, p) in self.row.iter_mut().zip(&self.record) {
-            *out = match p {
-                Probe::Port(_) => *ports.next().expect("one value per recorded port"),
-                Probe::SystemInput(i) => {
-                    system_input(&self.input_columns, self.input.as_ref(), *i, t)
+        for (out, column) in self.row.iter_mut().zip(&self.columns) {
+            *out = match *column {
+                Column::Latest(j) => self.latest[j],
+                Column::Read(k) => self.port_values[k],
+                Column::SystemInput(i) => {
+                    let row = &mut self.input_rows[i];
+                    system_input(&self.input_columns, self.input.as_ref(), i, t, row)
                 }
             };
         }
@@ -931,10 +989,17 @@ impl Simulation {
     }
 }
 
-/// System input `i` at `t`: its column of the input table, or 0 without one.
-fn system_input(columns: &[Option<usize>], input: Option<&InputTable>, i: usize, t: f64) -> f64 {
+/// System input `i` at `t`: its column of the input table (near `row`, the row it was read
+/// from last: [`InputTable::value_near`]), or 0 without one.
+fn system_input(
+    columns: &[Option<usize>],
+    input: Option<&InputTable>,
+    i: usize,
+    t: f64,
+    row: &mut usize,
+) -> f64 {
     match (columns[i], input) {
-        (Some(col), Some(table)) => table.value(col, t),
+        (Some(col), Some(table)) => table.value_near(col, t, row),
         _ => 0.0,
     }
 }
@@ -1034,6 +1099,8 @@ impl Simulation {
                 self.components.len()
             )));
         }
+        // The restored FMUs hold the inputs of the checkpoint, not those set since.
+        self.destination_batches.forget();
         for (c, s) in self.components.iter_mut().zip(&checkpoint.states) {
             c.fmu
                 .set_state(s)

@@ -13,7 +13,9 @@
 
 use std::os::raw::c_char;
 
-use crate::entry::{self, Array, EventSink, Value, AFTER_STEP, GETTABLE, LIVE, SETTABLE};
+use crate::entry::{
+    self, Array, Booleans, EventSink, Integers, Reals, AFTER_STEP, GETTABLE, LIVE, SETTABLE,
+};
 use crate::ffi::*;
 use crate::instance::{Interface, Line, Standard, State};
 use crate::{EventUpdate, Kind};
@@ -96,7 +98,7 @@ const SYNCHRONOUS: &str =
 macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
     fmi2SetDebugLogging(c: fmi2Component, on: fmi2Boolean, n: usize, cats: *const fmi2String) -> fmi2Status = entry::set_debug_logging::<Fmi2, M>(c, F, on != fmi2False, n, cats);
     fmi2Instantiate(name: fmi2String, ty: fmi2Type, guid: fmi2String, res: fmi2String, functions: *const fmi2CallbackFunctions, visible: fmi2Boolean, logging: fmi2Boolean) -> fmi2Component = entry::instantiate::<Fmi2, M>(F, functions.as_ref().copied(), name, guid, interface(ty), logging != fmi2False);
-    fmi2FreeInstance(c: fmi2Component) -> () = entry::free_instance::<Fmi2, M>(c);
+    fmi2FreeInstance(c: fmi2Component) -> () = entry::free_instance::<Fmi2, M>(c, F);
     fmi2SetupExperiment(c: fmi2Component, td: fmi2Boolean, tol: fmi2Real, t0: fmi2Real, sd: fmi2Boolean, t1: fmi2Real) -> fmi2Status = entry::setup_experiment::<Fmi2, M>(c, F, t0, (sd != fmi2False).then_some(t1));
     fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status = entry::enter_initialization::<Fmi2, M>(c, F, None);
     fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status = entry::exit_initialization::<Fmi2, M>(c, F);
@@ -112,13 +114,13 @@ macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
     fmi2GetContinuousStates(c: fmi2Component, x: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::States, (x, n));
     fmi2GetNominalsOfContinuousStates(c: fmi2Component, x: *mut fmi2Real, n: usize) -> fmi2Status = entry::get_array::<Fmi2, M>(c, F, Array::Nominals, (x, n));
     fmi2Reset(c: fmi2Component) -> fmi2Status = entry::reset::<Fmi2, M>(c, F);
-    fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status = entry::get::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Real, Value::real);
-    fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status = entry::get::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Integer, Value::integer);
-    fmi2GetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Boolean) -> fmi2Status = entry::get::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Boolean, |x| fmi2Boolean::from(x.boolean()));
+    fmi2GetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Real) -> fmi2Status = entry::get::<Fmi2, M, Reals>(c, F, (vr, n), (v, n));
+    fmi2GetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Integer) -> fmi2Status = entry::get::<Fmi2, M, Integers>(c, F, (vr, n), (v, n));
+    fmi2GetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2Boolean) -> fmi2Status = entry::get::<Fmi2, M, Booleans<fmi2Boolean, fmi2Boolean>>(c, F, (vr, n), (v, n));
     fmi2GetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *mut fmi2String) -> fmi2Status = entry::no_variables_of::<Fmi2, M>(c, F, GETTABLE, "String", (vr, n), v.is_null());
-    fmi2SetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status = entry::set::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Real, Value::Real);
-    fmi2SetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status = entry::set::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Integer, Value::Integer);
-    fmi2SetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status = entry::set::<Fmi2, M, _>(c, F, (vr, n), (v, n), Kind::Boolean, |x| Value::Boolean(x != fmi2False));
+    fmi2SetReal(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Real) -> fmi2Status = entry::set::<Fmi2, M, Reals>(c, F, (vr, n), (v, n));
+    fmi2SetInteger(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Integer) -> fmi2Status = entry::set::<Fmi2, M, Integers>(c, F, (vr, n), (v, n));
+    fmi2SetBoolean(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2Boolean) -> fmi2Status = entry::set::<Fmi2, M, Booleans<fmi2Boolean, fmi2Boolean>>(c, F, (vr, n), (v, n));
     fmi2SetString(c: fmi2Component, vr: *const fmi2ValueReference, n: usize, v: *const fmi2String) -> fmi2Status = entry::no_variables_of::<Fmi2, M>(c, F, SETTABLE, "String", (vr, n), v.is_null());
     fmi2GetFMUstate(c: fmi2Component, s: *mut fmi2FMUstate) -> fmi2Status = entry::get_fmu_state::<Fmi2, M>(c, F, s);
     fmi2SetFMUstate(c: fmi2Component, s: fmi2FMUstate) -> fmi2Status = entry::set_fmu_state::<Fmi2, M>(c, F, s);

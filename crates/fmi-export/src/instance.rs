@@ -9,7 +9,7 @@ use std::os::raw::c_int;
 
 use crate::arrays;
 pub use crate::standards::Facts;
-use crate::table::{Kind, Variable};
+use crate::table::{Causality, Kind, Variability, Variable};
 use crate::{Model, StepLog};
 
 /// A status as both standards' C enums code it (`fmi2Status` and `fmi3Status` agree on
@@ -278,28 +278,87 @@ pub struct Instance<S: Standard, M: Model> {
     /// The standard's variables by value reference, each with its table rows (first,
     /// count: more than one for an FMI 3.0 array).
     index: Index,
+    /// How often each input with a declared range was clamped into it (its warnings
+    /// are bounded by these counts, `entry`).
+    pub clamps: Vec<Clamps>,
 }
 
-/// Value reference → the variable's table rows. The models number their variables
-/// densely, so a lookup is one load; a sparse numbering, which a direct table would make
-/// large, is searched by binary search.
+/// The clamps of one input into its declared range since instantiation or reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Clamps {
+    pub vr: u32,
+    /// Values clamped.
+    pub count: u64,
+    /// Of those, the ones a warning was logged for.
+    pub logged: u64,
+    /// `count` when the last summary of them was logged.
+    pub summarized: u64,
+}
+
+/// What the index holds of one variable: its table rows (first, count: more than one for
+/// an FMI 3.0 array), its type and the states it may be set in, so that the look-up of
+/// every value of every `Get*`/`Set*` reads one entry and no row of the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Indexed {
+    pub first: u32,
+    pub len: u32,
+    pub kind: Kind,
+    /// [`settable_states`] of the variable (the same for every element of an array,
+    /// which `crate::arrays` holds to one declaration).
+    pub settable: u16,
+}
+
+/// Every state of the core, for tables over them.
+const STATES: [State; 11] = [
+    State::Instantiated,
+    State::InitializationMode,
+    State::StepComplete,
+    State::StepInProgress,
+    State::StepFailed,
+    State::StepCanceled,
+    State::Terminated,
+    State::Error,
+    State::Fatal,
+    State::EventMode,
+    State::ContinuousTimeMode,
+];
+
+/// The states in which a master may set `v`, one bit each as [`State`] codes them
+/// (FMI 2.0 section 4.2.4, FMI 3.0 section 2.2): before initialization what has an exact
+/// or approximate start and every input; after it inputs and tunable parameters; between
+/// events only continuous-time inputs, as a discrete one waits for event mode, where the
+/// model sees it. The call's own mask (`entry::SETTABLE`) is checked before.
+pub fn settable_states(v: &Variable) -> u16 {
+    let settable = |s: State| match s {
+        State::Instantiated | State::InitializationMode => v.settable_before_init(),
+        State::ContinuousTimeMode => {
+            v.settable_after_init() && v.variability == Variability::Continuous
+        }
+        _ => v.settable_after_init(),
+    };
+    STATES.into_iter().filter(|&s| settable(s)).fold(0, |mask, s| mask | s as u16)
+}
+
+/// Value reference → [`Indexed`]. The models number their variables densely, so a lookup
+/// is one load; a sparse numbering, which a direct table would make large, is searched by
+/// binary search.
 enum Index {
-    /// (first row + 1, count) at the reference, (0, 0) where there is none.
-    Direct(Box<[(u32, u32)]>),
-    /// (reference, first row, count), sorted.
-    Sorted(Box<[(u32, u32, u32)]>),
+    /// The entry at the reference, `None` where there is none.
+    Direct(Box<[Option<Indexed>]>),
+    /// (reference, entry), sorted.
+    Sorted(Box<[(u32, Indexed)]>),
 }
 
 impl Index {
-    /// The index of the variables `(reference, first row, count)`.
-    fn new(entries: impl Iterator<Item = (u32, u32, u32)>) -> Index {
-        let mut sorted: Vec<(u32, u32, u32)> = entries.collect();
-        sorted.sort_unstable();
+    /// The index of the variables `(reference, entry)`.
+    fn new(entries: impl Iterator<Item = (u32, Indexed)>) -> Index {
+        let mut sorted: Vec<(u32, Indexed)> = entries.collect();
+        sorted.sort_unstable_by_key(|e| e.0);
         let top = sorted.last().map_or(0, |e| e.0 as usize);
         if top <= 4 * sorted.len() + 64 {
-            let mut direct = vec![(0u32, 0u32); top + 1];
-            for &(vr, first, len) in &sorted {
-                direct[vr as usize] = (first + 1, len);
+            let mut direct = vec![None; top + 1];
+            for &(vr, entry) in &sorted {
+                direct[vr as usize] = Some(entry);
             }
             Index::Direct(direct.into_boxed_slice())
         } else {
@@ -307,18 +366,12 @@ impl Index {
         }
     }
 
-    /// The first row and the count of the variable behind `vr`.
+    /// The entry of the variable behind `vr`.
     #[inline]
-    fn rows(&self, vr: u32) -> Option<(usize, usize)> {
+    fn get(&self, vr: u32) -> Option<Indexed> {
         match self {
-            Index::Direct(d) => {
-                let &(first, len) = d.get(vr as usize)?;
-                Some(((first as usize).checked_sub(1)?, len as usize))
-            }
-            Index::Sorted(s) => {
-                let (_, first, len) = s[s.binary_search_by_key(&vr, |e| e.0).ok()?];
-                Some((first as usize, len as usize))
-            }
+            Index::Direct(d) => *d.get(vr as usize)?,
+            Index::Sorted(s) => Some(s[s.binary_search_by_key(&vr, |e| e.0).ok()?].1),
         }
     }
 }
@@ -335,8 +388,11 @@ impl<S: Standard, M: Model> Instance<S, M> {
             true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
             false => arrays::scalar_entries(vars),
         };
-        let index =
-            Index::new(entries.iter().map(|e| (vars[e.first].vr, e.first as u32, e.len as u32)));
+        let index = Index::new(entries.iter().map(|e| {
+            let head = &vars[e.first];
+            let (first, len) = (e.first as u32, e.len as u32);
+            (head.vr, Indexed { first, len, kind: head.kind, settable: settable_states(head) })
+        }));
         Instance {
             magic: S::MAGIC,
             name,
@@ -352,6 +408,12 @@ impl<S: Standard, M: Model> Instance<S, M> {
             snapshots: Vec::new(),
             step_log: StepLog::default(),
             index,
+            clamps: vars
+                .iter()
+                .filter(|v| v.causality == Causality::Input && v.kind == Kind::Real)
+                .filter(|v| v.min.is_some() || v.max.is_some())
+                .map(|v| Clamps { vr: v.vr, count: 0, logged: 0, summarized: 0 })
+                .collect(),
         }
     }
 
@@ -376,18 +438,25 @@ impl<S: Standard, M: Model> Instance<S, M> {
         ERROR
     }
 
-    /// The table rows of the variable behind `vr`: the first (an array's first
-    /// element) and how many.
+    /// The index entry of the variable behind `vr`.
     #[inline]
-    pub fn rows(&self, vr: u32) -> Option<(usize, usize)> {
-        self.index.rows(vr)
+    pub fn indexed(&self, vr: u32) -> Option<Indexed> {
+        self.index.get(vr)
+    }
+
+    /// The table rows of `entry`: one for a scalar, an FMI 3.0 array's elements in order.
+    #[inline]
+    pub fn rows_of(&self, entry: Indexed) -> &'static [Variable] {
+        let (first, len) = (entry.first as usize, entry.len as usize);
+        // Built from the table, so in it; an empty slice would be refused by its reader.
+        M::variables().get(first..first + len).unwrap_or_default()
     }
 
     /// The variable behind `vr` (an array's first element) and how many values it has.
     #[inline]
     pub fn variable(&self, vr: u32) -> Option<(&'static Variable, usize)> {
-        let (first, len) = self.rows(vr)?;
-        Some((M::variables().get(first)?, len))
+        let entry = self.indexed(vr)?;
+        Some((self.rows_of(entry).first()?, entry.len as usize))
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {
@@ -430,7 +499,8 @@ pub(crate) fn panic_text(panic: &(dyn std::any::Any + Send)) -> &str {
 
 #[cfg(test)]
 mod tests {
-    use super::{Clip, Index};
+    use super::{settable_states, Clip, Index, Indexed, State, STATES};
+    use crate::table::{Kind, Variability};
 
     #[test]
     fn long_strings_from_outside_are_cut() {
@@ -443,15 +513,16 @@ mod tests {
     /// Both forms find every reference's rows, and nothing in a hole or past the end.
     #[test]
     fn dense_and_sparse_references_find_their_rows() {
-        // (reference, first row, count): an array of three among scalars.
-        let rows = |refs: &[u32]| -> Vec<(u32, u32, u32)> {
+        // (reference, entry): an array of three among scalars.
+        let rows = |refs: &[u32]| -> Vec<(u32, Indexed)> {
             let mut first = 0;
             refs.iter()
                 .enumerate()
                 .map(|(i, &vr)| {
                     let len = if i == 1 { 3 } else { 1 };
                     first += len;
-                    (vr, first - len, len)
+                    let kind = if i == 2 { Kind::Integer } else { Kind::Real };
+                    (vr, Indexed { first: first - len, len, kind, settable: i as u16 })
                 })
                 .collect()
         };
@@ -461,12 +532,37 @@ mod tests {
         assert!(matches!(d, Index::Direct(_)));
         assert!(matches!(s, Index::Sorted(_)));
         for (index, entries) in [(&d, &dense), (&s, &sparse)] {
-            for &(vr, first, len) in entries {
-                assert_eq!(index.rows(vr), Some((first as usize, len as usize)), "reference {vr}");
+            for &(vr, entry) in entries {
+                assert_eq!(index.get(vr), Some(entry), "reference {vr}");
             }
             for vr in [0, 5, 6, 8, 11, 69_999, 1_000_001, u32::MAX] {
-                assert_eq!(index.rows(vr), None, "reference {vr}");
+                assert_eq!(index.get(vr), None, "reference {vr}");
             }
         }
+    }
+
+    /// The mask is the rule of `entry::write` before it was a table: inputs always (but
+    /// a discrete one not between events), tunable parameters after initialization,
+    /// fixed ones and starts before it, outputs never.
+    #[test]
+    fn settable_states_follow_causality_and_variability() {
+        use crate::table::Variable;
+        let bits = |states: &[State]| states.iter().fold(0, |m, &s| m | s as u16);
+        let everywhere = STATES.iter().fold(0, |m, &s| m | s as u16);
+        let input = Variable::input("u", 1, 0.0, None, "");
+        assert_eq!(settable_states(&input), everywhere);
+        let discrete = Variable::integer_input("n", 2, 0, None, "");
+        assert_eq!(settable_states(&discrete), everywhere & !(State::ContinuousTimeMode as u16));
+        let fixed = Variable::parameter("k", 3, 1.0, None, "");
+        assert_eq!(
+            settable_states(&fixed),
+            bits(&[State::Instantiated, State::InitializationMode])
+        );
+        let mut tunable = fixed;
+        tunable.variability = Variability::Tunable;
+        let continuous = everywhere & !(State::ContinuousTimeMode as u16);
+        assert_eq!(settable_states(&tunable), continuous);
+        let output = Variable::output("y", 4, Kind::Real, None, "");
+        assert_eq!(settable_states(&output), 0);
     }
 }

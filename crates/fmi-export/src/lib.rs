@@ -25,6 +25,7 @@ mod state_blob;
 mod table;
 pub mod testing;
 
+pub use entry::same_time;
 pub use inchworm_state_bytes::{Reader, Writer};
 pub use instance::{Clip, Facts, Interface, LogCategory, Standard, State};
 pub use table::{

@@ -158,7 +158,7 @@ fn check_restored<M: Model>(model: &M) -> Result<(), String> {
         let x = model.get_real(v.vr)?;
         let ok = match v.admit(x) {
             Admission::Accept(_) => true,
-            Admission::Clamp(_) | Admission::NonFinite => false,
+            Admission::Limit(_) | Admission::Clamp(_) | Admission::NonFinite => false,
         };
         if !ok {
             let what = if v.causality == Causality::Input {

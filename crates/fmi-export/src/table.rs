@@ -253,11 +253,29 @@ impl Variable {
             return Admission::Accept(value);
         }
         // Not f64::clamp: it panics on a table whose min exceeds its max.
-        match (self.min, self.max) {
-            (Some(min), _) if value < min => Admission::Clamp(min),
-            (_, Some(max)) if value > max => Admission::Clamp(max),
-            _ => Admission::Accept(value),
+        let limit = match (self.min, self.max) {
+            (Some(min), _) if value < min => min,
+            (_, Some(max)) if value > max => max,
+            _ => return Admission::Accept(value),
+        };
+        match (value - limit).abs() <= LIMIT_TOLERANCE * self.range_scale(limit) {
+            true => Admission::Limit(limit),
+            false => Admission::Clamp(limit),
         }
+    }
+
+    /// What [`LIMIT_TOLERANCE`] is relative to: the width of a two-sided range, the
+    /// limit itself for a one-sided one.
+    fn range_scale(&self, limit: f64) -> f64 {
+        match (self.min, self.max) {
+            (Some(min), Some(max)) if max > min => max - min,
+            _ => limit.abs(),
+        }
+    }
+
+    /// The declared range as messages name it: "DAC range 0-10 V".
+    pub fn range_text(&self) -> impl fmt::Display + '_ {
+        RangeText(self)
     }
 
     /// Why `value` was refused while the model holds `current`, built when logged.
@@ -275,7 +293,7 @@ impl Variable {
     /// declared range is clamped into it, with the warning to log.
     pub fn admit_real(&self, value: f64, current: f64) -> Result<(f64, Option<String>), String> {
         match self.admit(value) {
-            Admission::Accept(x) => Ok((x, None)),
+            Admission::Accept(x) | Admission::Limit(x) => Ok((x, None)),
             Admission::Clamp(x) => Ok((x, Some(self.clamping(value, x).to_string()))),
             Admission::NonFinite => Err(self.refusal(value, current).to_string()),
         }
@@ -294,11 +312,22 @@ impl Variable {
     }
 }
 
+/// How far past a limit of its declared range an input may lie and still be that limit,
+/// relative to the range's width (to the limit itself for a one-sided range): a master's
+/// rounding, not a value out of range. FMPy interpolates inputs linearly between
+/// communication points and hands the plant 10.000000000000002 V for a DAC at 10 V, a
+/// few ulps past the limit; 1e-12 of a 10 V range is 1e-11 V, some 5 000 ulps at 10 V and
+/// far below anything a DAC (150 µV a count) or a model could mean.
+pub const LIMIT_TOLERANCE: f64 = 1e-12;
+
 /// What [`Variable::admit`] decided.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Admission {
     /// Stored as given.
     Accept(f64),
+    /// An input past a limit by no more than rounding ([`LIMIT_TOLERANCE`]): stored as
+    /// the limit, which is what the master meant, without a warning.
+    Limit(f64),
     /// An input outside its declared range, stored clamped with a warning.
     Clamp(f64),
     /// Refused: the model keeps its value.
@@ -343,13 +372,24 @@ struct Clamping<'a> {
 impl fmt::Display for Clamping<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let (v, clamped, unit) = (self.v, self.clamped, Unit_(self.v.unit));
-        write!(f, "{} = {}{unit} is outside the {} ", v.name, self.value, v.wording.range)?;
+        write!(f, "{} = {}{unit} is outside the {}", v.name, self.value, v.range_text())?;
+        write!(f, ", clamped to {clamped}{unit}")
+    }
+}
+
+struct RangeText<'a>(&'a Variable);
+
+impl fmt::Display for RangeText<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (v, unit) = (self.0, Unit_(self.0.unit));
+        write!(f, "{} ", v.wording.range)?;
         match (v.min, v.max) {
             (Some(min), Some(max)) => write!(f, "{min}-{max}")?,
             (Some(min), None) => write!(f, "from {min}")?,
-            (None, _) => write!(f, "up to {clamped}")?,
+            (None, Some(max)) => write!(f, "up to {max}")?,
+            (None, None) => write!(f, "(none)")?,
         }
-        write!(f, "{unit}, clamped to {clamped}{unit}")
+        write!(f, "{unit}")
     }
 }
 
@@ -436,6 +476,19 @@ mod tests {
             from.admit_real(1.0, 0.0).unwrap().1.unwrap(),
             "u = 1 is outside the declared range from 2, clamped to 2"
         );
+        // Within rounding of a limit: the limit, without a warning; past that, clamped.
+        assert_eq!(VALVE.admit(10.000000000000002), Admission::Limit(10.0));
+        assert_eq!(VALVE.admit(10.0 + 1e-11), Admission::Limit(10.0));
+        assert_eq!(VALVE.admit(10.0 + 2e-11), Admission::Clamp(10.0));
+        assert_eq!(VALVE.admit(-1e-12), Admission::Limit(0.0));
+        assert_eq!(VALVE.admit_real(10.000000000000002, 1.0), Ok((10.0, None)));
+        assert_eq!(v.admit(2.0 + 1e-13), Admission::Limit(2.0));
+        // One-sided: relative to the limit itself (to nothing at a limit of 0).
+        assert_eq!(up.admit(2.0 * (1.0 + 1e-13)), Admission::Limit(2.0));
+        assert_eq!(up.admit(2.0 * (1.0 + 1e-11)), Admission::Clamp(2.0));
+        let mut at_zero = Variable::input("u", 2, 0.0, None, "");
+        at_zero.min = Some(0.0);
+        assert_eq!(at_zero.admit(-1e-300), Admission::Clamp(0.0));
         // A table whose min exceeds its max clamps without panicking.
         let crossed = Variable::input("x", 3, 0.0, None, "").with_range(5.0, 1.0);
         assert_eq!(crossed.admit_real(3.0, 0.0).unwrap().0, 5.0);

@@ -28,6 +28,8 @@ for_both!(
     null_and_foreign_pointers_are_refused_without_a_crash,
     nan_is_refused_and_the_last_value_kept,
     out_of_range_inputs_are_clamped_with_a_warning,
+    rounding_past_a_limit_is_the_limit_without_a_warning,
+    clamp_warnings_are_bounded_and_counted,
     unknown_references_wrong_types_and_unsettable_variables_are_errors,
     bad_parameters_fail_initialization_and_reset_recovers,
     step_time_size_and_stop_time_are_checked,
@@ -131,6 +133,68 @@ fn out_of_range_inputs_are_clamped_with_a_warning<S: Master>() {
     assert_eq!(h.real(U), (OK, 10.0));
     assert_eq!(h.set_reals(&[U, U], &[f64::NAN, 3.0]), ERROR);
     assert_eq!(h.real(U), (OK, 3.0));
+}
+
+/// FMPy interpolates inputs linearly and hands 10.000000000000002 V for 10 V: a few ulps
+/// past a limit is the limit, stored as it, and nothing to warn of.
+fn rounding_past_a_limit_is_the_limit_without_a_warning<S: Master>() {
+    let h = H::<S>::init("rounding");
+    h.take_logged();
+    for (given, stored) in [(10.000000000000002, 10.0f64), (10.0 + 1e-11, 10.0), (-1e-12, 0.0)] {
+        assert_eq!(h.set_real(U, given), OK, "u = {given:e}");
+        assert_eq!(h.real(U).1.to_bits(), stored.to_bits(), "u = {given:e} stored as {stored}");
+    }
+    assert_eq!(h.take_logged(), Vec::<String>::new(), "no warning for rounding");
+    // Past 1e-12 of the 10 V range it is a value out of range again.
+    assert_eq!(h.set_real(U, 10.0 + 2e-11), WARNING);
+    assert!(
+        h.saw(WARNING, &["is outside the drive range 0-10 V, clamped to 10 V"]),
+        "{:?}",
+        h.logged()
+    );
+    assert_eq!(h.real(U), (OK, 10.0));
+}
+
+/// A master that holds an input out of range at every step: the first three clamps are
+/// warned of in full, then the 10th, 100th, …, and Terminate logs the total; the others
+/// return OK, unlogged, and still store the clamped value. Reset counts anew.
+fn clamp_warnings_are_bounded_and_counted<S: Master>() {
+    let h = H::<S>::init("flood");
+    h.take_logged();
+    let clamp = |x: f64| {
+        format!("{}: u = {x} V is outside the drive range 0-10 V, clamped to 10 V", S::SET_REAL)
+    };
+    let statuses: Vec<i32> = (1..=150).map(|i| h.set_real(U, 10.0 + f64::from(i))).collect();
+    let warned: Vec<usize> = (1..=150).filter(|&i| statuses[i - 1] == WARNING).collect();
+    assert_eq!(warned, [1, 2, 3, 10, 100], "the calls that returned Warning");
+    assert!(statuses.iter().all(|&s| s == OK || s == WARNING));
+    assert_eq!(h.real(U), (OK, 10.0), "the last value, clamped like every other");
+    let terminate = format!("{}Terminate", S::PREFIX);
+    let w = |m: String| h.line(WARNING, "logStatusWarning", &m);
+    assert_eq!(
+        h.take_logged(),
+        [
+            w(clamp(11.0)),
+            w(clamp(12.0)),
+            w(format!("{}; u clamped 3 times now: further clamps are counted, logged at the 10th, 100th, 1000th, … and in all at {terminate}", clamp(13.0))),
+            w(format!("{} (u clamped 10 times now, 4 of them logged)", clamp(20.0))),
+            w(format!("{} (u clamped 100 times now, 5 of them logged)", clamp(110.0))),
+        ]
+    );
+    // A value in range between them changes no count.
+    assert_eq!(h.set_real(U, 5.0), OK);
+    assert_eq!(h.terminate(), WARNING, "Terminate logs the total");
+    let total = format!("{terminate}: u was clamped into the drive range 0-10 V 150 times in all (5 of them logged)");
+    assert_eq!(h.take_logged(), [w(total)]);
+    // Summed up once: Reset after Terminate repeats nothing, and counts anew.
+    assert_eq!(h.reset(), OK);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
+    assert_eq!((h.setup(), h.enter(), h.exit()), (OK, OK, OK));
+    assert_eq!(h.set_real(U, 12.5), WARNING, "the first clamp of the new run, in full");
+    assert_eq!(h.take_logged(), [w(clamp(12.5))]);
+    // Three or fewer clamps were all warned of in full: nothing to sum up.
+    assert_eq!(h.terminate(), OK);
+    assert_eq!(h.take_logged(), Vec::<String>::new());
 }
 
 fn unknown_references_wrong_types_and_unsettable_variables_are_errors<S: Master>() {

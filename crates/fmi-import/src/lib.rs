@@ -46,7 +46,7 @@ pub use description::{
     ModelDescription, ModelExchange, VarType, Variability, Variable,
 };
 pub use error::{FmuError, ImportError, Status};
-pub use model_exchange::MeFmu;
+pub use model_exchange::{Loaded, MeFmu};
 
 use archive::Unpacked;
 use backend::fmi2::Fmi2Backend;
@@ -142,11 +142,6 @@ impl std::fmt::Debug for CsFmu {
     }
 }
 
-/// A backend's getter of one type, for [`CsFmu::get_values`].
-type Get<T> = fn(&mut dyn Backend, &mut Calls, &[u32], &mut [T]) -> Result<(), FmuError>;
-/// A backend's setter of one type.
-type Set<T> = fn(&mut dyn Backend, &mut Calls, &[u32], &[T]) -> Result<(), FmuError>;
-
 /// Panics unless a value-reference slice and a value slice have the same length (the C
 /// calls trust the lengths they are given).
 fn same_length(call: &str, vrs: usize, values: usize) {
@@ -164,7 +159,7 @@ impl CsFmu {
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = archive::unpack(path).map_err(import)?;
-        Self::from_unpacked(path, Arc::new(unpacked), instance_name, (logging_on, false))
+        Self::from_unpacked(path, Arc::new(unpacked), instance_name, (logging_on, |_| false))
     }
 
     /// Whether [`CsFmu::instantiate_again`] may make more instances from this one's
@@ -199,24 +194,27 @@ impl CsFmu {
                 source: ImportError::OncePerProcess { model: self.cx.model.clone() },
             });
         }
+        let me = self.is_model_exchange();
         Self::from_unpacked(
             self.unpacked.dir(),
             Arc::clone(&self.unpacked),
             instance_name,
-            (logging_on, self.is_model_exchange()),
+            (logging_on, |_| me),
         )
     }
 
-    /// An instance for Co-Simulation (`model_exchange` false) or Model Exchange.
-    fn from_unpacked(
+    /// An instance for Model Exchange if `model_exchange` says so of the FMU's
+    /// description, else for Co-Simulation; an interface the FMU lacks is refused.
+    pub(crate) fn from_unpacked(
         path: &Path,
         unpacked: Arc<Unpacked>,
         instance_name: &str,
-        (logging_on, model_exchange): (bool, bool),
+        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> bool),
     ) -> Result<Self, FmuError> {
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
         let model = description.model_name.clone();
+        let model_exchange = model_exchange(&description);
         let identifier = match (&description.co_simulation, &description.model_exchange) {
             (_, Some(me)) if model_exchange => &me.model_identifier,
             (Some(cs), _) if !model_exchange => &cs.model_identifier,
@@ -462,12 +460,14 @@ impl CsFmu {
 
     /// Reads `vrs` with `get`: the scalars in one call, then each array with an element
     /// among them in one call of all its values (FMI 3.0 gets an array whole), from which
-    /// the elements are taken.
+    /// the elements are taken. `get` (and `set` below) is a closure of its own type at
+    /// each caller, not a function pointer: on the path of every value of every step, the
+    /// backend is then called directly.
     fn get_values<T: Copy + Default>(
         &mut self,
         vrs: &[u32],
         values: &mut [T],
-        get: Get<T>,
+        get: impl Fn(&mut dyn Backend, &mut Calls, &[u32], &mut [T]) -> Result<(), FmuError>,
     ) -> Result<(), FmuError> {
         if self.all_scalars(vrs) {
             return get(&mut **self.backend, &mut self.cx, vrs, values);
@@ -506,8 +506,8 @@ impl CsFmu {
         &mut self,
         vrs: &[u32],
         values: &[T],
-        get: Get<T>,
-        set: Set<T>,
+        get: impl Fn(&mut dyn Backend, &mut Calls, &[u32], &mut [T]) -> Result<(), FmuError>,
+        set: impl Fn(&mut dyn Backend, &mut Calls, &[u32], &[T]) -> Result<(), FmuError>,
     ) -> Result<(), FmuError> {
         if self.all_scalars(vrs) {
             return set(&mut **self.backend, &mut self.cx, vrs, values);

@@ -13,6 +13,13 @@ use std::sync::Arc;
 use crate::backend::me::{Me, Vector};
 use crate::{archive, ContinuousState, CsFmu, EventUpdate, FmuError, ImportError};
 
+/// What [`MeFmu::load_either`] instantiated.
+#[derive(Debug)]
+pub enum Loaded {
+    Cs(CsFmu),
+    Me(MeFmu),
+}
+
 /// One instantiated Model Exchange FMU (FMI 2.0 or 3.0).
 #[derive(Debug)]
 pub struct MeFmu {
@@ -43,7 +50,30 @@ impl MeFmu {
         }
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
-        Self::wrap(CsFmu::from_unpacked(path, unpacked, instance_name, (logging_on, true))?)
+        Self::wrap(CsFmu::from_unpacked(path, unpacked, instance_name, (logging_on, |_| true))?)
+    }
+
+    /// Unpacks `path` once and instantiates it for Model Exchange if `model_exchange`
+    /// says so of its description, else for Co-Simulation: a master that picks the
+    /// interface by what an FMU offers decides on the description, in one place, and
+    /// unpacks the archive once whichever it picks.
+    pub fn load_either(
+        path: &Path,
+        instance_name: &str,
+        logging_on: bool,
+        model_exchange: impl FnOnce(&crate::ModelDescription) -> bool,
+    ) -> Result<Loaded, FmuError> {
+        if !path.is_file() {
+            return Err(FmuError::Missing(path.to_path_buf()));
+        }
+        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
+        let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
+        let fmu =
+            CsFmu::from_unpacked(path, unpacked, instance_name, (logging_on, model_exchange))?;
+        Ok(match fmu.is_model_exchange() {
+            true => Loaded::Me(Self::wrap(fmu)?),
+            false => Loaded::Cs(fmu),
+        })
     }
 
     /// Another Model Exchange instance from the folder this one was unpacked in.

@@ -32,6 +32,9 @@
 use inchworm_controller::{
     Controller, Params, Sample, CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD,
 };
+// The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0) are
+// one point, so an instant the master reaches up to rounding counts as reached.
+use inchworm_fmi_export::same_time;
 use inchworm_fmi_export::{
     EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit, Variable, Writer,
 };
@@ -204,13 +207,6 @@ struct Clock {
     latch: Option<(i32, f64)>,
 }
 
-/// The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0)
-/// are one point, so an instant the master reaches up to rounding counts as reached.
-fn same_time(a: f64, b: f64) -> bool {
-    let scale = a.abs().max(b.abs());
-    (a - b).abs() <= (1e-9 * scale).max(4.0 * f64::EPSILON * scale).max(f64::MIN_POSITIVE)
-}
-
 /// `s` lies before `end` and is not `end` up to rounding.
 fn before(s: f64, end: f64) -> bool {
     s < end && !same_time(s, end)
@@ -307,12 +303,22 @@ impl ControllerFmu {
         Ok(())
     }
 
+    /// `read` of the outputs now: the last sample written, read where it lies (a master
+    /// reads the three DAC volts every 2 ms, and a `Sample` is some 170 bytes), or the
+    /// parked one before the first write.
+    fn with_sample<T>(&self, read: impl FnOnce(&Sample) -> T) -> T {
+        match &self.last {
+            Some(s) => read(s),
+            None => read(&self.parked()),
+        }
+    }
+
     /// The outputs before the first write: the parked sample, estimates at their start,
     /// the servo error of the inputs latched at s_0 once a step has passed it (so the
     /// outputs hold until s_1), of the current inputs before.
-    fn sample(&self) -> Sample {
+    fn parked(&self) -> Sample {
         let (counts, reference) = self.clock.latch.unwrap_or((self.encoder_counts, self.reference));
-        self.last.unwrap_or(Sample {
+        Sample {
             dac: [0.0; 3],
             codes: [0; 3],
             servo_error: reference - f64::from(counts) * self.params.q_enc,
@@ -325,6 +331,42 @@ impl ControllerFmu {
             moving: false,
             iterated: false,
             no_root: false,
+        }
+    }
+
+    /// The Real `r`: an output of the sample `s`, an input or a parameter.
+    fn real(&self, s: &Sample, r: u32) -> Result<f64, String> {
+        Ok(match r {
+            vr::REFERENCE => self.reference,
+            vr::DAC_EARTH => s.dac[0],
+            vr::DAC_NONEARTH => s.dac[1],
+            vr::DAC_EXTENSION => s.dac[2],
+            vr::SERVO_ERROR => s.servo_error,
+            vr::DISTURBANCE_ESTIMATE => s.disturbance_estimate,
+            vr::STEP_FORWARD => s.step_forward,
+            vr::STEP_BACKWARD => s.step_backward,
+            vr::FRACTION => s.fraction,
+            r if (vr::SCALE_WEIGHTS..vr::SCALE_WEIGHTS + 10).contains(&r) => {
+                s.scale_weights[(r - vr::SCALE_WEIGHTS) as usize]
+            }
+            _ => {
+                let mut p = self.params.clone();
+                *real_param(&mut p, r)
+                    .ok_or_else(|| format!("no Real variable with value reference {r}"))?
+            }
+        })
+    }
+
+    /// The Integer `r`: an output of the sample `s`, an input or a parameter.
+    fn integer(&self, s: &Sample, r: u32) -> Result<i32, String> {
+        Ok(match r {
+            vr::ENCODER_COUNTS => self.encoder_counts,
+            vr::DAC_EARTH_CODE => i32::from(s.codes[0]),
+            vr::DAC_NONEARTH_CODE => i32::from(s.codes[1]),
+            vr::DAC_EXTENSION_CODE => i32::from(s.codes[2]),
+            vr::N_STEPS => s.n_steps.min(i32::MAX as u32) as i32,
+            vr::SAMPLES_PER_STEP => self.params.samples_per_step as i32,
+            _ => return Err(format!("no Integer variable with value reference {r}")),
         })
     }
 }
@@ -350,44 +392,16 @@ impl Model for ControllerFmu {
     }
 
     fn get_real(&self, r: u32) -> Result<f64, String> {
-        let s = self.sample();
-        Ok(match r {
-            vr::REFERENCE => self.reference,
-            vr::DAC_EARTH => s.dac[0],
-            vr::DAC_NONEARTH => s.dac[1],
-            vr::DAC_EXTENSION => s.dac[2],
-            vr::SERVO_ERROR => s.servo_error,
-            vr::DISTURBANCE_ESTIMATE => s.disturbance_estimate,
-            vr::STEP_FORWARD => s.step_forward,
-            vr::STEP_BACKWARD => s.step_backward,
-            vr::FRACTION => s.fraction,
-            r if (vr::SCALE_WEIGHTS..vr::SCALE_WEIGHTS + 10).contains(&r) => {
-                s.scale_weights[(r - vr::SCALE_WEIGHTS) as usize]
-            }
-            _ => {
-                let mut p = self.params.clone();
-                *real_param(&mut p, r)
-                    .ok_or_else(|| format!("no Real variable with value reference {r}"))?
-            }
-        })
+        self.with_sample(|s| self.real(s, r))
     }
 
     fn get_integer(&self, r: u32) -> Result<i32, String> {
-        let s = self.sample();
-        Ok(match r {
-            vr::ENCODER_COUNTS => self.encoder_counts,
-            vr::DAC_EARTH_CODE => i32::from(s.codes[0]),
-            vr::DAC_NONEARTH_CODE => i32::from(s.codes[1]),
-            vr::DAC_EXTENSION_CODE => i32::from(s.codes[2]),
-            vr::N_STEPS => s.n_steps.min(i32::MAX as u32) as i32,
-            vr::SAMPLES_PER_STEP => self.params.samples_per_step as i32,
-            _ => return Err(format!("no Integer variable with value reference {r}")),
-        })
+        self.with_sample(|s| self.integer(s, r))
     }
 
     fn get_boolean(&self, r: u32) -> Result<bool, String> {
         match r {
-            vr::MOVING => Ok(self.sample().moving),
+            vr::MOVING => Ok(self.with_sample(|s| s.moving)),
             _ => {
                 let mut p = self.params.clone();
                 bool_param(&mut p, r)

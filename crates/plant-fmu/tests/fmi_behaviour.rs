@@ -179,6 +179,22 @@ fn out_of_range_volts_are_clamped_with_a_warning() {
     assert_eq!(i.real(DAC_EXTENSION).1, 10.0);
 }
 
+/// FMPy's linear interpolation of the inputs hands the plant 10.000000000000002 V for a DAC
+/// at 10 V: that is 10 V, stored as it without a warning (a check-trace run through FMPy
+/// logged 1 831 of them before).
+#[test]
+fn volts_a_rounding_past_the_dac_range_are_its_limits_without_a_warning() {
+    let i = Instance::init("rounding");
+    i.take_logged();
+    let vrs = [DAC_EARTH, DAC_NONEARTH, DAC_EXTENSION];
+    let vals = [10.000000000000002, -1e-15, 9.999999999999998];
+    assert_eq!(unsafe { fmu::fmi2SetReal(i.c, vrs.as_ptr(), 3, vals.as_ptr()) }, fmi2OK);
+    assert_eq!(i.logged(), Vec::<String>::new());
+    assert_eq!(i.real(DAC_EARTH).1.to_bits(), 10.0f64.to_bits());
+    assert_eq!(i.real(DAC_NONEARTH).1.to_bits(), 0.0f64.to_bits());
+    assert_eq!(i.real(DAC_EXTENSION).1, 9.999999999999998, "inside the range: as given");
+}
+
 #[test]
 fn bad_parameters_fail_initialization_naming_the_parameter() {
     for (vr, value, name) in [(M_P, -0.025, "m_p"), (PLAY_RADIUS_2, 5.0, "play_radius[2]")] {

@@ -13,7 +13,9 @@
 use std::os::raw::c_char;
 
 use super::ffi::*;
-use crate::entry::{self, Array, EventSink, StepOutputs, Value, GETTABLE, LIVE, SETTABLE};
+use crate::entry::{
+    self, Array, Booleans, EventSink, Integers, Reals, StepOutputs, GETTABLE, LIVE, SETTABLE,
+};
 use crate::instance::{Interface, Line, Standard, State};
 use crate::{EventUpdate, Kind};
 
@@ -96,6 +98,10 @@ impl EventSink for EventOutputs {
     }
 }
 
+/// FMI 3.0's Booleans: written as C `bool`, read as bytes (a C bool the master filled with
+/// another byte than 0 or 1 must not become an invalid Rust bool).
+type Booleans3 = Booleans<fmi3Boolean, u8>;
+
 const NO_SE: &str = "this FMU has no Scheduled Execution interface";
 const NO_CLOCKS: &str = "this FMU has no clocks";
 const NO_DEPENDENCIES: &str = "providesPerElementDependencies is false (ModelStructure declares every output as depending on all inputs)";
@@ -109,38 +115,37 @@ macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
     fmi3InstantiateModelExchange(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback) -> fmi3Instance = entry::instantiate::<Fmi3, M>(F, Some((env, log)), name, token, (Interface::ModelExchange, None), logging);
     fmi3InstantiateCoSimulation(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, event_mode: fmi3Boolean, early: fmi3Boolean, req: *const fmi3ValueReference, nreq: usize, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, update: fmi3IntermediateUpdateCallback) -> fmi3Instance = entry::instantiate::<Fmi3, M>(F, Some((env, log)), name, token, (Interface::CoSimulation, cs_refusal(event_mode, nreq)), logging);
     fmi3InstantiateScheduledExecution(name: fmi3String, token: fmi3String, res: fmi3String, visible: fmi3Boolean, logging: fmi3Boolean, env: fmi3InstanceEnvironment, log: fmi3LogMessageCallback, clock: fmi3ClockUpdateCallback, lock: fmi3LockPreemptionCallback, unlock: fmi3UnlockPreemptionCallback) -> fmi3Instance = entry::refuse_instantiation::<Fmi3>(F, (env, log), name, NO_SE);
-    fmi3FreeInstance(c: fmi3Instance) -> () = entry::free_instance::<Fmi3, M>(c);
+    fmi3FreeInstance(c: fmi3Instance) -> () = entry::free_instance::<Fmi3, M>(c, F);
     fmi3EnterInitializationMode(c: fmi3Instance, td: fmi3Boolean, tol: fmi3Float64, t0: fmi3Float64, sd: fmi3Boolean, t1: fmi3Float64) -> fmi3Status = entry::enter_initialization::<Fmi3, M>(c, F, Some((t0, sd.then_some(t1))));
     fmi3ExitInitializationMode(c: fmi3Instance) -> fmi3Status = entry::exit_initialization::<Fmi3, M>(c, F);
     fmi3EnterEventMode(c: fmi3Instance) -> fmi3Status = entry::enter_event_mode::<Fmi3, M>(c, F);
     fmi3Terminate(c: fmi3Instance) -> fmi3Status = entry::terminate::<Fmi3, M>(c, F);
     fmi3Reset(c: fmi3Instance) -> fmi3Status = entry::reset::<Fmi3, M>(c, F);
     fmi3GetFloat32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Float32, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Float32", (vr, n), false);
-    fmi3GetFloat64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Float64, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, _>(c, F, (vr, n), (v, nv), Kind::Real, Value::real);
+    fmi3GetFloat64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Float64, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, Reals>(c, F, (vr, n), (v, nv));
     fmi3GetInt8(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Int8, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Int8", (vr, n), false);
     fmi3GetUInt8(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3UInt8, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "UInt8", (vr, n), false);
     fmi3GetInt16(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Int16, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Int16", (vr, n), false);
     fmi3GetUInt16(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3UInt16, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "UInt16", (vr, n), false);
-    fmi3GetInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Int32, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, _>(c, F, (vr, n), (v, nv), Kind::Integer, Value::integer);
+    fmi3GetInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Int32, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, Integers>(c, F, (vr, n), (v, nv));
     fmi3GetUInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3UInt32, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "UInt32", (vr, n), false);
     fmi3GetInt64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Int64, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Int64", (vr, n), false);
     fmi3GetUInt64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3UInt64, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "UInt64", (vr, n), false);
-    fmi3GetBoolean(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Boolean, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, _>(c, F, (vr, n), (v, nv), Kind::Boolean, Value::boolean);
+    fmi3GetBoolean(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Boolean, nv: usize) -> fmi3Status = entry::get::<Fmi3, M, Booleans3>(c, F, (vr, n), (v, nv));
     fmi3GetString(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3String, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "String", (vr, n), false);
     fmi3GetBinary(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, sizes: *mut usize, v: *mut fmi3Binary, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, GETTABLE, "Binary", (vr, n), false);
     fmi3GetClock(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *mut fmi3Clock) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, LIVE, "Clock", (vr, n), false);
     fmi3SetFloat32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Float32, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "Float32", (vr, n), false);
-    fmi3SetFloat64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Float64, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, _>(c, F, (vr, n), (v, nv), Kind::Real, Value::Real);
+    fmi3SetFloat64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Float64, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, Reals>(c, F, (vr, n), (v, nv));
     fmi3SetInt8(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Int8, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "Int8", (vr, n), false);
     fmi3SetUInt8(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3UInt8, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "UInt8", (vr, n), false);
     fmi3SetInt16(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Int16, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "Int16", (vr, n), false);
     fmi3SetUInt16(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3UInt16, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "UInt16", (vr, n), false);
-    fmi3SetInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Int32, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, _>(c, F, (vr, n), (v, nv), Kind::Integer, Value::Integer);
+    fmi3SetInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Int32, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, Integers>(c, F, (vr, n), (v, nv));
     fmi3SetUInt32(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3UInt32, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "UInt32", (vr, n), false);
     fmi3SetInt64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Int64, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "Int64", (vr, n), false);
     fmi3SetUInt64(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3UInt64, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "UInt64", (vr, n), false);
-    // Read as bytes: a C bool the master filled with another byte than 0 or 1 must not become an invalid Rust bool.
-    fmi3SetBoolean(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Boolean, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, u8>(c, F, (vr, n), (v as *const u8, nv), Kind::Boolean, |b| Value::Boolean(b != 0));
+    fmi3SetBoolean(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Boolean, nv: usize) -> fmi3Status = entry::set::<Fmi3, M, Booleans3>(c, F, (vr, n), (v as *const u8, nv));
     fmi3SetString(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3String, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "String", (vr, n), false);
     fmi3SetBinary(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, sizes: *const usize, v: *const fmi3Binary, nv: usize) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, SETTABLE, "Binary", (vr, n), false);
     fmi3SetClock(c: fmi3Instance, vr: *const fmi3ValueReference, n: usize, v: *const fmi3Clock) -> fmi3Status = entry::no_variables_of::<Fmi3, M>(c, F, LIVE, "Clock", (vr, n), false);

@@ -48,6 +48,9 @@ pub(crate) struct Fmi2Backend {
     api: Api,
     states: States<fmi2Byte>,
     me: Option<super::me::Me>,
+    /// The `fmi2Boolean`s (C ints) of a Boolean call, kept from call to call so that a
+    /// master's steady loop allocates nothing.
+    booleans: Vec<fmi2Boolean>,
     // What the FMU may hold pointers to until fmi2FreeInstance; dropped after it.
     _callbacks: Box<fmi2CallbackFunctions>,
     _env: Box<LogEnv>,
@@ -135,6 +138,7 @@ impl Fmi2Backend {
             states,
             me,
             api,
+            booleans: Vec::new(),
             _callbacks: callbacks,
             _env: env,
             _strings: [c_name, c_guid, c_resources],
@@ -219,20 +223,24 @@ impl Backend for Fmi2Backend {
 
     fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done {
         // fmi2Boolean is an int: read as such, any non-zero value is true.
-        let mut raw = vec![fmi2False; vrs.len()];
         let (c, f) = (self.instance.ptr(), self.api.get_boolean);
+        let raw = &mut self.booleans;
+        raw.clear();
+        raw.resize(vrs.len(), fmi2False);
         cx.call("fmi2GetBoolean", || {
             status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_mut_ptr()) })
         })?;
-        for (v, r) in out.iter_mut().zip(raw) {
+        for (v, &r) in out.iter_mut().zip(raw.iter()) {
             *v = r != fmi2False;
         }
         Ok(())
     }
 
     fn set_bool(&mut self, cx: &mut Calls, vrs: &[u32], values: &[bool]) -> Done {
-        let raw: Vec<fmi2Boolean> = values.iter().map(|&b| fmi2Boolean::from(b)).collect();
         let (c, f) = (self.instance.ptr(), self.api.set_boolean);
+        let raw = &mut self.booleans;
+        raw.clear();
+        raw.extend(values.iter().map(|&b| fmi2Boolean::from(b)));
         cx.call("fmi2SetBoolean", || status(unsafe { f(c, vrs.as_ptr(), vrs.len(), raw.as_ptr()) }))
     }
 

@@ -39,6 +39,9 @@ pub(crate) struct Fmi3Backend {
     api: Api,
     states: States<fmi3Byte>,
     me: Option<super::me::Me>,
+    /// The bytes `fmi3GetBoolean` writes, kept from call to call so that a master's steady
+    /// loop allocates nothing.
+    booleans: Vec<u8>,
     // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
     _env: Box<LogEnv>,
     _strings: [CString; 3],
@@ -147,6 +150,7 @@ impl Fmi3Backend {
             states,
             me,
             api,
+            booleans: Vec::new(),
             _env: env,
             _strings: [c_name, c_token, c_resources],
         })
@@ -225,12 +229,14 @@ impl Backend for Fmi3Backend {
     fn get_bool(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [bool]) -> Done {
         // Read as bytes: an FMU writing another byte than 0 or 1 must not make an invalid
         // Rust bool.
-        let mut raw = vec![0u8; out.len()];
         let (i, f, n, m) = (self.instance.ptr(), self.api.get_boolean, vrs.len(), out.len());
+        let raw = &mut self.booleans;
+        raw.clear();
+        raw.resize(m, 0);
         cx.call("fmi3GetBoolean", || {
             status(unsafe { f(i, vrs.as_ptr(), n, raw.as_mut_ptr().cast::<fmi3Boolean>(), m) })
         })?;
-        for (v, r) in out.iter_mut().zip(raw) {
+        for (v, &r) in out.iter_mut().zip(raw.iter()) {
             *v = r != 0;
         }
         Ok(())
