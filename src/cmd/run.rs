@@ -182,12 +182,15 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         Stopped::Write(e) => e,
     });
     let flushed = csv.flush().map_err(io);
-    if let Err(e) = ran {
-        return Err(match rows {
-            0 => e,
-            _ => format!("{e} ({} holds the rows to t = {end} s)", out.display()),
-        });
-    }
+    let ran = match ran {
+        Ok(ran) => ran,
+        Err(e) => {
+            return Err(match rows {
+                0 => e,
+                _ => format!("{e} ({} holds the rows to t = {end} s)", out.display()),
+            })
+        }
+    };
     flushed?;
     println!("wrote {}", out.display());
     let wall = wall.elapsed().as_secs_f64();
@@ -202,5 +205,8 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         "{end} s simulated in {wall:.3} s ({speed:.digits$}x real time); {} variables, {rows} rows",
         names.len(),
     );
+    for (component, stats) in &ran.model_exchange {
+        println!("{component} (Model Exchange): {stats}");
+    }
     Ok(())
 }

@@ -72,5 +72,7 @@ pub mod trace;
 pub use inchworm_fmi_import as fmu;
 
 pub use error::{Error, StopFlag};
-pub use master::{Checkpoint, Coupling, InputTable, Interfaces, Options, Simulation, System};
+pub use master::{
+    Checkpoint, Coupling, InputTable, Interfaces, Options, RunEnd, Simulation, System,
+};
 pub use trace::Trace;

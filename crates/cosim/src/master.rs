@@ -968,12 +968,13 @@ impl Simulation {
     /// Steps to the stop time and hands every row to `sink` as soon as it is computed, t = 0
     /// first: nothing grows with the number of steps, so a run of any length runs in the
     /// same memory. The sink's own error type carries its failures (a full disk) as well
-    /// as the engine's.
+    /// as the engine's. What the run cost its Model Exchange components comes back, since
+    /// the simulation is gone after it.
     pub fn run_into<E: From<Error>>(
         mut self,
         mut sink: impl FnMut(f64, &[f64]) -> Result<(), E>,
         mut progress: impl FnMut(f64),
-    ) -> Result<(), E> {
+    ) -> Result<RunEnd, E> {
         let n = self.n_steps;
         sink(0.0, self.sample_row()?)?;
         for k in 0..n {
@@ -985,8 +986,18 @@ impl Simulation {
             sink(t, self.sample_row()?)?;
             progress((k + 1) as f64 / n as f64);
         }
-        Ok(self.terminate()?)
+        let end = RunEnd { model_exchange: self.model_exchange_stats() };
+        self.terminate()?;
+        Ok(end)
     }
+}
+
+/// What a finished [`Simulation::run_into`] leaves besides its rows.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunEnd {
+    /// What integrating each Model Exchange component cost, by component name (empty when
+    /// every component ran its Co-Simulation).
+    pub model_exchange: Vec<(String, MeStats)>,
 }
 
 /// System input `i` at `t`: its column of the input table (near `row`, the row it was read
