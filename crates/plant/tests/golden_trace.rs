@@ -180,3 +180,46 @@ fn golden_trace_fia6_tight_tolerance_is_bit_identical() {
         GOLDEN_FIA6_TIGHT,
     );
 }
+
+/// Writes every step of the sequence (encoder counts, runner position and stack extension
+/// in m, mode, brake switches and slips of the step, the first brake switch's time) to
+/// `$GOLDEN_TRACE_DUMP-fia20.csv` and `…-fia6.csv`, for comparing two builds whose bits
+/// differ (`scripts`-free: `GOLDEN_TRACE_DUMP=/tmp/old cargo test --release -p
+/// inchworm-plant --test golden_trace -- --ignored dump`, the same for the new build, then
+/// compare the files column by column; docs/plant-solver.md, "The third pass").
+#[test]
+#[ignore = "writes files for a comparison of two builds"]
+fn dump_for_comparison() {
+    use std::fmt::Write;
+    let Ok(prefix) = std::env::var("GOLDEN_TRACE_DUMP") else {
+        eprintln!("GOLDEN_TRACE_DUMP is not set: nothing written");
+        return;
+    };
+    for (name, params) in [
+        ("fia20", PlantParams::fia20()),
+        ("fia6", PlantParams { rel_tol: 1e-11, ..PlantParams::fia6() }),
+    ] {
+        let mut plant = Plant::new(params).unwrap();
+        let mut out =
+            String::from("step,time,counts,runner_m,extension_m,mode,brakes,slips,first_brake\n");
+        for (i, (d, dt)) in sequence().iter().enumerate() {
+            let r = plant.step(*d, *dt).unwrap();
+            let o = plant.outputs();
+            writeln!(
+                out,
+                "{i},{:e},{},{:e},{:e},{},{},{},{:e}",
+                plant.time(),
+                o.encoder_counts,
+                o.runner_position,
+                o.extension,
+                o.mode as u8,
+                r.brake_events,
+                r.slips,
+                r.first_brake_event.unwrap_or(-1.0)
+            )
+            .unwrap();
+        }
+        let path = format!("{prefix}-{name}.csv");
+        std::fs::write(&path, out).unwrap_or_else(|e| panic!("{path}: {e}"));
+    }
+}
