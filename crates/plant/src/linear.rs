@@ -228,6 +228,10 @@ pub struct Propagators<const D: usize> {
     /// register holds one component of four points' rows. Only the x86-64 AVX scan reads it.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     scan_lanes: Vec<f64>,
+    /// The watched functionals through each level's propagator, `level_rows[l·w + o]` =
+    /// `watched[o]ᵀ e^{A 2^l tick}` (padded to 16 lanes): the bisection tests a candidate
+    /// instant by dot products instead of propagating the state to it.
+    level_rows: Vec<Lanes>,
     /// Bounds of every watched functional over all scan points of a piece, from the state
     /// alone (see [`ScanBound`]); `None` if the configuration's long-time propagator isn't finite.
     pub bound: Option<ScanBound<D>>,
@@ -437,7 +441,27 @@ impl<const D: usize> Propagators<D> {
                 scan_lanes[(((k / 4) * w + o) * D + i) * 4 + k % 4] = row[i];
             }
         }
-        Propagators { a, phi, watched, scan_level, scan_points, scan, scan_lanes, bound }
+        let level_rows =
+            phi.iter().flat_map(|m| watched.iter().map(|c| lanes(&(m.transpose() * c)))).collect();
+        Propagators {
+            a,
+            phi,
+            watched,
+            scan_level,
+            scan_points,
+            scan,
+            scan_lanes,
+            level_rows,
+            bound,
+        }
+    }
+
+    /// Watched functional `o` after `2^level` ticks from `z`: `watched[o]ᵀ (e^{A 2^l tick} z)`
+    /// but for rounding (the row is multiplied out first, and the sum's order is free), at the
+    /// cost of one dot product.
+    #[inline(always)]
+    pub fn level_value<const AVX: bool>(&self, level: usize, o: usize, z: &SVector<f64, D>) -> f64 {
+        dot_lanes::<D, AVX>(&self.level_rows[level * self.watched.len() + o], z)
     }
 
     /// Splits `z` for [`Self::range`]; `None` if this table has no bound.
