@@ -19,7 +19,7 @@ mod state;
 
 use std::sync::Arc;
 
-use configs::{ChainRemainder, ConfigTable, Remainder};
+use configs::{ChainRemainder, ConfigTable, Remainder, Whole};
 use hysteresis::Hysteresis;
 use linear::{ix, Chain, Propagators, Vector};
 pub use params::{ParamError, PlantParams, N_PLAYS};
@@ -123,6 +123,10 @@ pub struct Plant {
     /// Boxed: most are empty, and a clone (`load_state` makes one) copies only the others.
     remainders: Vec<Option<Box<Remainder>>>,
     chain_remainder: Option<ChainRemainder>,
+    /// Propagators of a whole step that stops nowhere (`configs::whole_step`), per
+    /// configuration, for the last step length each (boxed as `remainders`).
+    wholes: Vec<Option<Box<Whole<{ linear::N }>>>>,
+    chain_whole: Option<Whole<4>>,
     /// The quiet-step plans of each mode with nothing slipping, for one step length each.
     quiet: [Option<Arc<QuietPlan>>; 4],
     /// The length of the last step (bits of `h`): a plan is built when a length repeats.
@@ -185,6 +189,8 @@ impl Plant {
             configs: vec![None; 4 << N_PLAYS],
             remainders: vec![None; 4 << N_PLAYS],
             chain_remainder: None,
+            wholes: vec![None; 4 << N_PLAYS],
+            chain_whole: None,
             quiet: Default::default(),
             last_h: 0,
             scan_always: false,

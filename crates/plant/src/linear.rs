@@ -142,7 +142,13 @@ unsafe fn gemv_avx<const D: usize>(a: &[f64], x: &[f64]) -> [f64; D] {
     }
 }
 
-/// `Σ aᵢ bᵢ` over the components of `b` (the order is free: it is a bound's sum).
+/// `Σ aᵢ bᵢ` over the components of `b`, in one fixed order on every path: four lane sums
+/// `accₗ = 0 + a_l b_l + a_{4+l} b_{4+l} + …` over the whole groups of four, then
+/// `t₀ = acc₀ + acc₂`, `t₁ = acc₁ + acc₃`, the last two products added to `t₀` and `t₁` (for
+/// `D ≡ 2 mod 4`), then `t₀ + t₁`: what the AVX path's registers do. A bound's sums may
+/// take any order, but the bisection decides on these values
+/// (`Propagators::level_value`), so a CPU without AVX (and the aarch64 build) must get the
+/// same bits as one with it.
 #[inline(always)]
 fn dot_lanes<const D: usize, const AVX: bool>(a: &Lanes, b: &SVector<f64, D>) -> f64 {
     #[cfg(target_arch = "x86_64")]
@@ -150,11 +156,20 @@ fn dot_lanes<const D: usize, const AVX: bool>(a: &Lanes, b: &SVector<f64, D>) ->
         // SAFETY: `AVX` callers run with AVX.
         return unsafe { dot_lanes_avx(a, b) };
     }
-    let mut acc = [0.0; 4];
-    for i in 0..D {
-        acc[i % 4] += a[i] * b[i];
+    const { assert!(D <= 16 && D.is_multiple_of(2), "dot_lanes is for even sizes up to 16") };
+    let full = D / 4;
+    let mut acc = [0.0f64; 4];
+    for g in 0..full {
+        for (l, s) in acc.iter_mut().enumerate() {
+            *s += a[4 * g + l] * b[4 * g + l];
+        }
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
+    let (mut t0, mut t1) = (acc[0] + acc[2], acc[1] + acc[3]);
+    if D % 4 == 2 {
+        t0 += a[4 * full] * b[4 * full];
+        t1 += a[4 * full + 1] * b[4 * full + 1];
+    }
+    t0 + t1
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -228,6 +243,10 @@ pub struct Propagators<const D: usize> {
     /// register holds one component of four points' rows. Only the x86-64 AVX scan reads it.
     #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
     scan_lanes: Vec<f64>,
+    /// The watched functionals through each level's propagator, `level_rows[l·w + o]` =
+    /// `watched[o]ᵀ e^{A 2^l tick}` (padded to 16 lanes): the bisection tests a candidate
+    /// instant by dot products instead of propagating the state to it.
+    level_rows: Vec<Lanes>,
     /// Bounds of every watched functional over all scan points of a piece, from the state
     /// alone (see [`ScanBound`]); `None` if the configuration's long-time propagator isn't finite.
     pub bound: Option<ScanBound<D>>,
@@ -437,7 +456,27 @@ impl<const D: usize> Propagators<D> {
                 scan_lanes[(((k / 4) * w + o) * D + i) * 4 + k % 4] = row[i];
             }
         }
-        Propagators { a, phi, watched, scan_level, scan_points, scan, scan_lanes, bound }
+        let level_rows =
+            phi.iter().flat_map(|m| watched.iter().map(|c| lanes(&(m.transpose() * c)))).collect();
+        Propagators {
+            a,
+            phi,
+            watched,
+            scan_level,
+            scan_points,
+            scan,
+            scan_lanes,
+            level_rows,
+            bound,
+        }
+    }
+
+    /// Watched functional `o` after `2^level` ticks from `z`: `watched[o]ᵀ (e^{A 2^l tick} z)`
+    /// but for rounding (the row is multiplied out first, and the sum's order is free), at the
+    /// cost of one dot product.
+    #[inline(always)]
+    pub fn level_value<const AVX: bool>(&self, level: usize, o: usize, z: &SVector<f64, D>) -> f64 {
+        dot_lanes::<D, AVX>(&self.level_rows[level * self.watched.len() + o], z)
     }
 
     /// Splits `z` for [`Self::range`]; `None` if this table has no bound.
@@ -693,4 +732,61 @@ pub fn drive_rate_row(p: &PlantParams, mode: Mode) -> Vector {
         r[ix::V3] = kappa(p);
     }
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The two paths of `dot_lanes` give the same bits: the bisection's decisions, and with
+    /// them every trace, must not depend on whether the CPU has AVX.
+    #[test]
+    fn dot_lanes_has_the_same_bits_on_both_paths() {
+        let mut rng = 0x2026_1202_u64;
+        let mut next = move || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            let m = (rng >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            m * 2f64.powi((rng % 60) as i32 - 30)
+        };
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_variables, unused_mut))]
+        let mut compared = 0;
+        for _ in 0..5000 {
+            let a: Lanes = std::array::from_fn(|_| next());
+            let b14 = SVector::<f64, 14>::from_fn(|_, _| next());
+            let b4 = SVector::<f64, 4>::from_fn(|_, _| next());
+            let portable = (dot_lanes::<14, false>(&a, &b14), dot_lanes::<4, false>(&a, &b4));
+            // The sum over the components in the documented order, written out.
+            let t0 = ((0.0 + a[0] * b14[0] + a[4] * b14[4] + a[8] * b14[8])
+                + (0.0 + a[2] * b14[2] + a[6] * b14[6] + a[10] * b14[10]))
+                + a[12] * b14[12];
+            let t1 = ((0.0 + a[1] * b14[1] + a[5] * b14[5] + a[9] * b14[9])
+                + (0.0 + a[3] * b14[3] + a[7] * b14[7] + a[11] * b14[11]))
+                + a[13] * b14[13];
+            assert_eq!(portable.0.to_bits(), (t0 + t1).to_bits());
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx") {
+                // SAFETY: the CPU has AVX.
+                let avx = unsafe { dot_lanes_both_avx(&a, &b14, &b4) };
+                assert_eq!(portable.0.to_bits(), avx.0.to_bits());
+                assert_eq!(portable.1.to_bits(), avx.1.to_bits());
+                compared += 1;
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            assert_eq!(compared, 5000);
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn dot_lanes_both_avx(
+        a: &Lanes,
+        b14: &SVector<f64, 14>,
+        b4: &SVector<f64, 4>,
+    ) -> (f64, f64) {
+        (dot_lanes::<14, true>(a, b14), dot_lanes::<4, true>(a, b4))
+    }
 }

@@ -1,21 +1,22 @@
 //! The quiet step: one bound, taken at the start of a step, that proves nothing the event
-//! loop watches can stop it anywhere in the step, then the step's propagation products and
-//! nothing else.
+//! loop watches can stop it anywhere in the step, then the step's one propagation product.
 //!
 //! Without an event, the event loop of `solver` makes a sequence of products that depends on
 //! `h` alone: the scan segments (each up to a top-level piece, by the set bits of its
 //! ticks), the cached tail below one scan interval, the sub-tick Taylor step. Every value
 //! it compares on the way is a watched row applied to a state that is a product of those
 //! matrices with the step's first state, so a [`ScanBound`] over those composed rows holds
-//! all of them; when it proves them clear, the loop would stop nowhere, and the quiet step
-//! makes the very same products (through the same functions) and gets the same bits.
+//! all of them; when it proves them clear, the loop would stop nowhere. A step that stops
+//! nowhere ends, in the event loop as here, at the whole-step propagator
+//! (`configs::whole_step`, those products multiplied out) times its first state, so the
+//! quiet step makes that one product and gets the event loop's bits.
 //! Nothing is written until the step is known finite, so there is nothing to undo.
 
 use std::sync::Arc;
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::configs::{product, table};
+use crate::configs::{product, table, whole_step};
 use crate::linear::{
     self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
     LEVELS,
@@ -38,14 +39,11 @@ pub(crate) struct QuietPlan {
 
 #[derive(Debug)]
 struct Body {
-    /// Ticks of each scan segment, in order.
-    segments: Vec<u64>,
     /// Segments long enough for the general path to try its bound (for `ScanStats`).
     long_segments: u64,
-    /// The tail below one scan interval, as `Plant::remainder` caches it.
-    remainder: Option<(Matrix, ChainMatrix)>,
-    /// The sub-tick rest (s).
-    rest: f64,
+    /// The whole step's propagators (`configs::whole_step`, the event loop's for a step
+    /// without a stop): of the mechanics and of either analog chain.
+    whole: (Matrix, ChainMatrix),
     mechanics: ScanBound<{ linear::N }>,
     chain: ScanBound<4>,
 }
@@ -115,7 +113,7 @@ impl QuietPlan {
 
 impl Body {
     fn new(h: f64, cfg: &Propagators<{ linear::N }>, chain: &Propagators<4>) -> Option<Body> {
-        let (mut left, rest) = ticks_of(h);
+        let (mut left, _) = ticks_of(h);
         let fine = 1u64 << chain.scan_level;
         let mut segments = Vec::new();
         // As `advance_held` cuts a step that has no event.
@@ -136,8 +134,9 @@ impl Body {
         let rows = |o| step_rows(cfg, o, &segments, remainder.as_ref().map(|r| &r.0));
         let mechanics = ScanBound::from_rows(*cfg.bound.as_ref()?.settle(), &[rows(0), rows(1)])?;
         let chain_rows = step_rows(chain, 0, &segments, remainder.as_ref().map(|r| &r.1));
+        let whole = (whole_step(cfg, h)?, whole_step(chain, h)?);
         let chain = ScanBound::from_rows(*chain.bound.as_ref()?.settle(), &[chain_rows])?;
-        Some(Body { segments, long_segments, remainder, rest, mechanics, chain })
+        Some(Body { long_segments, whole, mechanics, chain })
     }
 }
 
@@ -226,7 +225,6 @@ impl Plant {
     fn quiet_state_inline<const AVX: bool>(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
         let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
         let cfg = table(&self.configs, key);
-        let chain = &*self.chain;
         let (mut z, mut e, mut n) = (self.z, self.earth, self.nonearth);
         let volts = crate::solver::held_volts;
         z[ix::UX] = volts(dac.extension);
@@ -255,23 +253,12 @@ impl Plant {
         if !clear {
             return None;
         }
-        for &ticks in &plan.segments {
-            z = cfg.advance_inline::<AVX>(z, ticks, 0.0);
-            e = chain.advance_inline::<AVX>(e, ticks, 0.0);
-            n = chain.advance_inline::<AVX>(n, ticks, 0.0);
-        }
-        if let Some((phi, chain_phi)) = &plan.remainder {
-            (z, e, n) = (
-                mul_vec_inline::<{ linear::N }, AVX>(phi, &z),
-                mul_vec_inline::<4, AVX>(chain_phi, &e),
-                mul_vec_inline::<4, AVX>(chain_phi, &n),
-            );
-        }
-        if plan.rest > 0.0 {
-            z = cfg.advance_inline::<AVX>(z, 0, plan.rest);
-            e = chain.advance_inline::<AVX>(e, 0, plan.rest);
-            n = chain.advance_inline::<AVX>(n, 0, plan.rest);
-        }
+        let (phi, chain_phi) = &plan.whole;
+        (z, e, n) = (
+            mul_vec_inline::<{ linear::N }, AVX>(phi, &z),
+            mul_vec_inline::<4, AVX>(chain_phi, &e),
+            mul_vec_inline::<4, AVX>(chain_phi, &n),
+        );
         if self.mode == Mode::Drive {
             z[ix::Y4] = z[ix::Y3] + self.drive_offset;
             z[ix::V4] = z[ix::V3];

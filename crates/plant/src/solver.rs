@@ -1,7 +1,7 @@
 //! The event-driven exact solver: propagation by the tabulated `e^{A 2^l tick}`, scans of
 //! the watched functionals, bisection to the first event, and the jump conditions.
 
-use crate::configs::{product, table, ChainRemainder, Remainder};
+use crate::configs::{product, table, ChainRemainder, Remainder, Whole};
 use crate::hysteresis::Hysteresis;
 use crate::linear::{self, ix, mul_vec, mul_vec_inline, Chain, Propagators, Vector, TICK};
 use crate::noise::gaussian;
@@ -191,7 +191,13 @@ pub(crate) struct Watch<'a> {
 impl Watch<'_> {
     #[inline(always)]
     fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
-        (e[2] < self.vth) != self.earth_closed || (n[2] >= self.vth) != self.nonearth_closed
+        self.brakes_changed_at(e[2], n[2])
+    }
+
+    /// From the brake volts `V_E`, `V_N`.
+    #[inline(always)]
+    fn brakes_changed_at(&self, ve: f64, vn: f64) -> bool {
+        (ve < self.vth) != self.earth_closed || (vn >= self.vth) != self.nonearth_closed
     }
 
     /// `ξ` as `xi_row.dot(z)` computes it, from the row's only non-zero entries (`Y3`, `VX`,
@@ -387,6 +393,10 @@ impl Plant {
         let fine = 1u64 << scan_level;
         let total = left;
         let t0 = self.time;
+        // The step's first state: a step that stops nowhere ends at its whole-step
+        // propagator times this (`whole`), the quiet step's one product.
+        let first = (self.z, self.earth, self.nonearth);
+        let mut stopless = true;
         while left > 0 {
             let brakes_before = report.brake_events;
             let watching = stops < budget;
@@ -403,6 +413,7 @@ impl Plant {
                     left -= ticks;
                 }
                 if clear < points {
+                    stopless = false;
                     let (consumed, event) = self.piece(scan_level, &mut report);
                     events += u32::from(event);
                     stops += u32::from(event || consumed < fine);
@@ -414,6 +425,7 @@ impl Plant {
                 // step of this size and its product is cached, not recomputed.
                 left = 0;
             } else {
+                stopless = false;
                 let level = 63 - left.leading_zeros() as usize;
                 let (consumed, event) =
                     if watching { self.piece(level, &mut report) } else { self.blind(level) };
@@ -427,7 +439,10 @@ impl Plant {
         }
         report.event_budget_exhausted = stops >= budget;
         self.scan_stats.stops += u64::from(stops);
-        if rest > 0.0 {
+        if stopless && self.whole(first, h) {
+            // The scans and the tail's test ran on the chain of products; the state is the
+            // whole-step product's, as the quiet step's.
+        } else if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);
             self.z = cfg.advance(self.z, 0, rest);
@@ -462,6 +477,11 @@ impl Plant {
     }
 
     /// `piece` with its products inlined (one CPU dispatch per piece, not per product).
+    ///
+    /// Every instant it tests is tested on the watched functionals through that level's
+    /// propagator (`Propagators::level_value`: four dot products), and the state is
+    /// propagated only where it moves on: to the piece's end when nothing stops it, and in
+    /// the bisection to each candidate found clear, then over the last resolution interval.
     #[inline(always)]
     fn piece_inline<const AVX: bool>(
         &mut self,
@@ -472,55 +492,56 @@ impl Plant {
         let cfg = table(&self.configs, key);
         let chain = &*self.chain;
         let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
-        let z1 = mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[level], &z0);
-        let e1 = mul_vec_inline::<4, AVX>(&chain.phi[level], &e0);
-        let n1 = mul_vec_inline::<4, AVX>(&chain.phi[level], &n0);
         let watch = self.watch(cfg);
-        let hit = watch.event(&z1, &e1, &n1);
+        let (xi1, rate1) =
+            (cfg.level_value::<AVX>(level, 0, &z0), cfg.level_value::<AVX>(level, 1, &z0));
+        let hit = watch.brakes_changed_at(
+            chain.level_value::<AVX>(level, 0, &e0),
+            chain.level_value::<AVX>(level, 0, &n0),
+        ) || watch.play_event_at(xi1, rate1);
+        let propagate = |z: &Vector, e: &Chain, n: &Chain, l: usize| {
+            (
+                mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[l], z),
+                mul_vec_inline::<4, AVX>(&chain.phi[l], e),
+                mul_vec_inline::<4, AVX>(&chain.phi[l], n),
+            )
+        };
         // With no play sliding, ξ may cross a threshold and come back inside the piece:
         // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
         let rate0 = watch.rate(&z0);
-        let rate1 = watch.rate(&z1);
+        let mut end = None;
         let mut extremum = false;
-        if !hit
-            && watch.direction == 0.0
-            && rate0 * rate1 < 0.0
-            && watch.turns(&z0, &z1, rate0, rate1)
-        {
-            let xi0 = watch.xi(&z0);
-            let xi1 = watch.xi(&z1);
-            let dt = TICK * (1u64 << level) as f64;
-            extremum = watch.extremum_may_cross(xi0, xi1, rate0, rate1, dt);
+        if !hit && watch.direction == 0.0 && rate0 * rate1 < 0.0 {
+            let (z1, e1, n1) = propagate(&z0, &e0, &n0, level);
+            if watch.turns(&z0, &z1, rate0, rate1) {
+                let dt = TICK * (1u64 << level) as f64;
+                extremum = watch.extremum_may_cross(watch.xi(&z0), xi1, rate0, rate1, dt);
+            }
+            end = Some((z1, e1, n1));
         }
         if !hit && !extremum {
-            (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+            (self.z, self.earth, self.nonearth) =
+                end.unwrap_or_else(|| propagate(&z0, &e0, &n0, level));
             return (1 << level, false);
         }
-        let stop = |z: &Vector, e: &Chain, n: &Chain| {
-            watch.event(z, e, n) || (extremum && watch.rate(z) * rate0 <= 0.0)
-        };
         let (mut z, mut e, mut n) = (z0, e0, n0);
         let mut offset = 0u64;
         for l in (self.resolution_level()..level).rev() {
-            let (zc, ec, nc) = (
-                mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[l], &z),
-                mul_vec_inline::<4, AVX>(&chain.phi[l], &e),
-                mul_vec_inline::<4, AVX>(&chain.phi[l], &n),
-            );
-            if !stop(&zc, &ec, &nc) {
-                (z, e, n) = (zc, ec, nc);
+            let (xi, rate) = (cfg.level_value::<AVX>(l, 0, &z), cfg.level_value::<AVX>(l, 1, &z));
+            let stop = watch.brakes_changed_at(
+                chain.level_value::<AVX>(l, 0, &e),
+                chain.level_value::<AVX>(l, 0, &n),
+            ) || watch.play_event_at(xi, rate)
+                || (extremum && rate * rate0 <= 0.0);
+            if !stop {
+                (z, e, n) = propagate(&z, &e, &n, l);
                 offset += 1 << l;
             }
         }
         // The first resolution interval at whose end the stop condition holds.
         let r = self.resolution_level().min(level);
-        let (z, e, n) = (
-            mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[r], &z),
-            mul_vec_inline::<4, AVX>(&chain.phi[r], &e),
-            mul_vec_inline::<4, AVX>(&chain.phi[r], &n),
-        );
-        (self.z, self.earth, self.nonearth) = (z, e, n);
-        let event = watch.event(&z, &e, &n);
+        (self.z, self.earth, self.nonearth) = propagate(&z, &e, &n, r);
+        let event = watch.event(&self.z, &self.earth, &self.nonearth);
         if event {
             self.handle_event(report);
         }
@@ -562,6 +583,34 @@ impl Plant {
             }
         }
         (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+        true
+    }
+
+    /// Sets the state to a whole step of `h` from `first` (the step's first state, in the
+    /// current configuration) by the whole-step propagators (`configs::whole_step`), caching
+    /// them per configuration; `false` (and nothing changed) for a step they don't cover.
+    fn whole(&mut self, first: (Vector, Chain, Chain), h: f64) -> bool {
+        let key = self.config();
+        let bits = h.to_bits();
+        if self.wholes[key].as_ref().is_none_or(|w| w.h != bits) {
+            let w = Whole::new(table(&self.configs, key), h);
+            match &mut self.wholes[key] {
+                // Refilled in place: a master that changes its step allocates nothing.
+                Some(b) => **b = w,
+                slot => *slot = Some(Box::new(w)),
+            }
+        }
+        if self.chain_whole.as_ref().is_none_or(|w| w.h != bits) {
+            self.chain_whole = Some(Whole::new(&self.chain, h));
+        }
+        let (Some(Some(phi)), Some(Some(chain_phi))) = (
+            self.wholes[key].as_ref().map(|w| w.phi.as_ref()),
+            self.chain_whole.as_ref().map(|w| w.phi.as_ref()),
+        ) else {
+            return false;
+        };
+        (self.z, self.earth, self.nonearth) =
+            (mul_vec(phi, &first.0), mul_vec(chain_phi, &first.1), mul_vec(chain_phi, &first.2));
         true
     }
 
