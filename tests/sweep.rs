@@ -187,6 +187,41 @@ fn nominal_fig5_metrics_are_the_scenarios() {
 }
 
 #[test]
+fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
+    // InchwormSystem.ssp records the reference as its reference component's output, not as
+    // a system input: the loop metrics read it there (they failed every run before).
+    let closed = Path::new(DIST).join("InchwormSystem.ssp");
+    let metrics = LoopMetrics::parse(&METRICS).unwrap();
+    assert_eq!(metrics.clone().for_system(&ssp()).unwrap().reference, "reference");
+    let metrics = metrics.for_system(&closed).unwrap();
+    assert_eq!(metrics.reference, "reference.reference");
+    assert_eq!(metrics.recorded()[0], "reference.reference");
+    let setup =
+        Setup { system: closed, input: None, metrics: Arc::new(metrics), ..fig5_setup(&METRICS) };
+    let names: Vec<String> = vec!["plant.T_em".into()];
+    let rows: Vec<Row> = [8.8, 9.2]
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| Row { run: i, sample: 0, values: vec![v] })
+        .collect();
+    let plan = Plan { names: names.clone(), rows: rows.clone() };
+    let out = exec::run_plan(&setup, &plan, 1, |_| {});
+    // The open system fed the same step by its system input.
+    let open = fig5_setup(&METRICS);
+    for (o, r) in out.iter().zip(&rows) {
+        assert_eq!(o.error, None, "row {}", r.run);
+        let bits = |v: &[Option<f64>]| -> Vec<Option<u64>> {
+            v.iter().map(|x| x.map(f64::to_bits)).collect()
+        };
+        assert_eq!(bits(&o.metrics), bits(&fresh(&open, &names, r)), "row {}", r.run);
+        assert_eq!(bits(&o.metrics), bits(&fresh(&setup, &names, r)), "row {}", r.run);
+    }
+    let settle = out[0].metrics[0].unwrap();
+    assert!((settle - 0.788).abs() < 1e-9, "settle {settle}");
+    assert_ne!(out[0].metrics, out[1].metrics, "T_em reaches the plant");
+}
+
+#[test]
 fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
     let setup = fig5_setup(&METRICS);
     let names: Vec<String> = ["plant.T_em", "plant.F_d0"].map(String::from).to_vec();
@@ -283,7 +318,7 @@ fn every_output(system: &Path, input: &Option<InputTable>) -> Arc<dyn Metrics> {
     let sim = master::System::load(system).unwrap().initialise(&opts).unwrap();
     let names = sim.record_names().to_vec();
     assert!(!names.is_empty(), "{}: records nothing", system.display());
-    Arc::new(LoopMetrics(
+    Arc::new(LoopMetrics::new(
         names
             .iter()
             .flat_map(|n| {

@@ -40,7 +40,7 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// A metric per run: settle[:TOL], rms:FROM:TO, disturbance, slips, final:NAME,
-    /// min:NAME, max:NAME; repeatable; default (for InchwormSystem.ssp): settle:1e-6,
+    /// min:NAME, max:NAME; repeatable; default (for the actuator's systems): settle:1e-6,
     /// disturbance, slips, final:plant.encoder_position.
     #[arg(long = "metric", value_name = "METRIC")]
     pub metrics: Vec<String>,
@@ -217,6 +217,7 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
         return Err(format!("--metric {m} is given twice (it names one column of the results)"));
     }
     let plan = plan_of(args)?;
+    let metrics = metrics.for_system(&args.file).text()?;
     if args.plan_only {
         return super::write_file(&args.out.join("plan.csv"), |w| {
             w.write_all(plan.to_csv().as_bytes())

@@ -111,3 +111,28 @@ def test_a_row_runs_alone_as_one_json_line(setup):
     for m in METRICS:
         assert float(r["metrics"][m]) == float(expected[m]), m
     assert r["params"]["plant.T_em"] == float(expected["plant.T_em"])
+
+
+def test_the_closed_system_sweeps_with_the_default_and_loop_metrics(tmp_path):
+    """dist/InchwormSystem.ssp has no system input: its reference is the output of its
+    reference component, and the loop metrics (the default settle among them) read it there.
+    Each row is the open system's run of the same step (tests/sweep.rs holds the bits)."""
+    closed = ROOT / "dist" / "InchwormSystem.ssp"
+    assert closed.exists(), "build the SSP first: cargo run --release -p fmu-build"
+    base = [str(EXE), "sweep", "--parameter-set", "full-control", "--grid", "plant.T_em=8.8;9.2", "--json"]
+
+    def runs(*args):
+        p = subprocess.run(base + list(args), capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stderr
+        return [json.loads(line) for line in p.stdout.splitlines()]
+
+    default = runs(str(closed))
+    assert [r["status"] for r in default] == ["ok", "ok"], default
+    assert default[0]["metrics"]["settle:1e-6"] == pytest.approx(0.788, abs=1e-9)
+    loop = runs(str(closed), "--metric", "settle:1e-6", "--metric", "rms:6:10")
+    ref = tmp_path / "ref.csv"
+    ref.write_text("time,reference\n0,100e-6\n")
+    open_runs = runs(str(SSP), "--input", str(ref), "--metric", "settle:1e-6", "--metric", "rms:6:10")
+    assert [r["metrics"] for r in loop] == [r["metrics"] for r in open_runs]
+    assert loop[0]["metrics"]["rms:6:10"] == pytest.approx(3.027e-9, abs=5e-13)
+    assert loop[0]["metrics"] != loop[1]["metrics"]

@@ -6,17 +6,25 @@
 //! records on `InchwormSystem.ssp` ([`recorded`]), under the same names and with the same
 //! t = 0 row; [`LoopView`] reads either trace for the closed-loop analysis of docs/model.md §4.1.
 
+use std::path::Path;
+
 use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
 use crate::gait::Step;
+use inchworm_cosim::ssp::Archive;
 use inchworm_cosim::Trace;
 
 /// The plan flag of the controller crate's sample: the controller FMU has no such output,
 /// so only the direct coupling records it (see [`LoopView::iterated`]).
 pub const ITERATED: &str = "iterated";
 
-const REFERENCE: &str = "reference";
+/// The reference as an open system records it: its system input (`InchwormSystemOpen.ssp`),
+/// or the controller FMU's own input.
+pub const REFERENCE: &str = "reference";
+/// The reference as the closed system (`InchwormSystem.ssp`) records it: the output of its
+/// component `reference`.
+pub const REFERENCE_OUTPUT: &str = "reference.reference";
 const ENCODER_COUNTS: &str = "plant.encoder_counts";
 const ENCODER_POSITION: &str = "plant.encoder_position";
 const RUNNER_POSITION: &str = "plant.runner_position";
@@ -30,10 +38,16 @@ fn scale_weight(i: usize) -> String {
     format!("controller.scale_weights[{}]", i + 1)
 }
 
-/// The variables of a closed-loop trace, as `component.variable` of `InchwormSystem.ssp`
-/// (the system input `reference` by its connector name).
+/// The variables of a closed-loop trace, as `component.variable` of the systems (the
+/// reference as `InchwormSystemOpen.ssp`'s system input, by its connector name; the closed
+/// system records it as [`REFERENCE_OUTPUT`], see [`reference_name`]).
 pub fn recorded() -> Vec<String> {
-    let mut names: Vec<String> = [REFERENCE, ENCODER_COUNTS, ENCODER_POSITION, RUNNER_POSITION]
+    recorded_as(REFERENCE)
+}
+
+/// [`recorded`], the reference named `reference`.
+pub fn recorded_as(reference: &str) -> Vec<String> {
+    let mut names: Vec<String> = [reference, ENCODER_COUNTS, ENCODER_POSITION, RUNNER_POSITION]
         .iter()
         .chain(&DAC)
         .chain(&[DISTURBANCE_ESTIMATE, N_STEPS, FRACTION])
@@ -41,6 +55,23 @@ pub fn recorded() -> Vec<String> {
         .collect();
     names.extend((0..10).map(scale_weight));
     names
+}
+
+/// The name under which `system` records the reference: its reference component's output
+/// where it has that component (`InchwormSystem.ssp`), else `reference`, the system input
+/// of an open system or a single FMU's own variable (the controller FMU's input).
+pub fn reference_name(system: &Path) -> Result<&'static str, inchworm_cosim::Error> {
+    let is_ssp = system.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+    if !is_ssp {
+        return Ok(REFERENCE);
+    }
+    let closed = Archive::open(system)?.system.components.iter().any(|c| c.name == "reference");
+    Ok(if closed { REFERENCE_OUTPUT } else { REFERENCE })
+}
+
+/// Where the variables `names` hold the reference, under either of its names.
+pub fn reference_index(names: &[String]) -> Option<usize> {
+    names.iter().position(|n| n == REFERENCE || n == REFERENCE_OUTPUT)
 }
 
 /// One row in the order of [`recorded`], then [`ITERATED`]: the reference and the plant's
@@ -191,7 +222,11 @@ impl LoopView {
         }
         Ok(LoopView {
             time: after(trace.times()),
-            reference: after(col(REFERENCE)?),
+            reference: after(
+                reference_index(&trace.names)
+                    .map(|i| trace.rows.iter().map(|(_, v)| v[i]).collect())
+                    .ok_or_else(|| format!("the trace has no `{REFERENCE}`"))?,
+            ),
             encoder_counts: after(col(ENCODER_COUNTS)?).iter().map(|&c| c as i64).collect(),
             encoder_position: after(col(ENCODER_POSITION)?),
             runner_position: after(col(RUNNER_POSITION)?),

@@ -119,19 +119,38 @@ impl Metric {
 }
 
 /// A sweep's metrics, in order: what [`inchworm_cosim::sweep::exec::Setup`] takes.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct LoopMetrics(pub Vec<Metric>);
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopMetrics {
+    pub metrics: Vec<Metric>,
+    /// The name the swept system records the reference under ([`closed_loop::reference_name`]).
+    pub reference: &'static str,
+}
 
 impl LoopMetrics {
+    /// These metrics, on a system that records the reference as `reference`
+    /// (`InchwormSystemOpen.ssp`; [`LoopMetrics::for_system`] says which).
+    pub fn new(metrics: Vec<Metric>) -> LoopMetrics {
+        LoopMetrics { metrics, reference: closed_loop::REFERENCE }
+    }
+
     /// Each text through [`Metric::parse`].
     pub fn parse<S: AsRef<str>>(texts: &[S]) -> Result<LoopMetrics, Error> {
-        texts.iter().map(|t| Metric::parse(t.as_ref())).collect::<Result<_, _>>().map(LoopMetrics)
+        texts
+            .iter()
+            .map(|t| Metric::parse(t.as_ref()))
+            .collect::<Result<_, _>>()
+            .map(LoopMetrics::new)
+    }
+
+    /// The same metrics, recording the reference under the name `system` gives it.
+    pub fn for_system(self, system: &std::path::Path) -> Result<LoopMetrics, Error> {
+        Ok(LoopMetrics { reference: closed_loop::reference_name(system)?, ..self })
     }
 }
 
 impl Metrics for LoopMetrics {
     fn names(&self) -> Vec<String> {
-        self.0.iter().map(|m| m.name.clone()).collect()
+        self.metrics.iter().map(|m| m.name.clone()).collect()
     }
 
     /// The closed loop's variables first if any metric reads the loop, then each metric's.
@@ -142,10 +161,10 @@ impl Metrics for LoopMetrics {
                 names.push(n.to_string());
             }
         };
-        if self.0.iter().any(Metric::needs_loop) {
-            closed_loop::recorded().iter().for_each(|n| add(n));
+        if self.metrics.iter().any(Metric::needs_loop) {
+            closed_loop::recorded_as(self.reference).iter().for_each(|n| add(n));
         }
-        for m in &self.0 {
+        for m in &self.metrics {
             match &m.kind {
                 Kind::Disturbance => add(DISTURBANCE),
                 Kind::Slips => add(SLIP_EVENTS),
@@ -158,9 +177,12 @@ impl Metrics for LoopMetrics {
 
     /// The closed-loop view is built once per run, for every metric that reads it.
     fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError> {
-        let view =
-            if self.0.iter().any(Metric::needs_loop) { Some(LoopView::new(trace)?) } else { None };
-        self.0.iter().map(|m| m.compute(trace, view.as_ref())).collect()
+        let view = if self.metrics.iter().any(Metric::needs_loop) {
+            Some(LoopView::new(trace)?)
+        } else {
+            None
+        };
+        self.metrics.iter().map(|m| m.compute(trace, view.as_ref())).collect()
     }
 
     /// Row by row ([`crate::stream::Reducer`]), to the bit what [`Metrics::compute`] gives.

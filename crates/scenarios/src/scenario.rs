@@ -7,7 +7,7 @@ use std::path::Path;
 use inchworm_controller::{Params, NOMINAL_WEIGHTS, SAMPLE_PERIOD};
 use inchworm_plant::PlantParams;
 
-use crate::closed_loop::{self, LoopView};
+use crate::closed_loop::{self, LoopView, REFERENCE_OUTPUT};
 use inchworm_cosim::master::{self, Coupling, InputTable, Options};
 use inchworm_cosim::Trace;
 
@@ -67,9 +67,6 @@ pub fn staircase() -> InputTable {
 fn constant(value: f64) -> InputTable {
     InputTable::steps("reference", &[(0.0, value)]).expect("one finite row")
 }
-
-/// The name under which the closed system records its reference.
-const REFERENCE_OUTPUT: &str = "reference.reference";
 
 /// Each level from 20 s after its change to its end.
 fn staircase_regulation() -> Vec<(f64, f64)> {
@@ -265,12 +262,7 @@ impl Scenario {
             )?),
             (Drive::Controller(p), Via::System(ssp)) => {
                 // The closed system carries its reference as a component of that name.
-                let closed = inchworm_cosim::ssp::Archive::open(ssp)?
-                    .system
-                    .components
-                    .iter()
-                    .any(|c| c.name == "reference");
-                if !closed {
+                if closed_loop::reference_name(ssp)? != REFERENCE_OUTPUT {
                     return Ok(master::run(ssp, &self.options(&v.plant, p), |_| {})?);
                 }
                 // A reference of more points than the reference FMU's table holds runs on

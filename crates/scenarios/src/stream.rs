@@ -61,7 +61,9 @@ impl Reducer {
                     .position(|x| *x == recorded[i])
                     .ok_or_else(|| Error::Config(format!("the trace has no `{}`", recorded[i])))
             };
-            Some(LoopColumns { reference: at(0)?, position: at(2)?, dac: [at(4)?, at(5)?, at(6)?] })
+            // The reference under either of its names, as LoopView reads it.
+            let reference = closed_loop::reference_index(names).map_or_else(|| at(0), Ok)?;
+            Some(LoopColumns { reference, position: at(2)?, dac: [at(4)?, at(5)?, at(6)?] })
         } else {
             None
         };
@@ -151,7 +153,7 @@ impl RowMetrics for Reducer {
 impl LoopMetrics {
     /// [`Metrics::stream`]: a [`Reducer`] of these metrics.
     pub fn reducer(&self, names: &[String]) -> Result<Reducer, Error> {
-        Reducer::new(&self.0, names)
+        Reducer::new(&self.metrics, names)
     }
 }
 
