@@ -98,10 +98,17 @@ def settle_time(rows):
 
 
 def run(cmd, **kw):
-    r = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    """`cmd`'s standard output; an error with the end of its standard error if it fails.
+    Both are read from files, not pipes: under Wine the prefix's services (winedevice.exe)
+    inherit them and outlive the harness, and a pipe would keep the call waiting for them."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        r = subprocess.run(cmd, stdin=subprocess.DEVNULL, stdout=out, stderr=err, text=True, **kw)
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
     if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({r.returncode}): {r.stderr[-2000:]}")
-    return r.stdout
+        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({r.returncode}): {stderr[-2000:]}")
+    return stdout
 
 
 def debian11(root):
