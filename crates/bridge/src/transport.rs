@@ -67,14 +67,24 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 /// Blocks until `fd` is readable or `timeout` passes; nanosecond resolution (ppoll), so a
 /// 2 ms period is not rounded to whole milliseconds as poll(2) would.
 fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
-    let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
+    wait_readable_any(&[Some(fd)], timeout)
+}
+
+/// [`wait_readable`] for whichever of `fds` becomes readable first (`None`s are skipped).
+fn wait_readable_any(fds: &[Option<RawFd>], timeout: Duration) -> io::Result<bool> {
+    let mut pfds = [libc::pollfd { fd: -1, events: libc::POLLIN, revents: 0 }; 2];
+    let mut n = 0;
+    for fd in fds.iter().flatten().take(pfds.len()) {
+        pfds[n].fd = *fd;
+        n += 1;
+    }
     let ts = libc::timespec {
         tv_sec: timeout.as_secs() as libc::time_t,
         tv_nsec: timeout.subsec_nanos() as libc::c_long,
     };
     loop {
-        // SAFETY: one valid pollfd, a valid timespec, no signal mask.
-        let r = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
+        // SAFETY: `n` valid pollfds, a valid timespec, no signal mask.
+        let r = unsafe { libc::ppoll(pfds.as_mut_ptr(), n as libc::nfds_t, &ts, std::ptr::null()) };
         if r >= 0 {
             return Ok(r > 0);
         }
@@ -89,8 +99,19 @@ fn wait_readable(fd: RawFd, timeout: Duration) -> io::Result<bool> {
 /// address. The board side binds and hands every datagram up with its [`Source`]: which
 /// sender holds the session is the board's decision (docs/hil-protocol.md, "Sessions"), so
 /// a stray datagram can never claim the socket.
+///
+/// The board's session has a socket of its own: once the board names a peer, a second
+/// socket on the board's address and port (both with SO_REUSEPORT) is connected to it, and
+/// the kernel puts the peer's datagrams there, everyone else's in the first socket. A
+/// flood of datagrams from other ports then overfills only the first socket's buffer: with
+/// one buffer for all, the kernel dropped the session's DAC frames with the flood's, and a
+/// board short of CPU lost 25 periods of them in a row, its watchdog firing on a
+/// controller that had sent every one (tests/python/test_hostile_bridge.py, the HELLO
+/// flood with both cores busy). The session's socket is read first.
 pub struct UdpTransport {
     socket: UdpSocket,
+    /// Board side: the socket connected to the peer, where the kernel supports it.
+    session: Option<UdpSocket>,
     peer: Option<SocketAddr>,
     /// Connected (controller side): only the peer's datagrams are taken.
     connected: bool,
@@ -98,11 +119,42 @@ pub struct UdpTransport {
     foreign: u64,
 }
 
+/// A non-blocking UDP socket bound to `local` with SO_REUSEPORT, connected to `peer` if
+/// one is given.
+fn reuse_port_socket(local: SocketAddr, peer: Option<SocketAddr>) -> io::Result<UdpSocket> {
+    use socket2::{Domain, Protocol, Socket, Type};
+    let socket = Socket::new(Domain::for_address(local), Type::DGRAM, Some(Protocol::UDP))?;
+    socket.set_reuse_port(true)?;
+    socket.set_nonblocking(true)?;
+    socket.bind(&local.into())?;
+    if let Some(peer) = peer {
+        socket.connect(&peer.into())?;
+    }
+    Ok(socket.into())
+}
+
 impl UdpTransport {
     pub fn bind(local: impl ToSocketAddrs) -> io::Result<UdpTransport> {
-        let socket = UdpSocket::bind(local)?;
-        socket.set_nonblocking(true)?;
-        Ok(UdpTransport { socket, peer: None, connected: false, from: None, foreign: 0 })
+        // Each address in turn, as UdpSocket::bind tries them.
+        let mut last = None;
+        for addr in local.to_socket_addrs()? {
+            match reuse_port_socket(addr, None) {
+                Ok(socket) => {
+                    return Ok(UdpTransport {
+                        socket,
+                        session: None,
+                        peer: None,
+                        connected: false,
+                        from: None,
+                        foreign: 0,
+                    })
+                }
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(last.unwrap_or_else(|| {
+            io::Error::new(io::ErrorKind::InvalidInput, "the address resolves to nothing")
+        }))
     }
 
     pub fn connect(remote: impl ToSocketAddrs) -> io::Result<UdpTransport> {
@@ -116,7 +168,14 @@ impl UdpTransport {
         };
         let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
-        Ok(UdpTransport { socket, peer: Some(remote), connected: true, from: None, foreign: 0 })
+        Ok(UdpTransport {
+            socket,
+            session: None,
+            peer: Some(remote),
+            connected: true,
+            from: None,
+            foreign: 0,
+        })
     }
 
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
@@ -130,7 +189,13 @@ impl UdpTransport {
     }
 
     fn send_datagram(&self, frame: &[u8], to: SocketAddr) -> io::Result<()> {
-        match self.socket.send_to(frame, to) {
+        let sent = match &self.session {
+            // Out of the socket the peer's datagrams come in by, as they would from the
+            // first one: the same address and port.
+            Some(session) if Some(to) == self.peer => session.send(frame),
+            _ => self.socket.send_to(frame, to),
+        };
+        match sent {
             Ok(_) => Ok(()),
             // A full socket buffer or an ICMP port-unreachable from a peer that is not up
             // yet (or has gone) is a lost frame, which the protocol tolerates; it is not a
@@ -162,6 +227,20 @@ impl Transport for UdpTransport {
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<Option<usize>> {
         let mut waited = false;
         loop {
+            if let Some(session) = &self.session {
+                match session.recv(buf) {
+                    Ok(n) => {
+                        self.from = self.peer;
+                        return Ok(Some(n));
+                    }
+                    // The peer's ICMP port-unreachable (it is not up yet, or gone) is
+                    // reported once, ahead of what is queued behind it: read on, or its
+                    // DISARM would come after a datagram on the first socket that came later.
+                    Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
+                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+                    Err(e) => return Err(e),
+                }
+            }
             match self.socket.recv_from(buf) {
                 Ok((_, from)) if self.connected && Some(from) != self.peer => {
                     self.foreign += 1;
@@ -172,10 +251,11 @@ impl Transport for UdpTransport {
                 }
                 Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
                 Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                    if waited
-                        || timeout.is_zero()
-                        || !wait_readable(self.socket.as_raw_fd(), timeout)?
-                    {
+                    let fds = [
+                        Some(self.socket.as_raw_fd()),
+                        self.session.as_ref().map(|s| s.as_raw_fd()),
+                    ];
+                    if waited || timeout.is_zero() || !wait_readable_any(&fds, timeout)? {
                         return Ok(None);
                     }
                     waited = true;
@@ -190,9 +270,21 @@ impl Transport for UdpTransport {
     }
 
     fn set_peer(&mut self, peer: Source) {
-        if let (false, Source::Udp(a)) = (self.connected, peer) {
-            self.peer = Some(a);
+        let (false, Source::Udp(a)) = (self.connected, peer) else {
+            return;
+        };
+        if self.peer == Some(a) && self.session.is_some() {
+            return;
         }
+        self.peer = Some(a);
+        // Without a socket of its own (a kernel or platform that refuses one) the session
+        // shares the first socket, as it did before it had one.
+        self.session = self
+            .socket
+            .local_addr()
+            .and_then(|local| reuse_port_socket(local, Some(a)))
+            .map_err(|e| log::warn!("the session with {a} shares the board's socket: {e}"))
+            .ok();
     }
 
     fn send_to(&mut self, frame: &[u8], to: Source) -> io::Result<()> {

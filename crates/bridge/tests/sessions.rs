@@ -16,7 +16,7 @@ use inchworm_bridge::protocol::{
     self, session_refused, BoardState, DacSample, Fault, FaultReason, Frame, Hello, Packet, Role,
     MAX_FRAME, VERSION,
 };
-use inchworm_bridge::transport::{Source, UdpTransport};
+use inchworm_bridge::transport::{Source, Transport, UdpTransport};
 
 struct Rig {
     addr: SocketAddr,
@@ -489,4 +489,47 @@ fn session_records_are_bounded_and_the_summary_says_how_many_there_were() {
     assert_eq!(lines[0], format!("sessions: {n}"));
     assert!(lines[1].starts_with("sessions 1 to 8: not listed"), "{lines:?}");
     assert_eq!(lines.len(), 2 + inchworm_bridge::board::MAX_SESSION_RECORDS, "{lines:?}");
+}
+
+#[test]
+fn a_flood_that_overfills_the_board_socket_loses_none_of_the_peer_s_datagrams() {
+    // The board reads nothing while a flood from another port overfills its socket (a board
+    // short of CPU): the kernel drops the flood's excess, and with one buffer for everyone
+    // it dropped the peer's DAC frames too, 25 periods of which fire the board's watchdog.
+    let mut board = UdpTransport::bind("127.0.0.1:0").unwrap();
+    let addr = board.local_addr().unwrap();
+    let peer = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let stranger = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let peer_addr = peer.local_addr().unwrap();
+    board.set_peer(Source::Udp(peer_addr));
+    // Far more than any socket buffer holds (some 200 KB by default; each datagram costs
+    // its payload and about 1 KB of bookkeeping).
+    let flood = [0x55u8; 64];
+    for _ in 0..20_000 {
+        stranger.send_to(&flood, addr).unwrap();
+    }
+    let frames: Vec<Vec<u8>> = (0u8..50).map(|i| vec![0xAA, i]).collect();
+    for f in &frames {
+        peer.send_to(f, addr).unwrap();
+        stranger.send_to(&flood, addr).unwrap();
+    }
+    let mut buf = [0u8; 256];
+    let (mut got, mut strangers) = (Vec::new(), 0usize);
+    while let Some(n) = board.recv(&mut buf, Duration::ZERO).unwrap() {
+        match board.source() {
+            Source::Udp(a) if a == peer_addr => got.push(buf[..n].to_vec()),
+            Source::Udp(a) => {
+                assert_eq!(a, stranger.local_addr().unwrap());
+                strangers += 1;
+            }
+            Source::Line => panic!("a UDP datagram from the line"),
+        }
+    }
+    assert_eq!(got, frames, "the peer's datagrams, all and in order, before the flood's");
+    assert!(strangers > 0 && strangers < 20_050, "the flood got in, in part: {strangers}");
+    // Replies leave from the board's port, where the peer sends.
+    board.send(&[1, 2, 3]).unwrap();
+    peer.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+    let (n, from) = peer.recv_from(&mut buf).unwrap();
+    assert_eq!((&buf[..n], from), (&[1u8, 2, 3][..], addr));
 }
