@@ -135,10 +135,14 @@ fn reuse_port_socket(local: SocketAddr, peer: Option<SocketAddr>) -> io::Result<
 
 impl UdpTransport {
     pub fn bind(local: impl ToSocketAddrs) -> io::Result<UdpTransport> {
-        // Each address in turn, as UdpSocket::bind tries them.
+        // Each address in turn, as UdpSocket::bind tries them. SO_REUSEPORT would let a
+        // second board bind the port beside this one (the kernel then splits the
+        // controllers between them): a plain socket bound first, and closed, claims the
+        // port (port 0 a free one), and fails "address in use" where a board has it.
         let mut last = None;
         for addr in local.to_socket_addrs()? {
-            match reuse_port_socket(addr, None) {
+            let claimed = UdpSocket::bind(addr).and_then(|probe| probe.local_addr());
+            match claimed.and_then(|addr| reuse_port_socket(addr, None)) {
                 Ok(socket) => {
                     return Ok(UdpTransport {
                         socket,

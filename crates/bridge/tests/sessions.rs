@@ -533,3 +533,14 @@ fn a_flood_that_overfills_the_board_socket_loses_none_of_the_peer_s_datagrams() 
     let (n, from) = peer.recv_from(&mut buf).unwrap();
     assert_eq!((&buf[..n], from), (&[1u8, 2, 3][..], addr));
 }
+
+#[test]
+fn a_second_board_on_the_same_port_is_refused() {
+    // The board's sockets share their port with each other (SO_REUSEPORT), not with another
+    // board, which would take half the controllers' datagrams.
+    let first = UdpTransport::bind("127.0.0.1:0").unwrap();
+    let addr = first.local_addr().unwrap();
+    let second = UdpTransport::bind(addr).err().expect("a second board on the same port");
+    assert_eq!(second.kind(), std::io::ErrorKind::AddrInUse, "{second}");
+    assert!(UdpSocket::bind(addr).is_err(), "a plain socket on the board's port");
+}
