@@ -224,7 +224,7 @@ impl LoopView {
             time: after(trace.times()),
             reference: after(
                 reference_index(&trace.names)
-                    .map(|i| trace.rows.iter().map(|(_, v)| v[i]).collect())
+                    .and_then(|i| trace.column(&trace.names[i]))
                     .ok_or_else(|| format!("the trace has no `{REFERENCE}`"))?,
             ),
             encoder_counts: after(col(ENCODER_COUNTS)?).iter().map(|&c| c as i64).collect(),

@@ -240,9 +240,7 @@ impl Scenario {
             o.params.push((format!("reference.times[{}]", i + 1), format!("{t:e}")));
             o.params.push((format!("reference.positions[{}]", i + 1), format!("{p:e}")));
         }
-        for name in o.outputs.iter_mut().filter(|n| n.as_str() == "reference") {
-            *name = REFERENCE_OUTPUT.into();
-        }
+        o.outputs = closed_loop::recorded_as(REFERENCE_OUTPUT);
         o
     }
 
