@@ -51,10 +51,11 @@ def wineserver():
     down, with the prefix's services, a few seconds after its last one exits; a run's
     standard output (a pipe, then) stayed open until the services went, so each run waited
     for that shutdown and the next one started just as it happened. One such run exited 1
-    without a word in CI (stop 28); 180 runs here, back to back and 3 s apart, did not repeat it: the
-    shutdown is left out of the test instead. A persistent server (`-p`) runs from here to
-    the end of the session; its services outlive every harness, which is why `cross.run`
-    reads the output from files. Errors are logged (`err+all`), so a failure says why.
+    without a word in CI (stop 28); 180 runs here, back to back and 3 s apart, did not
+    repeat it: the shutdown is left out of the test instead. A persistent server (`-p`)
+    runs from here to the end of the session; its services outlive every harness, which is
+    why `cross.run` reads the output from files. Errors are logged (`err+all`), so a
+    failure says why.
 
     A server left running on the prefix (an interrupted session) is ended first: `-p`
     refuses to start beside one (exit 2)."""

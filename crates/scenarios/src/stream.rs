@@ -62,7 +62,8 @@ impl Reducer {
                     .ok_or_else(|| Error::Config(format!("the trace has no `{}`", recorded[i])))
             };
             // The reference under either of its names, as LoopView reads it.
-            let reference = closed_loop::reference_index(names).map_or_else(|| at(0), Ok)?;
+            let reference = closed_loop::reference_index(names)
+                .ok_or_else(|| Error::Config(format!("the trace has no `{}`", recorded[0])))?;
             Some(LoopColumns { reference, position: at(2)?, dac: [at(4)?, at(5)?, at(6)?] })
         } else {
             None
