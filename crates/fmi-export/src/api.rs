@@ -142,3 +142,4 @@ macro_rules! __fmi2_entry_points { ($then:ident) => { $crate::$then! {
 } } }
 
 __fmi2_entry_points!(__generic_entry_points);
+__fmi2_entry_points!(__every_entry_point);

@@ -27,7 +27,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::instance::*;
 use crate::table::{Admission, Kind, Variable};
-use crate::{model_description, state_blob, EventUpdate, Message, Model, StepLog};
+use crate::{model_description, registry, state_blob, EventUpdate, Message, Model, StepLog};
 
 pub use crate::instance::{Standard, Status};
 
@@ -221,17 +221,20 @@ impl Addressed {
     }
 }
 
-/// Runs `body` on the instance behind `c` if the call is allowed in its state.
+/// Runs `body` on the instance behind `c` if the call is allowed in its state. A pointer
+/// that is not a live instance of this model and standard (NULL, freed, another FMU's,
+/// junk) is refused without being read: there is no logger to tell but the instance's.
 pub unsafe fn with_instance<S: Standard, M: Model>(
     c: *mut c_void,
     func: &str,
     allowed: u16,
     body: impl FnOnce(&mut Instance<S, M>) -> Status,
 ) -> Status {
-    if c.is_null() || *(c as *const u64) != S::MAGIC {
+    let c = c as *mut Instance<S, M>;
+    if c.is_null() || !registry::is_live(c) {
         return ERROR;
     }
-    let inst = &mut *(c as *mut Instance<S, M>);
+    let inst = &mut *c;
     if inst.state as u16 & allowed == 0 {
         let state = S::state_name(inst.state);
         let why = format_args!("illegal call sequence: not allowed in state {state}");
@@ -551,8 +554,9 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
             return fail(format_args!("{arg} \"{given}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"));
         }
         let name = CStr::from_ptr(name).to_owned();
-        let inst = Instance::<S, M>::new(name, cb, interface, logging_on);
-        Box::into_raw(Box::new(inst)) as *mut c_void
+        let inst = Box::into_raw(Box::new(Instance::<S, M>::new(name, cb, interface, logging_on)));
+        registry::register(inst);
+        inst as *mut c_void
     }));
     result.unwrap_or(std::ptr::null_mut())
 }
@@ -573,12 +577,15 @@ pub unsafe fn refuse_instantiation<S: Standard>(
 /// Frees the instance, after the totals of its inputs' clamps if no Terminate or Reset
 /// logged them (the master's logger is valid until this call returns).
 pub unsafe fn free_instance<S: Standard, M: Model>(c: *mut c_void, func: &str) {
-    if c.is_null() || *(c as *const u64) != S::MAGIC {
+    let c = c as *mut Instance<S, M>;
+    // Out of the registry first: a second free, or a call racing this one's end, finds
+    // nothing to read.
+    if c.is_null() || !registry::unregister(c) {
         return;
     }
     // Dropping a model only frees memory; a panic there must still not unwind into C.
     let _ = catch_unwind(AssertUnwindSafe(|| {
-        let mut inst = Box::from_raw(c as *mut Instance<S, M>);
+        let mut inst = Box::from_raw(c);
         inst.summarize_clamps(func);
     }));
 }
@@ -1290,6 +1297,16 @@ pub unsafe fn set_time<S: Standard, M: Model>(c: *mut c_void, func: &str, t: f64
     with_me::<S, M>(c, func, TIMED, |inst| {
         if !t.is_finite() {
             return inst.refuse(func, format_args!("time {t} is not finite"));
+        }
+        // The stop time holds in Model Exchange as in a step (FMI 2.0 section 2.1.6, FMI
+        // 3.0 section 2.3.2: computing past a defined stop time is an error).
+        if let Some(stop) = inst.stop_time.filter(|&s| t > s && !same_time(t, s)) {
+            let at = S::EXPERIMENT_FN;
+            return inst
+                .refuse(func, format_args!("time {t} is past the stop time {stop} set in {at}"));
+        }
+        if let Err(why) = inst.model.check_time(t) {
+            return inst.refuse(func, format_args!("{why}"));
         }
         inst.time = t;
         OK

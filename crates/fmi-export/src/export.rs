@@ -20,6 +20,37 @@ macro_rules! __generic_entry_points {
     };
 }
 
+/// For the behaviour suites: `every_entry_point::<M>(c)`, which calls every function of a
+/// list that takes an instance, each with `c` and every other argument zero (NULL
+/// pointers, 0, false, no callback), and returns each one's name and status (`None` for
+/// the frees, which return nothing). Handed another FMU's instance, a freed one or junk,
+/// each must refuse it without reading through it.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __every_entry_point {
+    ($( $name:ident ( $($arg:ident : $ty:ty),* ) -> $ret:ty = $body:expr ; )*) => {
+        #[allow(clippy::missing_safety_doc)]
+        pub unsafe fn every_entry_point<M: $crate::Model>(
+            c: *mut ::std::ffi::c_void,
+        ) -> ::std::vec::Vec<(&'static str, ::std::option::Option<::std::os::raw::c_int>)> {
+            let mut called = ::std::vec::Vec::new();
+            $( $crate::__call_with_instance!(called, c, $name ( $($arg : $ty),* )); )*
+            called
+        }
+    };
+}
+
+/// One function of [`__every_entry_point!`]: called if its first argument is the instance.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __call_with_instance {
+    ($called:ident, $c:ident, $name:ident ( c : $cty:ty $(, $arg:ident : $ty:ty)* )) => {
+        let status = $name::<M>($c as $cty $(, ::std::mem::zeroed::<$ty>())*);
+        $called.push((stringify!($name), $crate::testing::IntoStatus::into_status(status)));
+    };
+    ($called:ident, $c:ident, $name:ident ( $($arg:ident : $ty:ty),* )) => {};
+}
+
 /// The C symbols of a list for the model `M` in scope, calling `__api::<name>::<M>`.
 #[doc(hidden)]
 #[macro_export]

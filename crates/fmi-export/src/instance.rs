@@ -254,11 +254,9 @@ pub struct Snapshot<M> {
     pub stop_time: Option<f64>,
 }
 
-/// `repr(C)`: the magic number is the first field of every instance, whatever the
-/// standard and the model, so a foreign pointer is read at the same place.
-#[repr(C)]
+/// One instance of `M` under the standard `S`. Entry points reach it only through a
+/// pointer the registry ([`crate::registry`]) knows as a live `Instance<S, M>`.
 pub struct Instance<S: Standard, M: Model> {
-    pub magic: u64,
     pub name: CString,
     pub callbacks: S::Callbacks,
     pub interface: Interface,
@@ -394,7 +392,6 @@ impl<S: Standard, M: Model> Instance<S, M> {
             (head.vr, Indexed { first, len, kind: head.kind, settable: settable_states(head) })
         }));
         Instance {
-            magic: S::MAGIC,
             name,
             callbacks,
             interface,
@@ -480,7 +477,6 @@ impl<S: Standard, M: Model> Instance<S, M> {
 
 impl<S: Standard, M: Model> Drop for Instance<S, M> {
     fn drop(&mut self) {
-        self.magic = 0;
         for s in self.snapshots.drain(..) {
             // SAFETY: every pointer in the list came from Box::into_raw and is freed once.
             drop(unsafe { Box::from_raw(s) });

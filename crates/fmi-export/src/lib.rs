@@ -20,6 +20,7 @@ pub mod ffi;
 pub mod fmi3;
 pub mod instance;
 pub mod model_description;
+pub mod registry;
 pub mod standards;
 mod state_blob;
 mod table;
@@ -146,6 +147,13 @@ pub trait Model: Clone + Send + 'static {
     /// Refuses a step the model cannot take (e.g. a step size it does not support) before
     /// anything runs; a refusal leaves the instance as it was.
     fn check_step(&self, _t: f64, _h: f64) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Refuses a time a Model Exchange master sets that the model cannot reach from where
+    /// it is in bounded work (its next event update runs everything up to that time); a
+    /// refusal leaves the instance as it was.
+    fn check_time(&self, _t: f64) -> Result<(), String> {
         Ok(())
     }
 

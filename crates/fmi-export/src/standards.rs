@@ -32,8 +32,6 @@ facts! {
     VERSION: &'static str = "FMI 2.0", "FMI 3.0";
     /// The function-name prefix.
     PREFIX: &'static str = "fmi2", "fmi3";
-    /// Distinct per standard, so an instance of one handed to the other is refused.
-    MAGIC: u64 = 0x4957_464d_4932_0001, 0x4957_464d_4933_0001;
     /// The core states the standard has; a serialized state in another is refused.
     STATES: u16 = ALL_STATES, ALL_STATES & !FMI2_ONLY;
     /// FMI 2.0 allows `fmi2GetFMUstate` in Error (the table of section 4.2.4); FMI 3.0

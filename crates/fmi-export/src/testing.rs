@@ -153,6 +153,41 @@ pub trait Master: Standard {
     unsafe fn set_states<M: Model>(c: C, x: *const f64, n: usize) -> Status;
     unsafe fn enter_event_mode<M: Model>(c: C) -> Status;
     unsafe fn enter_continuous_time_mode<M: Model>(c: C) -> Status;
+    /// Every function of the standard that takes an instance, called with `c` and every
+    /// other argument zero: each one's name and status (`None` for the free).
+    unsafe fn every_entry_point<M: Model>(c: C) -> Vec<(&'static str, Option<Status>)>;
+}
+
+/// A status, or nothing for a function that returns nothing (the frees).
+pub trait IntoStatus {
+    fn into_status(self) -> Option<Status>;
+}
+
+impl IntoStatus for Status {
+    fn into_status(self) -> Option<Status> {
+        Some(self)
+    }
+}
+
+impl IntoStatus for () {
+    fn into_status(self) -> Option<Status> {
+        None
+    }
+}
+
+/// Hands `foreign` (another model's or standard's instance, a freed one, junk) to every
+/// entry point of `M` under `S`: each must refuse it with an error, and the free must
+/// leave it alone, without reading through it. Returns how many entry points were called.
+pub unsafe fn assert_every_entry_point_refuses<S: Master, M: Model>(
+    foreign: C,
+    what: &str,
+) -> usize {
+    let called = S::every_entry_point::<M>(foreign);
+    for &(name, status) in &called {
+        let refused = status.is_none_or(|s| s == crate::instance::ERROR);
+        assert!(refused, "{name} of {} given {what} returned {status:?}", M::info().model_name);
+    }
+    called.len()
 }
 
 const fn b2(b: bool) -> fmi2Boolean {
@@ -363,6 +398,7 @@ masters! {
     set_states(c: C, x: *const f64, n: usize) -> Status = fmi2SetContinuousStates | fmi3SetContinuousStates;
     enter_event_mode(c: C) -> Status = fmi2EnterEventMode | fmi3EnterEventMode;
     enter_continuous_time_mode(c: C) -> Status = fmi2EnterContinuousTimeMode | fmi3EnterContinuousTimeMode;
+    every_entry_point(c: C) -> Vec<(&'static str, Option<Status>)> = every_entry_point | every_entry_point;
 }
 
 /// One instance of `M` under standard `S` (FMI 2.0 unless named).

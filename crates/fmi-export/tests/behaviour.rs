@@ -11,7 +11,10 @@ use std::ffi::{c_void, CString};
 
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
-use inchworm_fmi_export::testing::{categories_of, payload_of, with_payload, Harness, Master};
+use inchworm_fmi_export::testing::{
+    assert_every_entry_point_refuses as refuses, categories_of, payload_of, with_payload, Harness,
+    Master,
+};
 use inchworm_fmi_export::{model_description, Clip};
 use toy::*;
 
@@ -26,6 +29,7 @@ const DT: f64 = 0.01;
 for_both!(
     calls_out_of_order_are_refused_and_logged,
     null_and_foreign_pointers_are_refused_without_a_crash,
+    every_entry_point_refuses_another_model_s_instance_and_junk,
     nan_is_refused_and_the_last_value_kept,
     out_of_range_inputs_are_clamped_with_a_warning,
     rounding_past_a_limit_is_the_limit_without_a_warning,
@@ -98,6 +102,32 @@ fn null_and_foreign_pointers_are_refused_without_a_crash<S: Master>() {
     assert_eq!(h.free_state(foreign), ERROR);
     assert_eq!(h.free_state(std::ptr::null_mut()), OK, "freeing NULL is allowed");
     assert_eq!(h.step(0.0, DT), OK, "the refusals changed nothing");
+}
+
+/// Every function of the standard that takes an instance, given an instance of another
+/// model of this library (the registry keeps them apart by type), or junk: an error, the
+/// free a no-op, and the foreign instance untouched. Getters included, which once read a
+/// foreign instance as their own.
+fn every_entry_point_refuses_another_model_s_instance_and_junk<S: Master>() {
+    let toy = H::<S>::init("toy");
+    let other = Harness::<CsToy, S>::init("other");
+    let toy_me = H::<S>::init_me("toy_me");
+    let mut junk = [0u64; 64];
+    let junk = junk.as_mut_ptr() as *mut c_void;
+    // FMI 2.0 has 41 functions taking an instance, FMI 3.0 71.
+    let all = if S::PREFIX == "fmi2" { 41 } else { 71 };
+    unsafe {
+        assert_eq!(refuses::<S, Toy>(other.c, "an instance of another model"), all);
+        assert_eq!(refuses::<S, CsToy>(toy.c, "an instance of another model"), all);
+        assert_eq!(
+            refuses::<S, CsToy>(toy_me.c, "a Model Exchange instance of another model"),
+            all
+        );
+        assert_eq!(refuses::<S, Toy>(junk, "junk"), all);
+    }
+    assert_eq!((toy.step(0.0, DT), other.step(0.0, DT)), (OK, OK), "both left alone");
+    assert_eq!(toy_me.enter_continuous_time_mode(), OK);
+    assert!(toy.logged().is_empty() && other.logged().is_empty(), "{:?}", other.logged());
 }
 
 fn nan_is_refused_and_the_last_value_kept<S: Master>() {
@@ -538,9 +568,8 @@ fn an_instance_of_one_standard_is_foreign_to_the_other() {
     let two = H::<Fmi2>::init("two");
     let three = H::<Fmi3>::init("three");
     unsafe {
-        assert_eq!(Fmi3::step::<Toy>(two.c, 0.0, DT), ERROR);
-        assert_eq!(Fmi2::step::<Toy>(three.c, 0.0, DT), ERROR);
-        Fmi2::free::<Toy>(three.c);
+        assert_eq!(refuses::<Fmi3, Toy>(two.c, "an FMI 2.0 instance"), 71);
+        assert_eq!(refuses::<Fmi2, Toy>(three.c, "an FMI 3.0 instance"), 41);
     }
     assert_eq!((two.step(0.0, DT), three.step(0.0, DT)), (OK, OK));
 }

@@ -260,7 +260,25 @@ fn bool_param(p: &mut Params, r: u32) -> Option<&mut bool> {
     })
 }
 
+/// The most sample instants one call runs: a step or an event update runs every instant
+/// it passes (some 0.1 µs each here), so that no time a master gives makes a call take
+/// more than about a second. 10^7 samples are 20 000 s of simulated time.
+const MAX_SAMPLES_PER_CALL: f64 = 1e7;
+
 impl ControllerFmu {
+    /// Refuses an `end` more than [`MAX_SAMPLES_PER_CALL`] sample instants past the last
+    /// sample written (before any is, `t` is the origin).
+    fn within_reach(&self, t: f64, end: f64) -> Result<(), String> {
+        let last = self.clock.origin.unwrap_or(t) + self.clock.ticks as f64 * SAMPLE_PERIOD;
+        let samples = (end - last) / SAMPLE_PERIOD;
+        if samples > MAX_SAMPLES_PER_CALL {
+            return Err(format!(
+                "{end} s is {samples:.4e} sample instants past the last sample at {last} s; one call runs at most {MAX_SAMPLES_PER_CALL:e} (take shorter steps, or stop at every time event)"
+            ));
+        }
+        Ok(())
+    }
+
     /// Runs the instants of a step from `t` to `end`: the latch at every `s_n` in
     /// `[t, end)`, the write at every `s_n` in `(t, end]`; only `end` and the clock decide
     /// which (`t` names the step in messages and anchors a clock restored from format 1).
@@ -452,7 +470,13 @@ impl Model for ControllerFmu {
         Ok(())
     }
 
-    // Any step size is accepted (the layer refuses h <= 0): no check_step.
+    fn check_step(&self, t: f64, h: f64) -> Result<(), String> {
+        self.within_reach(t, t + h)
+    }
+
+    fn check_time(&self, t: f64) -> Result<(), String> {
+        self.within_reach(t, t)
+    }
 
     fn do_step(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
         self.advance(t, t + h, log)

@@ -188,3 +188,4 @@ macro_rules! __fmi3_entry_points { ($then:ident) => { $crate::$then! {
 } } }
 
 __fmi3_entry_points!(__generic_entry_points);
+__fmi3_entry_points!(__every_entry_point);

@@ -1,0 +1,152 @@
+//! The instances this library created and has not freed: the one check that every entry
+//! point makes of its instance pointer before it reads through it.
+//!
+//! A master can hand an entry point anything: NULL, a pointer to freed memory, another
+//! FMU's instance (from another library, or from this library but of another model or
+//! standard), or junk. Only a pointer this library returned from an instantiation, not
+//! freed since, and of the entry point's model and standard, is read; everything else is
+//! refused without touching the memory it points to. The registry maps each live
+//! instance's address to the type it was created as ([`TypeId`] of `Instance<S, M>`).
+//!
+//! The hot path (a master calling `Get*`/`Set*`/`DoStep` on the same few instances) does
+//! not take the registry's lock: each thread keeps the last few instances it found live,
+//! valid while no instance of this library has been freed since (an epoch counter that
+//! every free advances). A hit costs a thread-local read and one atomic load;
+//! `cargo bench -p inchworm-plant-fmu3 --bench registry` measures both paths side by side.
+
+use std::any::TypeId;
+use std::cell::Cell;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard};
+
+/// Live instances: address → the type they were created as.
+static LIVE: Mutex<BTreeMap<usize, TypeId>> = Mutex::new(BTreeMap::new());
+
+/// Advanced by every free, after the instance left [`LIVE`]: a thread's cache of live
+/// instances is good only for the epoch it was filled in.
+static EPOCH: AtomicU64 = AtomicU64::new(0);
+
+/// How many instances a thread remembers: a master's loop touches one instance of a model
+/// per component, and a system rarely has more than a few components of one FMU.
+const CACHED: usize = 4;
+
+/// A thread's cache of instances found live: valid while `epoch` is [`EPOCH`].
+struct Recent {
+    epoch: Cell<u64>,
+    /// The last instances found live, newest first.
+    slots: [Cell<Option<(usize, TypeId)>>; CACHED],
+}
+
+thread_local! {
+    static RECENT: Recent = const {
+        Recent { epoch: Cell::new(u64::MAX), slots: [const { Cell::new(None) }; CACHED] }
+    };
+}
+
+fn live() -> MutexGuard<'static, BTreeMap<usize, TypeId>> {
+    // The map is consistent after every operation on it, so a panic elsewhere while the
+    // lock was held (there is none in this module) leaves nothing half done.
+    LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Records `ptr` as a live instance of `T`; called once, right after it is allocated.
+pub(crate) fn register<T: 'static>(ptr: *mut T) {
+    live().insert(ptr as usize, TypeId::of::<T>());
+}
+
+/// Whether `ptr` is a live instance of `T` created by this library. Reads nothing
+/// through `ptr`.
+#[inline]
+pub fn is_live<T: 'static>(ptr: *const T) -> bool {
+    let key = (ptr as usize, TypeId::of::<T>());
+    // Acquire: a free that happened before this call (the only way a master can use a
+    // pointer after freeing it) is seen, so a stale cache is not trusted.
+    let epoch = EPOCH.load(Ordering::Acquire);
+    RECENT.with(|recent| {
+        let current = recent.epoch.get() == epoch;
+        if current && recent.slots.iter().any(|s| s.get() == Some(key)) {
+            return true;
+        }
+        let found = live().get(&key.0) == Some(&key.1);
+        if found {
+            if !current {
+                recent.slots.iter().for_each(|s| s.set(None));
+                recent.epoch.set(epoch);
+            }
+            // Newest first: the others move one slot down, the oldest drops out.
+            let mut carry = Some(key);
+            for s in &recent.slots {
+                carry = s.replace(carry);
+            }
+        }
+        found
+    })
+}
+
+/// Removes `ptr` if it is a live instance of `T`, and says whether it was: only then may
+/// the caller free it. A second free of the same pointer finds nothing.
+pub(crate) fn unregister<T: 'static>(ptr: *const T) -> bool {
+    let mut map = live();
+    let ours = map.get(&(ptr as usize)) == Some(&TypeId::of::<T>());
+    if ours {
+        map.remove(&(ptr as usize));
+        // Release, with the lock still held: a thread that sees the new epoch also sees
+        // the instance gone from the map.
+        EPOCH.fetch_add(1, Ordering::Release);
+    }
+    ours
+}
+
+/// How many instances of this library are live (for tests of leaks and double frees).
+pub fn live_count() -> usize {
+    live().len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct A(#[allow(dead_code)] u64);
+    struct B(#[allow(dead_code)] u64);
+
+    #[test]
+    fn only_a_registered_pointer_of_its_own_type_is_live_until_freed() {
+        let a = Box::into_raw(Box::new(A(1)));
+        let b = Box::into_raw(Box::new(B(2)));
+        assert!(!is_live(a), "not registered yet");
+        register(a);
+        register(b);
+        assert!(is_live(a) && is_live(a), "found, then found in the cache");
+        assert!(!is_live(a as *const B), "the same address as another type");
+        assert!(is_live(b));
+        assert!(!unregister(a as *const B), "not freed as another type");
+        assert!(is_live(a));
+        assert!(unregister(a));
+        assert!(!is_live(a), "the cache forgets it with the epoch");
+        assert!(!unregister(a), "a second free finds nothing");
+        assert!(unregister(b));
+        // SAFETY: both came from Box::into_raw and are freed once.
+        unsafe {
+            drop(Box::from_raw(a));
+            drop(Box::from_raw(b));
+        }
+    }
+
+    #[test]
+    fn a_free_on_one_thread_is_seen_by_another_s_cache() {
+        let a = Box::into_raw(Box::new(A(3)));
+        register(a);
+        let addr = a as usize;
+        assert!(std::thread::spawn(move || is_live(addr as *const A)).join().unwrap());
+        assert!(is_live(a), "cached on this thread");
+        let other = std::thread::spawn(move || {
+            assert!(is_live(addr as *const A));
+            unregister(addr as *const A)
+        });
+        assert!(other.join().unwrap());
+        assert!(!is_live(a), "freed on the other thread, so not live here");
+        // SAFETY: from Box::into_raw, freed once.
+        unsafe { drop(Box::from_raw(a)) };
+    }
+}
