@@ -357,8 +357,8 @@ fn bad_bridge_arguments_are_refused_clearly() {
     assert!(e.contains("no_such"), "{e}");
     let e = run(&["bridge", "--role", "controller", "--overrun", "maybe"]);
     assert!(e.contains("overrun policy `maybe`"), "{e}");
-    // Refused before anything starts, naming the flag and the range: these used to panic
-    // a thread (inf) or stop at once with success (negative, zero).
+    // Refused before anything starts, naming the flag and the range, not a panicking
+    // thread (inf) nor an immediate success (negative, zero).
     for role in ["board", "controller"] {
         for d in ["inf", "NaN", "-5", "0", "-inf", "1e10", "soon"] {
             let e = run(&["bridge", "--role", role, "--addr", "127.0.0.1:9", "--duration", d]);
@@ -545,9 +545,9 @@ fn wait_bounded(
 #[test]
 fn one_board_serves_a_stray_three_sessions_and_a_killed_controllers_restart() {
     let _rt = RealTime::enter();
-    // The acceptance case of issue 13 item 1: a board started once, in real time, serves
-    // a stray datagram, three controller runs in a row, a controller killed with SIGKILL
-    // and its immediate restart. Each of these used to lock every later controller out.
+    // A board started once, in real time, serves a stray datagram, three controller runs
+    // in a row, a controller killed with SIGKILL and its immediate restart, none of which
+    // may lock a later controller out.
     use std::io::BufRead;
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");

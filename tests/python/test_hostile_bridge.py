@@ -355,7 +355,7 @@ def test_replay_says_what_a_cut_or_damaged_log_holds(board_factory, tmp_path):
 
 
 # ---------------------------------------------------------------------------------------
-# Issue 22: sessions that cannot be stolen, floods that grow nothing, outside text cut,
+# Sessions that cannot be stolen, floods that grow nothing, outside text cut,
 # and what a killed process's log may lose (docs/hil-protocol.md, "Sessions", "Run log").
 
 MODES = [pytest.param(False, id="real-time"), pytest.param(True, id="lock-step")]
@@ -392,7 +392,7 @@ def summary(out):
 @pytest.mark.parametrize("lockstep", MODES)
 def test_a_hello_between_a_controllers_hello_and_arm_takes_nothing(board_factory, lockstep):
     # The real controller had its HELLO answered; a second sender HELLOs before its ARM.
-    # It used to take the session, and the real controller's ARM was refused.
+    # It must not take the session: the real controller's ARM is accepted.
     board = board_factory(lockstep=lockstep, watchdog=250)
     owner, rogue = sender(), sender()
     handshake_half(owner, board.port, lockstep)

@@ -1,4 +1,4 @@
-"""Model Exchange of both FMUs in FMPy (issue 20): both interfaces validate in both FMI
+"""Model Exchange of both FMUs in FMPy: both interfaces validate in both FMI
 versions; FMPy's CVode integrates the plant through the check trace's gaits to the
 check values of docs/model.md §2.9 and within 2 counts of every sample of the trace; and
 the closed loop with the plant and the controller as Model Exchange reproduces Fig. 5

@@ -377,10 +377,9 @@ fn allow_keeps_other_addresses_out_with_the_reason() {
 #[test]
 fn a_hello_during_another_controllers_handshake_takes_nothing() {
     let _slot = real_time_slot();
-    // Issue 22: a HELLO used to bind the board, so a second sender's HELLO between a
-    // controller's HELLO and its ARM took the session and the real controller exited.
-    // Now a HELLO only answers; the session is bound by the ARM that completes a
-    // handshake, and the first complete one holds it.
+    // A second sender's HELLO between a controller's HELLO and its ARM takes nothing: a
+    // HELLO only answers; the session is bound by the ARM that completes a handshake, and
+    // the first complete one holds it.
     let rig = Rig::start(lockstep_cfg(), vec![]);
     let (a, b) = (UdpSocket::bind("127.0.0.1:0").unwrap(), UdpSocket::bind("127.0.0.1:0").unwrap());
     for s in [&a, &b] {

@@ -13,7 +13,7 @@
 //! `s_n`) and the DAC write at every `s_n` in `(t, t + h]` (so the output the master reads
 //! at `t + h` is the sample that holds from the last instant `<= t + h` on). An instant
 //! within the layer's 1e-9 relative tolerance of `t + h` counts as `t + h`. Between
-//! instants the outputs hold. At `h = k × 2 ms` this is exactly the former contract:
+//! instants the outputs hold. At `h = k × 2 ms` this is exactly k ticks of the controller:
 //! every step latches and writes k times, all from the inputs held at `t`, and ends with
 //! the sample for `[t + h, t + h + 2 ms)`; a plain Jacobi master at 2 ms runs the loop
 //! correctly. At `h = 2 ms / m` the loop is the 2 ms loop: the latch at `s_n` reads the
@@ -620,13 +620,13 @@ fn le<const N: usize>(r: &mut Reader) -> Result<[u8; N], String> {
 mod tests {
     use super::*;
 
-    /// What `do_step(t, k × 2 ms)` did before any step size was accepted: k ticks of the
-    /// controller, all with the inputs held at t.
+    /// What `do_step(t, k × 2 ms)` must give: k ticks of the controller, all with the
+    /// inputs held at t.
     fn former(c: &mut Controller, counts: i32, reference: f64, k: usize) -> Sample {
         (0..k).map(|_| c.tick(i64::from(counts), reference)).last().unwrap()
     }
 
-    /// Whole-sample steps give the former outputs bit for bit, with the master's time
+    /// Whole-sample steps give those k ticks' outputs bit for bit, with the master's time
     /// accumulated as `t += h` (so the instants are met only up to rounding), and leave
     /// nothing latched: a state saved there is at a sample instant.
     #[test]

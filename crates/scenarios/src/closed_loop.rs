@@ -348,7 +348,7 @@ impl SlewView {
     }
 }
 
-/// Reading a run of the options of docs/model.md §4.2 (issue 14), where the runner is
+/// Reading a run of the options of docs/model.md §4.2, where the runner is
 /// also held in DRIVE (analog mode) and the gait may be short.
 impl LoopView {
     /// Samples a position is judged at: parked (all DACs zero) for the previous 2 samples,
