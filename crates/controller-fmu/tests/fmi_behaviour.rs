@@ -35,6 +35,55 @@ fn drive(h: &H, k0: usize, samples: usize) -> Vec<(i32, f64, i32)> {
     out
 }
 
+/// No time a master gives makes one call run unbounded work: a step or a Model Exchange
+/// time more than 10^7 samples (20 000 s) past the last sample is refused before anything
+/// runs, with the reason, and the instance goes on; a defined stop time is refused past.
+#[test]
+fn a_call_runs_a_bounded_number_of_samples_whatever_time_it_is_given() {
+    let h = H::init("far");
+    let started = std::time::Instant::now();
+    for far in [2.1e4, 1e6, 1e300] {
+        assert_eq!(h.step(0.0, far), fmi2Error, "a step of {far} s");
+        let h_me = H::init_me("far_me");
+        assert_eq!(h_me.enter_continuous_time_mode(), fmi2OK);
+        assert_eq!(h_me.set_time(far), fmi2Error, "time {far} s");
+        assert!(
+            h_me.saw(
+                fmi2Error,
+                &[
+                    "fmi2SetTime",
+                    "sample instants past the last sample at 0 s; one call runs at most 1e7"
+                ]
+            ),
+            "{:?}",
+            h_me.logged()
+        );
+        // The instance goes on where it was.
+        assert_eq!(h_me.set_time(0.01), fmi2OK);
+        assert_eq!(h_me.enter_event_mode(), fmi2OK);
+        let (status, update, _) = h_me.update();
+        assert_eq!((status, update.next_event_time), (fmi2OK, Some(0.012)), "{:?}", h_me.logged());
+    }
+    assert!(h.saw(fmi2Error, &["fmi2DoStep", "one call runs at most 1e7"]), "{:?}", h.logged());
+    assert!(started.elapsed().as_secs() < 10, "the refusals ran no samples");
+    assert_eq!(h.step(0.0, 0.002), fmi2OK, "{:?}", h.logged());
+    // A long but bounded step runs: 2 000 s, 10^6 samples.
+    assert_eq!(h.step(0.002, 2000.0), fmi2OK, "{:?}", h.logged());
+    // Past a defined stop time, Model Exchange time is refused as a step past it is.
+    let stop = H::new_me("stop");
+    assert_eq!(
+        (stop.experiment(0.0, Some(1.0)), stop.enter(), stop.exit()),
+        (fmi2OK, fmi2OK, fmi2OK)
+    );
+    assert_eq!(stop.enter_continuous_time_mode(), fmi2OK);
+    assert_eq!(stop.set_time(2.0), fmi2Error);
+    assert!(
+        stop.saw(fmi2Error, &["fmi2SetTime", "time 2 is past the stop time 1"]),
+        "{:?}",
+        stop.logged()
+    );
+}
+
 #[test]
 fn timing_contract_one_sample_delay() {
     let h = H::init("timing");
