@@ -30,31 +30,32 @@ for_both!(
     failures_in_event_mode_end_as_in_a_step,
     state_round_trips_replay_bit_for_bit,
     directional_derivatives_are_the_exact_partials,
-    time_past_the_stop_time_is_refused,
+    an_event_update_past_the_stop_time_is_refused,
 );
 
-/// A defined stop time holds in Model Exchange as in a step: `SetTime` past it is refused
-/// with the reason, the time up to it (and rounding at it) is taken, and the refusal
-/// leaves the instance as it was.
-fn time_past_the_stop_time_is_refused<S: Master>() {
+/// A defined stop time holds in Model Exchange as in a step: a time past it is taken (an
+/// integrator evaluates its last step past the end and interpolates back), an event update
+/// there is refused with the reason and leaves the instance as it was, and at the stop
+/// time (up to rounding) it runs.
+fn an_event_update_past_the_stop_time_is_refused<S: Master>() {
     let h = H::<S>::new_me("stop");
     assert_eq!((h.experiment(0.0, Some(1.0)), h.enter(), h.exit()), (OK, OK, OK));
     assert_eq!(h.enter_continuous_time_mode(), OK);
-    assert_eq!(h.set_time(0.5), OK);
-    assert_eq!(h.set_time(2.0), ERROR);
-    let set_time = if S::NAME_IN_MESSAGE { "fmi3SetTime" } else { "fmi2SetTime" };
+    assert_eq!(h.set_time(2.0), OK, "an integrator's look-ahead");
+    assert_eq!(h.set_states(&[0.25]), OK);
+    assert_eq!(h.enter_event_mode(), OK);
+    assert_eq!(h.update().0, ERROR);
     let experiment =
         if S::NAME_IN_MESSAGE { "fmi3EnterInitializationMode" } else { "fmi2SetupExperiment" };
-    let want = format!("time 2 is past the stop time 1 set in {experiment}");
-    assert!(h.saw(ERROR, &[set_time, &want]), "{:?}", h.logged());
-    assert_eq!(h.set_time(1e300), ERROR);
-    assert_eq!(h.set_time(1.0 + 1e-12), OK, "the stop time up to rounding");
-    assert_eq!(h.set_time(1.0), OK);
-    assert_eq!(h.set_states(&[0.25]), OK, "still in continuous-time mode");
-    // Without a stop time, any finite time is taken.
+    let want = format!("an event update at 2 s is past the stop time 1 set in {experiment}");
+    assert!(h.saw(ERROR, &[S::UPDATE, &want]), "{:?}", h.logged());
+    assert_eq!(h.set_time(1.0 + 1e-12), OK);
+    assert_eq!(h.update().0, OK, "at the stop time up to rounding: {:?}", h.logged());
+    assert_eq!(x(&h), 0.25, "the refusal changed nothing");
+    // Without a stop time, an update anywhere.
     let free = H::<S>::init_me("free");
-    assert_eq!(free.enter_continuous_time_mode(), OK);
     assert_eq!(free.set_time(1e300), OK);
+    assert_eq!(free.update().0, OK);
 }
 
 fn x<S: Master>(h: &H<S>) -> f64 {
