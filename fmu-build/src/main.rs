@@ -3,6 +3,16 @@
 //! copies under `modelDescription/` and packages `dist/<Model>.fmu` (FMI 2.0),
 //! `dist/fmi3/<Model>.fmu` (FMI 3.0) and the SSP systems over them.
 //!
+//! Which platforms' binaries the FMUs carry (docs/platforms.md):
+//! - no option: the host's only, built with the host's toolchain and linker: what
+//!   `scripts/run.sh` needs, with nothing but the Rust toolchain installed;
+//! - `--all-platforms`: x86-64 and aarch64 Linux (glibc 2.17), Windows and both Macs, and
+//!   `dist/bin/inchworm` for the host against glibc 2.17: what `scripts/test.sh` tests and
+//!   a release ships, with the toolchains `scripts/setup.sh` installs;
+//! - `--platforms LIST`: some of those five, built as `--all-platforms` builds them;
+//! - `--prebuilt DIR` (with `--all-platforms` or `--platforms`): packages libraries built
+//!   elsewhere (the release workflow's native jobs) instead of building them.
+//!
 //! `cargo run --release -p fmu-build -- --check` builds nothing and writes nothing: it
 //! generates every committed file again (model descriptions of both standards, the system
 //! descriptions and their parameter sets) and fails, naming each file, where the committed
@@ -180,8 +190,9 @@ struct Built {
     libraries: Vec<Vec<u8>>,
 }
 
-/// Builds (or takes from the cache) every FMU's library for each of `targets`, and the
-/// `inchworm` binary for the host, which goes to `dist/bin/inchworm`.
+/// Builds (or takes from the cache) every FMU's library for each of `targets`, and with
+/// `binary` the `inchworm` binary for the host (if one of `targets`), which goes to
+/// `dist/bin/inchworm`.
 ///
 /// With `prebuilt`, builds nothing: every platform's libraries are read from
 /// `prebuilt/<FMI 3.0 tuple>/` (the release workflow's native jobs), and no binary is written.
@@ -190,6 +201,7 @@ fn build(
     fmus: &[Fmu],
     targets: &[Target],
     prebuilt: Option<&Path>,
+    binary: bool,
 ) -> Result<Vec<Built>, String> {
     let dir = target_dir(root);
     let libs: Vec<Output> =
@@ -203,7 +215,7 @@ fn build(
         built.push(Built { target: *t, libraries });
     }
     let host = targets.iter().find(|t| Some(t.platform) == inchworm_fmi_abi::platform::host());
-    if let (Some(host), None) = (host, prebuilt) {
+    if let (Some(host), None, true) = (host, prebuilt, binary) {
         let bin = platforms::build(
             root,
             &dir,
@@ -336,6 +348,17 @@ fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
     Ok(out)
 }
 
+/// The platforms the FMUs carry binaries for.
+#[derive(Debug, PartialEq)]
+enum Selection {
+    /// The host's, with the host's linker (`platforms::host_target`).
+    Host,
+    /// Every platform of `platforms::targets`.
+    All,
+    /// These FMI 3.0 tuples of `platforms::targets`.
+    Listed(Vec<String>),
+}
+
 /// What the command line asks for.
 #[derive(Debug, PartialEq)]
 struct Args {
@@ -344,12 +367,18 @@ struct Args {
     root: Option<PathBuf>,
     /// Package the libraries found here instead of building them.
     prebuilt: Option<PathBuf>,
-    /// The FMI 3.0 tuples of the platforms to build (default: all of `platforms::targets`).
-    platforms: Option<Vec<String>>,
+    platforms: Selection,
 }
 
 fn parse_args(args: &[String]) -> Result<Args, String> {
-    let mut out = Args { check: false, root: None, prebuilt: None, platforms: None };
+    let mut out = Args { check: false, root: None, prebuilt: None, platforms: Selection::Host };
+    let chosen = |out: &mut Args, s: Selection| {
+        if out.platforms != Selection::Host {
+            return Err("give one of --all-platforms and --platforms".to_string());
+        }
+        out.platforms = s;
+        Ok(())
+    };
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -367,14 +396,18 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
                 if let Some(bad) = list.iter().find(|p| !known.contains(&p.as_str())) {
                     return Err(format!("unknown platform `{bad}` (known: {})", known.join(", ")));
                 }
-                out.platforms = Some(list);
+                chosen(&mut out, Selection::Listed(list))?;
             }
+            "--all-platforms" => chosen(&mut out, Selection::All)?,
             other => {
                 return Err(format!(
-                "unknown argument `{other}` (options: --check [--root DIR], --platforms LIST, --prebuilt DIR)"
+                "unknown argument `{other}` (options: --check [--root DIR], --all-platforms, --platforms LIST, --prebuilt DIR)"
             ))
             }
         }
+    }
+    if out.prebuilt.is_some() && out.platforms == Selection::Host {
+        return Err("--prebuilt packages a release's libraries: give --all-platforms or --platforms LIST with it".into());
     }
     if out.root.is_some() && !out.check {
         return Err("--root is for --check only: the build writes into this workspace".into());
@@ -410,12 +443,23 @@ fn main() -> ExitCode {
         );
         return ExitCode::FAILURE;
     }
-    let targets: Vec<Target> = platforms::targets()
-        .into_iter()
-        .filter(|t| args.platforms.as_ref().is_none_or(|l| l.iter().any(|p| p == t.platform.fmi3)))
-        .collect();
+    let targets: Vec<Target> = match &args.platforms {
+        Selection::Host => match platforms::host_target() {
+            Some(t) => vec![t],
+            None => {
+                eprintln!("fmu-build: this machine is none of the FMUs' platforms; build them with --all-platforms (docs/platforms.md)");
+                return ExitCode::FAILURE;
+            }
+        },
+        Selection::All => platforms::targets(),
+        Selection::Listed(l) => platforms::targets()
+            .into_iter()
+            .filter(|t| l.iter().any(|p| p == t.platform.fmi3))
+            .collect(),
+    };
+    let host_only = args.platforms == Selection::Host;
     let run = || -> Result<(), String> {
-        let built = build(&root, &fmus, &targets, args.prebuilt.as_deref())?;
+        let built = build(&root, &fmus, &targets, args.prebuilt.as_deref(), !host_only)?;
         write_committed(&root, &files)?;
         // The compatibility tree is written whole every time, so no removed model stays.
         let _ = std::fs::remove_dir_all(root.join("dist").join("cross-check"));
@@ -424,6 +468,12 @@ fn main() -> ExitCode {
         }
         for s in &systems {
             println!("fmu-build: wrote {}", package_system(&root, s)?.display());
+        }
+        if host_only {
+            println!(
+                "fmu-build: the FMUs carry the {} binaries only, linked against this machine's C library; `fmu-build --all-platforms` builds all five platforms (docs/platforms.md)",
+                targets[0].platform.fmi3
+            );
         }
         Ok(())
     };
@@ -493,10 +543,11 @@ mod tests {
     #[test]
     fn the_options_are_parsed_and_unknown_platforms_refused() {
         let a = |v: &[&str]| parse_args(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
-        assert_eq!(a(&[]), Ok(Args { check: false, root: None, prebuilt: None, platforms: None }));
+        let host = Selection::Host;
+        assert_eq!(a(&[]), Ok(Args { check: false, root: None, prebuilt: None, platforms: host }));
         assert_eq!(
             a(&["--check"]),
-            Ok(Args { check: true, root: None, prebuilt: None, platforms: None })
+            Ok(Args { check: true, root: None, prebuilt: None, platforms: Selection::Host })
         );
         assert_eq!(
             a(&["--platforms", "x86_64-linux,x86_64-windows", "--prebuilt", "bin"]),
@@ -504,13 +555,20 @@ mod tests {
                 check: false,
                 root: None,
                 prebuilt: Some("bin".into()),
-                platforms: Some(vec!["x86_64-linux".into(), "x86_64-windows".into()])
+                platforms: Selection::Listed(vec!["x86_64-linux".into(), "x86_64-windows".into()])
             })
         );
         assert!(a(&["--platforms", "x86_64-linux,sparc-solaris"])
             .unwrap_err()
             .contains("sparc-solaris"));
         assert!(a(&["--platforms"]).is_err());
+        assert_eq!(a(&["--all-platforms"]).unwrap().platforms, Selection::All);
+        assert_eq!(
+            a(&["--all-platforms", "--prebuilt", "p"]).unwrap().prebuilt,
+            Some(PathBuf::from("p"))
+        );
+        assert!(a(&["--prebuilt", "p"]).unwrap_err().contains("--all-platforms"));
+        assert!(a(&["--all-platforms", "--platforms", "x86_64-linux"]).is_err());
         assert_eq!(a(&["--check", "--root", "/r"]).unwrap().root, Some(PathBuf::from("/r")));
         assert!(a(&["--root", "/r"]).unwrap_err().contains("--check only"));
         assert!(a(&["--fast"]).unwrap_err().contains("--fast"));
