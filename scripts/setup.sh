@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Installs what the build and the tests need on a fresh Debian machine with the Rust
-# toolchain: Debian's libclang-dev (bindgen in fmi-sys, used by the FMU import tests),
-# fonts-dejavu-core (the plot labels), binutils (nm/readelf for the symbol check), libtbb12
-# (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the two other SSP
-# masters the tests run the system in: Ecos (ecospy) and OSP libcosim (libcosimpy);
-# dask for python/inchworm_dask and poppy for python/inchworm_optics.
+# Installs what the tests (scripts/test.sh) and the five-platform build (`fmu-build
+# --all-platforms`) need on a fresh Debian machine with the Rust toolchain, on top of what
+# the main job needs (scripts/setup-run.sh, which this runs): Debian's libclang-dev
+# (bindgen in fmi-sys, used by the FMU import tests), binutils (nm/readelf for the symbol
+# check), libtbb12 (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the
+# two other SSP masters the tests run the system in: Ecos (ecospy) and OSP libcosim
+# (libcosimpy); dask for python/inchworm_dask and poppy for python/inchworm_optics.
 # For the FMUs' other platforms (docs/platforms.md): Debian's Rust for its browsers
 # (rustc-web, cargo-web, rust-web-src: builds the standard library for another target),
 # the MinGW-w64 and aarch64 cross compilers and glibc, and Wine and qemu-user, which run
@@ -14,19 +15,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-need=()
-for pkg in libclang-dev fonts-dejavu-core binutils libtbb12 \
+bash scripts/setup-run.sh libclang-dev binutils libtbb12 \
     rustc-web cargo-web rust-web-src gcc-mingw-w64-x86-64 gcc-aarch64-linux-gnu \
-    libc6-dev-arm64-cross wine64 qemu-user; do
-    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
-done
-if [ ${#need[@]} -gt 0 ]; then
-    echo "setup: installing Debian packages: ${need[*]}"
-    SUDO=""
-    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need[@]}" >/dev/null
-fi
+    libc6-dev-arm64-cross wine64 qemu-user
 
 PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1"
 [ -x .venv/bin/python ] || python3 -m venv .venv

@@ -1,6 +1,11 @@
 //! The platforms every FMU carries a binary for, how each is built on one Debian machine,
 //! and the cache that builds each once per change of its sources (docs/platforms.md).
 //!
+//! `fmu-build` alone builds the host's platform only, with the host's own toolchain and
+//! linker (`host_target`): the FMUs then load on this machine and on systems with its
+//! glibc or newer, and nothing but the Rust toolchain is needed. `fmu-build
+//! --all-platforms` builds the five platforms below, which are what a release ships:
+//!
 //! - x86-64 Linux with rustup's toolchain, linked by `cargo-zigbuild` against glibc 2.17
 //!   symbol versions (the `.2.17` suffix of the target), so the libraries load on any
 //!   glibc from 2.17 (RHEL 7) on, not only on the build machine's.
@@ -33,6 +38,8 @@ pub const GLIBC_FLOOR: &str = "2.17";
 /// How one platform's libraries are linked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Linker {
+    /// The toolchain's default linker (`cc`), against the build machine's own libc.
+    Host,
     /// `cargo zigbuild` (zig as the C linker), against glibc `GLIBC_FLOOR` on Linux.
     Zig,
     /// A GCC cross linker from Debian.
@@ -99,6 +106,12 @@ pub fn targets() -> Vec<Target> {
         t("x86_64-darwin", true, Linker::Zig),
         t("aarch64-darwin", true, Linker::Zig),
     ]
+}
+
+/// The host's platform built with the host's own linker (`fmu-build` without
+/// `--all-platforms`); none where no FMI platform is this machine's.
+pub fn host_target() -> Option<Target> {
+    Some(Target { platform: platform::host()?, build_std: false, linker: Linker::Host })
 }
 
 /// The environment of every build command: the venv's `bin/` (cargo-zigbuild, and the
@@ -249,14 +262,43 @@ pub fn build(
     Ok(found)
 }
 
+/// zig 0.15.2 answers `zig cc -target <arch>-linux-gnu.2.17 --version` with this line on
+/// standard error (ziglang/zig#24343, fixed after 0.15.2), then the version; cc-rs runs
+/// `--version` to recognise zig when a build script compiles C (`crates/fmi-import`'s
+/// logger, in `dist/bin/inchworm`) and passes the line on as a cargo warning. The C is
+/// compiled and linked against the glibc floor all the same, so the line is dropped from
+/// the build's output rather than read as a failure; a newer zig makes the filter moot.
+fn is_zig_version_noise(line: &str) -> bool {
+    line.contains(&format!("zig: error: version '.{GLIBC_FLOOR}' in target triple '"))
+        && line.ends_with("' is invalid")
+}
+
 fn run(mut cmd: Command, target: &Target) -> Result<(), String> {
-    let status = cmd.status().map_err(|e| {
+    let cannot = |cmd: &Command, e: std::io::Error| {
         format!(
             "cannot run {:?} for {} ({e}): run scripts/setup.sh, which installs the toolchains",
             cmd.get_program(),
             target.platform.fmi3
         )
-    })?;
+    };
+    let status = if target.linker == Linker::Zig {
+        use std::io::{BufRead, IsTerminal, Write};
+        if std::io::stderr().is_terminal() {
+            cmd.arg("--color=always");
+        }
+        let mut child =
+            cmd.stderr(std::process::Stdio::piped()).spawn().map_err(|e| cannot(&cmd, e))?;
+        let mut err = std::io::stderr().lock();
+        for line in std::io::BufReader::new(child.stderr.take().expect("piped")).lines() {
+            let Ok(line) = line else { break };
+            if !is_zig_version_noise(&line) {
+                let _ = writeln!(err, "{line}");
+            }
+        }
+        child.wait().map_err(|e| cannot(&cmd, e))?
+    } else {
+        cmd.status().map_err(|e| cannot(&cmd, e))?
+    };
     if status.success() {
         Ok(())
     } else {
@@ -339,6 +381,7 @@ pub fn cache_key(root: &Path, target: &Target, outputs: &[Output]) -> Result<Str
     put("rustc", version(&rustc, &["-vV"], &path).as_bytes());
     put("cargo", version(&target.cargo(), &["-V"], &path).as_bytes());
     match target.linker {
+        Linker::Host => put("linker", version("cc", &["--version"], &path).as_bytes()),
         Linker::Zig => {
             put("cargo-zigbuild", version("cargo-zigbuild", &["-V"], &path).as_bytes());
             put("zig", version("python-zig", &["version"], &path).as_bytes());
@@ -468,6 +511,18 @@ mod tests {
         assert_eq!(file_name(&t[2], &lib), "p.dll");
         assert_eq!(file_name(&t[4], &lib), "libp.dylib");
         assert_eq!(file_name(&t[2], &Output::Binary { package: "x", name: "b" }), "b.exe");
+        let host = host_target().unwrap();
+        assert_eq!((host.platform, host.build_std), (t[0].platform, false));
+        assert_eq!(host.cargo_target(), "x86_64-unknown-linux-gnu", "no glibc suffix, no zig");
+        assert_eq!(host.out_dir(dir), t[0].out_dir(dir));
+    }
+
+    #[test]
+    fn only_zigs_version_line_for_the_floor_is_dropped() {
+        let noise = "warning: inchworm-fmi-import@0.1.0: zig: error: version '.2.17' in target triple 'x86_64-unknown-linux-gnu.2.17' is invalid";
+        assert!(is_zig_version_noise(noise));
+        assert!(!is_zig_version_noise("error: could not compile `inchworm-plant`"));
+        assert!(!is_zig_version_noise(&noise.replace("2.17", "2.99")));
     }
 
     #[test]
