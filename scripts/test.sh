@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 # `part NAME COMMAND...` runs COMMAND and records its wall-clock time under NAME.
-times=() current="" started=${EPOCHREALTIME/./}
+times=() current="" started=${EPOCHREALTIME/./} pytest_log=$(mktemp)
 part() {
     current=$1
     shift
@@ -26,6 +26,9 @@ report() {
     elapsed total "$started"
     echo
     if [ -n "$current" ]; then echo "test.sh: $current failed (exit $rc)"; fi
+    # pytest's count again, as the run's last line, below the times.
+    if [ -s "$pytest_log" ]; then tail -n 1 "$pytest_log"; fi
+    rm -f "$pytest_log"
 }
 trap report EXIT
 
@@ -56,4 +59,7 @@ part "cargo test" cargo test --release --workspace
 # The engine from outside the workspace (its own Cargo.lock, the same target folder).
 part "engine-api test" cargo test --release --manifest-path tests/engine-api/Cargo.toml \
     --target-dir "${CARGO_TARGET_DIR:-target}"
-part pytest .venv/bin/python -m pytest tests/python -q -p no:cacheprovider
+pytest_all() {
+    .venv/bin/python -m pytest tests/python -q -p no:cacheprovider | tee "$pytest_log"
+}
+part pytest pytest_all
