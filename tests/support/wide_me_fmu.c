@@ -3,7 +3,7 @@
  * x(0) = 1, no event indicators, no time events, the exact Jacobian as directional
  * derivative. States have value references 0..NX-1, their derivatives NX..2NX-1.
  * -DSLOW (with NX=2): an oscillator x0' = 100 x1, x1' = -100 x0 whose every derivative
- * evaluation sleeps 1 ms, so that one long communication step lasts for minutes (a test
+ * evaluation sleeps 20 ms, so that one long communication step lasts for minutes (a test
  * of stopping inside a step). */
 #include <stdlib.h>
 #include <string.h>
@@ -22,7 +22,7 @@ static double coefficient(size_t i) { return -(double)(1 + i % 7); }
 
 static void derivatives(M *m, const double *x, double *dx) {
 #ifdef SLOW
-    struct timespec ms = {0, 1000000};
+    struct timespec ms = {0, 20000000};
     nanosleep(&ms, NULL);
     dx[0] = 100 * x[1];
     dx[1] = -100 * x[0];
