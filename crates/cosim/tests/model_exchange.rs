@@ -387,7 +387,7 @@ fn a_stop_flag_ends_an_me_integration_inside_its_step() {
         },
         |_| {},
     );
-    let e = r.err().expect("stopped");
+    let e = r.expect_err("stopped");
     assert!(e.is_stopped(), "{e}");
     let took = start.elapsed().as_secs_f64();
     assert!(took < 30.0, "stopped after {took} s");
