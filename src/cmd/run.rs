@@ -42,7 +42,7 @@ pub struct RunArgs {
     /// every component whose FMU offers it; COMPONENT=cs keeps a component's
     /// Co-Simulation (under `me` too); repeatable. A name the run does not have is refused.
     /// A component whose FMU has only Model Exchange is integrated either way.
-    #[arg(long = "interface", value_name = "COMPONENT=me")]
+    #[arg(long = "interface", value_name = "COMPONENT=me|cs")]
     pub interface: Vec<String>,
     /// Relative tolerance of the Model Exchange integrator (1e-14 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().rtol)]
