@@ -144,7 +144,7 @@ fn the_me_loop_settles_like_the_2_ms_run_at_finer_master_steps() {
     }
 }
 
-// `inchworm run` on hostile Model Exchange FMUs and options (issue 36): each refusal is one
+// `inchworm run` on hostile Model Exchange FMUs and options: each refusal is one
 // line on stderr and an exit status of 1, nothing is left in TMPDIR, and a SIGTERM stops
 // a run inside a long ME step. The FMUs are the small C ones of tests/support, built here.
 
@@ -192,8 +192,8 @@ fn leftovers(dir: &Path) -> Vec<String> {
 #[test]
 fn cli_an_fmu_declaring_more_than_the_caps_is_refused_before_unpacking() {
     let dir = scratch("caps");
-    // 30 000 states asked 7.2 GB for a dense Jacobian and aborted, the FMU left unpacked;
-    // 10^11 event indicators, 800 GB.
+    // 30 000 states would ask 7.2 GB for a dense Jacobian, 10^11 event indicators 800 GB:
+    // both refused before the FMU is unpacked (these FMUs have no binary to load).
     for (name, nx, nz, what) in [
         ("States", 30_000, 0, "30000 continuous states"),
         ("Indicators", 1, 100_000_000_000, "100000000000 event indicators"),
