@@ -9,7 +9,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use inchworm_cosim::model_exchange::Tolerance;
 use inchworm_cosim::{Coupling, Error, Interfaces, Options, System, Trace};
 
 const ENCODER: &str = "plant.encoder_counts";
@@ -54,8 +53,7 @@ fn run(ssp: &Path, interfaces: &Interfaces, opts: &Options) -> (Trace, f64, f64,
 }
 
 fn compare(label: &str, ssp: &Path, opts: &Options) {
-    let plant_me =
-        Interfaces { model_exchange: vec!["plant".into()], tolerance: Tolerance::default() };
+    let plant_me = Interfaces { model_exchange: vec!["plant".into()], ..Interfaces::default() };
     let (cs, cs_s, cs_cpu, _) = run(ssp, &Interfaces::default(), opts);
     let (me, me_s, me_cpu, cost) = run(ssp, &plant_me, opts);
     let (a, b) = (cs.column(ENCODER).unwrap(), me.column(ENCODER).unwrap());

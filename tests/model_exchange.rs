@@ -143,3 +143,154 @@ fn the_me_loop_settles_like_the_2_ms_run_at_finer_master_steps() {
         assert!((t - reference).abs() <= SAMPLE + 1e-9, "h = {h}: {t} s against {reference} s");
     }
 }
+
+// `inchworm run` on hostile Model Exchange FMUs and options: each refusal is one
+// line on stderr and an exit status of 1, nothing is left in TMPDIR, and a SIGTERM stops
+// a run inside a long ME step. The FMUs are the small C ones of tests/support, built here.
+
+#[path = "support/me_fmu.rs"]
+mod me_fmu;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
+
+fn scratch(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("inchworm-me-cli-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("tmp")).unwrap();
+    d
+}
+
+/// `inchworm run FMU ARGS…` with TMPDIR at `dir/tmp`, writing into `dir`.
+fn inchworm_run(dir: &Path, fmu: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(BIN);
+    c.arg("run").arg(fmu).arg("--out").arg(dir.join("out.csv")).args(args);
+    c.env("TMPDIR", dir.join("tmp"));
+    c
+}
+
+/// The run's one-line error, after checking it was refused (exit status 1) and left
+/// nothing in its TMPDIR.
+fn refused(dir: &Path, out: Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!stderr.contains("panicked") && !stderr.contains("internal error"), "{stderr}");
+    assert_eq!(leftovers(dir), Vec::<String>::new(), "left in TMPDIR");
+    stderr.trim_end().to_owned()
+}
+
+fn leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir.join("tmp"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect()
+}
+
+#[test]
+fn cli_an_fmu_declaring_more_than_the_caps_is_refused_before_unpacking() {
+    let dir = scratch("caps");
+    // 30 000 states would ask 7.2 GB for a dense Jacobian, 10^11 event indicators 800 GB:
+    // both refused before the FMU is unpacked (these FMUs have no binary to load).
+    for (name, nx, nz, what) in [
+        ("States", 30_000, 0, "30000 continuous states"),
+        ("Indicators", 1, 100_000_000_000, "100000000000 event indicators"),
+    ] {
+        let fmu = me_fmu::build_wide(&dir, name, nx, nz, None);
+        let e = refused(&dir, inchworm_run(&dir, &fmu, &[]).output().unwrap());
+        assert!(
+            e.starts_with(&format!("error: component fmu: the model description declares {what}")),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn cli_tolerances_out_of_range_are_refused_naming_the_option() {
+    let dir = scratch("tolerances");
+    let fmu = me_fmu::build(&dir, "Decay", me_fmu::Standard::Fmi2);
+    for (option, value, range) in [
+        ("--me-rtol", "inf", "the relative tolerance must be a finite number in [1e-14, 0.5]"),
+        ("--me-rtol", "NaN", "the relative tolerance must be a finite number in [1e-14, 0.5]"),
+        ("--me-atol", "5e-324", "the absolute tolerance must be a finite number in [1e-30, 0.5]"),
+        ("--me-atol", "inf", "the absolute tolerance must be a finite number in [1e-30, 0.5]"),
+    ] {
+        let out = inchworm_run(&dir, &fmu, &[option, value, "--stop-time", "0.01"]).output();
+        let e = refused(&dir, out.unwrap());
+        let value = if value == "NaN" { "NaN" } else { value };
+        assert_eq!(e, format!("error: {option} = {value}: {range}"));
+    }
+}
+
+#[test]
+fn cli_a_nan_next_event_time_is_refused_naming_the_call() {
+    let dir = scratch("nan-event");
+    let fmu = me_fmu::build(&dir, "Decay", me_fmu::Standard::Fmi2);
+    let out = inchworm_run(&dir, &fmu, &["--param", "mode=4", "--stop-time", "0.01"]).output();
+    let e = refused(&dir, out.unwrap());
+    assert!(
+        e.starts_with("error: component fmu: at t = 0 s: fmi2NewDiscreteStates returned the next event time (nextEventTime, defined) = NaN: not a finite number"),
+        "{e}"
+    );
+}
+
+#[test]
+fn cli_an_interface_for_a_component_the_fmu_does_not_have_is_refused() {
+    let dir = scratch("interface");
+    let fmu = me_fmu::build(&dir, "Decay", me_fmu::Standard::Fmi2Cs);
+    let out = inchworm_run(&dir, &fmu, &["--interface", "plant=me"]).output().unwrap();
+    assert_eq!(
+        refused(&dir, out),
+        "error: --interface plant=me: no component named `plant` to run as Model Exchange: a single FMU is one component, named `fmu`"
+    );
+    let out = inchworm_run(&dir, &fmu, &["--interface", "plant=cs"]).output().unwrap();
+    assert!(refused(&dir, out).starts_with("error: --interface plant=cs: no component named"));
+    // The component's own name runs it as ME.
+    let out = inchworm_run(&dir, &fmu, &["--interface", "fmu=me", "--stop-time", "0.01"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("fmu (Model Exchange): "), "{stdout}");
+}
+
+/// SIGTERM while the run is inside one communication step of an ME FMU that needs minutes
+/// for it: the run stops at the integrator's next evaluation, says so, exits 128 + 15 and
+/// removes the unpacked FMU. The signal is sent once the FMU is unpacked (the run has
+/// started) and half a second more; a signal that came earlier would be honoured as well.
+#[test]
+fn cli_sigterm_stops_a_run_inside_a_model_exchange_step() {
+    let dir = scratch("sigterm");
+    let fmu = me_fmu::build_wide(&dir, "Slow", 2, 0, Some(&["-DSLOW"]));
+    let mut child = inchworm_run(&dir, &fmu, &["--stop-time", "100", "--step-size", "100"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while leftovers(&dir).is_empty() {
+        assert!(start.elapsed().as_secs() < 60, "the run never unpacked its FMU");
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before the signal");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    // SAFETY: a plain kill(2) of the child this test spawned.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) }, 0);
+    let signalled = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if signalled.elapsed().as_secs() > 60 {
+            let _ = child.kill();
+            panic!("the run went on for 60 s after SIGTERM");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert_eq!(status.code(), Some(128 + libc::SIGTERM), "{stderr}");
+    assert!(stderr.contains("interrupted by SIGTERM"), "{stderr}");
+    assert_eq!(leftovers(&dir), Vec::<String>::new(), "left in TMPDIR");
+}

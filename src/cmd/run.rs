@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use clap::Args;
 
+use inchworm_cosim::limits;
 use inchworm_cosim::master::{self, Coupling, Options};
 use inchworm_cosim::trace::{self, Decimated};
 use inchworm_scenarios::plot;
@@ -38,39 +39,54 @@ pub struct RunArgs {
     pub font: PathBuf,
     /// Integrate this component's Model Exchange interface in the master instead of
     /// stepping its Co-Simulation: COMPONENT=me (`fmu=me` for a single FMU), or `me` for
-    /// every component; repeatable. A component whose FMU has only Model Exchange is
-    /// integrated either way.
-    #[arg(long = "interface", value_name = "COMPONENT=me")]
+    /// every component whose FMU offers it; COMPONENT=cs keeps a component's
+    /// Co-Simulation (under `me` too); repeatable. A name the run does not have is refused.
+    /// A component whose FMU has only Model Exchange is integrated either way.
+    #[arg(long = "interface", value_name = "COMPONENT=me|cs")]
     pub interface: Vec<String>,
-    /// Relative tolerance of the Model Exchange integrator.
+    /// Relative tolerance of the Model Exchange integrator (1e-14 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().rtol)]
     pub me_rtol: f64,
-    /// Absolute tolerance of the Model Exchange integrator (times each state's nominal).
+    /// Absolute tolerance of the Model Exchange integrator, times each state's nominal
+    /// (1e-30 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().atol)]
     pub me_atol: f64,
 }
 
 impl RunArgs {
-    /// The components to integrate as Model Exchange, from `--interface`.
+    /// The components to integrate as Model Exchange, from `--interface`, and the
+    /// tolerances, each checked against its range (`inchworm_cosim::limits`) under the
+    /// option's name. The names are checked against the run's components when it loads.
     pub fn interfaces(&self) -> Result<master::Interfaces, String> {
-        let mut model_exchange = Vec::new();
+        let (mut model_exchange, mut co_simulation) = (Vec::new(), Vec::new());
+        let mut all_cs = false;
         for a in &self.interface {
             let (component, kind) = match a.split_once('=') {
-                Some((c, k)) => (c.trim(), k.trim()),
-                None => ("*", a.trim()),
+                Some((c, k)) => (Some(c.trim()), k.trim()),
+                None => (None, a.trim()),
             };
-            match kind {
-                "me" => model_exchange.push(component.to_owned()),
-                "cs" => {}
-                k => return Err(format!("--interface {a}: `{k}` is not an interface (me or cs)")),
+            match (component, kind) {
+                (Some(c), "me") => model_exchange.push(c.to_owned()),
+                (None, "me") => model_exchange.push("*".to_owned()),
+                (Some(c), "cs") => co_simulation.push(c.to_owned()),
+                // Every component's Co-Simulation: the default, unless `me` says otherwise.
+                (None, "cs") => all_cs = true,
+                (_, k) => {
+                    return Err(format!("--interface {a}: `{k}` is not an interface (me or cs)"))
+                }
             }
         }
-        let tolerance =
-            inchworm_cosim::model_exchange::Tolerance { rtol: self.me_rtol, atol: self.me_atol };
-        if !(tolerance.rtol > 0.0 && tolerance.atol > 0.0) {
-            return Err("--me-rtol and --me-atol must be > 0".into());
+        if all_cs && model_exchange.iter().any(|n| n == "*") {
+            return Err("--interface me and --interface cs: every component cannot run both".into());
         }
-        Ok(master::Interfaces { model_exchange, tolerance })
+        let option = |name: &str, range: limits::Range, v: f64| {
+            range.check(name, v).map_err(|e| e.to_string())
+        };
+        let tolerance = inchworm_cosim::model_exchange::Tolerance {
+            rtol: option("--me-rtol", limits::RTOL, self.me_rtol)?,
+            atol: option("--me-atol", limits::ATOL, self.me_atol)?,
+        };
+        Ok(master::Interfaces { model_exchange, co_simulation, tolerance })
     }
 }
 

@@ -2,7 +2,8 @@
  * and FMI 3.0 with -DFMI3: x' = -a x + u, an event indicator x - level (each crossing
  * counted), a time event every `period` seconds (counted, and x jumps by `jump`), the exact
  * Jacobian -a as directional derivative, and `mode` for the hostile cases: 1 the
- * derivatives return Error, 2 they are NaN, 3 the event iteration never converges. The
+ * derivatives return Error, 2 they are NaN, 3 the event iteration never converges, 4 the
+ * next event time is defined and NaN, 5 the state's nominal is NaN. The
  * FMI 2.0 build has a Co-Simulation interface too, stepped with the exact solution for a
  * held input and its events at the start of each step, where the master handles those of
  * a Model Exchange component at a communication point. */
@@ -140,6 +141,7 @@ F(fmi2NewDiscreteStates)(void *c, EventInfo *e) {
     event(m, &again, &jumped);
     e->needed = again; e->terminate = 0; e->nominals = 0; e->values = jumped;
     e->next_defined = m->next >= 0; e->next = m->next;
+    if (m->i[MODE - NREAL] == 4) { e->next_defined = 1; e->next = NAN; }
     return 0;
 }
 F(fmi2EnterContinuousTimeMode)(void *c) { return 0; }
@@ -152,7 +154,10 @@ F(fmi2SetContinuousStates)(void *c, const double *x, size_t n) {
 F(fmi2GetDerivatives)(void *c, double *dx, size_t n) { return derivatives(c, dx, n); }
 F(fmi2GetEventIndicators)(void *c, double *z, size_t n) { return indicators(c, z, n); }
 F(fmi2GetContinuousStates)(void *c, double *x, size_t n) { if (n != 1) return 3; x[0] = ((M *)c)->r[X]; return 0; }
-F(fmi2GetNominalsOfContinuousStates)(void *c, double *x, size_t n) { if (n != 1) return 3; x[0] = 1.0; return 0; }
+F(fmi2GetNominalsOfContinuousStates)(void *c, double *x, size_t n) {
+    if (n != 1) return 3;
+    x[0] = ((M *)c)->i[MODE - NREAL] == 5 ? NAN : 1.0; return 0;
+}
 F(fmi2GetDirectionalDerivative)(void *c, const unsigned *u, size_t nu, const unsigned *k, size_t nk,
                                 const double *seed, double *out) { return jacobian(c, u, nu, k, nk, seed, out); }
 #else
@@ -179,6 +184,7 @@ F(fmi3UpdateDiscreteStates)(void *c, bool *needed, bool *term, bool *nominals, b
     event(m, &again, &jumped);
     *needed = again; *term = false; *nominals = false; *values = jumped;
     *defined = m->next >= 0; *next = m->next;
+    if (m->i[MODE - NREAL] == 4) { *defined = true; *next = NAN; }
     return 0;
 }
 F(fmi3EnterContinuousTimeMode)(void *c) { return 0; }
@@ -191,7 +197,10 @@ F(fmi3SetContinuousStates)(void *c, const double *x, size_t n) {
 F(fmi3GetContinuousStateDerivatives)(void *c, double *dx, size_t n) { return derivatives(c, dx, n); }
 F(fmi3GetEventIndicators)(void *c, double *z, size_t n) { return indicators(c, z, n); }
 F(fmi3GetContinuousStates)(void *c, double *x, size_t n) { if (n != 1) return 3; x[0] = ((M *)c)->r[X]; return 0; }
-F(fmi3GetNominalsOfContinuousStates)(void *c, double *x, size_t n) { if (n != 1) return 3; x[0] = 1.0; return 0; }
+F(fmi3GetNominalsOfContinuousStates)(void *c, double *x, size_t n) {
+    if (n != 1) return 3;
+    x[0] = ((M *)c)->i[MODE - NREAL] == 5 ? NAN : 1.0; return 0;
+}
 F(fmi3GetDirectionalDerivative)(void *c, const unsigned *u, size_t nu, const unsigned *k, size_t nk,
                                 const double *seed, size_t ns, double *out, size_t no) {
     return jacobian(c, u, nu, k, nk, seed, out);

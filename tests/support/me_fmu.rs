@@ -129,3 +129,64 @@ fn fmi3_description(name: &str) -> String {
 "#
     )
 }
+
+const WIDE_SOURCE: &str = include_str!("wide_me_fmu.c");
+
+/// Writes `dir/<name>.fmu`: the FMI 2.0 Model Exchange FMU of `wide_me_fmu.c` with `nx`
+/// continuous states (`x0`, the first, an output) and `numberOfEventIndicators` `nz` in its
+/// description. `binary`: the C compiler's extra flags (`-DSLOW`), or `None` for an FMU of
+/// a description alone (one a master must refuse before loading a library). The binary
+/// has no event indicators: an `nz` other than 0 is for a description a master refuses.
+pub fn build_wide(dir: &Path, name: &str, nx: usize, nz: u64, binary: Option<&[&str]>) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut v = String::new();
+    for i in 0..nx {
+        let causality = if i == 0 { "output" } else { "local" };
+        v += &format!(
+            "<ScalarVariable name=\"x{i}\" valueReference=\"{i}\" causality=\"{causality}\" variability=\"continuous\" initial=\"exact\"><Real start=\"1\"/></ScalarVariable>\n"
+        );
+    }
+    let mut derivatives = String::new();
+    for i in 0..nx {
+        v += &format!(
+            "<ScalarVariable name=\"der(x{i})\" valueReference=\"{}\" causality=\"local\" variability=\"continuous\"><Real derivative=\"{}\"/></ScalarVariable>\n",
+            nx + i,
+            i + 1
+        );
+        derivatives += &format!("<Unknown index=\"{}\"/>", nx + i + 1);
+    }
+    let xml = format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="{name}" guid="{{wide}}" numberOfEventIndicators="{nz}">
+<ModelExchange modelIdentifier="{name}" providesDirectionalDerivative="true"/>
+<ModelVariables>
+{v}</ModelVariables>
+<ModelStructure>
+<Outputs><Unknown index="1"/></Outputs>
+<Derivatives>{derivatives}</Derivatives>
+</ModelStructure>
+</fmiModelDescription>
+"#
+    );
+    let fmu = dir.join(format!("{name}.fmu"));
+    let mut w = zip::ZipWriter::new(std::fs::File::create(&fmu).unwrap());
+    let options = zip::write::SimpleFileOptions::default();
+    w.start_file("modelDescription.xml", options).unwrap();
+    w.write_all(xml.as_bytes()).unwrap();
+    if let Some(flags) = binary {
+        let c = dir.join(format!("{name}.c"));
+        let so = dir.join(format!("{name}.so"));
+        std::fs::write(&c, WIDE_SOURCE).unwrap();
+        let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+        let mut cmd = std::process::Command::new(&cc);
+        cmd.args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"]).arg(&so).arg(&c);
+        cmd.arg(format!("-DNX={nx}")).args(flags);
+        let status = cmd.status().unwrap_or_else(|e| panic!("cannot run {cc}: {e}"));
+        assert!(status.success(), "{cc} failed on {}", c.display());
+        let folder = inchworm_fmi_import::fmi2_platform().0;
+        w.start_file(format!("binaries/{folder}/{name}.so"), options).unwrap();
+        w.write_all(&std::fs::read(&so).unwrap()).unwrap();
+    }
+    w.finish().unwrap();
+    fmu
+}

@@ -8,6 +8,8 @@ use std::sync::Arc;
 
 use inchworm_fmi_import::{FmuError, ImportError};
 
+use crate::limits::{Number, Range};
+
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
@@ -73,9 +75,68 @@ pub enum Error {
     /// non-finite derivative, an event iteration that did not settle, too many events.
     #[error("component {component}: at t = {time} s: {message}")]
     Integration { component: String, time: f64, message: String },
+    /// A number given to the master (a command-line option, a field of its options) is
+    /// not finite or out of its range ([`crate::limits`]); `given` says who gave it.
+    #[error("{given} = {}: {} must be {range}", Number(*value), range.what)]
+    OutOfRange { given: String, value: f64, range: Range },
+    /// A Model Exchange component's FMU returned a number the master cannot integrate
+    /// with: not finite, or out of `range` if there is one; `call` is the FMU's function
+    /// that returned it, `what` which of its values.
+    #[error(
+        "component {component}: at t = {time} s: {call} returned {what} = {}: {}",
+        Number(*value),
+        match range { Some(r) => format!("{} must be {r}", r.what), None => "not a finite number".into() }
+    )]
+    FmuValue {
+        component: String,
+        time: f64,
+        call: &'static str,
+        what: String,
+        value: f64,
+        range: Option<Range>,
+    },
+    /// A component's model description declares more than the master allocates for
+    /// ([`crate::limits`]): refused before its FMU is unpacked.
+    #[error("component {component}: the model description declares {count} {what}, more than the {limit} this master takes{}", why(what))]
+    TooLarge { component: String, what: &'static str, count: u64, limit: u64 },
+    /// An interface was asked of a component the run does not have.
+    #[error(
+        "--interface {name}={interface}: no component named `{name}` to run as {}: {}",
+        if *interface == "me" { "Model Exchange" } else { "Co-Simulation" },
+        known(components)
+    )]
+    NoSuchComponent { name: String, interface: &'static str, components: Vec<String> },
     /// The run's [`StopFlag`] was set; it stopped between two steps.
     #[error("stopped before the stop time")]
     Stopped,
+}
+
+/// Why a cap of [`Error::TooLarge`] is what it is.
+fn why(what: &str) -> &'static str {
+    match what {
+        "continuous states" => {
+            " (its Model Exchange integrator keeps dense Jacobians, whose size is the square of the states)"
+        }
+        _ => "",
+    }
+}
+
+/// The components of [`Error::NoSuchComponent`], said.
+fn known(components: &[String]) -> String {
+    match components {
+        [one] if one == "fmu" => "a single FMU is one component, named `fmu`".into(),
+        _ => {
+            let mut names: Vec<String> = components
+                .iter()
+                .take(20)
+                .map(|c| format!("`{}`", crate::archive::cut(c, 80)))
+                .collect();
+            if components.len() > 20 {
+                names.push(format!("and {} more", components.len() - 20));
+            }
+            format!("the components are {}", names.join(", "))
+        }
+    }
 }
 
 impl Error {

@@ -7,6 +7,8 @@
 //! * [`master`]: a flat SSP system or a single FMU in load / initialise / step phases,
 //!   Jacobi or Gauss–Seidel coupling, parameters, [`InputTable`]s for unconnected inputs;
 //! * [`input`]: piecewise-constant input tables (`time,<name>,…` CSV);
+//! * [`limits`]: the sizes the master takes from a model description and the ranges of
+//!   the numbers it is given, defined once;
 //! * [`trace`]: what a run records, and its CSV;
 //! * [`sweep`]: grid and Monte Carlo plans, their execution on worker threads, generic
 //!   metrics (`final`, `min`, `max` of any recorded variable) and the results table;
@@ -62,6 +64,7 @@
 pub mod archive;
 mod error;
 pub mod input;
+pub mod limits;
 pub mod master;
 pub mod model_exchange;
 pub mod ssp;

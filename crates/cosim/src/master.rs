@@ -7,8 +7,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::archive::cut;
-use crate::fmu::{CsFmu, FmuError, FmuState, Loaded, MeFmu, ModelDescription, Var, VarType};
+use crate::fmu::{CsFmu, FmuState, Loaded, MeFmu, ModelDescription, Var, VarType};
 pub use crate::input::InputTable;
+use crate::limits;
 use crate::model_exchange::{MeRun, MeStats, Tolerance};
 use crate::ssp::{Archive, End, TypedValue};
 use crate::trace::Trace;
@@ -117,34 +118,49 @@ impl Fmu {
     }
 
     /// Another instance under `name`, of the same interface, from the folder this one was
-    /// unpacked in.
-    fn again(&self, name: &str, tolerance: Tolerance) -> Result<Fmu, FmuError> {
+    /// unpacked in. The FMU's errors come as [`Error::Fmu`].
+    fn again(&self, name: &str, tolerance: Tolerance) -> Result<Fmu, Error> {
         Ok(match self {
             Fmu::Cs(f) => Fmu::Cs(f.instantiate_again(name, false)?),
             Fmu::Me(m) => {
-                Fmu::Me(MeRun::new(m.fmu.instantiate_again(name, false)?, name, tolerance))
+                Fmu::Me(MeRun::new(m.fmu.instantiate_again(name, false)?, name, tolerance)?)
             }
         })
     }
 
     /// Loads `source` as component `name`, in the interface [`Want::is_me`] picks from
-    /// its description.
-    fn open(source: &Path, name: &str, want: Want, tolerance: Tolerance) -> Result<Fmu, FmuError> {
-        Ok(match MeFmu::load_either(source, name, false, |md| want.is_me(md))? {
-            Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)),
+    /// its description, once the description (read from the archive before unpacking it)
+    /// is within [`limits`]: an FMU declaring more than the master allocates for is
+    /// refused before a file of it is written. The FMU's errors come as [`Error::Fmu`].
+    fn open(source: &Path, name: &str, want: Want, tolerance: Tolerance) -> Result<Fmu, Error> {
+        let vet = |md: &ModelDescription, me: bool| limits::check_description(name, md, me);
+        Ok(match MeFmu::load_vetted(source, name, false, |md| want.is_me(md), vet)? {
+            Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)?),
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
         })
+    }
+
+    /// The component's Model Exchange integration, if it has one, ends at its next step
+    /// once `flag` is set.
+    fn stop_when(&mut self, flag: Option<&StopFlag>) {
+        if let Fmu::Me(m) = self {
+            m.stop_when(flag.cloned());
+        }
     }
 }
 
 /// Which components the master integrates as Model Exchange, and how finely. A component
 /// whose FMU offers only Model Exchange always is; one named here is, if its FMU offers
-/// Model Exchange (if not, loading it fails and says so).
+/// Model Exchange (if not, loading it fails and says so). Every name must be a component
+/// of the run ([`System::load_as`] refuses another: [`Error::NoSuchComponent`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Interfaces {
     /// Component names (`fmu` for a single FMU), or `*` for every component whose FMU
     /// offers Model Exchange.
     pub model_exchange: Vec<String>,
+    /// Component names to run as Co-Simulation even under `*` (`--interface NAME=cs`).
+    pub co_simulation: Vec<String>,
+    /// Within [`limits::RTOL`] and [`limits::ATOL`].
     pub tolerance: Tolerance,
 }
 
@@ -173,8 +189,43 @@ impl Want {
 }
 
 impl Interfaces {
+    /// Every name one of `components` (`*` too, for Model Exchange), none asked both
+    /// interfaces, the tolerance within its ranges: before anything is loaded.
+    fn check(&self, components: &[String]) -> Result<(), Error> {
+        self.tolerance.check()?;
+        let asked = self
+            .model_exchange
+            .iter()
+            .map(|n| (n, "me"))
+            .chain(self.co_simulation.iter().map(|n| (n, "cs")));
+        for (n, interface) in asked {
+            if n.is_empty() {
+                return Err(Error::Config(format!(
+                    "--interface ={interface}: name a component to run as {}",
+                    if interface == "me" { "Model Exchange" } else { "Co-Simulation" }
+                )));
+            }
+            if !(components.contains(n) || interface == "me" && n == "*") {
+                return Err(Error::NoSuchComponent {
+                    name: cut(n, 200),
+                    interface,
+                    components: components.to_vec(),
+                });
+            }
+            if interface == "me" && self.co_simulation.contains(n) {
+                return Err(Error::Config(format!(
+                    "--interface: `{}` is asked to run both as Model Exchange (me) and as Co-Simulation (cs)",
+                    cut(n, 200)
+                )));
+            }
+        }
+        Ok(())
+    }
+
     fn wants_me(&self, component: &str) -> Want {
-        if self.model_exchange.iter().any(|n| n == component) {
+        if self.co_simulation.iter().any(|n| n == component) {
+            Want::Cs
+        } else if self.model_exchange.iter().any(|n| n == component) {
             Want::Me
         } else if self.model_exchange.iter().any(|n| n == "*") {
             Want::MeIfOffered
@@ -448,11 +499,10 @@ impl System {
     /// [`System::load`], with the components of `interfaces` run as Model Exchange.
     pub fn load_as(path: &Path, interfaces: &Interfaces) -> Result<System, Error> {
         let tolerance = interfaces.tolerance;
-        if let Some(n) = interfaces.model_exchange.iter().find(|n| n.is_empty()) {
-            return Err(Error::Config(format!("`{n}`: name a component to run as Model Exchange")));
-        }
         let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
         if !is_ssp {
+            // A single FMU is one component, named `fmu`: checked before it is opened.
+            interfaces.check(&["fmu".to_string()])?;
             let fmu = Fmu::open(path, "fmu", interfaces.wants_me("fmu"), tolerance)?;
             let step_size = fmu.default_step_size();
             let inputs = fmu.names_with_causality("input");
@@ -477,18 +527,12 @@ impl System {
                 step_size,
             });
         }
+        // The tolerance before the archive is unpacked, the names once its SSD is read.
+        interfaces.tolerance.check()?;
         let a = Archive::open(path)?;
         let here = |e: Error| e.context(path.display().to_string());
-        if let Some(n) = interfaces
-            .model_exchange
-            .iter()
-            .find(|n| *n != "*" && !a.system.components.iter().any(|c| &c.name == *n))
-        {
-            return Err(here(Error::Config(format!(
-                "--interface: no component named `{}` to run as Model Exchange",
-                cut(n, 200)
-            ))));
-        }
+        let names: Vec<String> = a.system.components.iter().map(|c| c.name.clone()).collect();
+        interfaces.check(&names).map_err(here)?;
         // Every name and source checked before any FMU is loaded.
         let mut sources = Vec::new();
         for (i, c) in a.system.components.iter().enumerate() {
@@ -510,7 +554,10 @@ impl System {
         let mut used = crate::archive::check_system_budget(&a.dir, &named).map_err(here)?;
         let mut components: Vec<Component> = Vec::new();
         for (i, (c, source)) in a.system.components.iter().zip(&sources).enumerate() {
-            let component = |source| Error::Component { component: c.name.clone(), source };
+            let component = |e| match e {
+                Error::Fmu(source) => Error::Component { component: c.name.clone(), source },
+                e => e,
+            };
             // An FMU that several components use is unpacked once and instantiated from
             // that folder again, unless each of its instances needs a library of its own.
             // The earlier instance serves if it runs the interface this one is to run.
@@ -709,6 +756,9 @@ impl System {
             )));
         }
         let n_steps = step_count(stop, h)?;
+        if self.components.iter().any(|c| matches!(c.fmu, Fmu::Me(_))) {
+            limits::STEP.check("the step size of a run with a Model Exchange component", h)?;
+        }
         if let Some(t) = &opts.input {
             // Before its first row a table has no value; holding that row back to t = 0
             // would drive the system with a value it was not given.
@@ -962,6 +1012,7 @@ impl Simulation {
     /// archives are removed) instead of being killed mid-step.
     pub fn stop_when(mut self, flag: StopFlag) -> Simulation {
         self.stop = Some(flag);
+        self.components.iter_mut().for_each(|c| c.fmu.stop_when(self.stop.as_ref()));
         self
     }
 
@@ -1159,6 +1210,7 @@ impl Simulation {
         system.components = std::mem::take(&mut self.components);
         let stop = self.stop.take();
         *self = system.initialise(opts)?;
+        self.components.iter_mut().for_each(|c| c.fmu.stop_when(stop.as_ref()));
         self.stop = stop;
         Ok(())
     }

@@ -39,7 +39,8 @@ use diffsol::{
 };
 
 use crate::fmu::{FmuError, MeFmu};
-use crate::Error;
+use crate::limits::{self, ATOL, NOMINAL, RTOL, STEP};
+use crate::{Error, StopFlag};
 
 /// The most passes of one event iteration before the master gives up.
 pub const MAX_EVENT_ITERATIONS: usize = 1000;
@@ -58,6 +59,16 @@ pub struct Tolerance {
 impl Default for Tolerance {
     fn default() -> Self {
         Tolerance { rtol: 1e-9, atol: 1e-11 }
+    }
+}
+
+impl Tolerance {
+    /// Both tolerances within their ranges ([`limits::RTOL`], [`limits::ATOL`]), or an
+    /// [`Error::OutOfRange`] naming the field.
+    pub fn check(&self) -> Result<(), Error> {
+        RTOL.check("the Model Exchange tolerance's rtol", self.rtol)?;
+        ATOL.check("the Model Exchange tolerance's atol", self.atol)?;
+        Ok(())
     }
 }
 
@@ -99,6 +110,8 @@ pub struct MeRun {
     states: Vec<u32>,
     derivatives: Vec<u32>,
     nominals: Vec<f64>,
+    /// Ends an integration at its next step once set ([`MeRun::stop_when`]).
+    stop: Option<StopFlag>,
 }
 
 /// Why an integration ended.
@@ -125,6 +138,7 @@ struct Eval<'f> {
     scratch: Vec<f64>,
     shifted: Vec<f64>,
     name: &'f str,
+    stop: Option<&'f StopFlag>,
 }
 
 impl Eval<'_> {
@@ -138,6 +152,16 @@ impl Eval<'_> {
     fn at(&mut self, t: f64, x: &[f64]) -> Result<(), FmuError> {
         self.fmu.set_time(t)?;
         self.fmu.set_continuous_states(x)
+    }
+
+    /// Before an evaluation: the run's stop flag (a dense Jacobian is `nx` products, and
+    /// the flag is not left waiting for them), and the integrator's time and state, which
+    /// must be finite before the FMU is handed them.
+    fn ready(&self, t: f64, x: &[f64]) -> Result<(), Error> {
+        if let Some(flag) = self.stop {
+            flag.check()?;
+        }
+        integrator_finite(self.name, t, x)
     }
 
     /// `what` (a call's result, `out`) must be finite.
@@ -154,8 +178,10 @@ impl Eval<'_> {
 
     fn derivatives(&mut self, t: f64, x: &[f64], dx: &mut [f64]) {
         self.stats.derivatives += 1;
-        let r = self.at(t, x).and_then(|()| self.fmu.get_derivatives(dx));
-        let r = r.map_err(Error::from).and_then(|()| self.finite("the derivative", t, dx));
+        let r = self.ready(t, x).and_then(|()| {
+            self.at(t, x).and_then(|()| self.fmu.get_derivatives(dx)).map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("the derivative", t, dx));
         if let Err(e) = r {
             self.fail(e, dx);
         }
@@ -163,14 +189,17 @@ impl Eval<'_> {
 
     fn jacobian_product(&mut self, t: f64, x: &[f64], v: &[f64], out: &mut [f64]) {
         self.stats.jacobian_products += 1;
-        let r = if self.directional {
-            self.at(t, x).and_then(|()| {
-                self.fmu.directional_derivative(self.derivatives, self.states, v, out)
-            })
-        } else {
-            self.finite_difference(t, x, v, out)
-        };
-        let r = r.map_err(Error::from).and_then(|()| self.finite("the Jacobian product", t, out));
+        let r = self.ready(t, x).and_then(|()| {
+            if self.directional {
+                self.at(t, x).and_then(|()| {
+                    self.fmu.directional_derivative(self.derivatives, self.states, v, out)
+                })
+            } else {
+                self.finite_difference(t, x, v, out)
+            }
+            .map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("the Jacobian product", t, out));
         if let Err(e) = r {
             self.fail(e, out);
         }
@@ -212,11 +241,27 @@ impl Eval<'_> {
             z.fill(1.0);
             return;
         }
-        let r = self.at(t, x).and_then(|()| self.fmu.get_event_indicators(z));
-        let r = r.map_err(Error::from).and_then(|()| self.finite("event indicator", t, z));
+        let r = self.ready(t, x).and_then(|()| {
+            self.at(t, x).and_then(|()| self.fmu.get_event_indicators(z)).map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("event indicator", t, z));
         if let Err(e) = r {
             self.fail(e, z);
         }
+    }
+}
+
+/// The integrator's time `t` and state `x` are finite, or an error of `component` that
+/// says they are not (the integrator's failure, not the FMU's: it is not handed them).
+fn integrator_finite(component: &str, t: f64, x: &[f64]) -> Result<(), Error> {
+    let error =
+        |message| Err(Error::Integration { component: component.to_owned(), time: t, message });
+    if !t.is_finite() {
+        return error(format!("the integrator reached the time {t} (not finite)"));
+    }
+    match x.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => error(format!("the integrator's state {i} is {} (not finite)", x[i])),
     }
 }
 
@@ -245,11 +290,15 @@ fn completed_step(
 
 impl MeRun {
     /// `fmu`, initialized (in Event Mode), integrated to `tolerance`; `name`: the
-    /// component's, for the errors.
-    pub fn new(fmu: MeFmu, name: &str, tolerance: Tolerance) -> MeRun {
+    /// component's, for the errors. Refused: a tolerance out of its range, or an FMU with
+    /// more continuous states or event indicators than [`limits`] allows (a master that
+    /// loads FMUs itself checks those before unpacking them: [`limits::check_description`]).
+    pub fn new(fmu: MeFmu, name: &str, tolerance: Tolerance) -> Result<MeRun, Error> {
+        tolerance.check()?;
+        limits::check_description(name, fmu.description(), true)?;
         let states = fmu.continuous_states().iter().map(|s| s.state).collect();
         let derivatives = fmu.continuous_states().iter().map(|s| s.derivative).collect();
-        MeRun {
+        Ok(MeRun {
             fmu,
             tolerance,
             name: name.to_owned(),
@@ -257,7 +306,51 @@ impl MeRun {
             states,
             derivatives,
             nominals: Vec::new(),
+            stop: None,
+        })
+    }
+
+    /// Makes [`MeRun::advance`] end with [`Error::Stopped`] at the integrator's next step
+    /// (or its next evaluation of the FMU) once `flag` is set: a run stops inside a long
+    /// communication step too.
+    pub fn stop_when(&mut self, flag: Option<StopFlag>) {
+        self.stop = flag;
+    }
+
+    /// The name of the call of this FMU's standard: `fmi2` or `fmi3`.
+    fn call(&self, fmi2: &'static str, fmi3: &'static str) -> &'static str {
+        if self.fmu.description().is_fmi3() {
+            fmi3
+        } else {
+            fmi2
         }
+    }
+
+    /// `value`, returned by the FMU's `call` as `what`, is finite (and in `range` if one
+    /// is given), or an [`Error::FmuValue`] that says so.
+    fn fmu_value(
+        &self,
+        t: f64,
+        call: &'static str,
+        what: impl FnOnce() -> String,
+        value: f64,
+        range: Option<limits::Range>,
+    ) -> Result<f64, Error> {
+        let fine = match range {
+            Some(r) => r.contains(value),
+            None => value.is_finite(),
+        };
+        if fine {
+            return Ok(value);
+        }
+        Err(Error::FmuValue {
+            component: self.name.clone(),
+            time: t,
+            call,
+            what: what(),
+            value,
+            range,
+        })
     }
 
     /// What the integration cost so far.
@@ -272,11 +365,7 @@ impl MeRun {
     /// Passes of the discrete-state update until none more is needed: the next time
     /// event, if any.
     fn event_iteration(&mut self, t: f64) -> Result<Option<f64>, Error> {
-        let f = if self.fmu.description().is_fmi3() {
-            "fmi3UpdateDiscreteStates"
-        } else {
-            "fmi2NewDiscreteStates"
-        };
+        let f = self.call("fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates");
         for _ in 0..MAX_EVENT_ITERATIONS {
             let u = self.fmu.update_discrete_states()?;
             if u.terminate {
@@ -285,8 +374,23 @@ impl MeRun {
             if u.nominals_changed || self.nominals.is_empty() {
                 self.nominals = vec![0.0; self.fmu.nx()];
                 self.fmu.get_nominals(&mut self.nominals)?;
+                let call = self
+                    .call("fmi2GetNominalsOfContinuousStates", "fmi3GetNominalsOfContinuousStates");
+                for (i, &n) in self.nominals.iter().enumerate() {
+                    self.fmu_value(
+                        t,
+                        call,
+                        || format!("the nominal of state {i}"),
+                        n,
+                        Some(NOMINAL),
+                    )?;
+                }
             }
             if !u.needs_update {
+                if let Some(te) = u.next_event_time {
+                    let what = || "the next event time (nextEventTime, defined)".to_string();
+                    self.fmu_value(t, f, what, te, None)?;
+                }
                 return Ok(u.next_event_time);
             }
         }
@@ -298,7 +402,14 @@ impl MeRun {
 
     /// From `t` (in Event Mode, the inputs of `t` set) to `t + h`, in Event Mode again.
     pub fn advance(&mut self, t: f64, h: f64) -> Result<(), Error> {
+        if !STEP.contains(h) {
+            // Said only when refused: the check costs no allocation per step.
+            STEP.check(&format!("component {}: the communication step", self.name), h)?;
+        }
         let end = t + h;
+        if !end.is_finite() || end <= t {
+            return Err(self.error(t, format!("a step of {h} s does not advance the time {t} s")));
+        }
         self.fmu.set_time(t)?;
         let mut next = self.event_iteration(t)?;
         self.fmu.enter_continuous_time_mode()?;
@@ -355,8 +466,17 @@ impl MeRun {
         }
         let mut x0 = vec![0.0; nx];
         self.fmu.get_continuous_states(&mut x0)?;
+        let call = self.call("fmi2GetContinuousStates", "fmi3GetContinuousStates");
+        for (i, &x) in x0.iter().enumerate() {
+            self.fmu_value(t0, call, || format!("state {i}"), x, None)?;
+        }
+        if let Some(flag) = &self.stop {
+            flag.check()?;
+        }
         let Tolerance { rtol, atol } = self.tolerance;
-        let atol: Vec<f64> = self.nominals.iter().map(|n| atol * n.abs().max(1e-300)).collect();
+        // Each nominal is in limits::NOMINAL and atol in limits::ATOL: the product is a
+        // normal positive number.
+        let atol: Vec<f64> = self.nominals.iter().map(|n| atol * n).collect();
         let directional = self.fmu.provides_directional_derivative();
         let completed_not_needed = self.fmu.completed_integrator_step_not_needed();
         let name = self.name.clone();
@@ -377,6 +497,7 @@ impl MeRun {
             scratch: Vec::new(),
             shifted: Vec::new(),
             name: &name,
+            stop: self.stop.as_ref(),
         });
         let take = |cell: &RefCell<Eval<'_>>| cell.borrow_mut().error.take();
         let outcome = {
@@ -424,6 +545,8 @@ impl MeRun {
                 };
                 let mut eval = cell.borrow_mut();
                 eval.stats.steps += 1;
+                // The step boundary: a stop asked for during the step ends the run here.
+                eval.ready(t, y.inner().as_slice())?;
                 eval.at(t, y.inner().as_slice())?;
                 let step_event = completed_step(eval.fmu, completed_not_needed, &name, t)?;
                 match (ended, step_event) {

@@ -153,7 +153,7 @@ fn an_ssp_mixes_me_and_cs_components_in_both_couplings() {
         for me in [vec!["down"], vec!["up"], vec!["*"]] {
             let interfaces = Interfaces {
                 model_exchange: me.iter().map(|s| s.to_string()).collect(),
-                tolerance: Tolerance::default(),
+                ..Interfaces::default()
             };
             let sim = System::load_as(&ssp, &interfaces).unwrap().initialise(&o).unwrap();
             let names: Vec<String> =
@@ -221,4 +221,175 @@ fn a_checkpoint_of_an_me_fmu_without_fmu_state_is_refused_naming_the_call() {
     // The run goes on after the refusal.
     sim.step().unwrap();
     assert_eq!(master::run(&fmu, &o, |_| {}).unwrap().times().len(), 11);
+}
+
+/// The description's sizes are checked before the FMU is unpacked: these FMUs hold no
+/// binary at all, and the refusal is a [`inchworm_cosim::Error::TooLarge`] naming the
+/// count and the cap.
+#[test]
+fn descriptions_past_the_size_caps_are_refused_before_unpacking() {
+    use inchworm_cosim::limits::{MAX_CONTINUOUS_STATES, MAX_EVENT_INDICATORS};
+    let dir = scratch("caps");
+    let cases = [
+        (MAX_CONTINUOUS_STATES + 1, 0, "continuous states"),
+        (30_000, 0, "continuous states"),
+        (1, MAX_EVENT_INDICATORS as u64 + 1, "event indicators"),
+        (1, 100_000_000_000, "event indicators"),
+    ];
+    for (i, (nx, nz, what)) in cases.into_iter().enumerate() {
+        let fmu = me_fmu::build_wide(&dir, &format!("Wide{i}"), nx, nz, None);
+        let e = System::load(&fmu).err().expect("refused");
+        assert!(matches!(e, inchworm_cosim::Error::TooLarge { .. }), "{e:?}");
+        let count = if what == "event indicators" { nz.to_string() } else { nx.to_string() };
+        let e = e.to_string();
+        assert!(
+            e.starts_with(&format!(
+                "component fmu: the model description declares {count} {what}, more than the "
+            )),
+            "{e}"
+        );
+    }
+    // At the cap, an FMU is taken (here as far as loading it; what integrating it costs is
+    // in docs/model-exchange.md).
+    let fmu = me_fmu::build_wide(&dir, "AtCap", MAX_CONTINUOUS_STATES, 0, Some(&[]));
+    let sim = System::load(&fmu).unwrap().initialise(&options(1e-3, 1e-3, &[], &["x0"])).unwrap();
+    assert_eq!(sim.model_exchange_stats().len(), 1);
+    // An SSP's component is refused by its name.
+    let wide = me_fmu::build_wide(&dir, "Decay", 30_000, 0, None);
+    let e = System::load(&two_component_ssp(&dir, &wide)).err().unwrap().to_string();
+    assert!(
+        e.starts_with("component up: the model description declares 30000 continuous states"),
+        "{e}"
+    );
+}
+
+/// What a 1000-state FMU (the cap) costs: `cargo test --release -p inchworm-cosim --test
+/// model_exchange -- --ignored --nocapture cost`.
+#[test]
+#[ignore = "a measurement: seconds of CPU"]
+fn cost_of_an_me_fmu_by_its_states() {
+    let dir = scratch("cost");
+    for nx in [100, 250, 500, 1000] {
+        let fmu = me_fmu::build_wide(&dir, &format!("Wide{nx}"), nx, 0, Some(&[]));
+        let o = options(0.1, 0.01, &[], &["x0"]);
+        let t = std::time::Instant::now();
+        let sim = System::load(&fmu).unwrap().initialise(&o).unwrap();
+        let end = sim.run_into(|_, _| Ok::<(), inchworm_cosim::Error>(()), |_| {}).unwrap();
+        let s = t.elapsed().as_secs_f64();
+        eprintln!("{nx} states: 10 steps of 10 ms in {s:.3} s wall: {}", end.model_exchange[0].1);
+    }
+}
+
+#[test]
+fn non_finite_numbers_from_the_fmu_are_refused_naming_the_call() {
+    for standard in [Standard::Fmi2, Standard::Fmi3] {
+        let dir = scratch(&format!("non-finite-{standard:?}"));
+        let fmu = me_fmu::build(&dir, "Decay", standard);
+        let fmi = if standard == Standard::Fmi3 { "fmi3" } else { "fmi2" };
+        let error = |mode: &str| {
+            let o = options(0.1, 1e-3, &[("mode", mode)], &["x", "ticks"]);
+            run(&fmu, &Interfaces::default(), &o).expect_err("refused")
+        };
+        let e = error("4");
+        assert!(matches!(e, inchworm_cosim::Error::FmuValue { .. }), "{e:?}");
+        let update =
+            if fmi == "fmi3" { "fmi3UpdateDiscreteStates" } else { "fmi2NewDiscreteStates" };
+        assert_eq!(
+            e.to_string(),
+            format!("component fmu: at t = 0 s: {update} returned the next event time (nextEventTime, defined) = NaN: not a finite number")
+        );
+        let e = error("5").to_string();
+        assert_eq!(
+            e,
+            format!("component fmu: at t = 0 s: {fmi}GetNominalsOfContinuousStates returned the nominal of state 0 = NaN: a state's nominal must be a finite number in [1e-100, 1e100]")
+        );
+    }
+}
+
+#[test]
+fn tolerances_and_steps_out_of_range_are_refused_naming_who_gave_them() {
+    let dir = scratch("ranges");
+    let fmu = me_fmu::build(&dir, "Decay", Standard::Fmi2);
+    for (rtol, atol, given) in [
+        (f64::INFINITY, 1e-11, "rtol"),
+        (f64::NAN, 1e-11, "rtol"),
+        (0.0, 1e-11, "rtol"),
+        (1e-9, 5e-324, "atol"),
+        (1e-9, f64::INFINITY, "atol"),
+        (1e-9, -1e-11, "atol"),
+    ] {
+        let interfaces =
+            Interfaces { tolerance: Tolerance { rtol, atol }, ..Interfaces::default() };
+        let e = System::load_as(&fmu, &interfaces).err().expect("refused");
+        assert!(matches!(e, inchworm_cosim::Error::OutOfRange { .. }), "{e:?}");
+        let e = e.to_string();
+        assert!(e.starts_with(&format!("the Model Exchange tolerance's {given} = ")), "{e}");
+    }
+    // A step too short for the ME integrator to make anything of.
+    let o = options(1e-12, 1e-13, &[], &["x"]);
+    let e = System::load(&fmu).unwrap().initialise(&o).err().unwrap().to_string();
+    assert!(e.starts_with("the step size of a run with a Model Exchange component = 1e-13: the communication step must be a finite number in"), "{e}");
+}
+
+#[test]
+fn interface_names_the_run_does_not_have_are_refused() {
+    let dir = scratch("names");
+    let fmu = me_fmu::build(&dir, "Decay", Standard::Fmi2Cs);
+    let me = |names: &[&str], cs: &[&str]| Interfaces {
+        model_exchange: names.iter().map(|s| s.to_string()).collect(),
+        co_simulation: cs.iter().map(|s| s.to_string()).collect(),
+        ..Interfaces::default()
+    };
+    let e = System::load_as(&fmu, &me(&["plant"], &[])).err().expect("refused");
+    assert!(matches!(e, inchworm_cosim::Error::NoSuchComponent { .. }), "{e:?}");
+    assert_eq!(
+        e.to_string(),
+        "--interface plant=me: no component named `plant` to run as Model Exchange: a single FMU is one component, named `fmu`"
+    );
+    let e = System::load_as(&fmu, &me(&[], &["plant"])).err().unwrap().to_string();
+    assert!(e.starts_with("--interface plant=cs: no component named `plant`"), "{e}");
+    let e = System::load_as(&fmu, &me(&["fmu"], &["fmu"])).err().unwrap().to_string();
+    assert!(
+        e.contains("asked to run both as Model Exchange (me) and as Co-Simulation (cs)"),
+        "{e}"
+    );
+    // `fmu=cs` keeps the Co-Simulation under `*`.
+    let o = options(0.01, 1e-3, &[], &["x"]);
+    let sim = System::load_as(&fmu, &me(&["*"], &["fmu"])).unwrap().initialise(&o).unwrap();
+    assert!(sim.model_exchange_stats().is_empty());
+    let ssp = two_component_ssp(&dir, &fmu);
+    let e = System::load_as(&ssp, &me(&[], &["nobody"])).err().unwrap().to_string();
+    assert!(e.ends_with("--interface nobody=cs: no component named `nobody` to run as Co-Simulation: the components are `up`, `down`"), "{e}");
+}
+
+/// A stop asked for in the middle of one long communication step ends the run there: the
+/// FMU's oscillator needs minutes of its slow derivatives to finish the step.
+#[test]
+fn a_stop_flag_ends_an_me_integration_inside_its_step() {
+    let dir = scratch("stop");
+    let fmu = me_fmu::build_wide(&dir, "Slow", 2, 0, Some(&["-DSLOW"]));
+    let o = options(100.0, 100.0, &[], &["x0"]);
+    let stop = inchworm_cosim::StopFlag::new();
+    let sim = System::load(&fmu).unwrap().initialise(&o).unwrap().stop_when(stop.clone());
+    let start = std::time::Instant::now();
+    let mut setter = None;
+    let r = sim.run_into(
+        |t, _| {
+            if t == 0.0 {
+                // Set once the step is under way (the flag is checked before it starts).
+                let stop = stop.clone();
+                setter = Some(std::thread::spawn(move || {
+                    std::thread::sleep(std::time::Duration::from_millis(300));
+                    stop.set();
+                }));
+            }
+            Ok::<(), inchworm_cosim::Error>(())
+        },
+        |_| {},
+    );
+    let e = r.expect_err("stopped");
+    assert!(e.is_stopped(), "{e}");
+    let took = start.elapsed().as_secs_f64();
+    assert!(took < 30.0, "stopped after {took} s");
+    setter.unwrap().join().unwrap();
 }

@@ -182,34 +182,74 @@ pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
 
 /// [`unpack`] within `limits`.
 pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError> {
-    let file = fs::File::open(path)
-        .map_err(|source| ImportError::Io { what: "cannot open the file".into(), source })?;
-    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(ImportError::NotZip)?;
-    let has_md = (0..zip.len()).any(|i| {
-        zip.name_for_index(i).and_then(safe_relative).as_deref()
-            == Some(Path::new("modelDescription.xml"))
-    });
-    if !has_md {
-        // An unsafe name is the graver finding: report it first.
-        for i in 0..zip.len() {
-            let name = zip.name_for_index(i).unwrap_or_default().to_owned();
-            safe_relative(&name).ok_or(ImportError::UnsafePath(name))?;
-        }
-        return Err(ImportError::NoModelDescription);
-    }
+    let mut zip = open_zip(path)?;
+    description_index(&mut zip)?;
     let dir = temp_dir("inchworm-fmu-")?;
     extract(&mut zip, dir.path(), limits)?;
     let md = fs::read(dir.path().join("modelDescription.xml"))
         .map_err(|_| ImportError::NoModelDescription)?;
-    let md = md.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&md);
-    let text = String::from_utf8(md.to_vec()).map_err(|e| {
+    Ok(Unpacked { dir, model_description: description_text(&md)? })
+}
+
+/// The text of the `modelDescription.xml` of the FMU at `path`, read from the archive
+/// without unpacking anything, within the description cap
+/// ([`crate::description::MAX_DESCRIPTION_BYTES`] or its variable): a master can look at
+/// what an FMU declares, and refuse it, before writing a byte of it to disk.
+pub fn read_description(path: &Path) -> Result<String, ImportError> {
+    let mut zip = open_zip(path)?;
+    let i = description_index(&mut zip)?;
+    let cap =
+        env_cap(crate::description::ENV_DESCRIPTION, crate::description::MAX_DESCRIPTION_BYTES)?;
+    let entry = zip.by_index(i).map_err(ImportError::NotZip)?;
+    let mut md = Vec::new();
+    entry.take(cap + 1).read_to_end(&mut md).map_err(|source| ImportError::Io {
+        what: "cannot read modelDescription.xml".into(),
+        source,
+    })?;
+    if md.len() as u64 > cap {
+        return Err(ImportError::Limit(format!(
+            "modelDescription.xml has more than {cap} bytes (limit {cap} bytes; raise it with {})",
+            crate::description::ENV_DESCRIPTION
+        )));
+    }
+    description_text(&md)
+}
+
+fn open_zip(path: &Path) -> Result<zip::ZipArchive<io::BufReader<fs::File>>, ImportError> {
+    let file = fs::File::open(path)
+        .map_err(|source| ImportError::Io { what: "cannot open the file".into(), source })?;
+    zip::ZipArchive::new(io::BufReader::new(file)).map_err(ImportError::NotZip)
+}
+
+/// The index of the archive's `modelDescription.xml` (at its root), or why there is none.
+fn description_index<R: Read + Seek>(zip: &mut zip::ZipArchive<R>) -> Result<usize, ImportError> {
+    let found = (0..zip.len()).find(|&i| {
+        zip.name_for_index(i).and_then(safe_relative).as_deref()
+            == Some(Path::new("modelDescription.xml"))
+    });
+    match found {
+        Some(i) => Ok(i),
+        None => {
+            // An unsafe name is the graver finding: report it first.
+            for i in 0..zip.len() {
+                let name = zip.name_for_index(i).unwrap_or_default().to_owned();
+                safe_relative(&name).ok_or(ImportError::UnsafePath(name))?;
+            }
+            Err(ImportError::NoModelDescription)
+        }
+    }
+}
+
+/// The bytes of `modelDescription.xml` as text: a byte-order mark dropped, UTF-8 required.
+fn description_text(md: &[u8]) -> Result<String, ImportError> {
+    let md = md.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(md);
+    String::from_utf8(md.to_vec()).map_err(|e| {
         let (line, column) = crate::description::line_column(
             &String::from_utf8_lossy(md),
             e.utf8_error().valid_up_to(),
         );
         ImportError::Description { line, column, message: "the file is not valid UTF-8".into() }
-    })?;
-    Ok(Unpacked { dir, model_description: text })
+    })
 }
 
 #[cfg(test)]

@@ -213,6 +213,25 @@ impl CsFmu {
     ) -> Result<Self, FmuError> {
         let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
+        Self::from_description(
+            path,
+            unpacked,
+            description,
+            instance_name,
+            (logging_on, model_exchange),
+        )
+    }
+
+    /// [`CsFmu::from_unpacked`] with the description already read (from the archive,
+    /// before it was unpacked).
+    pub(crate) fn from_description(
+        path: &Path,
+        unpacked: Arc<Unpacked>,
+        description: ModelDescription,
+        instance_name: &str,
+        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> bool),
+    ) -> Result<Self, FmuError> {
+        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
         let model = description.model_name.clone();
         let model_exchange = model_exchange(&description);
         let identifier = match (&description.co_simulation, &description.model_exchange) {

@@ -76,6 +76,42 @@ impl MeFmu {
         })
     }
 
+    /// [`MeFmu::load_either`], with a look at the FMU before it is unpacked: its
+    /// `modelDescription.xml` is read from the archive (nothing written to disk) and handed
+    /// to `vet` with the interface `model_exchange` picked; an FMU `vet` refuses is never
+    /// unpacked nor loaded. A master bounds there what it will allocate from the
+    /// description (its states, its event indicators), so that an FMU declaring too much
+    /// is refused with a message instead of failing an allocation, before any temporary
+    /// file exists. The instance keeps the description `vet` saw.
+    pub fn load_vetted<E: From<FmuError>>(
+        path: &Path,
+        instance_name: &str,
+        logging_on: bool,
+        model_exchange: impl FnOnce(&crate::ModelDescription) -> bool,
+        vet: impl FnOnce(&crate::ModelDescription, bool) -> Result<(), E>,
+    ) -> Result<Loaded, E> {
+        if !path.is_file() {
+            return Err(FmuError::Missing(path.to_path_buf()).into());
+        }
+        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
+        let text = archive::read_description(path).map_err(import)?;
+        let description = crate::ModelDescription::parse(&text).map_err(import)?;
+        let me = model_exchange(&description);
+        vet(&description, me)?;
+        let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
+        let fmu = CsFmu::from_description(
+            path,
+            unpacked,
+            description,
+            instance_name,
+            (logging_on, |_: &crate::ModelDescription| me),
+        )?;
+        Ok(match fmu.is_model_exchange() {
+            true => Loaded::Me(Self::wrap(fmu)?),
+            false => Loaded::Cs(fmu),
+        })
+    }
+
     /// Another Model Exchange instance from the folder this one was unpacked in.
     pub fn instantiate_again(
         &self,
@@ -175,8 +211,14 @@ impl MeFmu {
         me.completed_integrator_step(cx, no_prior)
     }
 
-    /// `fmi2SetTime` / `fmi3SetTime`; errors after it name this time.
+    /// `fmi2SetTime` / `fmi3SetTime`; errors after it name this time. A time that is not
+    /// finite is refused before the call: no FMU is handed a NaN time.
     pub fn set_time(&mut self, t: f64) -> Result<(), FmuError> {
+        if !t.is_finite() {
+            let f = self.me().0.names().set_time;
+            self.fmu.cx.alive(f)?;
+            return Err(self.fmu.cx.invalid(f, format!("the time {t} is not finite")));
+        }
         let (me, cx) = self.me();
         me.set_time(cx, t)?;
         // The grid of a Co-Simulation instance is one point here: the time last set.
