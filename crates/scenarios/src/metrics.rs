@@ -133,6 +133,11 @@ impl LoopMetrics {
     pub fn for_system(self, system: &std::path::Path) -> Result<LoopMetrics, Error> {
         Ok(LoopMetrics { reference: closed_loop::reference_name(system)?, ..self })
     }
+
+    /// These metrics on rows of the variables `names` (the run's recorded names).
+    pub fn reducer(&self, names: &[String]) -> Result<Reducer, Error> {
+        Reducer::new(&self.metrics, names)
+    }
 }
 
 impl Metrics for LoopMetrics {
@@ -165,13 +170,6 @@ impl Metrics for LoopMetrics {
     /// Row by row: a [`Reducer`] of these metrics.
     fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
         Ok(Box::new(self.reducer(names)?))
-    }
-}
-
-impl LoopMetrics {
-    /// These metrics on rows of the variables `names` (the run's recorded names).
-    pub fn reducer(&self, names: &[String]) -> Result<Reducer, Error> {
-        Reducer::new(&self.metrics, names)
     }
 }
 
@@ -241,13 +239,14 @@ pub struct Reducer {
 impl Reducer {
     /// For `metrics` on rows of the variables `names` (the run's recorded names).
     pub fn new(metrics: &[Metric], names: &[String]) -> Result<Reducer, Error> {
-        let samples = match metrics.iter().any(Metric::needs_loop) {
-            true => Some(LoopSamples {
+        let samples = if metrics.iter().any(Metric::needs_loop) {
+            Some(LoopSamples {
                 columns: LoopColumns::find(names)?,
                 held: None,
                 parked: Parked::default(),
-            }),
-            false => None,
+            })
+        } else {
+            None
         };
         let last = |m: &Metric, n: &str| Reduce::Final(n.to_string()).stream(&m.name, names);
         let states = metrics
