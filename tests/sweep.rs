@@ -149,7 +149,9 @@ const METRICS: [&str; 6] = [
     "max:plant.runner_position",
 ];
 
-/// The metrics of one row on a freshly loaded system, through `master::run`.
+/// The metrics of one row on a freshly loaded system, through `master::run`: its whole
+/// trace fed to the reducer a sweep feeds row by row (`Metrics::compute`), so a sweep row
+/// that differs is the run's difference (a reset that missed a state), not the metrics'.
 fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
     let mut params = setup.params.clone();
     params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));

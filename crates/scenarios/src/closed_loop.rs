@@ -12,6 +12,7 @@ use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
 use crate::gait::Step;
+use crate::holding::{Held, HoldingRms, Parked, Settle};
 use inchworm_cosim::ssp::Archive;
 use inchworm_cosim::Trace;
 
@@ -26,11 +27,11 @@ pub const REFERENCE: &str = "reference";
 /// component `reference`.
 pub const REFERENCE_OUTPUT: &str = "reference.reference";
 const ENCODER_COUNTS: &str = "plant.encoder_counts";
-const ENCODER_POSITION: &str = "plant.encoder_position";
+pub(crate) const ENCODER_POSITION: &str = "plant.encoder_position";
 const RUNNER_POSITION: &str = "plant.runner_position";
-const DAC: [&str; 3] =
+pub(crate) const DAC: [&str; 3] =
     ["controller.dac_earth", "controller.dac_nonearth", "controller.dac_extension"];
-const DISTURBANCE_ESTIMATE: &str = "controller.disturbance_estimate";
+pub(crate) const DISTURBANCE_ESTIMATE: &str = "controller.disturbance_estimate";
 const N_STEPS: &str = "controller.n_steps";
 const FRACTION: &str = "controller.fraction";
 
@@ -263,12 +264,21 @@ impl LoopView {
         Ok(())
     }
 
-    /// Indices of the parked samples (docs/model.md §4.1): all three DAC outputs zero for the
-    /// previous 8 samples.
+    /// Indices of the samples that `rule` judges, fed every sample's held DAC volts in turn.
+    fn judged(&self, mut rule: impl FnMut(&[f64; 3]) -> bool) -> Vec<usize> {
+        let mut out = Vec::new();
+        for (i, dac) in self.dac.iter().enumerate() {
+            if rule(dac) {
+                out.push(i);
+            }
+        }
+        out
+    }
+
+    /// Indices of the parked samples (docs/model.md §4.1, [`Parked`]).
     pub fn parked(&self) -> Vec<usize> {
-        (8..self.time.len())
-            .filter(|&i| self.dac[i - 7..=i].iter().all(|d| d.iter().all(|v| *v == 0.0)))
-            .collect()
+        let mut parked = Parked::default();
+        self.judged(|dac| parked.next(dac))
     }
 
     /// Position error (m) of sample `i`: reference − encoder position.
@@ -276,26 +286,32 @@ impl LoopView {
         self.reference[i] - self.encoder_position[i]
     }
 
-    /// First time after which every parked sample is within `tol` of the reference.
-    pub fn settle_time(&self, tol: f64) -> Option<f64> {
-        let parked = self.parked();
-        let last_bad = parked.iter().rposition(|&i| self.error(i).abs() > tol);
-        match last_bad {
-            None => parked.first().map(|&i| self.time[i]),
-            Some(j) if j + 1 < parked.len() => Some(self.time[parked[j + 1]]),
-            Some(_) => None,
+    /// The [`Settle`] time of the samples `judged` within `tol` of the reference.
+    fn settle(&self, judged: impl IntoIterator<Item = usize>, tol: f64) -> Option<f64> {
+        let mut settle = Settle::default();
+        for i in judged {
+            settle.push(self.time[i], self.error(i).abs() > tol);
         }
+        settle.time()
     }
 
-    /// RMS error of the parked samples in `[from, to)` s.
+    /// The [`HoldingRms`] of the samples `judged` in `[from, to)` s; 0 if none is in it.
+    fn holding_rms(&self, judged: Vec<usize>, from: f64, to: f64) -> f64 {
+        let mut rms = HoldingRms::new(from, to);
+        for i in judged {
+            rms.push(self.time[i], self.error(i));
+        }
+        rms.value().unwrap_or(0.0)
+    }
+
+    /// First time after which every parked sample is within `tol` of the reference.
+    pub fn settle_time(&self, tol: f64) -> Option<f64> {
+        self.settle(self.parked(), tol)
+    }
+
+    /// RMS error of the parked samples in `[from, to)` s; 0 if none is in it.
     pub fn parked_rms(&self, from: f64, to: f64) -> f64 {
-        let e: Vec<f64> = self
-            .parked()
-            .into_iter()
-            .filter(|&i| self.time[i] >= from && self.time[i] < to)
-            .map(|i| self.error(i))
-            .collect();
-        (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
+        self.holding_rms(self.parked(), from, to)
     }
 }
 
@@ -351,37 +367,21 @@ impl SlewView {
 /// Reading a run of the options of docs/model.md §4.2, where the runner is
 /// also held in DRIVE (analog mode) and the gait may be short.
 impl LoopView {
-    /// Samples a position is judged at: parked (all DACs zero) for the previous 2 samples,
-    /// i.e. the step boundaries of any gait, or in analog hold (both brake DACs at 10 V
-    /// for the previous 40 samples, longer than any DRIVE segment of a gait of up to 100
-    /// samples).
+    /// Samples a position is judged at under these options ([`Held`]).
     pub fn held(&self) -> Vec<usize> {
-        (40..self.time.len())
-            .filter(|&i| {
-                self.dac[i - 1..=i].iter().all(|d| *d == [0.0; 3])
-                    || self.dac[i - 39..=i].iter().all(|d| d[0] == 10.0 && d[1] == 10.0)
-            })
-            .collect()
+        let mut held = Held::default();
+        self.judged(|dac| held.next(dac))
     }
 
     /// First time after `from` after which every [`LoopView::held`] sample is within `tol`.
     pub fn held_settle_time(&self, tol: f64, from: f64) -> Option<f64> {
-        let held: Vec<usize> = self.held().into_iter().filter(|&i| self.time[i] > from).collect();
-        match held.iter().rposition(|&i| self.error(i).abs() > tol) {
-            None => held.first().map(|&i| self.time[i]),
-            Some(j) => held.get(j + 1).map(|&i| self.time[i]),
-        }
+        let held = self.held().into_iter().filter(|&i| self.time[i] > from);
+        self.settle(held, tol)
     }
 
-    /// RMS error of the [`LoopView::held`] samples in `[from, to)` s.
+    /// RMS error of the [`LoopView::held`] samples in `[from, to)` s; 0 if none is in it.
     pub fn held_rms(&self, from: f64, to: f64) -> f64 {
-        let e: Vec<f64> = self
-            .held()
-            .into_iter()
-            .filter(|&i| self.time[i] >= from && self.time[i] < to)
-            .map(|i| self.error(i))
-            .collect();
-        (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt()
+        self.holding_rms(self.held(), from, to)
     }
 
     /// Mean speed (m/s) between 10 % and 90 % of a move from 0 to `distance` > 0.

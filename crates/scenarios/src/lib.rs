@@ -4,8 +4,10 @@
 //!
 //! * [`scenario`]: the named scenarios, through the master on the SSP or direct;
 //! * [`closed_loop`]: the crates coupled directly (the reference) and the closed-loop analysis;
-//! * [`metrics`]: the sweep metrics of a closed loop (settle time, parked RMS, estimates, slips);
-//! * [`stream`]: those metrics computed row by row, as a sweep runs them;
+//! * [`holding`]: how well the runner holds: the parked samples, the settle time and the
+//!   holding RMS, each reduced one sample at a time;
+//! * [`metrics`]: the sweep metrics of a closed loop (settle time, parked RMS, estimates,
+//!   slips), reduced row by row as a sweep runs them;
 //! * [`gait`]: the stepping gait of docs/model.md §3, its raw measurements and the docs/model.md §2.9 check values;
 //! * [`plant`]: the `InchwormPlant` FMU's interface (docs/model.md §5) and an open-loop gait run through it;
 //! * [`controller`]: the `InchwormController` FMU's parameters from the controller crate's;
@@ -16,11 +18,11 @@ pub mod bridge;
 pub mod closed_loop;
 pub mod controller;
 pub mod gait;
+pub mod holding;
 pub mod metrics;
 pub mod plant;
 pub mod plot;
 pub mod scenario;
-pub mod stream;
 pub mod sweep_plots;
 
 /// What a scenario run reports: the engine's error as it is, or the analysis' message (a

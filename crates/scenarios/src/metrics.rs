@@ -1,10 +1,12 @@
-//! The sweep metrics of the actuator's closed loop, computed from each run's trace; chosen
-//! by `inchworm sweep --metric`.
+//! The sweep metrics of the actuator's closed loop, chosen by `inchworm sweep --metric`,
+//! each reduced row by row as a run goes ([`Reducer`]).
 //!
-//! * `settle[:TOL]`: the settle time (s) within ±TOL m (default 1e-6) of the reference,
-//!   as [`LoopView::settle_time`] defines it (the first time after which every parked
-//!   sample is in the band); empty if the run never settles;
-//! * `rms:FROM:TO`: RMS error (m) of the parked samples in [FROM, TO) s;
+//! * `settle[:TOL]`: the settle time (s) within ±TOL m (default 1e-6) of the reference:
+//!   the first time after which every parked sample is in the band ([`Settle`] over the
+//!   [`Parked`] samples, as [`LoopView::settle_time`](crate::closed_loop::LoopView::settle_time)
+//!   reads a whole run); empty if the run never settles;
+//! * `rms:FROM:TO`: the holding RMS error (m) of the parked samples in [FROM, TO) s
+//!   ([`HoldingRms`]); empty if none is in the window;
 //! * `disturbance`: the controller's final disturbance estimate (m);
 //! * `slips`: the plant's slip events (entries into FREE) over the run;
 //! * `final:NAME`, `min:NAME`, `max:NAME`: any recorded variable's last, least or greatest
@@ -12,13 +14,15 @@
 //!
 //! The column of a metric in the results is its flag text, as given.
 
-use inchworm_cosim::sweep::metrics::{check_column_name, BoxError, Metrics, Reduce, RowMetrics};
-use inchworm_cosim::{Error, Trace};
+use inchworm_cosim::sweep::metrics::{
+    check_column_name, BoxError, Metrics, Reduce, ReduceStream, RowMetrics,
+};
+use inchworm_cosim::Error;
 
-use crate::closed_loop::{self, LoopView};
+use crate::closed_loop::{self, DAC, DISTURBANCE_ESTIMATE, ENCODER_POSITION};
+use crate::holding::{HoldingRms, Parked, Settle};
 
-pub(crate) const SLIP_EVENTS: &str = "plant.slip_events";
-pub(crate) const DISTURBANCE: &str = "controller.disturbance_estimate";
+const SLIP_EVENTS: &str = "plant.slip_events";
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Kind {
@@ -99,23 +103,6 @@ impl Metric {
     fn needs_loop(&self) -> bool {
         matches!(self.kind, Kind::Settle { .. } | Kind::ParkedRms { .. })
     }
-
-    /// The value of this metric on one run; `None` where it has none (a run that does not
-    /// settle).
-    pub fn compute(&self, trace: &Trace, view: Option<&LoopView>) -> Result<Option<f64>, BoxError> {
-        let last = |name: &str| Reduce::Final(name.to_string()).compute(&self.name, trace);
-        Ok(match &self.kind {
-            Kind::Settle { tol } => view.ok_or("no closed-loop view")?.settle_time(*tol),
-            Kind::ParkedRms { from, to } => {
-                let v = view.ok_or("no closed-loop view")?;
-                let any = v.parked().iter().any(|&i| v.time[i] >= *from && v.time[i] < *to);
-                any.then(|| v.parked_rms(*from, *to))
-            }
-            Kind::Disturbance => last(DISTURBANCE)?,
-            Kind::Slips => last(SLIP_EVENTS)?,
-            Kind::Reduce(r) => r.compute(&self.name, trace)?,
-        })
-    }
 }
 
 /// A sweep's metrics, in order: what [`inchworm_cosim::sweep::exec::Setup`] takes.
@@ -146,6 +133,11 @@ impl LoopMetrics {
     pub fn for_system(self, system: &std::path::Path) -> Result<LoopMetrics, Error> {
         Ok(LoopMetrics { reference: closed_loop::reference_name(system)?, ..self })
     }
+
+    /// These metrics on rows of the variables `names` (the run's recorded names).
+    pub fn reducer(&self, names: &[String]) -> Result<Reducer, Error> {
+        Reducer::new(&self.metrics, names)
+    }
 }
 
 impl Metrics for LoopMetrics {
@@ -166,7 +158,7 @@ impl Metrics for LoopMetrics {
         }
         for m in &self.metrics {
             match &m.kind {
-                Kind::Disturbance => add(DISTURBANCE),
+                Kind::Disturbance => add(DISTURBANCE_ESTIMATE),
                 Kind::Slips => add(SLIP_EVENTS),
                 Kind::Reduce(r) => add(r.variable()),
                 _ => {}
@@ -175,18 +167,193 @@ impl Metrics for LoopMetrics {
         names
     }
 
-    /// The closed-loop view is built once per run, for every metric that reads it.
-    fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError> {
-        let view = if self.metrics.iter().any(Metric::needs_loop) {
-            Some(LoopView::new(trace)?)
+    /// Row by row: a [`Reducer`] of these metrics.
+    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
+        Ok(Box::new(self.reducer(names)?))
+    }
+}
+
+/// Where the closed loop's columns are in a row.
+#[derive(Clone, Copy, Debug)]
+struct LoopColumns {
+    reference: usize,
+    position: usize,
+    dac: [usize; 3],
+}
+
+impl LoopColumns {
+    fn find(names: &[String]) -> Result<LoopColumns, Error> {
+        let missing = |name: &str| Error::Config(format!("the trace has no `{name}`"));
+        let at = |name: &str| names.iter().position(|x| x == name).ok_or_else(|| missing(name));
+        Ok(LoopColumns {
+            // The reference under either of its names, as the closed-loop view reads it.
+            reference: closed_loop::reference_index(names)
+                .ok_or_else(|| missing(closed_loop::REFERENCE))?,
+            position: at(ENCODER_POSITION)?,
+            dac: [at(DAC[0])?, at(DAC[1])?, at(DAC[2])?],
+        })
+    }
+}
+
+/// The closed loop's samples read row by row, as the closed-loop view reads a whole trace:
+/// row k ≥ 1 completes sample k, with that row's position error and the DAC volts of row
+/// k − 1 (what was held during `[t_{k-1}, t_k)`).
+#[derive(Clone, Debug)]
+struct LoopSamples {
+    columns: LoopColumns,
+    /// The previous row's DAC volts; none before the first row.
+    held: Option<[f64; 3]>,
+    parked: Parked,
+}
+
+impl LoopSamples {
+    /// The position error of the sample that `row` completes, if that sample is parked.
+    fn next(&mut self, row: &[f64]) -> Option<f64> {
+        let c = self.columns;
+        let held = self.held.replace(c.dac.map(|i| row[i]));
+        // The t = 0 row completes no sample.
+        let parked = held.is_some_and(|dac| self.parked.next(&dac));
+        parked.then(|| row[c.reference] - row[c.position])
+    }
+}
+
+#[derive(Clone, Debug)]
+enum State {
+    /// `final:`, `min:`, `max:`, and the last value of `disturbance` and `slips`.
+    Reduce(ReduceStream),
+    Settle {
+        tol: f64,
+        settle: Settle,
+    },
+    Rms(HoldingRms),
+}
+
+/// The metrics of one run, fed one row at a time ([`Reducer::push`]), t = 0 first.
+#[derive(Clone, Debug)]
+pub struct Reducer {
+    states: Vec<State>,
+    /// The closed loop's samples, where a metric reads them.
+    samples: Option<LoopSamples>,
+}
+
+impl Reducer {
+    /// For `metrics` on rows of the variables `names` (the run's recorded names).
+    pub fn new(metrics: &[Metric], names: &[String]) -> Result<Reducer, Error> {
+        let samples = if metrics.iter().any(Metric::needs_loop) {
+            Some(LoopSamples {
+                columns: LoopColumns::find(names)?,
+                held: None,
+                parked: Parked::default(),
+            })
         } else {
             None
         };
-        self.metrics.iter().map(|m| m.compute(trace, view.as_ref())).collect()
+        let last = |m: &Metric, n: &str| Reduce::Final(n.to_string()).stream(&m.name, names);
+        let states = metrics
+            .iter()
+            .map(|m| {
+                Ok(match &m.kind {
+                    Kind::Settle { tol } => State::Settle { tol: *tol, settle: Settle::default() },
+                    Kind::ParkedRms { from, to } => State::Rms(HoldingRms::new(*from, *to)),
+                    Kind::Disturbance => State::Reduce(last(m, DISTURBANCE_ESTIMATE)?),
+                    Kind::Slips => State::Reduce(last(m, SLIP_EVENTS)?),
+                    Kind::Reduce(r) => State::Reduce(r.stream(&m.name, names)?),
+                })
+            })
+            .collect::<Result<_, Error>>()?;
+        Ok(Reducer { states, samples })
     }
 
-    /// Row by row ([`crate::stream::Reducer`]), to the bit what [`Metrics::compute`] gives.
-    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
-        crate::stream::stream(self, names)
+    /// The row at time `t`.
+    pub fn push(&mut self, t: f64, row: &[f64]) {
+        let parked_error = self.samples.as_mut().and_then(|s| s.next(row));
+        for s in &mut self.states {
+            match (s, parked_error) {
+                (State::Reduce(r), _) => r.push(row),
+                (State::Settle { tol, settle }, Some(e)) => settle.push(t, e.abs() > *tol),
+                (State::Rms(rms), Some(e)) => rms.push(t, e),
+                _ => {}
+            }
+        }
+    }
+
+    /// Every metric's value, in order; `None` where it has none.
+    pub fn finish(&self) -> Vec<Option<f64>> {
+        self.states
+            .iter()
+            .map(|s| match s {
+                State::Reduce(r) => r.value(),
+                State::Settle { settle, .. } => settle.time(),
+                State::Rms(rms) => rms.value(),
+            })
+            .collect()
+    }
+}
+
+impl RowMetrics for Reducer {
+    fn push(&mut self, t: f64, row: &[f64]) {
+        Reducer::push(self, t, row);
+    }
+
+    fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError> {
+        Ok(Reducer::finish(self))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use inchworm_controller::Params;
+    use inchworm_plant::PlantParams;
+
+    use super::*;
+    use crate::closed_loop::LoopView;
+
+    /// Fig. 5, full control, the crates coupled directly: the metrics of its rows are what
+    /// the closed-loop view of the whole trace reads, to the bit, and the scenario's figures.
+    #[test]
+    fn fig5_row_metrics_are_the_closed_loop_views_figures() {
+        let trace = closed_loop::run(PlantParams::fia20(), Params::default(), |_| 100e-6, 10.0)
+            .expect("the loop runs");
+        let texts = ["settle:1e-6", "rms:6:10", "disturbance", "settle:1e-12", "rms:0:0.01"];
+        let values = LoopMetrics::parse(&texts).unwrap().compute(&trace).unwrap();
+        let view = LoopView::new(&trace).unwrap();
+        let bits = |v: Option<f64>| v.map(f64::to_bits);
+        assert_eq!(bits(values[0]), bits(view.settle_time(1e-6)));
+        assert_eq!(bits(values[1]), bits(Some(view.parked_rms(6.0, 10.0))));
+        assert_eq!(bits(values[2]), bits(view.disturbance_estimate.last().copied()));
+        // `inchworm scenario fig5`: settles within 1 µm at 0.788 s, parked RMS 3.027 nm in
+        // [6, 10) s, final disturbance estimate 4.658 µm.
+        let settle = values[0].unwrap();
+        assert!((settle - 0.788).abs() < 1e-9, "settle {settle}");
+        let rms = values[1].unwrap();
+        assert!((rms * 1e9 - 3.027).abs() < 5e-4, "rms {rms}");
+        let disturbance = values[2].unwrap();
+        assert!((disturbance * 1e6 - 4.658).abs() < 5e-4, "disturbance {disturbance}");
+        // Never within a picometre; no parked sample in the first 10 ms.
+        assert_eq!((values[3], view.settle_time(1e-12)), (None, None));
+        assert_eq!((values[4], view.parked_rms(0.0, 0.01)), (None, 0.0));
+    }
+
+    #[test]
+    fn a_row_completes_the_sample_before_it_with_the_previous_rows_dac_volts() {
+        let m = LoopMetrics::parse(&["settle:1e-6", "rms:0:1"]).unwrap();
+        let names = m.recorded();
+        let mut reducer = m.reducer(&names).unwrap();
+        let row = |error: f64, dac: f64| {
+            // Reference 0: the error is minus the encoder position.
+            let mut v = vec![0.0; names.len()];
+            v[2] = -error;
+            v[4] = dac;
+            v
+        };
+        // Rows 0..=8 hold zero volts; row 9 completes sample 8, the first that may be
+        // parked, with row 8's volts. Row 9 commands a step: row 10's sample is not parked.
+        for k in 0..9 {
+            reducer.push(k as f64 * 0.002, &row(5e-6, 0.0));
+        }
+        reducer.push(0.018, &row(2e-9, 10.0));
+        reducer.push(0.020, &row(7e-6, 0.0));
+        let values = reducer.finish();
+        assert_eq!(values, [Some(0.018), Some(2e-9)]);
     }
 }

@@ -1,13 +1,16 @@
-//! What each run of a sweep reports, computed from its trace. The engine's own metrics
-//! read any recorded variable (`final:NAME`, `min:NAME`, `max:NAME`); a model's analysis
-//! adds its own through [`Metrics`] (the actuator's settle time and parked RMS live with
-//! its scenarios, in `inchworm-scenarios`). A sweep computes them row by row as the master
-//! produces the rows ([`Metrics::stream`], [`RowMetrics`]), so a run of any length takes
-//! the memory of one row.
+//! What each run of a sweep reports. The engine's own metrics read any recorded variable
+//! (`final:NAME`, `min:NAME`, `max:NAME`); a model's analysis adds its own through
+//! [`Metrics`] (the actuator's settle time and holding RMS live with its scenarios, in
+//! `inchworm-scenarios`).
+//!
+//! Every metric is a reducer fed one row at a time ([`Metrics::stream`], [`RowMetrics`]):
+//! a sweep feeds it the rows as the master produces them, so a run of any length takes the
+//! memory of one row (a whole trace of a long run would be gigabytes, and its allocation
+//! aborts the process); the metrics of a whole trace ([`Metrics::compute`]) are the same
+//! reducer fed the trace's rows, so both give the same values to the bit.
 
 use std::fmt::Debug;
 
-use crate::sweep::stream::ReduceStream;
 use crate::trace::Trace;
 use crate::Error;
 
@@ -15,23 +18,24 @@ use crate::Error;
 pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
 /// The metrics of a sweep: their column names, the variables a run must record for them,
-/// and their values on one run's trace. Shared by every worker thread.
+/// and their reducer over one run's rows. Shared by every worker thread.
 pub trait Metrics: Debug + Send + Sync {
     /// One column name per metric, in order.
     fn names(&self) -> Vec<String>;
     /// The variables a run must record, each once.
     fn recorded(&self) -> Vec<String>;
-    /// Every metric on one run's trace, in the order of [`Metrics::names`]; `None` where a
-    /// metric has no value on this run.
-    fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError>;
+    /// The metrics of one run, to be fed its rows of the variables `names` (the run's
+    /// recorded names), t = 0 first.
+    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError>;
 
-    /// The metrics of one run fed row by row, for rows of the variables `names` (the run's
-    /// recorded names, t = 0 first); at the end the values [`Metrics::compute`] gives on
-    /// the whole trace, to the bit. The default keeps the rows and computes on the trace,
-    /// in memory that grows with the run: an implementation that can reduce each row as it
-    /// comes should (the sweep runs in the memory of one row then).
-    fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
-        Ok(Box::new(Buffered { metrics: self, trace: Trace::new(names.to_vec()) }))
+    /// Every metric on one run's whole trace, in the order of [`Metrics::names`]: the
+    /// trace's rows fed to [`Metrics::stream`].
+    fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError> {
+        let mut metrics = self.stream(&trace.names)?;
+        for (t, row) in &trace.rows {
+            metrics.push(*t, row);
+        }
+        metrics.finish()
     }
 }
 
@@ -41,22 +45,6 @@ pub trait RowMetrics {
     fn push(&mut self, t: f64, row: &[f64]);
     /// Every metric's value, in the order of [`Metrics::names`]; `None` where it has none.
     fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError>;
-}
-
-/// [`Metrics::stream`] for metrics that only compute on a whole trace.
-struct Buffered<'a, M: ?Sized> {
-    metrics: &'a M,
-    trace: Trace,
-}
-
-impl<M: Metrics + ?Sized> RowMetrics for Buffered<'_, M> {
-    fn push(&mut self, t: f64, row: &[f64]) {
-        self.trace.push(t, row.to_vec());
-    }
-
-    fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError> {
-        self.metrics.compute(&self.trace)
-    }
 }
 
 /// A recorded variable reduced to one number.
@@ -90,23 +78,52 @@ impl Reduce {
         }
     }
 
-    /// Its value on `trace`; `metric` names it in the error if the trace lacks the variable.
-    pub fn compute(&self, metric: &str, trace: &Trace) -> Result<Option<f64>, Error> {
+    /// Its reducer on rows of the variables `names`; `metric` names it in the error if
+    /// they lack its variable.
+    pub fn stream(&self, metric: &str, names: &[String]) -> Result<ReduceStream, Error> {
         let n = self.variable();
-        let column = trace
-            .column(n)
+        let column = names
+            .iter()
+            .position(|x| x == n)
             .ok_or_else(|| Error::Config(format!("metric {metric}: the trace has no `{n}`")))?;
-        Ok(match self {
-            Reduce::Final(_) => column.last().copied(),
-            Reduce::Min(_) => column.into_iter().reduce(f64::min),
-            Reduce::Max(_) => column.into_iter().reduce(f64::max),
-        })
+        let how = match self {
+            Reduce::Final(_) => How::Last,
+            Reduce::Min(_) => How::Min,
+            Reduce::Max(_) => How::Max,
+        };
+        Ok(ReduceStream { column, how, value: None })
+    }
+}
+
+#[derive(Clone, Copy, Debug)]
+enum How {
+    Last,
+    Min,
+    Max,
+}
+
+/// A [`Reduce`] fed one row at a time ([`Reduce::stream`]).
+#[derive(Clone, Debug)]
+pub struct ReduceStream {
+    column: usize,
+    how: How,
+    value: Option<f64>,
+}
+
+impl ReduceStream {
+    /// The next row.
+    pub fn push(&mut self, row: &[f64]) {
+        let x = row[self.column];
+        self.value = Some(match (self.how, self.value) {
+            (How::Last, _) | (_, None) => x,
+            (How::Min, Some(m)) => m.min(x),
+            (How::Max, Some(m)) => m.max(x),
+        });
     }
 
-    /// [`Reduce::compute`] row by row, on rows of the variables `names`; `metric` names
-    /// it in the error if they lack the variable (the same error).
-    pub fn stream(&self, metric: &str, names: &[String]) -> Result<ReduceStream, Error> {
-        ReduceStream::new(self, metric, names)
+    /// Its value on the rows so far; `None` before the first.
+    pub fn value(&self) -> Option<f64> {
+        self.value
     }
 }
 
@@ -164,10 +181,6 @@ impl Metrics for Reductions {
         names
     }
 
-    fn compute(&self, trace: &Trace) -> Result<Vec<Option<f64>>, BoxError> {
-        Ok(self.0.iter().map(|(n, r)| r.compute(n, trace)).collect::<Result<_, _>>()?)
-    }
-
     fn stream<'a>(&'a self, names: &[String]) -> Result<Box<dyn RowMetrics + 'a>, BoxError> {
         let streams = self.0.iter().map(|(n, r)| r.stream(n, names)).collect::<Result<_, _>>()?;
         Ok(Box::new(ReductionStreams(streams)))
@@ -184,5 +197,35 @@ impl RowMetrics for ReductionStreams {
 
     fn finish(&mut self) -> Result<Vec<Option<f64>>, BoxError> {
         Ok(self.0.iter().map(ReduceStream::value).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace() -> Trace {
+        let mut t = Trace::new(vec!["a.x".into(), "b.y".into()]);
+        t.push(0.0, vec![2.0, -1.0]);
+        t.push(0.5, vec![-3.5, 4.0]);
+        t.push(1.0, vec![1.25, 0.5]);
+        t
+    }
+
+    #[test]
+    fn reductions_give_the_last_least_and_greatest_value() {
+        let r = Reductions::parse(&["final:a.x", "min:a.x", "max:b.y", "min:b.y"]).unwrap();
+        assert_eq!(r.recorded(), ["a.x", "b.y"]);
+        let values = r.compute(&trace()).unwrap();
+        assert_eq!(values, [Some(1.25), Some(-3.5), Some(4.0), Some(-1.0)]);
+    }
+
+    #[test]
+    fn a_trace_without_rows_has_no_values_and_a_missing_variable_is_named() {
+        let r = Reductions::parse(&["final:a.x", "max:b.y"]).unwrap();
+        let empty = Trace::new(vec!["a.x".into(), "b.y".into()]);
+        assert_eq!(r.compute(&empty).unwrap(), [None, None]);
+        let e = Reductions::parse(&["max:c.z"]).unwrap().compute(&trace()).unwrap_err();
+        assert_eq!(e.to_string(), "metric max:c.z: the trace has no `c.z`");
     }
 }

@@ -1,7 +1,7 @@
-//! Parameter sweeps over a system: the plan ([`plan`]), what each run reports
-//! ([`metrics`]), running a plan on worker threads ([`exec`]), and the results as CSV and
-//! JSON lines; [`ranges`] refuses a swept value outside its declared range; [`stream`]
-//! reduces a run's rows to the engine's metrics as they come, in the memory of one row.
+//! Parameter sweeps over a system: the plan ([`plan`]), what each run reports, reduced
+//! row by row as the run goes ([`metrics`]), running a plan on worker threads ([`exec`]),
+//! and the results as CSV and JSON lines; [`ranges`] refuses a swept value outside its
+//! declared range.
 //!
 //! The results table has one row per run: `run,sample,<parameter>,…,<metric>,…,status,error`;
 //! a metric with no value (a run that never settles) and the metrics of a failed run are
@@ -11,7 +11,6 @@ pub mod exec;
 pub mod metrics;
 pub mod plan;
 pub mod ranges;
-pub mod stream;
 
 use std::fmt::Write as _;
 

@@ -2,6 +2,7 @@
 //! `dist/MirrorMount.ssp`, commanded in piston and tip, measured in pointing.
 
 use super::*;
+use crate::holding::{HoldingRms, Settle};
 
 /// The mirror mount's command, as `fmu-build` writes it into `MirrorMount.ssp` (each
 /// reference's default binding): piston from t = 0, the tip on top of it from
@@ -54,21 +55,19 @@ fn parked_rows(trace: &Trace) -> Vec<usize> {
         .collect()
 }
 
-/// When a signal settles, measured from `from`: the first parked row after the last
-/// parked row at or after `from` where `bad` holds.
+/// When a signal settles, measured from `from`: the [`Settle`] time of the parked rows at
+/// or after `from`, a row outside the band where `bad` holds.
 fn settle(
     trace: &Trace,
     parked: &[usize],
     from: f64,
     bad: impl Fn(f64, &[f64]) -> bool,
 ) -> Option<f64> {
-    let rows: Vec<&(f64, Vec<f64>)> =
-        parked.iter().map(|&i| &trace.rows[i]).filter(|(t, _)| *t >= from).collect();
-    match rows.iter().rposition(|(t, v)| bad(*t, v)) {
-        None => rows.first().map(|(t, _)| t - from),
-        Some(j) if j + 1 < rows.len() => Some(rows[j + 1].0 - from),
-        Some(_) => None,
+    let mut settle = Settle::default();
+    for (t, v) in parked.iter().map(|&i| &trace.rows[i]).filter(|(t, _)| *t >= from) {
+        settle.push(*t, bad(*t, v));
     }
+    settle.time().map(|t| t - from)
 }
 
 /// Runs `MirrorMount.ssp` by the master (Jacobi, 2 ms, no input: the commands are the
@@ -102,15 +101,17 @@ impl MirrorRun {
         });
         let tip_settle =
             settle(&trace, &parked, MIRROR_TIP_TIME, |t, v| pointing(t, v) > MIRROR_POINTING_TOL);
-        let window: Vec<&(f64, Vec<f64>)> = parked
-            .iter()
-            .map(|&i| &trace.rows[i])
-            .filter(|(t, _)| *t >= MIRROR_REGULATION)
-            .collect();
-        let rms =
-            |e: Vec<f64>| (e.iter().map(|x| x * x).sum::<f64>() / e.len().max(1) as f64).sqrt();
-        let pointing_rms = rms(window.iter().map(|(t, v)| pointing(*t, v)).collect());
-        let piston_rms = rms(window.iter().map(|(_, v)| v[piston] - MIRROR_PISTON).collect());
+        // The holding RMS of each error over the parked rows from the regulation on.
+        let (mut pointing_rms, mut piston_rms) = (
+            HoldingRms::new(MIRROR_REGULATION, f64::INFINITY),
+            HoldingRms::new(MIRROR_REGULATION, f64::INFINITY),
+        );
+        for (t, v) in parked.iter().map(|&i| &trace.rows[i]) {
+            pointing_rms.push(*t, pointing(*t, v));
+            piston_rms.push(*t, v[piston] - MIRROR_PISTON);
+        }
+        let pointing_rms = pointing_rms.value().unwrap_or(0.0);
+        let piston_rms = piston_rms.value().unwrap_or(0.0);
         MirrorRun { trace, piston_settle, tip_settle, pointing_rms, piston_rms }
     }
 }
