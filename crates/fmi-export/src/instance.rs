@@ -28,49 +28,7 @@ const _: () = {
     assert!(fmi2::fmi2Fatal == FATAL && fmi3::fmi3Fatal == FATAL);
 };
 
-/// The core state machine: the states of FMI 2.0 Co-Simulation (section 4.2.4), one bit
-/// each so that every entry point names the states it is allowed in as a mask. FMI 3.0
-/// Co-Simulation without event mode (section 4.2) is the same machine with fewer states:
-/// its Step Mode is StepComplete, and it never enters StepInProgress, StepFailed or
-/// StepCanceled ([`Standard::STATES`]). Model Exchange (FMI 2.0 section 3.2.3, FMI 3.0
-/// section 3.2) shares Instantiated, InitializationMode, Terminated, Error and Fatal and
-/// adds EventMode and ContinuousTimeMode; which states an instance may be in is its
-/// [`Interface`]'s. The codes are also those of the serialized-state frame, so a blob
-/// saved through one standard restores through the other.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u16)]
-pub enum State {
-    Instantiated = 1 << 0,
-    InitializationMode = 1 << 1,
-    StepComplete = 1 << 2,
-    StepInProgress = 1 << 3,
-    StepFailed = 1 << 4,
-    StepCanceled = 1 << 5,
-    Terminated = 1 << 6,
-    Error = 1 << 7,
-    Fatal = 1 << 8,
-    EventMode = 1 << 9,
-    ContinuousTimeMode = 1 << 10,
-}
-
-impl State {
-    /// The FMI 2.0 name; [`Standard::state_name`] gives each standard's own.
-    pub fn name(self) -> &'static str {
-        match self {
-            State::Instantiated => "Instantiated",
-            State::InitializationMode => "InitializationMode",
-            State::StepComplete => "StepComplete",
-            State::StepInProgress => "StepInProgress",
-            State::StepFailed => "StepFailed",
-            State::StepCanceled => "StepCanceled",
-            State::Terminated => "Terminated",
-            State::Error => "Error",
-            State::Fatal => "Fatal",
-            State::EventMode => "EventMode",
-            State::ContinuousTimeMode => "ContinuousTimeMode",
-        }
-    }
-}
+pub use crate::state::State;
 
 /// The interface an instance was instantiated for: one model, one core, two sets of
 /// states and calls.
@@ -93,7 +51,7 @@ impl Interface {
                     | State::StepCanceled as u16
             }
         };
-        crate::entry::ALL_STATES & !only_other
+        crate::state::ALL_STATES & !only_other
     }
 
     pub fn name(self) -> &'static str {

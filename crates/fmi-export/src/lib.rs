@@ -22,6 +22,7 @@ pub mod instance;
 pub mod model_description;
 pub mod registry;
 pub mod standards;
+mod state;
 mod state_blob;
 mod table;
 pub mod testing;

@@ -1,0 +1,76 @@
+//! What every entry point does first: find its instance (refusing any pointer that is not
+//! a live instance of its model and standard) and check the call against the instance's
+//! state; and the pointer and string helpers of the C arguments.
+
+use std::ffi::{c_void, CStr};
+use std::os::raw::c_char;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use crate::instance::*;
+use crate::state::*;
+use crate::{registry, Model};
+
+/// Runs `body` on the instance behind `c` if the call is allowed in its state. A pointer
+/// that is not a live instance of this model and standard (NULL, freed, another FMU's,
+/// junk) is refused without being read: there is no logger to tell but the instance's.
+pub unsafe fn with_instance<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    body: impl FnOnce(&mut Instance<S, M>) -> Status,
+) -> Status {
+    let c = c as *mut Instance<S, M>;
+    if c.is_null() || !registry::is_live(c) {
+        return ERROR;
+    }
+    let inst = &mut *c;
+    if inst.state as u16 & allowed == 0 {
+        let state = S::state_name(inst.state);
+        let why = format_args!("illegal call sequence: not allowed in state {state}");
+        return inst.refuse(func, why);
+    }
+    inst.log(OK, LogCategory::All, format_args!("{func}"));
+    match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
+        Ok(status) => status,
+        Err(panic) => {
+            inst.state = State::Fatal;
+            let what = panic_text(panic.as_ref());
+            let why = format_args!("{func}: internal error, instance unusable: {what}");
+            inst.log(FATAL, LogCategory::StatusError, why);
+            FATAL
+        }
+    }
+}
+
+pub(super) unsafe fn slice<'a, T>(ptr: *const T, n: usize) -> Option<&'a [T]> {
+    match (n, ptr.is_null()) {
+        (0, _) => Some(&[]),
+        (_, true) => None,
+        _ => Some(std::slice::from_raw_parts(ptr, n)),
+    }
+}
+
+pub(super) unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize) -> Option<&'a mut [T]> {
+    match (n, ptr.is_null()) {
+        (0, _) => Some(&mut []),
+        (_, true) => None,
+        _ => Some(std::slice::from_raw_parts_mut(ptr, n)),
+    }
+}
+
+pub(super) fn text(p: *const c_char) -> String {
+    // SAFETY: callers pass a non-NULL C string of the master's.
+    unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+}
+
+/// An entry point this FMU does not support: logged with the reason, Error.
+pub unsafe fn unsupported<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    allowed: u16,
+    why: &str,
+) -> Status {
+    with_instance::<S, M>(c, func, allowed, |inst| {
+        inst.refuse(func, format_args!("not supported: {why}"))
+    })
+}
