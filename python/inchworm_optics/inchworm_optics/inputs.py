@@ -60,7 +60,8 @@ class Range:
 
 
 # ---- the command line ----
-DURATION = Range(0.0, lo_open=True, unit="s", why="the run's length; it must hold a frame in each window it measures")
+DURATION = Range(0.0, 3600.0, lo_open=True, unit="s",
+                 why="an hour is 1.8 M samples a run, about 1.7 h of CPU each")
 RATE = Range(0.0, 1.0 / STEP_S, lo_open=True, unit="Hz",
              why=f"a frame integrates a whole number of the {STEP_S * 1e3:g} ms samples, at least one")
 GRID = Range(8, 1024, unit="px", integer=True,
@@ -91,24 +92,23 @@ def sample_counts(duration_s, period_s):
     return int(round(duration_s / STEP_S)), max(1, int(round(period_s / STEP_S)))
 
 
-def frame_times(duration_s, frame_s):
-    """(start, end) of every frame of a run, in `scenario.run`'s arithmetic."""
+def last_frame(duration_s, frame_s):
+    """(start, end) of a run's last frame, in `scenario.run`'s arithmetic; None if the run
+    is shorter than a frame."""
     n, per = sample_counts(duration_s, frame_s)
-    out = []
-    for j in range(n // per):
-        end = ((j + 1) * per - 1) * STEP_S + STEP_S
-        out.append((end - per * STEP_S, end))
-    return out
+    if n < per:
+        return None
+    end = (n // per * per - 1) * STEP_S + STEP_S  # the sample k closing it, k h + h
+    return end - per * STEP_S, end
 
 
 def window_end_s(duration_s, frame_s, every_sample=True):
     """The latest start of a window (regulation, hold) that still holds a frame (by its
     middle) and, with `every_sample`, a sample; None if the run has no frame."""
-    frames = frame_times(duration_s, frame_s)
-    if not frames:
+    frame = last_frame(duration_s, frame_s)
+    if frame is None:
         return None
-    start, end = frames[-1]
-    mid = (start + end) / 2
+    mid = (frame[0] + frame[1]) / 2
     n, _ = sample_counts(duration_s, frame_s)
     return min(mid, (n - 1) * STEP_S) if every_sample else mid
 
