@@ -121,10 +121,10 @@ def check_arguments(a, rx):
     half_mas = a.fov / 2 * rx.pixel_scale_mas
     if drifting and max(abs(v) for v in offset) > half_mas:
         raise InputError(f"--offset {a.offset}: the star starts off the {a.fov}-px detector; accepted |X|, |Y| ≤ "
-                         f"{half_mas:.0f} mas (half the detector's field)")
+                         f"{half_mas:.1f} mas (half the detector's field)")
     if "drift" in names and max(abs(o + d * a.duration) for o, d in zip(offset, drift)) > half_mas:
         raise InputError(f"--drift {a.drift} with --offset {a.offset} over {a.duration:g} s: the unguided run's star "
-                         f"leaves the {a.fov}-px detector; accepted |offset + drift × duration| ≤ {half_mas:.0f} mas "
+                         f"leaves the {a.fov}-px detector; accepted |offset + drift × duration| ≤ {half_mas:.1f} mas "
                          "on each axis (half the detector's field)")
 
     _, per_guide = sample_counts(a.duration, 1.0 / a.guide_rate)
@@ -262,12 +262,12 @@ def _main(argv):
     from .cosim import parse_params
 
     params = parse_params(ssp, a.param)
+    out = output_folder(a.out)  # the last check: it creates the folder
     from . import figures
     from .optics import Instrument
     from .scenario import figures as run_figures, held, run
 
     inst = Instrument(rx, npix_pupil=a.pupil, fov_pixels=a.fov)
-    out = output_folder(a.out)
     s = rx.summary()
     print(f"Telescope: D = {rx.aperture_m:g} m, f/{s['primary_f_number']:g} primary, secondary m = "
           f"{rx.secondary_magnification:g}, f = {rx.focal_length_m:g} m (f/{rx.f_number:g}), s' = "
