@@ -110,8 +110,8 @@ def check_arguments(a, rx):
         raise InputError(f"--duration {a.duration:g}: shorter than one {frame_s:g} s frame (--frame-rate "
                          f"{a.frame_rate:g}); accepted value ≥ {frame_s:g} s")
     if a.regulation > end:
-        raise InputError(f"--regulation {a.regulation:g}: the {a.duration:g} s run has no frame and sample in "
-                         f"regulation; accepted 0 ≤ value ≤ {end:g} s (the last {frame_s:g} s frame's middle)")
+        raise InputError(f"--regulation {a.regulation:g}: the {a.duration:g} s run has no frame or no sample from "
+                         f"then on; accepted 0 ≤ value ≤ {end:g} s (the last {frame_s:g} s frame's middle)")
     drifting = [x for x in names if x in DRIFT_RUNS]
     if drifting and a.held_from > window_end_s(a.duration, frame_s, every_sample=False):
         end = window_end_s(a.duration, frame_s, every_sample=False)
@@ -209,8 +209,9 @@ def _signals_raise():
 
     previous = {}
     try:
-        for sig in (signal.SIGTERM, signal.SIGHUP):
-            previous[sig] = signal.signal(sig, stop)
+        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):  # no SIGHUP on Windows
+            if sig is not None:
+                previous[sig] = signal.signal(sig, stop)
     except ValueError:  # not the main thread: the signals keep their handlers
         pass
     try:
