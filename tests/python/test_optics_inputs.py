@@ -217,6 +217,14 @@ def test_a_bad_param_is_refused_before_anything_is_unpacked(tmp, ssp, param, wor
     refused(optics(tmp, *SMALL, "--param", param), *words)
 
 
+def test_a_param_the_fmus_refuse_is_refused_before_the_first_run(tmp, ssp):
+    # Analog mode needs deadband 0 (docs/controller-design.md): the controller FMU refuses
+    # the pair at initialization; the stepping run, first, must not have run.
+    r = optics(tmp, *SMALL, "--runs", "stepping,analog", "--param", "controller_a.deadband=1e-6")
+    refused(r, "--param controller_a.deadband=1e-6", "refused them at initialization in analog mode")
+    assert "stepping (regulation" not in r.stdout, r.stdout
+
+
 def test_mount_cosim_leaves_no_folder_when_its_start_fails(ssp, tmp, monkeypatch):
     import tempfile
 

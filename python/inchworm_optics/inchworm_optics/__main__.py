@@ -260,15 +260,25 @@ def _main(argv):
         raise InputError(f"--dist {a.dist}: {ssp} is missing: run `cargo run --release -p fmu-build` first")
     from fmpy.fmi1 import FMICallException
 
-    from .cosim import parse_params
+    from .cosim import MountCosim, parse_params
 
     params = parse_params(ssp, a.param)
     out = output_folder(a.out)  # the last check: it creates the folder
     from . import figures
     from .optics import Instrument
-    from .scenario import figures as run_figures, held, run
+    from .scenario import figures as run_figures, held, run, ssp_params
 
     inst = Instrument(rx, npix_pupil=a.pupil, fov_pixels=a.fov)
+    runs = configs(a, names, frame_s, drift, offset, params)
+    # The FMUs' own checks of the parameters (analog mode needs deadband 0, ...) before the
+    # first run: each distinct set initialized once.
+    for analog, values in {c.analog: ssp_params(c) for c in runs if params}.items():
+        try:
+            MountCosim(ssp, values).close()
+        except FMICallException as e:
+            raise InputError(f"--param {' '.join(a.param)}: the FMUs refused them at initialization"
+                             f"{' in analog mode' if analog else ''} ({str(e).rstrip('.')}; the FMU's message is "
+                             "on stdout)") from None
     s = rx.summary()
     print(f"Telescope: D = {rx.aperture_m:g} m, f/{s['primary_f_number']:g} primary, secondary m = "
           f"{rx.secondary_magnification:g}, f = {rx.focal_length_m:g} m (f/{rx.f_number:g}), s' = "
@@ -284,13 +294,12 @@ def _main(argv):
             progress_at[name] = t
             print(f"  {name}: {t:.0f}/{total:g} s", file=sys.stderr, flush=True)
 
-    for cfg in configs(a, names, frame_s, drift, offset, params):
+    for cfg in runs:
         wall = time.time()
         try:
             results[cfg.name] = run(ssp, inst, cfg, progress)
         except FMICallException as e:
-            raise RunError(f"the {cfg.name} run: an FMU refused a call ({e})"
-                           + ("; check the --param values" if params else "")) from None
+            raise RunError(f"the {cfg.name} run: an FMU refused a call ({str(e).rstrip('.')})") from None
         numbers[cfg.name] = run_figures(results[cfg.name], inst, a.regulation)
         numbers[cfg.name]["wall_s"] = time.time() - wall
     for name, f in numbers.items():

@@ -79,6 +79,11 @@ def _command(cosim):
     return tip, tilt
 
 
+def ssp_params(cfg):
+    """The SSP parameters of a run: analog mode's, if it is on, then the run's own."""
+    return {**(MountCosim.analog_mode() if cfg.analog else {}), **cfg.params}
+
+
 def run(ssp_path, instrument, cfg, progress=None):
     """Runs one configuration; returns its samples and frames."""
     rx = instrument.rx
@@ -101,7 +106,7 @@ def run(ssp_path, instrument, cfg, progress=None):
     drift_rad = np.array(cfg.drift_mas_per_s) / MAS_PER_RAD
     offset_rad = np.array(cfg.offset_mas) / MAS_PER_RAD
     xx, yy = instrument.pixel_coordinates()
-    cosim = MountCosim(ssp_path, {**(MountCosim.analog_mode() if cfg.analog else {}), **cfg.params})
+    cosim = MountCosim(ssp_path, ssp_params(cfg))
     t, pose, cmd, enc, cen, tgt = [], [], [], [], [], []
     frames, frame_tgt = [], []
     images = []  # the current frame's sample images
