@@ -4,12 +4,14 @@ wavefront tilt 2 θ d2/D referred to the pupil, times f); a despace Δ is a focu
 (1 + m²) Δ / (16 √3 N²); a pure tilt keeps the Strehl ratio at 1; the perfect annular PSF's
 encircled energy is Mahajan's. Then the FMPy coupling against `inchworm run`, and a short
 run of the CLI on a small grid: the image motion equals the mount's pointing times the
-lever, and the guider holds the image that the unguided run leaves off."""
+lever, the guider holds the image that the unguided run leaves off, and the analog run's
+parked figures (it has no parked sample) are empty, never NaN."""
 import contextlib
 import csv
 import io
 import json
 import math
+import re
 import sys
 
 import numpy as np
@@ -161,7 +163,7 @@ def short_run(tmp_path_factory):
     summary = {}
     with open(out / "optics-summary.csv", newline="") as f:
         for r in csv.DictReader(f):
-            summary[(r["run"], r["figure"])] = float(r["value"])
+            summary[(r["run"], r["figure"])] = float(r["value"]) if r["value"] else None  # empty: no samples
     return out, summary, stdout.getvalue()
 
 
@@ -190,3 +192,15 @@ def test_the_guider_holds_what_the_unguided_run_leaves(short_run):
     # (10 Hz, gain 0.5, the mount in analog mode) takes it out within 0.9 s.
     assert unguided > 150, f"unguided image error {unguided:.1f} mas, expected the 180 mas offset (> 150)"
     assert guided < 5, f"guided image error {guided:.2f} mas from t = 0.9 s, expected < 5 mas"
+
+
+def test_an_empty_window_is_reported_empty_not_nan(short_run):
+    _, s, stdout = short_run
+    # Analog mode dithers each encoder between two counts: no sample is parked for 8.
+    assert s[("guided-analog", "n_parked_samples")] == 0, "the case needs a run with no parked sample"
+    for figure in ("pointing_rms_parked_nrad", "piston_rms_parked_nm", "image_rms_parked_nm",
+                   "image_over_lever_pointing_parked"):
+        assert s[("guided-analog", figure)] is None, f"guided-analog {figure} = {s[('guided-analog', figure)]}, expected empty"
+    nan = sorted(k for k, v in s.items() if v is not None and math.isnan(v))
+    assert not nan, f"NaN figures in optics-summary.csv: {nan}"
+    assert not re.search(r"\bnan\b", stdout, re.IGNORECASE), stdout

@@ -14,6 +14,7 @@ initialization. So the pose trace equals `inchworm run dist/MirrorMount.ssp` bit
 The guidance loop reaches the mount through the references: `offset_m[x]` is added to
 `reference_x.reference` on its way to `controller_x.reference`, for x = a, b, c.
 """
+import io
 import math
 import pathlib
 import shutil
@@ -25,10 +26,13 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from .inputs import STEP_S, InputError, Range
+
 SSD = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
 SSV = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
 CHAINS = ("a", "b", "c")
-STEP_S = 0.002
+#: fmi2Integer is 32 bits.
+INTEGER_RANGE = (-(2**31), 2**31 - 1)
 
 
 def _typed(tag, text):
@@ -37,6 +41,65 @@ def _typed(tag, text):
     if tag == "Integer":
         return int(text)
     return float(text)
+
+
+def ssp_variables(ssp_path):
+    """{component: {variable: (type, min, max)}} of an SSP's FMUs, from the SSD and each
+    FMU's modelDescription.xml read inside the archive (nothing unpacked); min and max are
+    None where the FMU declares none. An `InputError` if the file is not such an SSP."""
+    try:
+        with zipfile.ZipFile(ssp_path) as z:
+            ssd = ET.fromstring(z.read("SystemStructure.ssd"))
+            out = {}
+            for c in ssd.iter(f"{SSD}Component"):
+                with zipfile.ZipFile(io.BytesIO(z.read(c.get("source")))) as fmu:
+                    md = ET.fromstring(fmu.read("modelDescription.xml"))
+                out[c.get("name")] = {
+                    v.get("name"): (t.tag, _bound(t.get("min")), _bound(t.get("max")))
+                    for v in md.iter("ScalarVariable") for t in v[:1]
+                }
+    except (OSError, KeyError, TypeError, zipfile.BadZipFile, ET.ParseError) as e:
+        raise InputError(f"{ssp_path}: not a readable SSP of FMUs ({e})") from None
+    return out
+
+
+def _bound(text):
+    return None if text is None else float(text)
+
+
+def parse_params(ssp_path, params):
+    """`--param` texts ("component.variable=value") as {name: value} typed by each
+    variable's type in the SSP's FMUs (as `inchworm run --param` parses them: Real finite,
+    Integer a whole 32-bit number, Boolean true/false/1/0; within the FMU's declared
+    min/max); an `InputError` naming the first one the SSP cannot take."""
+    variables = ssp_variables(ssp_path) if params else {}
+    out = {}
+    for p in params:
+        name, eq, text = (s.strip() for s in p.partition("="))
+        comp, _, var = name.partition(".")
+        where = f"--param {p}"
+        if not eq or not var:
+            raise InputError(f"{where}: expected COMPONENT.VARIABLE=VALUE")
+        if var not in variables.get(comp, {}):
+            raise InputError(f"{where}: no variable `{name}` in {ssp_path} (components: {', '.join(variables)})")
+        kind, lo, hi = variables[comp][var]
+        if kind == "Boolean":
+            if text not in ("true", "false", "1", "0"):
+                raise InputError(f"{where}: `{name}` is a Boolean: accepted true, false, 1 or 0")
+            out[name] = text in ("true", "1")
+            continue
+        if kind not in ("Real", "Integer"):
+            raise InputError(f"{where}: `{name}` is of type {kind}: only Real, Integer and Boolean can be set")
+        try:
+            value = float(text)
+        except ValueError:
+            value = text
+        integer = kind == "Integer"
+        lo = (INTEGER_RANGE[0] if integer else -math.inf) if lo is None else lo
+        hi = (INTEGER_RANGE[1] if integer else math.inf) if hi is None else hi
+        Range(lo, hi, integer=integer, why=f"`{name}` is a {kind} of the SSP's FMUs").check("--param", value, shown=p)
+        out[name] = int(value) if kind == "Integer" else value
+    return out
 
 
 class _Component:
@@ -81,12 +144,19 @@ class MountCosim:
     def __init__(self, ssp_path, params=None, step_s=STEP_S):
         self.h = step_s
         self.t = 0.0
+        self.components = {}
         self._dir = pathlib.Path(tempfile.mkdtemp(prefix="inchworm-optics-"))
+        try:
+            self._start(ssp_path, params)
+        except BaseException:  # an error, Ctrl-C or SIGTERM (raised by the CLI): no folder left
+            self._discard()
+            raise
+
+    def _start(self, ssp_path, params):
         with zipfile.ZipFile(ssp_path) as z:
             z.extractall(self._dir / "ssp")
         root = self._dir / "ssp"
         ssd = ET.parse(root / "SystemStructure.ssd").getroot()
-        self.components = {}
         values = []
         for c in ssd.iter(f"{SSD}Component"):
             name = c.get("name")
@@ -160,9 +230,22 @@ class MountCosim:
         return tuple(self.components[f"plant_{x}"].get("encoder_counts") for x in CHAINS)
 
     def close(self):
+        """Terminates and frees the FMUs and removes the unpacked folder."""
+        try:
+            for comp in self.components.values():
+                comp.fmu.terminate()
+        finally:
+            self._discard()
+
+    def _discard(self):
+        """Frees whatever instances remain (legal in any state, unlike terminate) and removes
+        the unpacked folder: the end of `close` and of a start that failed part-way."""
         for comp in self.components.values():
-            comp.fmu.terminate()
-            comp.fmu.freeInstance()
+            try:
+                comp.fmu.freeInstance()
+            except Exception:  # its library failed: the folder still goes
+                pass
+        self.components = {}
         shutil.rmtree(self._dir, ignore_errors=True)
 
 

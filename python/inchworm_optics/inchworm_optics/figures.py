@@ -105,28 +105,26 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
     every pixel of every frame shown."""
     names = [n for n in names if n in results]
     fig, axes = plt.subplots(len(names), len(times_s), figsize=(1.9 * len(times_s), 2.5 * len(names)), squeeze=False)
-    rows = []
-    for j, name in enumerate(names):
-        r = results[name]
-        for k, i in enumerate(strip_frames(r, times_s)):
-            f = r.frames[i]
-            img = f.image
-            ax = axes[j][k]
-            ax.imshow(np.log10(np.maximum(img / img.max(), 1e-4)), origin="lower", cmap="magma", vmin=-4, vmax=0)
-            ax.set_xticks([])
-            ax.set_yticks([])
-            ax.set_title(f"{name} {f.t_start_s:.2f}-{f.t_end_s:.2f} s\nS={f.strehl:.3f}", fontsize=7)
-            for y in range(img.shape[0]):
-                for x in range(img.shape[1]):
-                    rows.append([name, i, f"{f.t_start_s:.3f}", f"{f.t_end_s:.3f}", y, x, img[y, x]])
+    with open(csv_path, "w", newline="") as out:  # row by row: a 1024-px frame is a million rows
+        w = csv.writer(out)
+        w.writerow(["run", "frame", "t_start_s", "t_end_s", "y_px", "x_px", "fraction_of_light"])
+        for j, name in enumerate(names):
+            r = results[name]
+            for k, i in enumerate(strip_frames(r, times_s)):
+                f = r.frames[i]
+                img = f.image
+                ax = axes[j][k]
+                ax.imshow(np.log10(np.maximum(img / img.max(), 1e-4)), origin="lower", cmap="magma", vmin=-4, vmax=0)
+                ax.set_xticks([])
+                ax.set_yticks([])
+                ax.set_title(f"{name} {f.t_start_s:.2f}-{f.t_end_s:.2f} s\nS={f.strehl:.3f}", fontsize=7)
+                for y in range(img.shape[0]):
+                    w.writerows([name, i, f"{f.t_start_s:.3f}", f"{f.t_end_s:.3f}", y, x, img[y, x]]
+                                for x in range(img.shape[1]))
     fig.suptitle("Detector frames (log10 of the frame's peak-normalised intensity, 4 decades)", fontsize=9)
     fig.tight_layout(h_pad=1.5)
     fig.savefig(path, dpi=110)
     plt.close(fig)
-    with open(csv_path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["run", "frame", "t_start_s", "t_end_s", "y_px", "x_px", "fraction_of_light"])
-        w.writerows(rows)
 
 
 def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_rate_hz,

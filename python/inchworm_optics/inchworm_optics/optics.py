@@ -20,6 +20,7 @@ import numpy as np
 import poppy
 from poppy.matrixDFT import matrix_dft
 
+from .inputs import check_pupil_grid
 from .telescope import MAS_PER_RAD
 
 # matrix_dft's numexpr path compiles and validates its expressions on every call, which
@@ -33,6 +34,7 @@ class Instrument:
     centred on the optical axis (the axis on the corner between the four middle pixels)."""
 
     def __init__(self, rx, npix_pupil=64, fov_pixels=64):
+        check_pupil_grid(rx, npix_pupil, fov_pixels)
         self.rx = rx
         self.npix_pupil = npix_pupil
         self.fov_pixels = fov_pixels

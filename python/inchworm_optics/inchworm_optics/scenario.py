@@ -17,11 +17,9 @@ import numpy as np
 
 from .cosim import CHAINS, MountCosim, parked
 from .guidance import FineGuider
+from .inputs import REGULATION_S, STEP_S, sample_counts
 from .optics import Frame, centroid_px
 from .telescope import MAS_PER_RAD
-
-#: Regulation: from this time on, as `inchworm scenario mirror` measures it.
-REGULATION_S = 8.0
 
 
 @dataclass
@@ -81,13 +79,17 @@ def _command(cosim):
     return tip, tilt
 
 
+def ssp_params(cfg):
+    """The SSP parameters of a run: analog mode's, if it is on, then the run's own."""
+    return {**(MountCosim.analog_mode() if cfg.analog else {}), **cfg.params}
+
+
 def run(ssp_path, instrument, cfg, progress=None):
     """Runs one configuration; returns its samples and frames."""
     rx = instrument.rx
-    h = 0.002
-    n = int(round(cfg.duration_s / h))
-    per_frame = int(round(cfg.frame_s / h))
-    per_guide = int(round(cfg.guide_period_s / h))
+    h = STEP_S
+    n, per_frame = sample_counts(cfg.duration_s, cfg.frame_s)
+    _, per_guide = sample_counts(cfg.duration_s, cfg.guide_period_s)
     targets = {}
 
     def target_px(command):
@@ -104,7 +106,7 @@ def run(ssp_path, instrument, cfg, progress=None):
     drift_rad = np.array(cfg.drift_mas_per_s) / MAS_PER_RAD
     offset_rad = np.array(cfg.offset_mas) / MAS_PER_RAD
     xx, yy = instrument.pixel_coordinates()
-    cosim = MountCosim(ssp_path, {**(MountCosim.analog_mode() if cfg.analog else {}), **cfg.params})
+    cosim = MountCosim(ssp_path, ssp_params(cfg))
     t, pose, cmd, enc, cen, tgt = [], [], [], [], [], []
     frames, frame_tgt = [], []
     images = []  # the current frame's sample images
@@ -131,7 +133,7 @@ def run(ssp_path, instrument, cfg, progress=None):
             opds.append(opd[0])
             guide_images.append(img)
             if len(images) == per_frame:
-                fr = Frame(instrument, np.array(fields), np.array(opds), tk + h - cfg.frame_s, tk + h,
+                fr = Frame(instrument, np.array(fields), np.array(opds), tk + h - per_frame * h, tk + h,
                            precomputed_images=np.array(images))
                 frames.append(fr)
                 frame_tgt.append(np.mean(tgt[-per_frame:], axis=0))
@@ -156,21 +158,24 @@ def run(ssp_path, instrument, cfg, progress=None):
     )
 
 
-def rms(x):
+def rms(x, scale=1.0):
+    """RMS of `x` times `scale`; None for no values (an empty window has no RMS)."""
     x = np.asarray(x, dtype=float)
-    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+    return float(np.sqrt(np.mean(x**2))) * scale if x.size else None
 
 
-def _stat(fn, values):
+def _stat(fn, values, scale=1.0):
     values = np.asarray(values, dtype=float)
-    return float(fn(values)) if values.size else float("nan")
+    return float(fn(values)) * scale if values.size else None
 
 
 def figures(result, instrument, regulation_s=REGULATION_S):
     """The numbers of a run: the mount's pointing and piston (as `inchworm scenario
     mirror` measures them, parked samples from `regulation_s`, and over every sample), the
     image motion per sample and per frame, and the frames' wavefront error, Strehl and
-    encircled energy in regulation."""
+    encircled energy in regulation. A figure over a window with no samples (no parked
+    sample in analog mode, no frame after `regulation_s`) is None, with the window's
+    counts `n_parked_samples`, `n_samples`, `n_frames` saying why."""
     rx = instrument.rx
     r = result
     reg = r.t_s >= regulation_s
@@ -183,19 +188,19 @@ def figures(result, instrument, regulation_s=REGULATION_S):
     ferr = np.hypot(*r.frame_error_mas(instrument).T)
     in_reg = [f for f, keep in zip(r.frames, freg) if keep]
     out = {
-        "pointing_rms_parked_nrad": rms(pointing[pk]) * 1e9,
-        "pointing_rms_every_nrad": rms(pointing[reg]) * 1e9,
-        "piston_rms_parked_nm": rms(piston[pk]) * 1e9,
-        "piston_rms_every_nm": rms(piston[reg]) * 1e9,
-        "piston_peak_every_nm": _stat(np.max, np.abs(piston[reg])) * 1e9,
-        "image_rms_parked_nm": rms(img_err_m[pk]) * 1e9,
-        "image_rms_every_nm": rms(img_err_m[reg]) * 1e9,
+        "pointing_rms_parked_nrad": rms(pointing[pk], 1e9),
+        "pointing_rms_every_nrad": rms(pointing[reg], 1e9),
+        "piston_rms_parked_nm": rms(piston[pk], 1e9),
+        "piston_rms_every_nm": rms(piston[reg], 1e9),
+        "piston_peak_every_nm": _stat(np.max, np.abs(piston[reg]), 1e9),
+        "image_rms_parked_nm": rms(img_err_m[pk], 1e9),
+        "image_rms_every_nm": rms(img_err_m[reg], 1e9),
         "lever_m_per_rad": rx.lever_m_per_rad,
         "frame_image_rms_mas": rms(ferr[freg]),
         "frame_image_max_mas": _stat(np.max, ferr[freg]),
-        "frame_image_rms_px": rms(ferr[freg]) / rx.pixel_scale_mas,
-        "frame_wfe_rms_nm": rms([f.wfe_rms_m for f in in_reg]) * 1e9,
-        "frame_wfe_max_nm": _stat(np.max, [f.wfe_rms_max_m for f in in_reg]) * 1e9,
+        "frame_image_rms_px": rms(ferr[freg], 1.0 / rx.pixel_scale_mas),
+        "frame_wfe_rms_nm": rms([f.wfe_rms_m for f in in_reg], 1e9),
+        "frame_wfe_max_nm": _stat(np.max, [f.wfe_rms_max_m for f in in_reg], 1e9),
         "frame_strehl_mean": _stat(np.mean, [f.strehl for f in in_reg]),
         "frame_strehl_min": _stat(np.min, [f.strehl for f in in_reg]),
         "frame_ee_mean": _stat(np.mean, [f.ee for f in in_reg]),
@@ -204,15 +209,17 @@ def figures(result, instrument, regulation_s=REGULATION_S):
         "n_frames": int(freg.sum()),
     }
     for which in ("parked", "every"):
-        lever_pointing = out[f"pointing_rms_{which}_nrad"] * rx.lever_m_per_rad
+        # The ratio of image motion to lever × pointing: none without pointing to compare.
+        pointing_rms, image_rms = out[f"pointing_rms_{which}_nrad"], out[f"image_rms_{which}_nm"]
         out[f"image_over_lever_pointing_{which}"] = (
-            out[f"image_rms_{which}_nm"] / lever_pointing if lever_pointing > 0 else float("nan"))
+            image_rms / (pointing_rms * rx.lever_m_per_rad) if pointing_rms else None)
     return out
 
 
 def held(result, instrument, from_s):
-    """Largest and RMS frame image error (mas) from `from_s` on: how well the image is held."""
+    """Largest and RMS frame image error (mas) from `from_s` on: how well the image is held
+    (None, None if no frame's middle is at or after `from_s`)."""
     fmid = result.frame_mid_s()
     sel = fmid >= from_s
     e = np.hypot(*result.frame_error_mas(instrument).T)[sel]
-    return float(e.max()), rms(e)
+    return _stat(np.max, e), rms(e)

@@ -31,6 +31,8 @@ from dataclasses import asdict, dataclass, fields
 import json
 import math
 
+from .inputs import InputError, check_prescription
+
 MAS_PER_RAD = 180.0 / math.pi * 3600e3
 
 
@@ -53,16 +55,29 @@ class Prescription:
     #: move is the focus adjustment, so frames before it are out of focus.
     focus_piston_m: float = 30e-6
 
+    def __post_init__(self):
+        check_prescription(self)  # every field in its range (inputs.py), or an InputError naming it
+
     @classmethod
     def load(cls, path):
-        """A prescription from a JSON file of any of the fields (the rest default)."""
+        """A prescription from a JSON file of any of the fields (the rest default); an
+        `InputError` naming the file if it is not JSON, not an object of known fields or
+        has a field out of its range. (An unreadable file is the OSError of `open`.)"""
         with open(path) as f:
-            data = json.load(f)
+            try:
+                data = json.load(f)
+            except ValueError as e:  # JSONDecodeError, UnicodeDecodeError
+                raise InputError(f"{path}: not a JSON object of prescription fields ({e})") from None
         known = {f.name for f in fields(cls)}
+        if not isinstance(data, dict):
+            raise InputError(f"{path}: not a JSON object of prescription fields (known: {sorted(known)})")
         unknown = set(data) - known
         if unknown:
-            raise ValueError(f"{path}: unknown prescription keys {sorted(unknown)} (known: {sorted(known)})")
-        return cls(**data)
+            raise InputError(f"{path}: unknown prescription keys {sorted(unknown)} (known: {sorted(known)})")
+        try:
+            return cls(**data)
+        except InputError as e:
+            raise InputError(f"{path}: {e}") from None
 
     def as_dict(self):
         return asdict(self)

@@ -1,0 +1,172 @@
+"""The accepted range of every input, each stated once: the CLI's arguments (`__main__`)
+and the prescription's fields (`telescope.Prescription`) are checked against these before
+the first run, and `docs/optics.md` ("Accepted inputs") lists them. A value outside its
+range is an `InputError` whose message names the input and the range.
+
+No numpy, poppy or FMPy here: the CLI refuses a bad argument before importing them.
+"""
+from dataclasses import dataclass
+import math
+
+#: The SSP's communication step: one sample of the mount's pose every 2 ms.
+STEP_S = 0.002
+#: Regulation: from this time on, as `inchworm scenario mirror` measures it.
+REGULATION_S = 8.0
+
+
+class InputError(ValueError):
+    """An input the run cannot use; the message names it and what is accepted."""
+
+
+def _g(x):
+    return f"{x:g}" if isinstance(x, float) else str(x)
+
+
+@dataclass(frozen=True)
+class Range:
+    """lo ≤ value ≤ hi (`<` where `lo_open`/`hi_open`), finite, in `unit`; `why` says where
+    the bounds come from."""
+
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    unit: str = ""
+    why: str = ""
+    integer: bool = False
+
+    def __str__(self):
+        lo = "" if self.lo == -math.inf else f"{_g(self.lo)} {'<' if self.lo_open else '≤'} "
+        hi = "" if self.hi == math.inf else f" {'<' if self.hi_open else '≤'} {_g(self.hi)}"
+        if lo and not hi:  # "value > 0" reads better than "0 < value"
+            lo, hi = "", f" {'>' if self.lo_open else '≥'} {_g(self.lo)}"
+        kind = "an integer" if self.integer else "a finite number"
+        if not (lo or hi):
+            return kind + (f", in {self.unit}" if self.unit else "")
+        return (f"{kind}, " if self.integer else "") + f"{lo}value{hi}" + (f" {self.unit}" if self.unit else "")
+
+    def check(self, name, value, shown=None):
+        """`value` if it is in the range, else an `InputError` naming `name` and the value
+        (as `shown`, if given: the text the user wrote)."""
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        ok = number and (isinstance(value, int) or (math.isfinite(value) and (not self.integer or value.is_integer())))
+        if ok:
+            ok = (self.lo < value if self.lo_open else self.lo <= value) and (
+                value < self.hi if self.hi_open else value <= self.hi)
+        if not ok:
+            shown = shown if shown is not None else _g(value) if number else repr(value)
+            raise InputError(f"{name} {shown}: accepted {self}" + (f" ({self.why})" if self.why else ""))
+        return value
+
+
+# ---- the command line ----
+DURATION = Range(0.0, 3600.0, lo_open=True, unit="s",
+                 why="an hour is 1.8 M samples a run, about 1.7 h of CPU each")
+RATE = Range(0.0, 1.0 / STEP_S, lo_open=True, unit="Hz",
+             why=f"a frame integrates a whole number of the {STEP_S * 1e3:g} ms samples, at least one")
+GRID = Range(8, 1024, unit="px", integer=True,
+             why="8 px resolve the annular pupil and the PSF's core; the run's arrays must also fit the memory bound")
+ANGLE = Range(unit="mas", why="each of X,Y")
+RATE_OF_ANGLE = Range(unit="mas/s", why="each of X,Y")
+GAIN = Range(0.0, 2.0, lo_open=True, hi_open=True,
+             why="an integrator on the calibrated centroid: it converges only for 0 < gain < 2")
+SECONDS = Range(0.0, unit="s")
+PHOTONS = Range(0.0, 1e15, unit="e-",
+                why="0 is noiseless; numpy's Poisson draw overflows near 1e19 and at 1e15 the noise is 3e-8 of the signal")
+READ_NOISE = Range(0.0, unit="e-")
+SEED = Range(0, integer=True)
+BOUND = Range(0.0, lo_open=True, unit="mas")
+
+#: What one invocation's arrays may hold, bytes: a run the estimate (`memory_bytes`) puts
+#: above it is refused before it starts instead of failing in an allocation part-way
+#: (or swapping the machine). 4 GiB: a quarter of a 16 GB workstation.
+MEMORY_BYTES = 4 << 30
+#: What one 2 ms sample keeps until the run's results are written: its Python records
+#: (time, pose, command, encoders, centroid: 576 bytes measured with tracemalloc) and
+#: their arrays (105), rounded up.
+SAMPLE_BYTES = 1000
+
+
+def sample_counts(duration_s, period_s):
+    """(samples in the run, samples in a frame of `period_s`), as `scenario.run` counts them."""
+    return int(round(duration_s / STEP_S)), max(1, int(round(period_s / STEP_S)))
+
+
+def last_frame(duration_s, frame_s):
+    """(start, end) of a run's last frame, in `scenario.run`'s arithmetic; None if the run
+    is shorter than a frame."""
+    n, per = sample_counts(duration_s, frame_s)
+    if n < per:
+        return None
+    end = (n // per * per - 1) * STEP_S + STEP_S  # the sample k closing it, k h + h
+    return end - per * STEP_S, end
+
+
+def window_end_s(duration_s, frame_s, every_sample=True):
+    """The latest start of a window (regulation, hold) that still holds a frame (by its
+    middle) and, with `every_sample`, a sample; None if the run has no frame."""
+    frame = last_frame(duration_s, frame_s)
+    if frame is None:
+        return None
+    mid = (frame[0] + frame[1]) / 2
+    n, _ = sample_counts(duration_s, frame_s)
+    return min(mid, (n - 1) * STEP_S) if every_sample else mid
+
+
+def memory_bytes(runs, samples, per_frame, per_guide, pupil, fov):
+    """An upper estimate of the bytes the runs hold at once (`scenario.run`): every run's
+    per-sample records and frame images (kept for the figures and CSVs); the frame being
+    integrated, each of its samples' pupil field (complex), OPD and image twice (the lists
+    and the `Frame`'s stacked copies) and the WFE fit's three OPD-sized temporaries; the
+    guide frame's images; one transform's matrices."""
+    n2, f2 = pupil**2, fov**2
+    kept = runs * (samples * SAMPLE_BYTES + samples // per_frame * 8 * f2)
+    frame = per_frame * (2 * (16 * n2 + 8 * n2 + 8 * f2) + 3 * 8 * n2)
+    return kept + frame + per_guide * 8 * f2 + 16 * (2 * pupil * fov + 2 * f2)
+
+
+# ---- the prescription ----
+LENGTH = Range(0.0, lo_open=True, unit="m")
+#: The prescription's fields with a range of their own; `back_focal_distance_m` and
+#: `obscuration_m` depend on the others (`back_focal_range`, `obscuration_range`).
+PRESCRIPTION = {
+    "aperture_m": LENGTH,
+    "primary_focal_length_m": LENGTH,
+    "secondary_magnification": Range(0.0, lo_open=True,
+                                     why="the secondary sits before the primary focus and images it beyond"),
+    "wavelength_m": LENGTH,
+    "pixel_m": LENGTH,
+    "focus_piston_m": Range(unit="m"),
+}
+
+
+def back_focal_range(primary_focal_length_m, magnification):
+    """−f1 < b < m f1: the secondary between the primary and its focus (0 < d < f1)."""
+    f1, m = primary_focal_length_m, magnification
+    return Range(-f1, m * f1, lo_open=True, hi_open=True, unit="m",
+                 why="−f1 < b < m f1 puts the secondary between the primary and its focus")
+
+
+def obscuration_range(aperture_m):
+    """0 ≤ obscuration < D: some of the aperture passes light."""
+    return Range(0.0, aperture_m, hi_open=True, unit="m", why="0 ≤ obscuration < aperture: some light passes")
+
+
+def check_prescription(rx):
+    """Every field of a prescription in its range, or an `InputError` naming the first not."""
+    for name, rng in PRESCRIPTION.items():
+        rng.check(name, getattr(rx, name))
+    back_focal_range(rx.primary_focal_length_m, rx.secondary_magnification).check(
+        "back_focal_distance_m", rx.back_focal_distance_m)
+    obscuration_range(rx.aperture_m).check("obscuration_m", rx.obscuration_m)
+
+
+def check_pupil_grid(rx, pupil, fov):
+    """The grids in `GRID`, and the pupil grid resolving the annulus: at least one grid
+    pixel (D / pupil) of light from the obscuration to the rim, obscuration ≤ D (1 − 2 /
+    pupil). A thinner annulus is poppy's grey edge pixels only, not the pupil."""
+    GRID.check("--pupil", pupil)
+    GRID.check("--fov", fov)
+    Range(0.0, rx.aperture_m * (1.0 - 2.0 / pupil), unit="m",
+          why=f"with --pupil {pupil}: one grid pixel of light across the annulus, "
+              "obscuration ≤ aperture × (1 − 2 / pupil)").check("obscuration_m", rx.obscuration_m)
