@@ -53,7 +53,7 @@ fn array_elements_are_bound_set_and_traced_by_name_in_both_standards() {
     ];
     for (fmi2, fmi3, open) in [
         ("InchwormSystem.ssp", "fmi3/InchwormSystemMixed.ssp", false),
-        ("InchwormSystemOpen.ssp", "fmi3/InchwormSystem.ssp", true),
+        ("InchwormSystemOpen.ssp", "fmi3/InchwormSystemOpen.ssp", true),
     ] {
         let two = run(&dist(fmi2), &options(&changed, open), |_| {}).unwrap();
         let three = run(&dist(fmi3), &options(&changed, open), |_| {}).unwrap();

@@ -296,7 +296,7 @@ fn a_checkpoint_of_fmi3_and_fmi2_components_repeats_the_run_bit_for_bit() {
     use inchworm_cosim::System;
     // The FMI 3.0 plant with the FMI 2.0 controller and reference, and both FMUs FMI 3.0.
     for (ssp, input) in
-        [("fmi3/InchwormSystemMixed.ssp", None), ("fmi3/InchwormSystem.ssp", Some(1e-4))]
+        [("fmi3/InchwormSystemMixed.ssp", None), ("fmi3/InchwormSystemOpen.ssp", Some(1e-4))]
     {
         let opts = Options {
             stop_time: Some(2.0),

@@ -51,7 +51,7 @@ fn steady_loop(ssp: &str, coupling: Coupling, steps: usize) -> (u64, bool) {
 
 #[test]
 fn the_steady_loop_allocates_nothing() {
-    for ssp in ["InchwormSystemOpen.ssp", "fmi3/InchwormSystem.ssp"] {
+    for ssp in ["InchwormSystemOpen.ssp", "fmi3/InchwormSystemOpen.ssp"] {
         for coupling in [Coupling::Jacobi, Coupling::GaussSeidel] {
             let (n, moved) = steady_loop(ssp, coupling, 2000);
             assert!(moved, "{ssp}, {coupling:?}: the runner moved over the counted steps");

@@ -337,7 +337,7 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
         ("InchwormSystem.ssp", "plant.T_em", false),
         ("InchwormSystemOpen.ssp", "plant.T_em", true),
         ("MirrorMount.ssp", "plant_b.T_em", false),
-        ("fmi3/InchwormSystem.ssp", "plant.T_em", true),
+        ("fmi3/InchwormSystemOpen.ssp", "plant.T_em", true),
         ("fmi3/InchwormSystemMixed.ssp", "plant.T_em", false),
     ];
     // Repeated and shuffled: a value seen before, after another, must still give the row a

@@ -116,11 +116,11 @@ fn systems() -> Vec<System> {
         fmi2(ssp::open_system()),
         fmi2(ssp::mirror_mount()),
         // Both FMUs FMI 3.0: the open loop (the reference from the system input), the same
-        // system as `dist/InchwormSystemOpen.ssp` under the name FMI 3.0 users look for.
+        // system as `dist/InchwormSystemOpen.ssp`, under the same name in `dist/fmi3/`.
         System {
             standard: Standard::Fmi3,
             spec: ssp::open_system(),
-            name: Some("InchwormSystem"),
+            name: None,
             fmi3: &["InchwormPlant", "InchwormController"],
         },
         // The closed loop with the FMI 3.0 plant and the FMI 2.0 controller and reference,
@@ -342,10 +342,40 @@ fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
     for (path, text) in &sets {
         entries.push((path.clone(), text.as_bytes()));
     }
-    let name = s.name.unwrap_or(s.spec.name);
-    let out = dist_dir(root, s.standard).join(format!("{name}.ssp"));
+    let out = system_path(root, s);
     write_zip(&out, &entries)?;
     Ok(out)
+}
+
+/// Where the `.ssp` of `s` goes: `dist/` or `dist/fmi3/`, under its archive's name.
+fn system_path(root: &Path, s: &System) -> PathBuf {
+    let name = s.name.unwrap_or(s.spec.name);
+    dist_dir(root, s.standard).join(format!("{name}.ssp"))
+}
+
+/// Removes every `.ssp` in `dist/` and `dist/fmi3/` that is not one of `written`, so no
+/// renamed or removed system stays beside the ones this build wrote (the folders hold
+/// only fmu-build's output). Returns the removed files.
+fn remove_stale_systems(root: &Path, written: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let mut removed = Vec::new();
+    for standard in [Standard::Fmi2, Standard::Fmi3] {
+        let dir = dist_dir(root, standard);
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(e) => e,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => continue,
+            Err(e) => return Err(format!("{}: {e}", dir.display())),
+        };
+        for entry in entries {
+            let path = entry.map_err(|e| format!("{}: {e}", dir.display()))?.path();
+            let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+            if is_ssp && path.is_file() && !written.contains(&path) {
+                std::fs::remove_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+                removed.push(path);
+            }
+        }
+    }
+    removed.sort();
+    Ok(removed)
 }
 
 /// The platforms the FMUs carry binaries for.
@@ -466,8 +496,13 @@ fn main() -> ExitCode {
         for (i, f) in fmus.iter().enumerate() {
             println!("fmu-build: wrote {}", package(&root, f, i, &built)?.display());
         }
+        let mut written = Vec::new();
         for s in &systems {
-            println!("fmu-build: wrote {}", package_system(&root, s)?.display());
+            written.push(package_system(&root, s)?);
+            println!("fmu-build: wrote {}", written[written.len() - 1].display());
+        }
+        for path in remove_stale_systems(&root, &written)? {
+            println!("fmu-build: removed {} (no longer built)", path.display());
         }
         if host_only {
             println!(
@@ -538,6 +573,46 @@ mod tests {
             "{found:#?}"
         );
         assert!(found[2].starts_with("modelDescription/Old.xml is not generated"), "{found:#?}");
+    }
+
+    #[test]
+    fn the_fmi3_open_loop_is_named_for_what_it_is() {
+        let root = Path::new("/r");
+        let at = |path: &str| {
+            systems()
+                .into_iter()
+                .find(|s| system_path(root, s) == root.join(path))
+                .unwrap_or_else(|| panic!("no system is written to {path}"))
+        };
+        let open = at("dist/fmi3/InchwormSystemOpen.ssp");
+        assert_eq!((open.standard, open.spec.name), (Standard::Fmi3, "InchwormSystemOpen"));
+        assert_eq!(open.fmi3, ["InchwormPlant", "InchwormController"]);
+        assert_eq!(at("dist/fmi3/InchwormSystemMixed.ssp").spec.name, "InchwormSystem");
+        let mut paths: Vec<_> = systems().iter().map(|s| system_path(root, s)).collect();
+        let n = paths.len();
+        paths.sort();
+        paths.dedup();
+        assert_eq!(paths.len(), n, "two systems share an archive: {paths:#?}");
+    }
+
+    #[test]
+    fn a_system_no_longer_built_is_removed_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let (dist, fmi3) = (dir.path().join("dist"), dir.path().join("dist/fmi3"));
+        std::fs::create_dir_all(&fmi3).unwrap();
+        let kept = [dist.join("InchwormSystemOpen.ssp"), fmi3.join("InchwormSystemOpen.ssp")];
+        // The name the FMI 3.0 open loop had before it was named for what it is.
+        let stale = fmi3.join("InchwormSystem.ssp");
+        let other = [dist.join("InchwormPlant.fmu"), fmi3.join("InchwormPlant.fmu")];
+        for p in kept.iter().chain([&stale]).chain(&other) {
+            std::fs::write(p, "x").unwrap();
+        }
+        assert_eq!(remove_stale_systems(dir.path(), &kept), Ok(vec![stale.clone()]));
+        assert!(!stale.exists());
+        assert!(kept.iter().chain(&other).all(|p| p.exists()));
+        assert_eq!(remove_stale_systems(dir.path(), &kept), Ok(vec![]));
+        let empty = tempfile::tempdir().unwrap();
+        assert_eq!(remove_stale_systems(empty.path(), &[]), Ok(vec![]));
     }
 
     #[test]

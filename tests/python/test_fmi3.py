@@ -293,7 +293,7 @@ def test_refusals_reach_the_logger():
 
 @pytest.mark.parametrize("fmi3_file, fmi2_file", [
     ("fmi3/InchwormPlant.fmu", "InchwormPlant.fmu"),
-    ("fmi3/InchwormSystem.ssp", "InchwormSystemOpen.ssp"),
+    ("fmi3/InchwormSystemOpen.ssp", "InchwormSystemOpen.ssp"),
     ("fmi3/InchwormSystemMixed.ssp", "InchwormSystem.ssp"),
 ])
 def test_inchworm_run_takes_fmi3_fmus_and_ssps(fmi3_file, fmi2_file, tmp_path):

@@ -479,7 +479,7 @@ def test_an_input_csv_past_its_cap_is_refused(tmp, tmp_path):
 # inside an SSP, and its errors name the fmi3* call.
 
 PLANT3 = DIST / "fmi3" / "InchwormPlant.fmu"
-SSP3 = DIST / "fmi3" / "InchwormSystem.ssp"
+SSP3 = DIST / "fmi3" / "InchwormSystemOpen.ssp"
 LIB3 = "binaries/x86_64-linux/InchwormPlant.so"
 
 
