@@ -3,8 +3,7 @@
 
 use std::sync::Arc;
 
-use crate::linear::{self, Propagators};
-use crate::solver::ticks_of;
+use crate::linear::{self, ticks_of, Propagators};
 use crate::{Plant, N_PLAYS};
 
 /// Propagators of one configuration, shared between clones of a plant.

@@ -16,6 +16,13 @@ use crate::Mode;
 
 /// Seconds per tick: 2⁻⁴⁰ s (0.91 ps), fine enough for any event tolerance asked for.
 pub const TICK: f64 = 1.0 / (1u64 << 40) as f64;
+
+/// A step of `h` seconds in whole ticks and the sub-tick rest (s).
+pub(crate) fn ticks_of(h: f64) -> (u64, f64) {
+    let exact = h / TICK;
+    (exact.floor() as u64, (exact - exact.floor()) * TICK)
+}
+
 /// Table levels: level `l` propagates `2^l` ticks; the top level is 2⁻⁹ s = 1.95 ms.
 pub const LEVELS: usize = 32;
 /// The scan interval at the default tolerance: 2²⁴ ticks = 15.3 µs, a 16th of the period of

@@ -17,11 +17,12 @@ use std::sync::Arc;
 use nalgebra::{SMatrix, SVector};
 
 use crate::configs::{product, table, whole_step};
+use crate::linear::ticks_of;
 use crate::linear::{
     self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
     LEVELS,
 };
-use crate::solver::{ticks_of, MIN_BOUND_POINTS};
+use crate::solver::MIN_BOUND_POINTS;
 use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
 
 /// Most scan segments a planned step may have: a 2 ms step has two (128 points and 3 at

@@ -3,7 +3,9 @@
 
 use crate::configs::{product, table, ChainRemainder, Remainder, Whole};
 use crate::hysteresis::Hysteresis;
-use crate::linear::{self, ix, mul_vec, mul_vec_inline, Chain, Propagators, Vector, TICK};
+use crate::linear::{
+    self, ix, mul_vec, mul_vec_inline, ticks_of, Chain, Propagators, Vector, TICK,
+};
 use crate::noise::gaussian;
 use crate::Dac;
 use crate::{Mode, Plant, StepReport};
@@ -147,12 +149,6 @@ impl Armed {
     pub(crate) fn keeps(&self, xi: f64) -> bool {
         self.keep.0 < xi && xi < self.keep.1
     }
-}
-
-/// A step of `h` seconds in whole ticks and the sub-tick rest (s).
-pub(crate) fn ticks_of(h: f64) -> (u64, f64) {
-    let exact = h / TICK;
-    (exact.floor() as u64, (exact - exact.floor()) * TICK)
 }
 
 /// DAC volts as the plant holds them: clamped to 0–10 V, a non-finite value as 0 V.
