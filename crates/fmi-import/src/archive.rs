@@ -201,16 +201,23 @@ pub fn read_description(path: &Path) -> Result<String, ImportError> {
     let cap =
         env_cap(crate::description::ENV_DESCRIPTION, crate::description::MAX_DESCRIPTION_BYTES)?;
     let entry = zip.by_index(i).map_err(ImportError::NotZip)?;
+    let too_large = |size: String| {
+        let env = crate::description::ENV_DESCRIPTION;
+        ImportError::Limit(format!(
+            "modelDescription.xml has {size} bytes (limit {cap} bytes; raise it with {env})"
+        ))
+    };
+    // The size the archive declares, then what it really unpacks to (it may lie).
+    if entry.size() > cap {
+        return Err(too_large(entry.size().to_string()));
+    }
     let mut md = Vec::new();
     entry.take(cap + 1).read_to_end(&mut md).map_err(|source| ImportError::Io {
         what: "cannot read modelDescription.xml".into(),
         source,
     })?;
     if md.len() as u64 > cap {
-        return Err(ImportError::Limit(format!(
-            "modelDescription.xml has more than {cap} bytes (limit {cap} bytes; raise it with {})",
-            crate::description::ENV_DESCRIPTION
-        )));
+        return Err(too_large(format!("more than {cap}")));
     }
     description_text(&md)
 }
