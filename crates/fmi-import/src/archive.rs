@@ -5,6 +5,7 @@ use std::fs;
 use std::io::{self, Read, Seek};
 use std::path::{Component, Path, PathBuf};
 
+use crate::description::text::{cut, line_column};
 use crate::ImportError;
 
 /// Caps on what an archive may unpack to. An archive comes from outside: a few MB of zip
@@ -24,6 +25,13 @@ pub struct Limits {
 pub const ENV_TOTAL: &str = "INCHWORM_MAX_UNPACKED_BYTES";
 pub const ENV_ENTRY: &str = "INCHWORM_MAX_ENTRY_BYTES";
 pub const ENV_ENTRIES: &str = "INCHWORM_MAX_ENTRIES";
+
+/// The largest `modelDescription.xml` read, bytes (raise it with [`ENV_DESCRIPTION`]). Far
+/// above large vendor FMUs (a few MB for tens of thousands of variables), it bounds the
+/// time and memory a hostile description can cost before anything of it is used.
+pub const MAX_DESCRIPTION_BYTES: u64 = 64 << 20;
+/// The variable that raises [`MAX_DESCRIPTION_BYTES`].
+pub const ENV_DESCRIPTION: &str = "INCHWORM_MAX_DESCRIPTION_BYTES";
 
 impl Limits {
     /// 1 GiB in all, 512 MiB an entry, 10 000 entries: far above the project's FMUs
@@ -47,7 +55,7 @@ pub fn env_cap(name: &'static str, default: u64) -> Result<u64, ImportError> {
     match std::env::var(name) {
         Err(_) => Ok(default),
         Ok(v) => v.trim().parse::<u64>().ok().filter(|&n| n > 0).ok_or_else(|| {
-            let v = crate::description::cut(&v, 40);
+            let v = cut(&v, 40);
             ImportError::Limit(format!("{name}=`{v}` is not a positive whole number"))
         }),
     }
@@ -193,16 +201,15 @@ pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError
 
 /// The text of the `modelDescription.xml` of the FMU at `path`, read from the archive
 /// without unpacking anything, within the description cap
-/// ([`crate::description::MAX_DESCRIPTION_BYTES`] or its variable): a master can look at
-/// what an FMU declares, and refuse it, before writing a byte of it to disk.
+/// ([`MAX_DESCRIPTION_BYTES`] or its variable): a master can look at what an FMU declares,
+/// and refuse it, before writing a byte of it to disk.
 pub fn read_description(path: &Path) -> Result<String, ImportError> {
     let mut zip = open_zip(path)?;
     let i = description_index(&mut zip)?;
-    let cap =
-        env_cap(crate::description::ENV_DESCRIPTION, crate::description::MAX_DESCRIPTION_BYTES)?;
+    let cap = env_cap(ENV_DESCRIPTION, MAX_DESCRIPTION_BYTES)?;
     let entry = zip.by_index(i).map_err(ImportError::NotZip)?;
     let too_large = |size: String| {
-        let env = crate::description::ENV_DESCRIPTION;
+        let env = ENV_DESCRIPTION;
         ImportError::Limit(format!(
             "modelDescription.xml has {size} bytes (limit {cap} bytes; raise it with {env})"
         ))
@@ -251,10 +258,8 @@ fn description_index<R: Read + Seek>(zip: &mut zip::ZipArchive<R>) -> Result<usi
 fn description_text(md: &[u8]) -> Result<String, ImportError> {
     let md = md.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(md);
     String::from_utf8(md.to_vec()).map_err(|e| {
-        let (line, column) = crate::description::line_column(
-            &String::from_utf8_lossy(md),
-            e.utf8_error().valid_up_to(),
-        );
+        let (line, column) =
+            line_column(&String::from_utf8_lossy(md), e.utf8_error().valid_up_to());
         ImportError::Description { line, column, message: "the file is not valid UTF-8".into() }
     })
 }

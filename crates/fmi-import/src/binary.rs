@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use libloading::Library;
 
-use crate::description::cut;
+use crate::description::text::cut;
 use crate::ImportError;
 
 /// The FMI 2.0 platform folder and library extension of this host, from the project's one

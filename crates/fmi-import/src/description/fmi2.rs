@@ -1,7 +1,8 @@
 //! FMI 2.0 variables: `<ScalarVariable>` with one type element (`<Real>`, `<Integer>`,
 //! `<Boolean>`, `<String>` or `<Enumeration>`) as its child.
 
-use super::{attr, is_boolean, is_double, Doc, Element, Standard, VarType, Variability, Variable};
+use super::text::{attr, is_boolean, is_double};
+use super::{Doc, Element, Standard, VarType, Variability, Variable};
 use crate::ImportError;
 
 /// The `<ScalarVariable>` being read (its type element comes later) and where it started.

@@ -10,9 +10,8 @@
 //! [`ModelDescription::variables`](super::ModelDescription): the master's scalar calls
 //! cannot address them, so asking for one is "unknown variable".
 
-use super::{
-    attr, is_boolean, is_double, ArrayElement, Causality, Doc, Element, Standard, VarType,
-};
+use super::text::{attr, is_boolean, is_double};
+use super::{ArrayElement, Causality, Doc, Element, Standard, VarType};
 use super::{Variability, Variable, MAX_ARRAY_ELEMENTS};
 use crate::ImportError;
 

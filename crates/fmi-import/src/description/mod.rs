@@ -9,10 +9,13 @@
 //! size cap, the end-of-file check (a truncated file is refused), attribute, number and
 //! enumeration parsing, `start` values and duplicate names are this module's, for both
 //! standards; [`fmi2`] and [`fmi3`] only say how each standard spells a variable.
+//! The text helpers the reader uses (positions, attribute lookup, value checks, clipping
+//! untrusted text) are in `text`; the size cap is defined with the archive's other caps.
 //! Every error carries the line and column it was found at.
 
 mod fmi2;
 mod fmi3;
+pub(crate) mod text;
 
 use std::collections::HashMap;
 use std::fmt;
@@ -20,14 +23,9 @@ use std::fmt;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 
+pub use crate::archive::{ENV_DESCRIPTION, MAX_DESCRIPTION_BYTES};
 use crate::ImportError;
-
-/// The largest `modelDescription.xml` read, bytes (raise it with [`ENV_DESCRIPTION`]). Far
-/// above large vendor FMUs (a few MB for tens of thousands of variables), it bounds the
-/// time and memory a hostile description can cost before anything of it is used.
-pub const MAX_DESCRIPTION_BYTES: u64 = 64 << 20;
-/// The variable that raises [`MAX_DESCRIPTION_BYTES`].
-pub const ENV_DESCRIPTION: &str = "INCHWORM_MAX_DESCRIPTION_BYTES";
+use text::{attr, cut, line_column, plain_file_name, Attrs};
 
 /// The type of a scalar variable, as the master addresses it: FMI 2.0's types; an FMI 3.0
 /// `Float64` is a Real, an `Int32` an Integer.
@@ -256,38 +254,6 @@ impl ModelDescription {
     pub fn is_fmi3(&self) -> bool {
         self.fmi_version.starts_with("3.")
     }
-}
-
-/// 1-based line and column (in characters) of byte offset `pos` in `text`.
-pub(crate) fn line_column(text: &str, pos: usize) -> (usize, usize) {
-    let mut pos = pos.min(text.len());
-    while !text.is_char_boundary(pos) {
-        pos -= 1;
-    }
-    let before = &text[..pos];
-    let line = before.matches('\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-    (line, before[line_start..].chars().count() + 1)
-}
-
-/// A name usable as one file name in one folder: not empty, no separator, not `.`/`..`.
-fn plain_file_name(s: &str) -> bool {
-    !s.is_empty() && s != "." && s != ".." && !s.contains(['/', '\\', '\0', ':'])
-}
-
-/// `s` cut to its first `n` characters, marked if cut, for echoing untrusted text.
-pub(crate) fn cut(s: &str, n: usize) -> String {
-    match s.char_indices().nth(n) {
-        Some((i, _)) => format!("{}…", &s[..i]),
-        None => s.to_string(),
-    }
-}
-
-/// The attributes of one element, in document order, values unescaped.
-pub(crate) type Attrs = Vec<(String, String)>;
-
-pub(crate) fn attr<'s>(attrs: &'s Attrs, key: &str) -> Option<&'s str> {
-    attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
 }
 
 /// One element under `<ModelVariables>`: `depth` 2 is a child of it.
@@ -785,16 +751,6 @@ impl<'a> Doc<'a> {
     }
 }
 
-/// Whether `s` is a valid XML Schema boolean.
-pub(crate) fn is_boolean(s: &str) -> bool {
-    matches!(s, "true" | "false" | "1" | "0")
-}
-
-/// Whether `s` is a valid XML Schema double (including `INF`, `-INF`, `NaN`).
-pub(crate) fn is_double(s: &str) -> bool {
-    s.parse::<f64>().is_ok() || matches!(s, "INF" | "-INF" | "+INF" | "NaN")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -895,12 +851,6 @@ mod tests {
                 err(&MD.replace(r#"modelIdentifier="m""#, &format!(r#"modelIdentifier="{evil}""#)));
             assert!(e.contains("is not a plain file name"), "{evil}: {e}");
         }
-    }
-
-    #[test]
-    fn line_and_column() {
-        assert_eq!(line_column("ab\ncd", 4), (2, 2));
-        assert_eq!(line_column("ab", 0), (1, 1));
     }
 }
 
