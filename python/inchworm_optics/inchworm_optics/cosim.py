@@ -4,7 +4,7 @@ couples to the FMUs.
 Why FMPy and not the `inchworm` master's CSV: the fine-guidance loop measures the image
 and changes the mount's tip/tilt references while the run goes on, so the optics has to
 sit inside the co-simulation loop; a CSV written by a finished run cannot be steered.
-The loop here is the master's Jacobi loop (`src/master.rs`): parameters in
+The loop here is the master's Jacobi loop (`src/master/`): parameters in
 initialization mode (each component's first binding from the SSD, then overrides),
 every output read after initialization, then per step every connection written from the
 latest outputs and every component stepped by h; row 0 is the state after
