@@ -91,3 +91,40 @@ def test_each_fmu_refuses_the_other_s_instance_in_every_kind_of_call(tmp_path, v
     assert last == "alive", r.stdout
     assert len(calls) == 12, r.stdout
     assert all(line.split()[1] == "3" for line in calls), r.stdout
+
+
+RELOAD = textwrap.dedent(
+    r"""
+    import _ctypes, ctypes, sys
+    from ctypes import c_double, c_int, c_void_p
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    path = sys.argv[1]
+    md = read_model_description(path)
+    unzipped = extract(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="kept")
+    fmu.instantiate()
+    library = fmu.dll._name
+    # The master lets go of the library while its instance lives, then loads it again.
+    _ctypes.dlclose(fmu.dll._handle)
+    again = ctypes.CDLL(library)
+    call = lambda name, *types: ctypes.CFUNCTYPE(c_int, c_void_p, *types)((name, again))
+    c = fmu.component
+    print(call("fmi2SetupExperiment", c_int, c_double, c_double, c_int, c_double)(c, 0, 0.0, 0.0, 0, 0.0))
+    print(call("fmi2EnterInitializationMode")(c), call("fmi2ExitInitializationMode")(c))
+    print(call("fmi2DoStep", c_double, c_double, c_int)(c, 0.0, 0.002, 1))
+    """
+)
+
+
+def test_an_instance_outlives_its_library_being_closed_and_opened_again(tmp_path):
+    # Ecos does this between the components of one FMU: the instance must still be the
+    # library's own when the library is opened again.
+    r = subprocess.run(
+        [sys.executable, "-c", RELOAD, built_fmu("InchwormPlant")],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )
+    assert r.returncode == 0, f"exit {r.returncode}: {r.stderr[-2000:]}"
+    assert r.stdout.split() == ["0", "0", "0", "0"], r.stdout

@@ -18,7 +18,7 @@ use std::any::TypeId;
 use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard, Once};
 
 /// Live instances: address → the type they were created as.
 static LIVE: Mutex<BTreeMap<usize, TypeId>> = Mutex::new(BTreeMap::new());
@@ -52,7 +52,46 @@ fn live() -> MutexGuard<'static, BTreeMap<usize, TypeId>> {
 
 /// Records `ptr` as a live instance of `T`; called once, right after it is allocated.
 pub(crate) fn register<T: 'static>(ptr: *mut T) {
+    static PINNED: Once = Once::new();
+    PINNED.call_once(pin_library);
     live().insert(ptr as usize, TypeId::of::<T>());
+}
+
+/// Keeps this library loaded until the process ends, once it has made an instance. The
+/// registry lives in the library's memory: a master that unloads the library while its
+/// instances live and loads it again (Ecos does, between components of one FMU) would
+/// otherwise find a new, empty registry that refuses every instance it made before. If the
+/// system refuses, the library stays as unloadable as it was.
+fn pin_library() {
+    // An address inside this library.
+    let here = pin_library as fn() as *const std::ffi::c_void;
+    #[cfg(unix)]
+    // SAFETY: `info` is written by dladdr; the name it gives is that of a loaded object,
+    // which dlopen with RTLD_NOLOAD only finds again (and marks never to unload).
+    unsafe {
+        let mut info: libc::Dl_info = std::mem::zeroed();
+        if libc::dladdr(here, &mut info) != 0 && !info.dli_fname.is_null() {
+            let flags = libc::RTLD_NOW | libc::RTLD_NOLOAD | libc::RTLD_NODELETE;
+            libc::dlopen(info.dli_fname, flags);
+        }
+    }
+    #[cfg(windows)]
+    {
+        const PIN: u32 = 0x1;
+        const FROM_ADDRESS: u32 = 0x4;
+        extern "system" {
+            fn GetModuleHandleExW(
+                flags: u32,
+                name: *const u16,
+                module: *mut *mut std::ffi::c_void,
+            ) -> i32;
+        }
+        let mut module = std::ptr::null_mut();
+        // SAFETY: with FROM_ADDRESS, `name` is an address inside the module to pin.
+        unsafe { GetModuleHandleExW(PIN | FROM_ADDRESS, here as *const u16, &mut module) };
+    }
+    #[cfg(not(any(unix, windows)))]
+    let _ = here;
 }
 
 /// Whether `ptr` is a live instance of `T` created by this library. Reads nothing
