@@ -283,7 +283,10 @@ def test_an_out_it_cannot_write_into_is_refused(tmp, ssp, make, words):
 def test_a_signal_during_a_run_removes_its_folder(tmp, ssp, sig, status, line):
     p = subprocess.Popen([sys.executable, "-m", "inchworm_optics", "--dist", str(DIST), "--out", str(tmp.parent / "out"),
                           *SMALL, "--duration", "30", "--runs", "stepping"],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env(tmp), cwd=tmp.parent)
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env(tmp), cwd=tmp.parent,
+                         # A shell's background job starts with SIGINT ignored, which Python keeps;
+                         # the case is about an interactive Ctrl-C, so the child takes it as one.
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     guard = threading.Timer(600, p.kill)  # a hang fails the case instead of the suite
     guard.start()
     try:
