@@ -12,7 +12,7 @@
 //! not take the registry's lock: each thread keeps the last few instances it found live,
 //! valid while no instance of this library has been freed since (an epoch counter that
 //! every free advances). A hit costs a thread-local read and one atomic load;
-//! `cargo bench -p inchworm-plant-fmu3 --bench registry` measures both paths side by side.
+//! `cargo bench -p inchworm-fmu-models --bench instance_check` measures both side by side.
 
 use std::any::TypeId;
 use std::cell::Cell;
