@@ -59,6 +59,8 @@ part "cargo test" cargo test --release --workspace
 # The engine from outside the workspace (its own Cargo.lock, the same target folder).
 part "engine-api test" cargo test --release --manifest-path tests/engine-api/Cargo.toml \
     --target-dir "${CARGO_TARGET_DIR:-target}"
+# A parameter added as one row of a variable table reaches everything (scratch copy).
+part "one-row" bash scripts/one-row.sh
 pytest_all() {
     .venv/bin/python -m pytest tests/python -q -p no:cacheprovider | tee "$pytest_log"
 }

@@ -18,62 +18,72 @@
 use std::fmt::Write;
 
 use inchworm_fmi_export::model_description::real;
-use inchworm_fmi_export::{Causality, Kind, Model, Start, Variable};
+use inchworm_fmi_export::{
+    parameter_values, start_value, Causality, Kind, Model, Value, Var, Variable,
+};
 use inchworm_fmu_models::{ControllerFmu, PlantFmu, ReferenceFmu};
+use inchworm_plant::PlantParams;
 
 pub const STEP_SIZE: f64 = 0.002;
 
 /// Plant and controller connectors: every input and the outputs that the connections or
 /// the users' plots need.
-pub const PLANT_CONNECTORS: [&str; 8] = [
-    "dac_earth",
-    "dac_nonearth",
-    "dac_extension",
-    "encoder_counts",
-    "encoder_position",
-    "runner_position",
-    "extension",
-    "mode",
-];
-pub const CONTROLLER_CONNECTORS: [&str; 9] = [
-    "reference",
-    "encoder_counts",
-    "dac_earth",
-    "dac_nonearth",
-    "dac_extension",
-    "servo_error",
-    "disturbance_estimate",
-    "n_steps",
-    "fraction",
-];
-pub const REFERENCE_CONNECTORS: [&str; 1] = ["reference"];
+pub fn plant_connectors() -> Vec<&'static str> {
+    use inchworm_fmu_models::PlantFmu as P;
+    names(&[
+        P::DAC_EARTH,
+        P::DAC_NONEARTH,
+        P::DAC_EXTENSION,
+        P::ENCODER_COUNTS,
+        P::ENCODER_POSITION,
+        P::RUNNER_POSITION,
+        P::EXTENSION,
+        P::MODE,
+    ])
+}
 
-/// The FMU behind a component: its identifier and variable table.
+pub fn controller_connectors() -> Vec<&'static str> {
+    use ControllerFmu as C;
+    names(&[
+        C::REFERENCE,
+        C::ENCODER_COUNTS,
+        C::DAC_EARTH,
+        C::DAC_NONEARTH,
+        C::DAC_EXTENSION,
+        C::SERVO_ERROR,
+        C::DISTURBANCE_ESTIMATE,
+        C::N_STEPS,
+        C::FRACTION,
+    ])
+}
+
+pub fn reference_connectors() -> Vec<&'static str> {
+    names(&[ReferenceFmu::REFERENCE])
+}
+
+fn names<M: Model>(vars: &[Var<M>]) -> Vec<&'static str> {
+    vars.iter().map(|v| v.name()).collect()
+}
+
+/// The FMU behind a component: its identifier and how to find a variable of its table.
 #[derive(Clone, Copy)]
 pub struct Fmu {
     pub identifier: &'static str,
-    pub variables: fn() -> &'static [Variable],
+    pub find: fn(&str) -> Option<&'static Variable>,
 }
 
 pub fn fmu<M: Model>() -> Fmu {
-    Fmu { identifier: M::info().model_identifier, variables: M::variables }
+    fn find<M: Model>(name: &str) -> Option<&'static Variable> {
+        M::variables().find(|v| v.name == name)
+    }
+    Fmu { identifier: M::info().model_identifier, find: find::<M> }
 }
 
 impl Fmu {
     pub fn variable(&self, name: &str) -> &'static Variable {
-        (self.variables)()
-            .iter()
-            .find(|v| v.name == name)
+        (self.find)(name)
             .unwrap_or_else(|| panic!("{name} is not a variable of {}", self.identifier))
     }
-}
-
-/// A parameter value in a set.
-#[derive(Clone, Debug)]
-pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
 }
 
 /// One component's part of a named parameter set: bare variable names.
@@ -254,71 +264,61 @@ pub fn parameter_set(name: &str, values: &[(String, Value)]) -> String {
     s
 }
 
-/// `name`'s start value in the table of `M`.
-pub fn start<M: Model>(name: &str) -> Value {
-    let v = fmu::<M>().variable(name);
-    match v.start {
-        Start::Real(x) => Value::Real(x),
-        Start::Integer(i) => Value::Integer(i),
-        Start::Boolean(b) => Value::Boolean(b),
-        Start::None => panic!("{name} has no start value"),
-    }
+/// `v`'s start value, named.
+fn start<M: Model>(v: Var<M>) -> (String, Value) {
+    let start = start_value(&v.row().var);
+    (v.name().to_string(), start.unwrap_or_else(|| panic!("{} has no start value", v.name())))
 }
 
 fn binding(set: &str, values: Vec<(String, Value)>) -> Binding {
     Binding { set: set.into(), values }
 }
 
-/// The plant's sets: `default` (every Real parameter at its start, which is fia20), the
-/// two devices of docs/model.md §2.8.
+/// Every parameter of `model` as a set's values.
+fn parameters<M: Model>(model: &M) -> Vec<(String, Value)> {
+    parameter_values(model).map(|(n, v)| (n.to_string(), v)).collect()
+}
+
+/// The plant's sets: `default` (every parameter at its start, which is fia20), the two
+/// devices of docs/model.md §2.8.
 pub fn plant_bindings() -> Vec<Binding> {
-    let plant_params = |overrides: &[(&str, f64)]| -> Vec<(String, Value)> {
-        PlantFmu::variables()
-            .iter()
-            .filter(|v| v.causality == Causality::Parameter && v.kind == Kind::Real)
-            .map(|v| {
-                let Start::Real(start) = v.start else {
-                    unreachable!("real parameters have real starts")
-                };
-                let x = overrides.iter().find(|(n, _)| *n == v.name).map_or(start, |(_, x)| *x);
-                (v.name.to_string(), Value::Real(x))
-            })
-            .collect()
-    };
+    let device = |p: PlantParams| parameters(&PlantFmu::with_params(p));
     vec![
-        binding("default", plant_params(&[])),
-        binding("fia20", plant_params(&[])),
-        binding("fia6", plant_params(&[("T_em", 2.5), ("F_d0", 105.0)])),
+        binding("default", parameters(&PlantFmu::new())),
+        binding("fia20", device(PlantParams::fia20())),
+        binding("fia6", device(PlantParams::fia6())),
     ]
 }
 
 /// The controller's sets: `default` (the four flags at their starts), the control
 /// variants of the paper's Fig. 5 and Figs. 6–7.
 pub fn controller_bindings() -> Vec<Binding> {
-    const FLAGS: [&str; 4] =
-        ["feedforward", "prefilter", "use_scale_factor_estimate", "use_disturbance_estimate"];
-    let flags = |values: [bool; 4]| -> Vec<(String, Value)> {
-        FLAGS.iter().zip(values).map(|(n, b)| (n.to_string(), Value::Boolean(b))).collect()
+    use ControllerFmu as C;
+    let flags =
+        [C::FEEDFORWARD, C::PREFILTER, C::USE_SCALE_FACTOR_ESTIMATE, C::USE_DISTURBANCE_ESTIMATE];
+    let set = |values: [bool; 4]| -> Vec<(String, Value)> {
+        flags.iter().zip(values).map(|(v, b)| (v.name().to_string(), Value::Boolean(b))).collect()
     };
-    let default = FLAGS.iter().map(|n| (n.to_string(), start::<ControllerFmu>(n))).collect();
     vec![
-        binding("default", default),
-        binding("full-control", flags([true, false, true, true])),
-        binding("feedback-only", flags([false, false, false, false])),
-        binding("prefilter", flags([true, true, true, true])),
+        binding("default", flags.iter().map(|&v| start(v)).collect()),
+        binding("full-control", set([true, false, true, true])),
+        binding("feedback-only", set([false, false, false, false])),
+        binding("prefilter", set([true, true, true, true])),
     ]
 }
 
 /// A reference table as a set's values.
 pub fn reference_table(points: &[(f64, f64)], ramp_time: f64) -> Vec<(String, Value)> {
+    use ReferenceFmu as R;
+    let named = |v: Var<ReferenceFmu>, x: Value| (v.name().to_string(), x);
     let mut v = vec![
-        ("profile".to_string(), Value::Integer(0)),
-        ("n_points".to_string(), Value::Integer(points.len() as i32)),
-        ("ramp_time".to_string(), Value::Real(ramp_time)),
+        named(R::PROFILE, Value::Integer(0)),
+        named(R::N_POINTS, Value::Integer(points.len() as i32)),
+        named(R::RAMP_TIME, Value::Real(ramp_time)),
     ];
     for (i, (t, p)) in points.iter().enumerate() {
-        v.push((format!("times[{}]", i + 1), Value::Real(*t)));
-        v.push((format!("positions[{}]", i + 1), Value::Real(*p)));
+        v.push(named(R::TIMES_1.element(i), Value::Real(*t)));
+        v.push(named(R::POSITIONS_1.element(i), Value::Real(*p)));
     }
     v
 }
@@ -326,13 +326,11 @@ pub fn reference_table(points: &[(f64, f64)], ramp_time: f64) -> Vec<(String, Va
 /// The reference's sets: `default` (the table's start values: the Fig. 5 step) and the
 /// `staircase` profile of Figs. 6–7.
 pub fn reference_bindings() -> Vec<Binding> {
-    let default = ["profile", "n_points", "ramp_time", "times[1]", "positions[1]"]
-        .iter()
-        .map(|n| (n.to_string(), start::<ReferenceFmu>(n)))
-        .collect();
+    use ReferenceFmu as R;
+    let default = [R::PROFILE, R::N_POINTS, R::RAMP_TIME, R::TIMES_1, R::POSITIONS_1];
     vec![
-        binding("default", default),
-        binding("staircase", vec![("profile".into(), Value::Integer(2))]),
+        binding("default", default.iter().map(|&v| start(v)).collect()),
+        binding("staircase", vec![(R::PROFILE.name().into(), Value::Integer(2))]),
     ]
 }
 
@@ -342,21 +340,27 @@ fn link(a: &str, ca: &str, b: &str, cb: &str) -> Connection {
 
 /// The loop of docs/model.md §5 between `controller` and `plant`.
 pub fn loop_connections(controller: &str, plant: &str) -> Vec<Connection> {
-    let mut c: Vec<Connection> = ["dac_earth", "dac_nonearth", "dac_extension"]
-        .iter()
-        .map(|ch| link(controller, ch, plant, ch))
+    use ControllerFmu as C;
+    let dacs = [
+        (C::DAC_EARTH, PlantFmu::DAC_EARTH),
+        (C::DAC_NONEARTH, PlantFmu::DAC_NONEARTH),
+        (C::DAC_EXTENSION, PlantFmu::DAC_EXTENSION),
+    ];
+    let mut c: Vec<Connection> = dacs
+        .into_iter()
+        .map(|(from, to)| link(controller, from.name(), plant, to.name()))
         .collect();
-    c.push(link(plant, "encoder_counts", controller, "encoder_counts"));
+    c.push(link(plant, PlantFmu::ENCODER_COUNTS.name(), controller, C::ENCODER_COUNTS.name()));
     c
 }
 
 fn component(
     name: &str,
     fmu: Fmu,
-    connectors: &[&'static str],
+    connectors: Vec<&'static str>,
     bindings: Vec<Binding>,
 ) -> Component {
-    Component { name: name.into(), fmu, connectors: connectors.to_vec(), bindings }
+    Component { name: name.into(), fmu, connectors, bindings }
 }
 
 /// `InchwormSystem.ssp`: closed, no system connectors.
@@ -367,9 +371,9 @@ pub fn closed_system() -> SystemSpec {
         name: "InchwormSystem",
         description: "JPL inchworm actuator, closed loop: InchwormReference gives the reference, InchwormController drives InchwormPlant through its DACs and reads its encoder, sampled every 2 ms".into(),
         components: vec![
-            component("reference", fmu::<ReferenceFmu>(), &REFERENCE_CONNECTORS, reference_bindings()),
-            component("controller", fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, controller_bindings()),
-            component("plant", fmu::<PlantFmu>(), &PLANT_CONNECTORS, plant_bindings()),
+            component("reference", fmu::<ReferenceFmu>(), reference_connectors(), reference_bindings()),
+            component("controller", fmu::<ControllerFmu>(), controller_connectors(), controller_bindings()),
+            component("plant", fmu::<PlantFmu>(), plant_connectors(), plant_bindings()),
         ],
         connectors: vec![],
         connections,
@@ -384,25 +388,28 @@ pub fn open_system() -> SystemSpec {
     let sys = |a: Option<&str>, ca: &str, b: Option<&str>, cb: &str| -> Connection {
         (a.map(Into::into), ca.into(), b.map(Into::into), cb.into())
     };
-    connections.push(sys(None, "reference", Some("controller"), "reference"));
-    connections.push(sys(Some("plant"), "encoder_position", None, "encoder_position"));
-    connections.push(sys(Some("plant"), "runner_position", None, "runner_position"));
-    connections.push(sys(Some("controller"), "disturbance_estimate", None, "disturbance_estimate"));
-    connections.push(sys(Some("controller"), "servo_error", None, "servo_error"));
+    use ControllerFmu as C;
+    let reference = C::REFERENCE.name();
+    connections.push(sys(None, reference, Some("controller"), reference));
+    let outputs = [
+        ("plant", PlantFmu::ENCODER_POSITION.name()),
+        ("plant", PlantFmu::RUNNER_POSITION.name()),
+        ("controller", C::DISTURBANCE_ESTIMATE.name()),
+        ("controller", C::SERVO_ERROR.name()),
+    ];
+    for (component, output) in outputs {
+        connections.push(sys(Some(component), output, None, output));
+    }
     SystemSpec {
         name: "InchwormSystemOpen",
         description: "JPL inchworm actuator: InchwormController drives InchwormPlant through its DACs and reads its encoder, sampled every 2 ms; the reference from the system input".into(),
         components: vec![
-            component("plant", fmu::<PlantFmu>(), &PLANT_CONNECTORS, plant_bindings()),
-            component("controller", fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, controller_bindings()),
+            component("plant", fmu::<PlantFmu>(), plant_connectors(), plant_bindings()),
+            component("controller", fmu::<ControllerFmu>(), controller_connectors(), controller_bindings()),
         ],
-        connectors: vec![
-            ("reference", "input", "m"),
-            ("encoder_position", "output", "m"),
-            ("runner_position", "output", "m"),
-            ("disturbance_estimate", "output", "m"),
-            ("servo_error", "output", "m"),
-        ],
+        connectors: std::iter::once((reference, "input", "m"))
+            .chain(outputs.iter().map(|&(_, output)| (output, "output", "m")))
+            .collect(),
         connections,
         stop_time: 10.0,
     }
@@ -422,6 +429,7 @@ pub fn mirror_mount() -> SystemSpec {
     use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
     use inchworm_fmu_models::MountFmu;
     let z = actuator_positions(MIRROR_PISTON, MIRROR_TIP, 0.0, RADIUS, ANGLE_A_DEG);
+    let mount_inputs = [MountFmu::POSITION_A, MountFmu::POSITION_B, MountFmu::POSITION_C];
     let mut components = Vec::new();
     let mut connections = Vec::new();
     for (i, x) in MIRROR_CHAINS.iter().enumerate() {
@@ -430,19 +438,23 @@ pub fn mirror_mount() -> SystemSpec {
         components.push(component(
             &r,
             fmu::<ReferenceFmu>(),
-            &REFERENCE_CONNECTORS,
+            reference_connectors(),
             vec![binding("default", command)],
         ));
-        components.push(component(&c, fmu::<ControllerFmu>(), &CONTROLLER_CONNECTORS, vec![]));
-        components.push(component(&p, fmu::<PlantFmu>(), &PLANT_CONNECTORS, vec![]));
-        connections.push(link(&r, "reference", &c, "reference"));
+        components.push(component(&c, fmu::<ControllerFmu>(), controller_connectors(), vec![]));
+        components.push(component(&p, fmu::<PlantFmu>(), plant_connectors(), vec![]));
+        let reference = ReferenceFmu::REFERENCE.name();
+        connections.push(link(&r, reference, &c, ControllerFmu::REFERENCE.name()));
         connections.extend(loop_connections(&c, &p));
-        connections.push(link(&p, "runner_position", "mount", &format!("position_{x}")));
+        let position = mount_inputs[i].name();
+        connections.push(link(&p, PlantFmu::RUNNER_POSITION.name(), "mount", position));
     }
     components.push(component(
         "mount",
         fmu::<MountFmu>(),
-        &["position_a", "position_b", "position_c", "piston", "tip", "tilt"],
+        names(
+            &[mount_inputs.as_slice(), &[MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT]].concat(),
+        ),
         vec![],
     ));
     SystemSpec {

@@ -2,8 +2,7 @@
 //! whoever turns codes back into volts so the plant sees the same bits either way.
 
 /// Full scale of the 16-bit DACs (V).
-pub const DAC_FULL_SCALE: f64 = 10.0;
-pub const DAC_MAX_CODE: u16 = u16::MAX;
+pub use inchworm_board::{DAC_FULL_SCALE, DAC_MAX_CODE};
 
 pub(crate) fn quantize(v: f64) -> (f64, u16) {
     let code = (v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE))

@@ -63,7 +63,7 @@ impl Default for Params {
             basis_peaks: basis::FIA20_PEAKS,
             scale_weights_start: CALIBRATED_WEIGHTS,
             disturbance_start: CALIBRATED_DISTURBANCE,
-            q_enc: 1.2e-9,
+            q_enc: inchworm_board::ENCODER_RESOLUTION,
             analog: false,
             analog_params: AnalogParams::default(),
             disturbance_map: false,

@@ -21,8 +21,8 @@ pub struct Entry {
 
 impl Entry {
     /// Whether it is an FMI 3.0 array (even of one element).
-    pub fn is_array(&self, vars: &[Variable]) -> bool {
-        vars[self.first].array.is_some()
+    pub fn is_array<V: AsRef<Variable>>(&self, vars: &[V]) -> bool {
+        vars[self.first].as_ref().array.is_some()
     }
 }
 
@@ -61,11 +61,11 @@ fn same_declaration(head: &Variable, e: &Variable) -> bool {
 /// `name[1]`, an element out of order, of another declaration or off the consecutive
 /// value references, or an element `name[k]` outside any marked array (the FMI 3.0 FMU
 /// would declare a scalar with an element's name).
-pub fn fmi3_entries(vars: &[Variable]) -> Result<Vec<Entry>, String> {
+pub fn fmi3_entries<V: AsRef<Variable>>(vars: &[V]) -> Result<Vec<Entry>, String> {
     let mut entries = Vec::with_capacity(vars.len());
     let mut i = 0;
     while i < vars.len() {
-        let head = &vars[i];
+        let head = vars[i].as_ref();
         if head.array.is_none() {
             if element(head.name).is_some() {
                 let why = "an element outside any array (mark its first element with .array())";
@@ -80,7 +80,7 @@ pub fn fmi3_entries(vars: &[Variable]) -> Result<Vec<Entry>, String> {
         }
         let base = array_name(head);
         let mut len = 1;
-        while let Some(e) = vars.get(i + len) {
+        while let Some(e) = vars.get(i + len).map(AsRef::as_ref) {
             match element(e.name) {
                 Some((b, k)) if b == base => {
                     let vr_ok = u32::try_from(len).ok().and_then(|l| head.vr.checked_add(l));
@@ -107,7 +107,7 @@ pub fn fmi3_entries(vars: &[Variable]) -> Result<Vec<Entry>, String> {
 
 /// Every row its own entry: FMI 2.0, and FMI 3.0 of a table [`fmi3_entries`] refuses
 /// (whose FMU `fmu-build` never writes, as it generates the XML from the same rules).
-pub fn scalar_entries(vars: &[Variable]) -> Vec<Entry> {
+pub fn scalar_entries<V>(vars: &[V]) -> Vec<Entry> {
     (0..vars.len()).map(|first| Entry { first, len: 1 }).collect()
 }
 

@@ -7,6 +7,7 @@ use std::ffi::{CStr, CString};
 use std::fmt::{self, Write as _};
 use std::os::raw::c_int;
 
+use crate::access::Row;
 use crate::arrays;
 pub use crate::standards::Facts;
 use crate::table::{Causality, Kind, Variability, Variable};
@@ -339,13 +340,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
         interface: Interface,
         logging_on: bool,
     ) -> Self {
-        let vars = M::variables();
+        let vars = M::table();
         let entries = match S::ARRAYS {
             true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
             false => arrays::scalar_entries(vars),
         };
         let index = Index::new(entries.iter().map(|e| {
-            let head = &vars[e.first];
+            let head = &vars[e.first].var;
             let (first, len) = (e.first as u32, e.len as u32);
             (head.vr, Indexed { first, len, kind: head.kind, settable: settable_states(head) })
         }));
@@ -365,6 +366,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
             index,
             clamps: vars
                 .iter()
+                .map(|r| &r.var)
                 .filter(|v| v.causality == Causality::Input && v.kind == Kind::Real)
                 .filter(|v| v.min.is_some() || v.max.is_some())
                 .map(|v| Clamps { vr: v.vr, count: 0, logged: 0, summarized: 0 })
@@ -401,17 +403,17 @@ impl<S: Standard, M: Model> Instance<S, M> {
 
     /// The table rows of `entry`: one for a scalar, an FMI 3.0 array's elements in order.
     #[inline]
-    pub fn rows_of(&self, entry: Indexed) -> &'static [Variable] {
+    pub fn rows_of(&self, entry: Indexed) -> &'static [Row<M>] {
         let (first, len) = (entry.first as usize, entry.len as usize);
         // Built from the table, so in it; an empty slice would be refused by its reader.
-        M::variables().get(first..first + len).unwrap_or_default()
+        M::table().get(first..first + len).unwrap_or_default()
     }
 
     /// The variable behind `vr` (an array's first element) and how many values it has.
     #[inline]
     pub fn variable(&self, vr: u32) -> Option<(&'static Variable, usize)> {
         let entry = self.indexed(vr)?;
-        Some((self.rows_of(entry).first()?, entry.len as usize))
+        Some((&self.rows_of(entry).first()?.var, entry.len as usize))
     }
 
     pub fn snapshot(&self) -> Snapshot<M> {

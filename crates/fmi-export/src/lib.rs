@@ -1,7 +1,7 @@
 //! Generic FMI 2.0 and FMI 3.0 Co-Simulation export of one model, over one core.
 //!
-//! A model implements [`Model`]: its variable table, start values, get/set by value
-//! reference, initialization, one communication step, and its dynamic state as bytes.
+//! A model implements [`Model`]: its variable table with an accessor in every row
+//! ([`table!`]), initialization, one communication step, and its dynamic state as bytes.
 //! This crate owns everything else, once for every FMU and for both standards: the
 //! instance and its state machine with the allowed-call masks ([`instance`]), every entry
 //! point's body ([`entry`]: argument checks, finite values, the declared ranges of inputs,
@@ -12,6 +12,7 @@
 //! [`export_fmi3!`] line, as in the Modelica Association's Reference-FMUs, where all FMI
 //! glue is shared and each model is a small equations file.
 
+mod access;
 pub mod api;
 pub mod arrays;
 pub mod entry;
@@ -27,6 +28,7 @@ mod state_blob;
 mod table;
 pub mod testing;
 
+pub use access::{parameter_values, row_named, row_of, start_value, Access, Row, Value, Var};
 pub use entry::same_time;
 pub use inchworm_state_bytes::{Reader, Writer};
 pub use instance::{Clip, Facts, Interface, LogCategory, Standard, State};
@@ -85,8 +87,8 @@ impl StepLog {
 }
 
 /// One continuous state of a Model Exchange interface: the variable that holds it, the
-/// variable that holds its derivative (both Reals of the table, read through
-/// [`Model::get_real`]), and the magnitude the integrator scales its error by.
+/// variable that holds its derivative (both Reals of the table, read through their
+/// rows), and the magnitude the integrator scales its error by.
 #[derive(Clone, Copy, Debug)]
 pub struct ContinuousState {
     pub value: u32,
@@ -120,27 +122,22 @@ pub struct EventUpdate {
 /// Exchange when [`Model::model_exchange`] declares its states (the methods after it have
 /// defaults for a model without).
 ///
-/// The export layer has already checked every value reference against [`Model::variables`]
-/// (it exists, has the right type, may be set in the current state) before a getter or
-/// setter is called, so implementations match on value references without a fallback
-/// that could silently accept a wrong one: an unmatched reference there is a bug in the
-/// table and is reported as an error.
+/// The layer reads and writes the model only through the rows of [`Model::table`], after
+/// checking every value reference against it (it exists, has the right type, may be set
+/// in the current state) and every value (finite; an input inside its declared range).
 pub trait Model: Clone + Send + 'static {
     /// Identity, defaults and units of the FMU.
     fn info() -> &'static ModelInfo;
-    /// The variable table: the single source of the value references, the XML and the docs.
-    fn variables() -> &'static [Variable];
+    /// The variable table, accessors in its rows ([`table!`]): the single source of the
+    /// value references, the XML, the docs and every `Get*`/`Set*`.
+    fn table() -> &'static [Row<Self>];
     /// A fresh instance with every variable at its start value.
     fn new() -> Self;
 
-    fn get_real(&self, vr: u32) -> Result<f64, String>;
-    fn get_integer(&self, vr: u32) -> Result<i32, String>;
-    fn get_boolean(&self, vr: u32) -> Result<bool, String>;
-    /// Stores a value the layer has admitted: finite, and for an input inside its
-    /// declared range (clamped there, with a warning to the master, if it was not).
-    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), String>;
-    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String>;
+    /// The declarations of [`Model::table`], in order.
+    fn variables() -> impl ExactSizeIterator<Item = &'static Variable> + Clone {
+        Self::table().iter().map(|r| &r.var)
+    }
 
     /// Called by `fmi2ExitInitializationMode`: validate parameters and build the model.
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String>;

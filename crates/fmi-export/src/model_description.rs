@@ -188,7 +188,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
     );
     shared_head::<M>(w, "fmi2");
     let _ = writeln!(w, "  <ModelVariables>");
-    for (i, v) in M::variables().iter().enumerate() {
+    for (i, v) in M::variables().enumerate() {
         let _ = writeln!(w, "    <!-- index {} -->", i + 1);
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
         let _ = writeln!(
@@ -202,7 +202,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
         );
         let mut attrs = unit_and_range(v);
         if let Some(state) = state_of::<M>(v) {
-            let index = M::variables().iter().position(|s| s.vr == state).map_or(0, |i| i + 1);
+            let index = M::variables().position(|s| s.vr == state).map_or(0, |i| i + 1);
             let _ = write!(attrs, " derivative=\"{index}\"");
         }
         let _ = writeln!(w, "      <{}{attrs}{}/>", type_name(v.kind), start_attr(v.start));
@@ -211,7 +211,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
     let _ = writeln!(w, "  </ModelVariables>");
     let _ = writeln!(w, "  <ModelStructure>");
     let indices = |pred: &dyn Fn(&Variable) -> bool| -> Vec<usize> {
-        M::variables().iter().enumerate().filter(|(_, v)| pred(v)).map(|(i, _)| i + 1).collect()
+        M::variables().enumerate().filter(|(_, v)| pred(v)).map(|(i, _)| i + 1).collect()
     };
     let outputs = indices(&|v| v.causality == Causality::Output);
     let derivatives = indices(&|v| state_of::<M>(v).is_some());

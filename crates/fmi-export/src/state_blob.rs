@@ -10,8 +10,9 @@
 
 use inchworm_state_bytes::{Reader, Writer};
 
+use crate::access::{Row, Value};
 use crate::instance::State;
-use crate::table::{Admission, Causality, Kind, Variable};
+use crate::table::{Admission, Causality, Kind};
 use crate::Model;
 
 const MAGIC: &[u8; 4] = b"IWFS";
@@ -98,8 +99,8 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
     Ok((Header { state, time, start_time, stop_time: (!stop.is_nan()).then_some(stop) }, payload))
 }
 
-fn parameters<M: Model>() -> impl Iterator<Item = &'static Variable> {
-    M::variables().iter().filter(|v| v.causality == Causality::Parameter)
+fn parameters<M: Model>() -> impl Iterator<Item = &'static Row<M>> {
+    M::table().iter().filter(|r| r.var.causality == Causality::Parameter)
 }
 
 /// The model's payload: its parameters, walked from the table so that no model writes
@@ -109,11 +110,11 @@ fn parameters<M: Model>() -> impl Iterator<Item = &'static Variable> {
 pub fn save_model<M: Model>(model: &M) -> Result<Vec<u8>, String> {
     let mut out = Vec::new();
     let mut w = Writer(&mut out);
-    for v in parameters::<M>() {
-        w.f64(match v.kind {
-            Kind::Real => model.get_real(v.vr)?,
-            Kind::Integer => f64::from(model.get_integer(v.vr)? as u32),
-            Kind::Boolean => f64::from(u8::from(model.get_boolean(v.vr)?)),
+    for r in parameters::<M>() {
+        w.f64(match r.get(model) {
+            Value::Real(x) => x,
+            Value::Integer(i) => f64::from(i as u32),
+            Value::Boolean(b) => f64::from(u8::from(b)),
         });
     }
     model.save_state(&mut w);
@@ -129,20 +130,21 @@ pub fn load_model<M: Model>(payload: &[u8]) -> Result<M, String> {
         .ok_or_else(|| format!("model state truncated in its {n} parameters"))?;
     let mut r = Reader::new(params, "model parameters");
     let mut model = M::new();
-    for v in parameters::<M>() {
-        let x = r.f64()?;
+    for row in parameters::<M>() {
+        let (v, x) = (&row.var, r.f64()?);
         let bad = || format!("parameter {} has the invalid {:?} value {x}", v.name, v.kind);
-        match v.kind {
+        let value = match v.kind {
             Kind::Real => match v.admit_real(x, f64::NAN) {
-                Ok((y, None)) => model.set_real(v.vr, y)?,
+                Ok((y, None)) => Value::Real(y),
                 _ => return Err(bad()),
             },
             Kind::Integer if x.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&x) => {
-                model.set_integer(v.vr, x as u32 as i32)?
+                Value::Integer(x as u32 as i32)
             }
-            Kind::Boolean if x == 0.0 || x == 1.0 => model.set_boolean(v.vr, x == 1.0)?,
+            Kind::Boolean if x == 0.0 || x == 1.0 => Value::Boolean(x == 1.0),
             _ => return Err(bad()),
-        }
+        };
+        row.set(&mut model, value)?;
     }
     r.finish()?;
     model.load_state(rest)?;
@@ -154,8 +156,8 @@ pub fn load_model<M: Model>(payload: &[u8]) -> Result<M, String> {
 /// arrived as written, not that a writer wrote sense. Every Real must be finite (a NaN
 /// there would poison every later step), and every input inside its declared range.
 fn check_restored<M: Model>(model: &M) -> Result<(), String> {
-    for v in M::variables().iter().filter(|v| v.kind == Kind::Real) {
-        let x = model.get_real(v.vr)?;
+    for row in M::table() {
+        let (v, Some(x)) = (&row.var, row.real(model)) else { continue };
         let ok = match v.admit(x) {
             Admission::Accept(_) => true,
             Admission::Limit(_) | Admission::Clamp(_) | Admission::NonFinite => false,

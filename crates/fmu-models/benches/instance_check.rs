@@ -12,16 +12,10 @@ use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::registry;
 use inchworm_fmi_export::testing::{Harness, Master};
-use inchworm_fmi_export::Model;
 use inchworm_fmu_models::PlantFmu;
 
 const CALLS: u32 = 2_000_000;
 const ROUNDS: usize = 7;
-
-/// The value reference of the plant's variable `name`, from its table.
-fn vr(name: &str) -> u32 {
-    PlantFmu::variables().iter().find(|v| v.name == name).map(|v| v.vr).expect(name)
-}
 
 /// Median over [`ROUNDS`] of the time per call of `f`, in ns.
 fn per_call(mut f: impl FnMut()) -> f64 {
@@ -40,7 +34,7 @@ fn per_call(mut f: impl FnMut()) -> f64 {
 
 fn get_set<S: Master>() -> (f64, f64) {
     let h = Harness::<PlantFmu, S>::init("bench");
-    let (position, dac) = (vr("runner_position"), vr("dac_extension"));
+    let (position, dac) = (PlantFmu::RUNNER_POSITION.vr(), PlantFmu::DAC_EXTENSION.vr());
     let mut x = 0.0;
     let get = per_call(|| unsafe {
         black_box(S::get_reals::<PlantFmu>(h.c, &position, 1, &mut x));

@@ -15,18 +15,7 @@
 //! Ecos and libcosim after): the pose of the runners one step (2 ms) earlier.
 //! [`actuator_positions`] is the inverse, for commands.
 
-use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
-
-mod vr {
-    pub const POSITION_A: u32 = 1;
-    pub const POSITION_B: u32 = 2;
-    pub const POSITION_C: u32 = 3;
-    pub const PISTON: u32 = 10;
-    pub const TIP: u32 = 11;
-    pub const TILT: u32 = 12;
-    pub const RADIUS: u32 = 100;
-    pub const ANGLE_A: u32 = 101;
-}
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, Row, StepLog, Unit, Variable, Writer};
 
 /// The mount's default geometry: 50 mm radius, actuator a on the +y axis.
 pub const RADIUS: f64 = 0.05;
@@ -36,16 +25,16 @@ const M: Option<&str> = Some("m");
 const RAD: Option<&str> = Some("rad");
 
 #[rustfmt::skip]
-static VARIABLES: [Variable; 8] = [
-    Variable::input("position_a", vr::POSITION_A, 0.0, M, "Runner position of actuator a (at angle_a)"),
-    Variable::input("position_b", vr::POSITION_B, 0.0, M, "Runner position of actuator b (at angle_a + 120 deg)"),
-    Variable::input("position_c", vr::POSITION_C, 0.0, M, "Runner position of actuator c (at angle_a + 240 deg)"),
-    Variable::output("piston", vr::PISTON, Kind::Real, M, "Piston of the optic: the mean of the three positions"),
-    Variable::output("tip", vr::TIP, Kind::Real, RAD, "Tip of the optic: rotation about x, dz/dy"),
-    Variable::output("tilt", vr::TILT, Kind::Real, RAD, "Tilt of the optic: rotation about y, dz/dx"),
-    Variable::parameter("radius", vr::RADIUS, RADIUS, M, "Radius of the circle of the three actuators").with_range(1e-4, 10.0),
-    Variable::parameter("angle_a", vr::ANGLE_A, ANGLE_A_DEG, Some("deg"), "Angle of actuator a from the x axis"),
-];
+inchworm_fmi_export::table!(MountFmu, TABLE;
+    POSITION_A: Variable::input("position_a", 1, 0.0, M, "Runner position of actuator a (at angle_a)").real(|m| m.z[0], |m, x| m.z[0] = x),
+    POSITION_B: Variable::input("position_b", 2, 0.0, M, "Runner position of actuator b (at angle_a + 120 deg)").real(|m| m.z[1], |m, x| m.z[1] = x),
+    POSITION_C: Variable::input("position_c", 3, 0.0, M, "Runner position of actuator c (at angle_a + 240 deg)").real(|m| m.z[2], |m, x| m.z[2] = x),
+    PISTON: Variable::output("piston", 10, Kind::Real, M, "Piston of the optic: the mean of the three positions").real_out(|m| m.held[0]),
+    TIP: Variable::output("tip", 11, Kind::Real, RAD, "Tip of the optic: rotation about x, dz/dy").real_out(|m| m.held[1]),
+    TILT: Variable::output("tilt", 12, Kind::Real, RAD, "Tilt of the optic: rotation about y, dz/dx").real_out(|m| m.held[2]),
+    RADIUS: Variable::parameter("radius", 100, RADIUS, M, "Radius of the circle of the three actuators").with_range(1e-4, 10.0).real(|m| m.radius, |m, x| m.radius = x),
+    ANGLE_A: Variable::parameter("angle_a", 101, ANGLE_A_DEG, Some("deg"), "Angle of actuator a from the x axis").real(|m| m.angle_a, |m, x| m.angle_a = x),
+);
 
 static UNITS: [Unit; 3] = [
     Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
@@ -108,50 +97,12 @@ impl Model for MountFmu {
         &INFO
     }
 
-    fn variables() -> &'static [Variable] {
-        &VARIABLES
+    fn table() -> &'static [Row<Self>] {
+        &TABLE
     }
 
     fn new() -> Self {
         MountFmu { z: [0.0; 3], held: [0.0; 3], radius: RADIUS, angle_a: ANGLE_A_DEG }
-    }
-
-    fn get_real(&self, r: u32) -> Result<f64, String> {
-        Ok(match r {
-            vr::POSITION_A..=vr::POSITION_C => self.z[(r - vr::POSITION_A) as usize],
-            vr::PISTON => self.held[0],
-            vr::TIP => self.held[1],
-            vr::TILT => self.held[2],
-            vr::RADIUS => self.radius,
-            vr::ANGLE_A => self.angle_a,
-            _ => return Err(format!("no Real variable with value reference {r}")),
-        })
-    }
-
-    fn get_integer(&self, r: u32) -> Result<i32, String> {
-        Err(format!("no Integer variable with value reference {r}"))
-    }
-
-    fn get_boolean(&self, r: u32) -> Result<bool, String> {
-        Err(format!("no Boolean variable with value reference {r}"))
-    }
-
-    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
-        match r {
-            vr::POSITION_A..=vr::POSITION_C => self.z[(r - vr::POSITION_A) as usize] = value,
-            vr::RADIUS => self.radius = value,
-            vr::ANGLE_A => self.angle_a = value,
-            _ => return Err(format!("no settable Real variable with value reference {r}")),
-        }
-        Ok(())
-    }
-
-    fn set_integer(&mut self, r: u32, _value: i32) -> Result<(), String> {
-        Err(format!("no settable Integer variable with value reference {r}"))
-    }
-
-    fn set_boolean(&mut self, r: u32, _value: bool) -> Result<(), String> {
-        Err(format!("no settable Boolean variable with value reference {r}"))
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {

@@ -3,145 +3,103 @@
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
 use inchworm_fmi_export::{
-    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
-    Variable, Writer,
+    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, Row, StepLog,
+    Unit, Variable, Writer,
 };
-use inchworm_plant::continuous::{EventBudget, N_INDICATORS, N_STATES};
-use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport, N_PLAYS};
-
-/// Value references. Inputs 1.., outputs 10.., parameters 100.. (play arrays contiguous).
-mod vr {
-    pub const DAC_EARTH: u32 = 1;
-    pub const DAC_NONEARTH: u32 = 2;
-    pub const DAC_EXTENSION: u32 = 3;
-    pub const ENCODER_COUNTS: u32 = 10;
-    pub const ENCODER_POSITION: u32 = 11;
-    pub const RUNNER_POSITION: u32 = 12;
-    pub const EXTENSION: u32 = 13;
-    pub const VOLTAGE_EARTH: u32 = 14;
-    pub const VOLTAGE_NONEARTH: u32 = 15;
-    pub const VOLTAGE_EXTENSION: u32 = 16;
-    pub const MODE: u32 = 17;
-    pub const EARTH_CLOSED: u32 = 18;
-    pub const NONEARTH_CLOSED: u32 = 19;
-    pub const SLIP_EVENTS: u32 = 20;
-    pub const M_P: u32 = 100;
-    pub const K_P: u32 = 101;
-    pub const C_P: u32 = 102;
-    pub const M_B: u32 = 103;
-    pub const K_F: u32 = 104;
-    pub const C_F: u32 = 105;
-    pub const M_R: u32 = 106;
-    pub const K_E: u32 = 107;
-    pub const C_E: u32 = 108;
-    pub const L_P: u32 = 109;
-    pub const L_R: u32 = 110;
-    pub const T_EM: u32 = 111;
-    pub const C: u32 = 112;
-    pub const PLAY_RADIUS: u32 = 113; // ..=117
-    pub const PLAY_WEIGHT: u32 = 118; // ..=122
-    pub const F_D0: u32 = 123;
-    pub const GAMMA: u32 = 124;
-    pub const V_TH: u32 = 125;
-    pub const F_BESSEL: u32 = 126;
-    pub const AMP_GAIN: u32 = 127;
-    pub const F_AMP: u32 = 128;
-    pub const Q_ENC: u32 = 129;
-    pub const REL_TOL: u32 = 130;
-    pub const ENCODER_NOISE: u32 = 131;
-    pub const NOISE_SEED: u32 = 132;
-    /// Model Exchange: derivatives `DERIVATIVE + i` of the continuous states in order, the
-    /// event indicators `INDICATOR + i`.
-    pub const DERIVATIVE: u32 = 220;
-    pub const INDICATOR: u32 = 240;
-}
+use inchworm_board::{DAC_FULL_SCALE, ENCODER_RESOLUTION};
+use inchworm_plant::continuous::{EventBudget, N_STATES};
+use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
 const V: Option<&str> = Some("V");
 const M: Option<&str> = Some("m");
 
-static VARIABLES: [Variable; 81] = [
-    Variable::input("dac_earth", vr::DAC_EARTH, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
-    Variable::input("dac_nonearth", vr::DAC_NONEARTH, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
-    Variable::input("dac_extension", vr::DAC_EXTENSION, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, 10.0).worded("DAC volts", "DAC range"),
-    Variable::output("encoder_counts", vr::ENCODER_COUNTS, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero"),
-    Variable::output("encoder_position", vr::ENCODER_POSITION, Kind::Real, M, "encoder_counts * q_enc"),
-    Variable::output("runner_position", vr::RUNNER_POSITION, Kind::Real, M, "True runner position x4 - L_r"),
-    Variable::output("extension", vr::EXTENSION, Kind::Real, M, "Extension stack elongation x3 - L_p"),
-    Variable::output("voltage_earth", vr::VOLTAGE_EARTH, Kind::Real, V, "Earth-brake PZT voltage after Bessel filter and amplifier"),
-    Variable::output("voltage_nonearth", vr::VOLTAGE_NONEARTH, Kind::Real, V, "Non-earth-brake PZT voltage after Bessel filter and amplifier"),
-    Variable::output("voltage_extension", vr::VOLTAGE_EXTENSION, Kind::Real, V, "Extension PZT voltage after Bessel filter and amplifier"),
-    Variable::output("mode", vr::MODE, Kind::Integer, None, "1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE"),
-    Variable::output("earth_closed", vr::EARTH_CLOSED, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)"),
-    Variable::output("nonearth_closed", vr::NONEARTH_CLOSED, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)"),
-    Variable::output("slip_events", vr::SLIP_EVENTS, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)"),
-    Variable::parameter("m_p", vr::M_P, 0.025, Some("kg"), "Extension PZT mass").with_range(1e-4, 10.0),
-    Variable::parameter("k_p", vr::K_P, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness").with_range(1e5, 1e10),
-    Variable::parameter("c_p", vr::C_P, 15.0, Some("N.s/m"), "Extension PZT damping").with_range(0.0, 1e5),
-    Variable::parameter("m_b", vr::M_B, 0.040, Some("kg"), "Non-earth brake mass on node 3").with_range(1e-4, 10.0),
-    Variable::parameter("k_f", vr::K_F, 5.0e6, Some("N/m"), "Flexure stiffness").with_range(1000.0, 1e10),
-    Variable::parameter("c_f", vr::C_F, 20.0, Some("N.s/m"), "Flexure damping").with_range(0.0, 1e5),
-    Variable::parameter("m_r", vr::M_R, 0.150, Some("kg"), "Runner mass").with_range(1e-4, 100.0),
-    Variable::parameter("k_e", vr::K_E, 2.0e4, Some("N/m"), "Environment stiffness on the runner").with_range(0.0, 1e9),
-    Variable::parameter("c_e", vr::C_E, 10.0, Some("N.s/m"), "Environment damping on the runner").with_range(0.0, 1e5),
-    Variable::parameter("L_p", vr::L_P, 0.036, M, "Extension PZT rest length").with_range(1e-4, 1.0),
-    Variable::parameter("L_r", vr::L_R, 0.0, M, "Runner rest position").with_range(-1.0, 1.0),
-    Variable::parameter("T_em", vr::T_EM, 8.8, Some("N/V"), "Electromechanical transformer ratio").with_range(0.001, 1000.0),
-    Variable::parameter("C", vr::C, 4.0e-6, Some("F"), "PZT capacitance").with_range(1e-10, 0.01),
-    Variable::parameter("play_radius[1]", vr::PLAY_RADIUS, 15.0, V, "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)").with_range(0.1, 1000.0).array("Slip radii of the five hysteresis elements' stop operators (strictly increasing)"),
-    Variable::parameter("play_radius[2]", vr::PLAY_RADIUS + 1, 30.0, V, "Hysteresis element 2: slip radius").with_range(0.1, 1000.0),
-    Variable::parameter("play_radius[3]", vr::PLAY_RADIUS + 2, 45.0, V, "Hysteresis element 3: slip radius").with_range(0.1, 1000.0),
-    Variable::parameter("play_radius[4]", vr::PLAY_RADIUS + 3, 60.0, V, "Hysteresis element 4: slip radius").with_range(0.1, 1000.0),
-    Variable::parameter("play_radius[5]", vr::PLAY_RADIUS + 4, 75.0, V, "Hysteresis element 5: slip radius").with_range(0.1, 1000.0),
-    Variable::parameter("play_weight[1]", vr::PLAY_WEIGHT, 0.08, None, "Hysteresis element 1: weight (capacitance C / weight)").with_range(0.0, 10.0).array("Weights of the five hysteresis elements (capacitance C / weight)"),
-    Variable::parameter("play_weight[2]", vr::PLAY_WEIGHT + 1, 0.07, None, "Hysteresis element 2: weight (capacitance C / weight)").with_range(0.0, 10.0),
-    Variable::parameter("play_weight[3]", vr::PLAY_WEIGHT + 2, 0.06, None, "Hysteresis element 3: weight (capacitance C / weight)").with_range(0.0, 10.0),
-    Variable::parameter("play_weight[4]", vr::PLAY_WEIGHT + 3, 0.05, None, "Hysteresis element 4: weight (capacitance C / weight)").with_range(0.0, 10.0),
-    Variable::parameter("play_weight[5]", vr::PLAY_WEIGHT + 4, 0.04, None, "Hysteresis element 5: weight (capacitance C / weight)").with_range(0.0, 10.0),
-    Variable::parameter("F_d0", vr::F_D0, 175.0, Some("N"), "Brake disturbance force in DRIVE").with_range(-1e4, 1e4),
-    Variable::parameter("gamma", vr::GAMMA, 0.0, None, "Growth of the brake disturbance with environment load").with_range(0.0, 100.0),
-    Variable::parameter("V_th", vr::V_TH, 50.0, V, "Brake threshold voltage").with_range(0.001, 1e4),
-    Variable::parameter("f_bessel", vr::F_BESSEL, 300.0, Some("Hz"), "Bessel filter -3 dB frequency").with_range(1.0, 1e6),
-    Variable::parameter("amp_gain", vr::AMP_GAIN, 10.0, None, "PZT amplifier gain").with_range(0.001, 1000.0),
-    Variable::parameter("f_amp", vr::F_AMP, 475.0, Some("Hz"), "PZT amplifier roll-off frequency").with_range(1.0, 1e6),
-    Variable::parameter("q_enc", vr::Q_ENC, 1.2e-9, M, "Encoder resolution per count").with_range(1e-12, 0.001),
-    Variable::parameter("rel_tol", vr::REL_TOL, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6),
-    Variable::parameter("encoder_noise", vr::ENCODER_NOISE, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001),
-    Variable::integer_parameter("noise_seed", vr::NOISE_SEED, 1, None, "Seed of the encoder noise generator"),
-    Variable::local("node1_displacement", 200, Some("m"), "Node 1 displacement from rest, x1 - L_p/3 (a continuous state of Model Exchange)"),
-    Variable::local("node1_velocity", 201, Some("m/s"), "Node 1 velocity v1 (a continuous state of Model Exchange)"),
-    Variable::local("node2_displacement", 202, Some("m"), "Node 2 displacement from rest, x2 - 2 L_p/3 (a continuous state of Model Exchange)"),
-    Variable::local("node2_velocity", 203, Some("m/s"), "Node 2 velocity v2 (a continuous state of Model Exchange)"),
-    Variable::local("node3_velocity", 204, Some("m/s"), "Node 3 (non-earth brake) velocity v3 (a continuous state of Model Exchange)"),
-    Variable::local("runner_velocity", 205, Some("m/s"), "Runner velocity v4 (a continuous state of Model Exchange)"),
-    Variable::local("bessel_extension", 206, Some("V"), "Extension channel: Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("bessel_extension_rate", 207, Some("V/s"), "Extension channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("bessel_earth", 208, Some("V"), "Earth channel: Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("bessel_earth_rate", 209, Some("V/s"), "Earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("bessel_nonearth", 210, Some("V"), "Non-earth channel: Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("bessel_nonearth_rate", 211, Some("V/s"), "Non-earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)"),
-    Variable::local("der(node1_displacement)", 220, Some("m/s"), "Rate of node1_displacement"),
-    Variable::local("der(node1_velocity)", 221, Some("m/s2"), "Rate of node1_velocity"),
-    Variable::local("der(node2_displacement)", 222, Some("m/s"), "Rate of node2_displacement"),
-    Variable::local("der(node2_velocity)", 223, Some("m/s2"), "Rate of node2_velocity"),
-    Variable::local("der(extension)", 224, Some("m/s"), "Rate of extension"),
-    Variable::local("der(node3_velocity)", 225, Some("m/s2"), "Rate of node3_velocity"),
-    Variable::local("der(runner_position)", 226, Some("m/s"), "Rate of runner_position"),
-    Variable::local("der(runner_velocity)", 227, Some("m/s2"), "Rate of runner_velocity"),
-    Variable::local("der(bessel_extension)", 228, Some("V/s"), "Rate of bessel_extension"),
-    Variable::local("der(bessel_extension_rate)", 229, Some("V/s2"), "Rate of bessel_extension_rate"),
-    Variable::local("der(voltage_extension)", 230, Some("V/s"), "Rate of voltage_extension"),
-    Variable::local("der(bessel_earth)", 231, Some("V/s"), "Rate of bessel_earth"),
-    Variable::local("der(bessel_earth_rate)", 232, Some("V/s2"), "Rate of bessel_earth_rate"),
-    Variable::local("der(voltage_earth)", 233, Some("V/s"), "Rate of voltage_earth"),
-    Variable::local("der(bessel_nonearth)", 234, Some("V/s"), "Rate of bessel_nonearth"),
-    Variable::local("der(bessel_nonearth_rate)", 235, Some("V/s2"), "Rate of bessel_nonearth_rate"),
-    Variable::local("der(voltage_nonearth)", 236, Some("V/s"), "Rate of voltage_nonearth"),
-    Variable::local("earth_switch", 240, Some("V"), "voltage_earth - V_th: the earth brake switches where it changes sign"),
-    Variable::local("nonearth_switch", 241, Some("V"), "voltage_nonearth - V_th: the non-earth brake switches where it changes sign"),
-    Variable::local("slip_onset_up", 242, Some("V"), "xi - the next slip onset above: an element starts to slip upward where it reaches 0"),
-    Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0"),
-    Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0"),
-];
+// Value references: inputs 1.., outputs 10.., parameters 100.. (arrays contiguous), Model
+// Exchange states 200.., their derivatives 220.. and event indicators 240.. (the order of
+// `inchworm_plant::continuous`).
+#[rustfmt::skip]
+inchworm_fmi_export::table!(PlantFmu, TABLE;
+    DAC_EARTH: Variable::input("dac_earth", 1, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.earth, |m, x| m.dac.earth = x),
+    DAC_NONEARTH: Variable::input("dac_nonearth", 2, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.nonearth, |m, x| m.dac.nonearth = x),
+    DAC_EXTENSION: Variable::input("dac_extension", 3, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.extension, |m, x| m.dac.extension = x),
+    ENCODER_COUNTS: Variable::output("encoder_counts", 10, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero").integer_out(|m| m.outputs().encoder_counts.clamp(i32::MIN as i64, i32::MAX as i64) as i32),
+    ENCODER_POSITION: Variable::output("encoder_position", 11, Kind::Real, M, "encoder_counts * q_enc").real_out(|m| m.outputs().encoder_position),
+    RUNNER_POSITION: Variable::output("runner_position", 12, Kind::Real, M, "True runner position x4 - L_r").real_out(|m| m.state(6)),
+    EXTENSION: Variable::output("extension", 13, Kind::Real, M, "Extension stack elongation x3 - L_p").real_out(|m| m.state(4)),
+    VOLTAGE_EARTH: Variable::output("voltage_earth", 14, Kind::Real, V, "Earth-brake PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(13)),
+    VOLTAGE_NONEARTH: Variable::output("voltage_nonearth", 15, Kind::Real, V, "Non-earth-brake PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(16)),
+    VOLTAGE_EXTENSION: Variable::output("voltage_extension", 16, Kind::Real, V, "Extension PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(10)),
+    MODE: Variable::output("mode", 17, Kind::Integer, None, "1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE").integer_out(|m| m.outputs().mode as i32),
+    EARTH_CLOSED: Variable::output("earth_closed", 18, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)").boolean_out(|m| m.outputs().earth_closed),
+    NONEARTH_CLOSED: Variable::output("nonearth_closed", 19, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)").boolean_out(|m| m.outputs().nonearth_closed),
+    SLIP_EVENTS: Variable::output("slip_events", 20, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)").integer_out(|m| m.outputs().slip_events.min(i32::MAX as u32) as i32),
+    M_P: Variable::parameter("m_p", 100, 0.025, Some("kg"), "Extension PZT mass").with_range(1e-4, 10.0).real(|m| m.params.m_p, |m, x| m.params.m_p = x),
+    K_P: Variable::parameter("k_p", 101, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness").with_range(1e5, 1e10).real(|m| m.params.k_p, |m, x| m.params.k_p = x),
+    C_P: Variable::parameter("c_p", 102, 15.0, Some("N.s/m"), "Extension PZT damping").with_range(0.0, 1e5).real(|m| m.params.c_p, |m, x| m.params.c_p = x),
+    M_B: Variable::parameter("m_b", 103, 0.040, Some("kg"), "Non-earth brake mass on node 3").with_range(1e-4, 10.0).real(|m| m.params.m_b, |m, x| m.params.m_b = x),
+    K_F: Variable::parameter("k_f", 104, 5.0e6, Some("N/m"), "Flexure stiffness").with_range(1000.0, 1e10).real(|m| m.params.k_f, |m, x| m.params.k_f = x),
+    C_F: Variable::parameter("c_f", 105, 20.0, Some("N.s/m"), "Flexure damping").with_range(0.0, 1e5).real(|m| m.params.c_f, |m, x| m.params.c_f = x),
+    M_R: Variable::parameter("m_r", 106, 0.150, Some("kg"), "Runner mass").with_range(1e-4, 100.0).real(|m| m.params.m_r, |m, x| m.params.m_r = x),
+    K_E: Variable::parameter("k_e", 107, 2.0e4, Some("N/m"), "Environment stiffness on the runner").with_range(0.0, 1e9).real(|m| m.params.k_e, |m, x| m.params.k_e = x),
+    C_E: Variable::parameter("c_e", 108, 10.0, Some("N.s/m"), "Environment damping on the runner").with_range(0.0, 1e5).real(|m| m.params.c_e, |m, x| m.params.c_e = x),
+    L_P: Variable::parameter("L_p", 109, 0.036, M, "Extension PZT rest length").with_range(1e-4, 1.0).real(|m| m.params.l_p, |m, x| m.params.l_p = x),
+    L_R: Variable::parameter("L_r", 110, 0.0, M, "Runner rest position").with_range(-1.0, 1.0).real(|m| m.params.l_r, |m, x| m.params.l_r = x),
+    T_EM: Variable::parameter("T_em", 111, 8.8, Some("N/V"), "Electromechanical transformer ratio").with_range(0.001, 1000.0).real(|m| m.params.t_em, |m, x| m.params.t_em = x),
+    C: Variable::parameter("C", 112, 4.0e-6, Some("F"), "PZT capacitance").with_range(1e-10, 0.01).real(|m| m.params.c, |m, x| m.params.c = x),
+    PLAY_RADIUS_1: Variable::parameter("play_radius[1]", 113, 15.0, V, "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)").with_range(0.1, 1000.0).array("Slip radii of the five hysteresis elements' stop operators (strictly increasing)").real(|m| m.params.play_radius[0], |m, x| m.params.play_radius[0] = x),
+    PLAY_RADIUS_2: Variable::parameter("play_radius[2]", 114, 30.0, V, "Hysteresis element 2: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[1], |m, x| m.params.play_radius[1] = x),
+    PLAY_RADIUS_3: Variable::parameter("play_radius[3]", 115, 45.0, V, "Hysteresis element 3: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[2], |m, x| m.params.play_radius[2] = x),
+    PLAY_RADIUS_4: Variable::parameter("play_radius[4]", 116, 60.0, V, "Hysteresis element 4: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[3], |m, x| m.params.play_radius[3] = x),
+    PLAY_RADIUS_5: Variable::parameter("play_radius[5]", 117, 75.0, V, "Hysteresis element 5: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[4], |m, x| m.params.play_radius[4] = x),
+    PLAY_WEIGHT_1: Variable::parameter("play_weight[1]", 118, 0.08, None, "Hysteresis element 1: weight (capacitance C / weight)").with_range(0.0, 10.0).array("Weights of the five hysteresis elements (capacitance C / weight)").real(|m| m.params.play_weight[0], |m, x| m.params.play_weight[0] = x),
+    PLAY_WEIGHT_2: Variable::parameter("play_weight[2]", 119, 0.07, None, "Hysteresis element 2: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[1], |m, x| m.params.play_weight[1] = x),
+    PLAY_WEIGHT_3: Variable::parameter("play_weight[3]", 120, 0.06, None, "Hysteresis element 3: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[2], |m, x| m.params.play_weight[2] = x),
+    PLAY_WEIGHT_4: Variable::parameter("play_weight[4]", 121, 0.05, None, "Hysteresis element 4: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[3], |m, x| m.params.play_weight[3] = x),
+    PLAY_WEIGHT_5: Variable::parameter("play_weight[5]", 122, 0.04, None, "Hysteresis element 5: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[4], |m, x| m.params.play_weight[4] = x),
+    F_D0: Variable::parameter("F_d0", 123, 175.0, Some("N"), "Brake disturbance force in DRIVE").with_range(-1e4, 1e4).real(|m| m.params.f_d0, |m, x| m.params.f_d0 = x),
+    GAMMA: Variable::parameter("gamma", 124, 0.0, None, "Growth of the brake disturbance with environment load").with_range(0.0, 100.0).real(|m| m.params.gamma, |m, x| m.params.gamma = x),
+    V_TH: Variable::parameter("V_th", 125, 50.0, V, "Brake threshold voltage").with_range(0.001, 1e4).real(|m| m.params.v_th, |m, x| m.params.v_th = x),
+    F_BESSEL: Variable::parameter("f_bessel", 126, 300.0, Some("Hz"), "Bessel filter -3 dB frequency").with_range(1.0, 1e6).real(|m| m.params.f_bessel, |m, x| m.params.f_bessel = x),
+    AMP_GAIN: Variable::parameter("amp_gain", 127, 10.0, None, "PZT amplifier gain").with_range(0.001, 1000.0).real(|m| m.params.amp_gain, |m, x| m.params.amp_gain = x),
+    F_AMP: Variable::parameter("f_amp", 128, 475.0, Some("Hz"), "PZT amplifier roll-off frequency").with_range(1.0, 1e6).real(|m| m.params.f_amp, |m, x| m.params.f_amp = x),
+    Q_ENC: Variable::parameter("q_enc", 129, ENCODER_RESOLUTION, M, "Encoder resolution per count").with_range(1e-12, 0.001).real(|m| m.params.q_enc, |m, x| m.params.q_enc = x),
+    REL_TOL: Variable::parameter("rel_tol", 130, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6).real(|m| m.params.rel_tol, |m, x| m.params.rel_tol = x),
+    ENCODER_NOISE: Variable::parameter("encoder_noise", 131, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001).real(|m| m.params.encoder_noise, |m, x| m.params.encoder_noise = x),
+    NOISE_SEED: Variable::integer_parameter("noise_seed", 132, 1, None, "Seed of the encoder noise generator").integer(|m| m.params.noise_seed as i32, |m, x| m.params.noise_seed = x as u32 as u64),
+    NODE1_DISPLACEMENT: Variable::local("node1_displacement", 200, Some("m"), "Node 1 displacement from rest, x1 - L_p/3 (a continuous state of Model Exchange)").real_out(|m| m.state(0)),
+    NODE1_VELOCITY: Variable::local("node1_velocity", 201, Some("m/s"), "Node 1 velocity v1 (a continuous state of Model Exchange)").real_out(|m| m.state(1)),
+    NODE2_DISPLACEMENT: Variable::local("node2_displacement", 202, Some("m"), "Node 2 displacement from rest, x2 - 2 L_p/3 (a continuous state of Model Exchange)").real_out(|m| m.state(2)),
+    NODE2_VELOCITY: Variable::local("node2_velocity", 203, Some("m/s"), "Node 2 velocity v2 (a continuous state of Model Exchange)").real_out(|m| m.state(3)),
+    NODE3_VELOCITY: Variable::local("node3_velocity", 204, Some("m/s"), "Node 3 (non-earth brake) velocity v3 (a continuous state of Model Exchange)").real_out(|m| m.state(5)),
+    RUNNER_VELOCITY: Variable::local("runner_velocity", 205, Some("m/s"), "Runner velocity v4 (a continuous state of Model Exchange)").real_out(|m| m.state(7)),
+    BESSEL_EXTENSION: Variable::local("bessel_extension", 206, Some("V"), "Extension channel: Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(8)),
+    BESSEL_EXTENSION_RATE: Variable::local("bessel_extension_rate", 207, Some("V/s"), "Extension channel: rate of the Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(9)),
+    BESSEL_EARTH: Variable::local("bessel_earth", 208, Some("V"), "Earth channel: Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(11)),
+    BESSEL_EARTH_RATE: Variable::local("bessel_earth_rate", 209, Some("V/s"), "Earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(12)),
+    BESSEL_NONEARTH: Variable::local("bessel_nonearth", 210, Some("V"), "Non-earth channel: Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(14)),
+    BESSEL_NONEARTH_RATE: Variable::local("bessel_nonearth_rate", 211, Some("V/s"), "Non-earth channel: rate of the Bessel filter output (a continuous state of Model Exchange)").real_out(|m| m.state(15)),
+    DER_NODE1_DISPLACEMENT: Variable::local("der(node1_displacement)", 220, Some("m/s"), "Rate of node1_displacement").real_out(|m| m.derivative(0)),
+    DER_NODE1_VELOCITY: Variable::local("der(node1_velocity)", 221, Some("m/s2"), "Rate of node1_velocity").real_out(|m| m.derivative(1)),
+    DER_NODE2_DISPLACEMENT: Variable::local("der(node2_displacement)", 222, Some("m/s"), "Rate of node2_displacement").real_out(|m| m.derivative(2)),
+    DER_NODE2_VELOCITY: Variable::local("der(node2_velocity)", 223, Some("m/s2"), "Rate of node2_velocity").real_out(|m| m.derivative(3)),
+    DER_EXTENSION: Variable::local("der(extension)", 224, Some("m/s"), "Rate of extension").real_out(|m| m.derivative(4)),
+    DER_NODE3_VELOCITY: Variable::local("der(node3_velocity)", 225, Some("m/s2"), "Rate of node3_velocity").real_out(|m| m.derivative(5)),
+    DER_RUNNER_POSITION: Variable::local("der(runner_position)", 226, Some("m/s"), "Rate of runner_position").real_out(|m| m.derivative(6)),
+    DER_RUNNER_VELOCITY: Variable::local("der(runner_velocity)", 227, Some("m/s2"), "Rate of runner_velocity").real_out(|m| m.derivative(7)),
+    DER_BESSEL_EXTENSION: Variable::local("der(bessel_extension)", 228, Some("V/s"), "Rate of bessel_extension").real_out(|m| m.derivative(8)),
+    DER_BESSEL_EXTENSION_RATE: Variable::local("der(bessel_extension_rate)", 229, Some("V/s2"), "Rate of bessel_extension_rate").real_out(|m| m.derivative(9)),
+    DER_VOLTAGE_EXTENSION: Variable::local("der(voltage_extension)", 230, Some("V/s"), "Rate of voltage_extension").real_out(|m| m.derivative(10)),
+    DER_BESSEL_EARTH: Variable::local("der(bessel_earth)", 231, Some("V/s"), "Rate of bessel_earth").real_out(|m| m.derivative(11)),
+    DER_BESSEL_EARTH_RATE: Variable::local("der(bessel_earth_rate)", 232, Some("V/s2"), "Rate of bessel_earth_rate").real_out(|m| m.derivative(12)),
+    DER_VOLTAGE_EARTH: Variable::local("der(voltage_earth)", 233, Some("V/s"), "Rate of voltage_earth").real_out(|m| m.derivative(13)),
+    DER_BESSEL_NONEARTH: Variable::local("der(bessel_nonearth)", 234, Some("V/s"), "Rate of bessel_nonearth").real_out(|m| m.derivative(14)),
+    DER_BESSEL_NONEARTH_RATE: Variable::local("der(bessel_nonearth_rate)", 235, Some("V/s2"), "Rate of bessel_nonearth_rate").real_out(|m| m.derivative(15)),
+    DER_VOLTAGE_NONEARTH: Variable::local("der(voltage_nonearth)", 236, Some("V/s"), "Rate of voltage_nonearth").real_out(|m| m.derivative(16)),
+    EARTH_SWITCH: Variable::local("earth_switch", 240, Some("V"), "voltage_earth - V_th: the earth brake switches where it changes sign").real_out(|m| m.indicator(0)),
+    NONEARTH_SWITCH: Variable::local("nonearth_switch", 241, Some("V"), "voltage_nonearth - V_th: the non-earth brake switches where it changes sign").real_out(|m| m.indicator(1)),
+    SLIP_ONSET_UP: Variable::local("slip_onset_up", 242, Some("V"), "xi - the next slip onset above: an element starts to slip upward where it reaches 0").real_out(|m| m.indicator(2)),
+    SLIP_ONSET_DOWN: Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0").real_out(|m| m.indicator(3)),
+    SLIP_END: Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0").real_out(|m| m.indicator(4)),
+);
 
 /// Model Exchange (docs/model.md §5): the continuous states in the order of
 /// `inchworm_plant::continuous` (value references of the states and of their derivatives
@@ -230,6 +188,11 @@ const REST: Outputs = Outputs {
 };
 
 impl PlantFmu {
+    /// A model that will run `params` (validated at initialization, as a master's).
+    pub fn with_params(params: PlantParams) -> Self {
+        PlantFmu { params, ..Model::new() }
+    }
+
     fn outputs(&self) -> Outputs {
         self.plant.as_ref().map_or(REST, Plant::outputs)
     }
@@ -238,27 +201,25 @@ impl PlantFmu {
         self.plant.as_ref().ok_or_else(|| "the plant is built at exit from initialization".into())
     }
 
-    /// A Model Exchange Real: a continuous state (at rest before initialization), its
-    /// derivative or an event indicator; `None` for any other reference.
-    fn continuous(&self, r: u32) -> Option<Result<f64, String>> {
-        if let Some(i) = ME.states.iter().position(|s| s.value == r) {
-            let x = self.plant.as_ref().map_or([0.0; N_STATES], Plant::continuous_states);
-            return Some(Ok(x[i]));
+    /// Continuous state `i` of Model Exchange (at rest before initialization).
+    fn state(&self, i: usize) -> f64 {
+        self.plant.as_ref().map_or(0.0, |p| p.continuous_states()[i])
+    }
+
+    /// The derivative of continuous state `i`.
+    fn derivative(&self, i: usize) -> f64 {
+        match &self.plant {
+            Some(p) => p.derivatives(self.dac)[i],
+            None => inchworm_plant::continuous::at_rest(&self.params, self.dac).0[i],
         }
-        let at =
-            |base: u32, n: usize| (base..base + n as u32).contains(&r).then(|| (r - base) as usize);
-        let plant = self.plant.as_ref();
-        let rest = || inchworm_plant::continuous::at_rest(&self.params, self.dac);
-        let value = if let Some(i) = at(vr::DERIVATIVE, N_STATES) {
-            plant.map_or_else(|| rest().0, |p| p.derivatives(self.dac))[i]
-        } else {
-            let i = at(vr::INDICATOR, N_INDICATORS)?;
-            plant.map_or_else(|| rest().1, Plant::event_indicators)[i]
-        };
-        Some(match value.is_finite() {
-            true => Ok(value),
-            false => Err(format!("value reference {r} is not finite ({value}): the state has left what the plant can represent")),
-        })
+    }
+
+    /// Event indicator `i`.
+    fn indicator(&self, i: usize) -> f64 {
+        match &self.plant {
+            Some(p) => p.event_indicators()[i],
+            None => inchworm_plant::continuous::at_rest(&self.params, self.dac).1[i],
+        }
     }
 
     /// Logs what a step or an event update reported.
@@ -287,51 +248,13 @@ impl PlantFmu {
     }
 }
 
-/// The input or Real parameter behind a value reference: one mapping serves get and set.
-fn real_field<'a>(d: &'a mut Dac, p: &'a mut PlantParams, vr: u32) -> Option<&'a mut f64> {
-    Some(match vr {
-        vr::DAC_EARTH => &mut d.earth,
-        vr::DAC_NONEARTH => &mut d.nonearth,
-        vr::DAC_EXTENSION => &mut d.extension,
-        vr::M_P => &mut p.m_p,
-        vr::K_P => &mut p.k_p,
-        vr::C_P => &mut p.c_p,
-        vr::M_B => &mut p.m_b,
-        vr::K_F => &mut p.k_f,
-        vr::C_F => &mut p.c_f,
-        vr::M_R => &mut p.m_r,
-        vr::K_E => &mut p.k_e,
-        vr::C_E => &mut p.c_e,
-        vr::L_P => &mut p.l_p,
-        vr::L_R => &mut p.l_r,
-        vr::T_EM => &mut p.t_em,
-        vr::C => &mut p.c,
-        r if (vr::PLAY_RADIUS..vr::PLAY_RADIUS + N_PLAYS as u32).contains(&r) => {
-            &mut p.play_radius[(r - vr::PLAY_RADIUS) as usize]
-        }
-        r if (vr::PLAY_WEIGHT..vr::PLAY_WEIGHT + N_PLAYS as u32).contains(&r) => {
-            &mut p.play_weight[(r - vr::PLAY_WEIGHT) as usize]
-        }
-        vr::F_D0 => &mut p.f_d0,
-        vr::GAMMA => &mut p.gamma,
-        vr::V_TH => &mut p.v_th,
-        vr::F_BESSEL => &mut p.f_bessel,
-        vr::AMP_GAIN => &mut p.amp_gain,
-        vr::F_AMP => &mut p.f_amp,
-        vr::Q_ENC => &mut p.q_enc,
-        vr::REL_TOL => &mut p.rel_tol,
-        vr::ENCODER_NOISE => &mut p.encoder_noise,
-        _ => return None,
-    })
-}
-
 impl Model for PlantFmu {
     fn info() -> &'static ModelInfo {
         &INFO
     }
 
-    fn variables() -> &'static [Variable] {
-        &VARIABLES
+    fn table() -> &'static [Row<Self>] {
+        &TABLE
     }
 
     fn new() -> Self {
@@ -342,67 +265,6 @@ impl Model for PlantFmu {
             start: 0.0,
             budget: EventBudget::default(),
         }
-    }
-
-    fn get_real(&self, r: u32) -> Result<f64, String> {
-        if let Some(v) = self.continuous(r) {
-            return v;
-        }
-        let o = self.outputs();
-        Ok(match r {
-            vr::ENCODER_POSITION => o.encoder_position,
-            vr::RUNNER_POSITION => o.runner_position,
-            vr::EXTENSION => o.extension,
-            vr::VOLTAGE_EARTH => o.voltage_earth,
-            vr::VOLTAGE_NONEARTH => o.voltage_nonearth,
-            vr::VOLTAGE_EXTENSION => o.voltage_extension,
-            _ => *real_field(&mut self.dac.clone(), &mut self.params.clone(), r)
-                .ok_or_else(|| format!("no Real variable with value reference {r}"))?,
-        })
-    }
-
-    fn get_integer(&self, r: u32) -> Result<i32, String> {
-        let o = self.outputs();
-        match r {
-            // The encoder is a 32-bit counter on the board: ±2.5 m at 1.2 nm, far beyond
-            // the stroke, so saturation here only guards nonsense parameters.
-            vr::ENCODER_COUNTS => {
-                Ok(o.encoder_counts.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
-            }
-            vr::MODE => Ok(o.mode as i32),
-            vr::SLIP_EVENTS => Ok(o.slip_events.min(i32::MAX as u32) as i32),
-            vr::NOISE_SEED => Ok(self.params.noise_seed as i32),
-            _ => Err(format!("no Integer variable with value reference {r}")),
-        }
-    }
-
-    fn get_boolean(&self, r: u32) -> Result<bool, String> {
-        let o = self.outputs();
-        match r {
-            vr::EARTH_CLOSED => Ok(o.earth_closed),
-            vr::NONEARTH_CLOSED => Ok(o.nonearth_closed),
-            _ => Err(format!("no Boolean variable with value reference {r}")),
-        }
-    }
-
-    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
-        // Parameters are validated as a whole at fmi2ExitInitializationMode, where the
-        // relations between them (sorted play radii) can be checked.
-        *real_field(&mut self.dac, &mut self.params, r)
-            .ok_or_else(|| format!("no settable Real with value reference {r}"))? = value;
-        Ok(())
-    }
-
-    fn set_integer(&mut self, r: u32, value: i32) -> Result<(), String> {
-        match r {
-            vr::NOISE_SEED => self.params.noise_seed = value as u32 as u64,
-            _ => return Err(format!("no settable Integer with value reference {r}")),
-        }
-        Ok(())
-    }
-
-    fn set_boolean(&mut self, r: u32, _value: bool) -> Result<(), String> {
-        Err(format!("no settable Boolean with value reference {r}"))
     }
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {
@@ -449,13 +311,11 @@ impl Model for PlantFmu {
     ) -> Result<(), String> {
         let j = self.built()?.jacobian();
         let state = |r: u32| ME.states.iter().position(|s| s.value == r);
-        let input = |r: u32| {
-            [vr::DAC_EXTENSION, vr::DAC_EARTH, vr::DAC_NONEARTH].iter().position(|&d| d == r)
-        };
+        // The Jacobian's input columns: extension, earth, non-earth.
+        let dacs = [Self::DAC_EXTENSION, Self::DAC_EARTH, Self::DAC_NONEARTH];
+        let input = |r: u32| dacs.iter().position(|d| d.vr() == r);
         for (o, &u) in out.iter_mut().zip(unknowns) {
-            let derivative = (vr::DERIVATIVE..vr::DERIVATIVE + N_STATES as u32)
-                .contains(&u)
-                .then(|| (u - vr::DERIVATIVE) as usize);
+            let derivative = ME.states.iter().position(|s| s.derivative == u);
             *o = 0.0;
             for (&k, s) in knowns.iter().zip(seed) {
                 let partial = match (derivative, state(u), state(k), input(k)) {
@@ -502,30 +362,35 @@ impl Model for PlantFmu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use inchworm_fmi_export::{Causality, Start};
+    use inchworm_fmi_export::{start_value, Causality};
 
     /// The table is the FMU's public description; the plant crate holds the defaults and the
     /// ranges. Every parameter's start and min/max must be the plant's own.
     #[test]
     fn parameter_starts_and_ranges_are_the_plant_crates() {
         let fmu = PlantFmu::new();
-        let mut checked = 0;
-        for v in VARIABLES.iter().filter(|v| v.causality == Causality::Parameter) {
-            let base = v.name.split('[').next().unwrap();
-            match v.start {
-                Start::Real(start) => {
-                    assert_eq!(start, fmu.get_real(v.vr).unwrap(), "{}: start", v.name);
-                    let (lo, hi, _) = inchworm_plant::params::range(base)
-                        .unwrap_or_else(|| panic!("{} has no range in the plant crate", v.name));
-                    assert_eq!((v.min, v.max), (Some(lo), Some(hi)), "{}: range", v.name);
-                    checked += 1;
-                }
-                Start::Integer(start) => {
-                    assert_eq!(start, fmu.get_integer(v.vr).unwrap(), "{}: start", v.name)
-                }
-                _ => panic!("{}: unexpected start {:?}", v.name, v.start),
+        let mut ranged = 0;
+        for r in TABLE.iter().filter(|r| r.var.causality == Causality::Parameter) {
+            let v = &r.var;
+            assert_eq!(start_value(v), Some(r.get(&fmu)), "{}: start", v.name);
+            if v.kind == Kind::Real {
+                let base = v.name.split('[').next().unwrap();
+                let (lo, hi, _) = inchworm_plant::params::range(base)
+                    .unwrap_or_else(|| panic!("{} has no range in the plant crate", v.name));
+                assert_eq!((v.min, v.max), (Some(lo), Some(hi)), "{}: range", v.name);
+                ranged += 1;
             }
         }
-        assert_eq!(checked, 32);
+        assert_eq!(ranged, 32);
+    }
+
+    /// A model made from parameters holds them: what masters set from `parameter_values`.
+    #[test]
+    fn a_model_of_given_parameters_reads_them_back() {
+        let fia6 = PlantFmu::with_params(PlantParams::fia6());
+        let values: Vec<_> = inchworm_fmi_export::parameter_values(&fia6).collect();
+        assert_eq!(values.len(), 33);
+        assert!(values.contains(&(PlantFmu::T_EM.name(), inchworm_fmi_export::Value::Real(2.5))));
+        assert!(values.contains(&("F_d0", inchworm_fmi_export::Value::Real(105.0))));
     }
 }

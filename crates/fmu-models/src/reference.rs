@@ -9,7 +9,7 @@
 //! initialization hands the controller the reference of each communication point at that
 //! point (the inchworm master, Ecos and libcosim do; FMPy's starts every connector at 0).
 
-use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, StepLog, Unit, Variable, Writer};
+use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, Row, StepLog, Unit, Variable, Writer};
 
 /// Points the table holds.
 pub const MAX_POINTS: usize = 16;
@@ -22,57 +22,48 @@ pub const PROFILE_STAIRCASE: i32 = 2;
 /// The Figs. 6-7 staircase: level k (µm) from `100 k` s.
 pub const STAIRCASE_UM: [f64; 7] = [100.0, 60.0, 250.0, 245.0, 130.0, 131.5, 20.0];
 
-mod vr {
-    pub const REFERENCE: u32 = 1;
-    pub const PROFILE: u32 = 100;
-    pub const N_POINTS: u32 = 101;
-    pub const RAMP_TIME: u32 = 102;
-    pub const TIMES: u32 = 200; // ..=215
-    pub const POSITIONS: u32 = 300; // ..=315
-}
-
 const M: Option<&str> = Some("m");
 const S: Option<&str> = Some("s");
 
 #[rustfmt::skip]
-static VARIABLES: [Variable; 4 + 2 * MAX_POINTS] = [
-    Variable::output("reference", vr::REFERENCE, Kind::Real, M, "Reference position of the runner at the current communication point").discrete(),
-    Variable::integer_parameter("profile", vr::PROFILE, PROFILE_TABLE, None, "0 the table (times, positions), 1 the Fig. 5 step (100 um from t = 0), 2 the Figs. 6-7 staircase (100 s per level)"),
-    Variable::integer_parameter("n_points", vr::N_POINTS, 1, None, "Points of the table used (1-16)"),
-    Variable::parameter("ramp_time", vr::RAMP_TIME, 0.0, S, "Each change ramps linearly over this time from its point's time (0 = a step)"),
-    Variable::parameter("times[1]", vr::TIMES, 0.0, S, "Time of point 1 (used when n_points >= 1; increasing)"),
-    Variable::parameter("times[2]", vr::TIMES + 1, 0.0, S, "Time of point 2 (used when n_points >= 2; increasing)"),
-    Variable::parameter("times[3]", vr::TIMES + 2, 0.0, S, "Time of point 3 (used when n_points >= 3; increasing)"),
-    Variable::parameter("times[4]", vr::TIMES + 3, 0.0, S, "Time of point 4 (used when n_points >= 4; increasing)"),
-    Variable::parameter("times[5]", vr::TIMES + 4, 0.0, S, "Time of point 5 (used when n_points >= 5; increasing)"),
-    Variable::parameter("times[6]", vr::TIMES + 5, 0.0, S, "Time of point 6 (used when n_points >= 6; increasing)"),
-    Variable::parameter("times[7]", vr::TIMES + 6, 0.0, S, "Time of point 7 (used when n_points >= 7; increasing)"),
-    Variable::parameter("times[8]", vr::TIMES + 7, 0.0, S, "Time of point 8 (used when n_points >= 8; increasing)"),
-    Variable::parameter("times[9]", vr::TIMES + 8, 0.0, S, "Time of point 9 (used when n_points >= 9; increasing)"),
-    Variable::parameter("times[10]", vr::TIMES + 9, 0.0, S, "Time of point 10 (used when n_points >= 10; increasing)"),
-    Variable::parameter("times[11]", vr::TIMES + 10, 0.0, S, "Time of point 11 (used when n_points >= 11; increasing)"),
-    Variable::parameter("times[12]", vr::TIMES + 11, 0.0, S, "Time of point 12 (used when n_points >= 12; increasing)"),
-    Variable::parameter("times[13]", vr::TIMES + 12, 0.0, S, "Time of point 13 (used when n_points >= 13; increasing)"),
-    Variable::parameter("times[14]", vr::TIMES + 13, 0.0, S, "Time of point 14 (used when n_points >= 14; increasing)"),
-    Variable::parameter("times[15]", vr::TIMES + 14, 0.0, S, "Time of point 15 (used when n_points >= 15; increasing)"),
-    Variable::parameter("times[16]", vr::TIMES + 15, 0.0, S, "Time of point 16 (used when n_points >= 16; increasing)"),
-    Variable::parameter("positions[1]", vr::POSITIONS, 100e-6, M, "Reference position from point 1"),
-    Variable::parameter("positions[2]", vr::POSITIONS + 1, 0.0, M, "Reference position from point 2"),
-    Variable::parameter("positions[3]", vr::POSITIONS + 2, 0.0, M, "Reference position from point 3"),
-    Variable::parameter("positions[4]", vr::POSITIONS + 3, 0.0, M, "Reference position from point 4"),
-    Variable::parameter("positions[5]", vr::POSITIONS + 4, 0.0, M, "Reference position from point 5"),
-    Variable::parameter("positions[6]", vr::POSITIONS + 5, 0.0, M, "Reference position from point 6"),
-    Variable::parameter("positions[7]", vr::POSITIONS + 6, 0.0, M, "Reference position from point 7"),
-    Variable::parameter("positions[8]", vr::POSITIONS + 7, 0.0, M, "Reference position from point 8"),
-    Variable::parameter("positions[9]", vr::POSITIONS + 8, 0.0, M, "Reference position from point 9"),
-    Variable::parameter("positions[10]", vr::POSITIONS + 9, 0.0, M, "Reference position from point 10"),
-    Variable::parameter("positions[11]", vr::POSITIONS + 10, 0.0, M, "Reference position from point 11"),
-    Variable::parameter("positions[12]", vr::POSITIONS + 11, 0.0, M, "Reference position from point 12"),
-    Variable::parameter("positions[13]", vr::POSITIONS + 12, 0.0, M, "Reference position from point 13"),
-    Variable::parameter("positions[14]", vr::POSITIONS + 13, 0.0, M, "Reference position from point 14"),
-    Variable::parameter("positions[15]", vr::POSITIONS + 14, 0.0, M, "Reference position from point 15"),
-    Variable::parameter("positions[16]", vr::POSITIONS + 15, 0.0, M, "Reference position from point 16"),
-];
+inchworm_fmi_export::table!(ReferenceFmu, TABLE;
+    REFERENCE: Variable::output("reference", 1, Kind::Real, M, "Reference position of the runner at the current communication point").discrete().real_out(|m| m.value(m.time)),
+    PROFILE: Variable::integer_parameter("profile", 100, PROFILE_TABLE, None, "0 the table (times, positions), 1 the Fig. 5 step (100 um from t = 0), 2 the Figs. 6-7 staircase (100 s per level)").integer(|m| m.profile, |m, x| m.profile = x),
+    N_POINTS: Variable::integer_parameter("n_points", 101, 1, None, "Points of the table used (1-16)").integer(|m| m.n_points, |m, x| m.n_points = x),
+    RAMP_TIME: Variable::parameter("ramp_time", 102, 0.0, S, "Each change ramps linearly over this time from its point's time (0 = a step)").real(|m| m.ramp_time, |m, x| m.ramp_time = x),
+    TIMES_1: Variable::parameter("times[1]", 200, 0.0, S, "Time of point 1 (used when n_points >= 1; increasing)").real(|m| m.times[0], |m, x| m.times[0] = x),
+    TIMES_2: Variable::parameter("times[2]", 201, 0.0, S, "Time of point 2 (used when n_points >= 2; increasing)").real(|m| m.times[1], |m, x| m.times[1] = x),
+    TIMES_3: Variable::parameter("times[3]", 202, 0.0, S, "Time of point 3 (used when n_points >= 3; increasing)").real(|m| m.times[2], |m, x| m.times[2] = x),
+    TIMES_4: Variable::parameter("times[4]", 203, 0.0, S, "Time of point 4 (used when n_points >= 4; increasing)").real(|m| m.times[3], |m, x| m.times[3] = x),
+    TIMES_5: Variable::parameter("times[5]", 204, 0.0, S, "Time of point 5 (used when n_points >= 5; increasing)").real(|m| m.times[4], |m, x| m.times[4] = x),
+    TIMES_6: Variable::parameter("times[6]", 205, 0.0, S, "Time of point 6 (used when n_points >= 6; increasing)").real(|m| m.times[5], |m, x| m.times[5] = x),
+    TIMES_7: Variable::parameter("times[7]", 206, 0.0, S, "Time of point 7 (used when n_points >= 7; increasing)").real(|m| m.times[6], |m, x| m.times[6] = x),
+    TIMES_8: Variable::parameter("times[8]", 207, 0.0, S, "Time of point 8 (used when n_points >= 8; increasing)").real(|m| m.times[7], |m, x| m.times[7] = x),
+    TIMES_9: Variable::parameter("times[9]", 208, 0.0, S, "Time of point 9 (used when n_points >= 9; increasing)").real(|m| m.times[8], |m, x| m.times[8] = x),
+    TIMES_10: Variable::parameter("times[10]", 209, 0.0, S, "Time of point 10 (used when n_points >= 10; increasing)").real(|m| m.times[9], |m, x| m.times[9] = x),
+    TIMES_11: Variable::parameter("times[11]", 210, 0.0, S, "Time of point 11 (used when n_points >= 11; increasing)").real(|m| m.times[10], |m, x| m.times[10] = x),
+    TIMES_12: Variable::parameter("times[12]", 211, 0.0, S, "Time of point 12 (used when n_points >= 12; increasing)").real(|m| m.times[11], |m, x| m.times[11] = x),
+    TIMES_13: Variable::parameter("times[13]", 212, 0.0, S, "Time of point 13 (used when n_points >= 13; increasing)").real(|m| m.times[12], |m, x| m.times[12] = x),
+    TIMES_14: Variable::parameter("times[14]", 213, 0.0, S, "Time of point 14 (used when n_points >= 14; increasing)").real(|m| m.times[13], |m, x| m.times[13] = x),
+    TIMES_15: Variable::parameter("times[15]", 214, 0.0, S, "Time of point 15 (used when n_points >= 15; increasing)").real(|m| m.times[14], |m, x| m.times[14] = x),
+    TIMES_16: Variable::parameter("times[16]", 215, 0.0, S, "Time of point 16 (used when n_points >= 16; increasing)").real(|m| m.times[15], |m, x| m.times[15] = x),
+    POSITIONS_1: Variable::parameter("positions[1]", 300, 100e-6, M, "Reference position from point 1").real(|m| m.positions[0], |m, x| m.positions[0] = x),
+    POSITIONS_2: Variable::parameter("positions[2]", 301, 0.0, M, "Reference position from point 2").real(|m| m.positions[1], |m, x| m.positions[1] = x),
+    POSITIONS_3: Variable::parameter("positions[3]", 302, 0.0, M, "Reference position from point 3").real(|m| m.positions[2], |m, x| m.positions[2] = x),
+    POSITIONS_4: Variable::parameter("positions[4]", 303, 0.0, M, "Reference position from point 4").real(|m| m.positions[3], |m, x| m.positions[3] = x),
+    POSITIONS_5: Variable::parameter("positions[5]", 304, 0.0, M, "Reference position from point 5").real(|m| m.positions[4], |m, x| m.positions[4] = x),
+    POSITIONS_6: Variable::parameter("positions[6]", 305, 0.0, M, "Reference position from point 6").real(|m| m.positions[5], |m, x| m.positions[5] = x),
+    POSITIONS_7: Variable::parameter("positions[7]", 306, 0.0, M, "Reference position from point 7").real(|m| m.positions[6], |m, x| m.positions[6] = x),
+    POSITIONS_8: Variable::parameter("positions[8]", 307, 0.0, M, "Reference position from point 8").real(|m| m.positions[7], |m, x| m.positions[7] = x),
+    POSITIONS_9: Variable::parameter("positions[9]", 308, 0.0, M, "Reference position from point 9").real(|m| m.positions[8], |m, x| m.positions[8] = x),
+    POSITIONS_10: Variable::parameter("positions[10]", 309, 0.0, M, "Reference position from point 10").real(|m| m.positions[9], |m, x| m.positions[9] = x),
+    POSITIONS_11: Variable::parameter("positions[11]", 310, 0.0, M, "Reference position from point 11").real(|m| m.positions[10], |m, x| m.positions[10] = x),
+    POSITIONS_12: Variable::parameter("positions[12]", 311, 0.0, M, "Reference position from point 12").real(|m| m.positions[11], |m, x| m.positions[11] = x),
+    POSITIONS_13: Variable::parameter("positions[13]", 312, 0.0, M, "Reference position from point 13").real(|m| m.positions[12], |m, x| m.positions[12] = x),
+    POSITIONS_14: Variable::parameter("positions[14]", 313, 0.0, M, "Reference position from point 14").real(|m| m.positions[13], |m, x| m.positions[13] = x),
+    POSITIONS_15: Variable::parameter("positions[15]", 314, 0.0, M, "Reference position from point 15").real(|m| m.positions[14], |m, x| m.positions[14] = x),
+    POSITIONS_16: Variable::parameter("positions[16]", 315, 0.0, M, "Reference position from point 16").real(|m| m.positions[15], |m, x| m.positions[15] = x),
+);
 
 static UNITS: [Unit; 2] =
     [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }, Unit { name: "s", kg: 0, m: 0, s: 1, a: 0 }];
@@ -171,8 +162,8 @@ impl Model for ReferenceFmu {
         &INFO
     }
 
-    fn variables() -> &'static [Variable] {
-        &VARIABLES
+    fn table() -> &'static [Row<Self>] {
+        &TABLE
     }
 
     fn new() -> Self {
@@ -187,68 +178,6 @@ impl Model for ReferenceFmu {
             points: vec![(0.0, 100e-6)],
             time: 0.0,
         }
-    }
-
-    fn get_real(&self, r: u32) -> Result<f64, String> {
-        let i = |base: u32| (r - base) as usize;
-        Ok(match r {
-            vr::REFERENCE => self.value(self.time),
-            vr::RAMP_TIME => self.ramp_time,
-            r if (vr::TIMES..vr::TIMES + MAX_POINTS as u32).contains(&r) => {
-                self.times[i(vr::TIMES)]
-            }
-            r if (vr::POSITIONS..vr::POSITIONS + MAX_POINTS as u32).contains(&r) => {
-                self.positions[i(vr::POSITIONS)]
-            }
-            _ => return Err(format!("no Real variable with value reference {r}")),
-        })
-    }
-
-    fn get_integer(&self, r: u32) -> Result<i32, String> {
-        match r {
-            vr::PROFILE => Ok(self.profile),
-            vr::N_POINTS => Ok(self.n_points),
-            _ => Err(format!("no Integer variable with value reference {r}")),
-        }
-    }
-
-    fn get_boolean(&self, r: u32) -> Result<bool, String> {
-        Err(format!("no Boolean variable with value reference {r}"))
-    }
-
-    fn set_real(&mut self, r: u32, value: f64) -> Result<(), String> {
-        let i = |base: u32| (r - base) as usize;
-        match r {
-            vr::RAMP_TIME => self.ramp_time = value,
-            r if (vr::TIMES..vr::TIMES + MAX_POINTS as u32).contains(&r) => {
-                self.times[i(vr::TIMES)] = value
-            }
-            r if (vr::POSITIONS..vr::POSITIONS + MAX_POINTS as u32).contains(&r) => {
-                self.positions[i(vr::POSITIONS)] = value
-            }
-            _ => return Err(format!("no settable Real variable with value reference {r}")),
-        }
-        // The output before initialization follows the table as it is set.
-        if let Ok(p) = self.build_points() {
-            self.points = p;
-        }
-        Ok(())
-    }
-
-    fn set_integer(&mut self, r: u32, value: i32) -> Result<(), String> {
-        match r {
-            vr::PROFILE => self.profile = value,
-            vr::N_POINTS => self.n_points = value,
-            _ => return Err(format!("no settable Integer variable with value reference {r}")),
-        }
-        if let Ok(p) = self.build_points() {
-            self.points = p;
-        }
-        Ok(())
-    }
-
-    fn set_boolean(&mut self, r: u32, _value: bool) -> Result<(), String> {
-        Err(format!("no settable Boolean variable with value reference {r}"))
     }
 
     fn exit_initialization(&mut self, start_time: f64) -> Result<(), String> {

@@ -10,19 +10,18 @@ use inchworm_fmi_export::testing::Harness;
 use inchworm_fmi_export::Model;
 use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
-const PLAY_RADIUS: u32 = 113;
-const PLAY_WEIGHT: u32 = 118;
 const ERROR: i32 = 3;
 
 fn radii_and_weights(h: &Harness<PlantFmu, Fmi3>, n: usize) -> (i32, Vec<f64>) {
     let mut v = vec![f64::NAN; n];
-    let vrs = [PLAY_RADIUS, PLAY_WEIGHT];
+    let vrs = [PlantFmu::PLAY_RADIUS_1.vr(), PlantFmu::PLAY_WEIGHT_1.vr()];
     let s = unsafe { fmi3GetFloat64::<PlantFmu>(h.c, vrs.as_ptr(), 2, v.as_mut_ptr(), n) };
     (s, v)
 }
 
 #[test]
 fn the_radii_and_weights_are_arrays_got_and_set_whole() {
+    let play_radius = PlantFmu::PLAY_RADIUS_1.vr();
     let h = Harness::<PlantFmu, Fmi3>::new("arrays");
     assert_eq!(h.enter(), 0);
     assert_eq!(
@@ -30,23 +29,23 @@ fn the_radii_and_weights_are_arrays_got_and_set_whole() {
         (0, vec![15.0, 30.0, 45.0, 60.0, 75.0, 0.08, 0.07, 0.06, 0.05, 0.04])
     );
     let radii = [16.0, 31.0, 46.0, 61.0, 76.0];
-    assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &PLAY_RADIUS, 1, radii.as_ptr(), 5) }, 0);
+    assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &play_radius, 1, radii.as_ptr(), 5) }, 0);
     assert_eq!(radii_and_weights(&h, 10).1[..5], radii);
 
     // One value for an array of five, or an element's own value reference: refused,
     // nothing changed.
     let one = [1.0];
-    assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &PLAY_RADIUS, 1, one.as_ptr(), 1) }, ERROR);
+    assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &play_radius, 1, one.as_ptr(), 1) }, ERROR);
     assert!(h.saw(ERROR, &["nValues 1 differs from the 5 values of the 1 value references"]));
     assert_eq!(radii_and_weights(&h, 9).0, ERROR);
-    let element = PLAY_RADIUS + 1;
+    let element = play_radius + 1;
     assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &element, 1, one.as_ptr(), 1) }, ERROR);
     assert!(h.saw(ERROR, &["unknown value reference 114"]));
     assert_eq!(radii_and_weights(&h, 10).1[..5], radii);
 
     // A NaN element is refused alone, by its element's name; the others are set.
     let with_nan = [17.0, f64::NAN, 47.0, 62.0, 77.0];
-    let s = unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &PLAY_RADIUS, 1, with_nan.as_ptr(), 5) };
+    let s = unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &play_radius, 1, with_nan.as_ptr(), 5) };
     assert_eq!(s, ERROR);
     assert!(h.saw(ERROR, &["play_radius[2] = NaN refused", "keeping 31 V"]), "{:?}", h.logged());
     assert_eq!(radii_and_weights(&h, 10).1[..5], [17.0, 31.0, 47.0, 62.0, 77.0]);
@@ -60,35 +59,42 @@ fn an_array_set_through_fmi3_is_the_scalars_set_through_fmi2() {
     assert_eq!((two.enter(), three.enter()), (0, 0));
     let weights = [0.09, 0.08, 0.07, 0.06, 0.05];
     for (k, w) in weights.iter().enumerate() {
-        assert_eq!(two.set_real(PLAY_WEIGHT + k as u32, *w), 0);
+        assert_eq!(two.set_real(PlantFmu::PLAY_WEIGHT_1.element(k).vr(), *w), 0);
     }
+    let play_weight = PlantFmu::PLAY_WEIGHT_1.vr();
     assert_eq!(
-        unsafe { fmi3SetFloat64::<PlantFmu>(three.c, &PLAY_WEIGHT, 1, weights.as_ptr(), 5) },
+        unsafe { fmi3SetFloat64::<PlantFmu>(three.c, &play_weight, 1, weights.as_ptr(), 5) },
         0
     );
+    let (dac, runner) = (PlantFmu::DAC_EXTENSION.vr(), PlantFmu::RUNNER_POSITION.vr());
     assert_eq!((two.exit(), three.exit()), (0, 0));
     for k in 0..200 {
         let t = k as f64 * 0.002;
         let v = if k % 40 < 20 { 10.0 } else { 0.0 };
-        assert_eq!((two.set_real(3, v), three.set_real(3, v)), (0, 0));
+        assert_eq!((two.set_real(dac, v), three.set_real(dac, v)), (0, 0));
         assert_eq!((two.step(t, 0.002), three.step(t, 0.002)), (0, 0));
-        assert_eq!(two.real(12).1.to_bits(), three.real(12).1.to_bits(), "runner at step {k}");
+        assert_eq!(
+            two.real(runner).1.to_bits(),
+            three.real(runner).1.to_bits(),
+            "runner at step {k}"
+        );
     }
 }
 
 #[test]
 fn the_tables_declare_their_arrays() {
-    let names = |vars: &'static [inchworm_fmi_export::Variable]| -> Vec<(&str, usize)> {
+    fn names<M: Model>() -> Vec<(&'static str, usize)> {
+        let vars = M::table();
         let entries = fmi3_entries(vars).unwrap();
         entries
             .iter()
             .filter(|e| e.is_array(vars))
-            .map(|e| (array_name(&vars[e.first]), e.len))
+            .map(|e| (array_name(&vars[e.first].var), e.len))
             .collect()
-    };
-    assert_eq!(names(PlantFmu::variables()), [("play_radius", 5), ("play_weight", 5)]);
+    }
+    assert_eq!(names::<PlantFmu>(), [("play_radius", 5), ("play_weight", 5)]);
     assert_eq!(
-        names(ControllerFmu::variables()),
+        names::<ControllerFmu>(),
         [("scale_weights", 10), ("basis_peak", 10), ("scale_weights_start", 10)]
     );
 }

@@ -109,7 +109,7 @@ impl PlantParams {
             f_bessel: 300.0,
             amp_gain: 10.0,
             f_amp: 475.0,
-            q_enc: 1.2e-9,
+            q_enc: inchworm_board::ENCODER_RESOLUTION,
             encoder_noise: 0.0,
             noise_seed: 1,
             rel_tol: 1e-9,

@@ -151,10 +151,10 @@ impl Armed {
     }
 }
 
-/// DAC volts as the plant holds them: clamped to 0–10 V, a non-finite value as 0 V.
+/// DAC volts as the plant holds them: clamped to the DAC's range, a non-finite value as 0 V.
 pub(crate) fn held_volts(v: f64) -> f64 {
     if v.is_finite() {
-        v.clamp(0.0, 10.0)
+        v.clamp(0.0, inchworm_board::DAC_FULL_SCALE)
     } else {
         0.0
     }

@@ -25,6 +25,17 @@ pub mod plot;
 pub mod scenario;
 pub mod sweep_plots;
 
+/// Every parameter of `model` as `<component>.<name>` values for the master, from the
+/// model's variable table: the FMU runs exactly `model`'s parameters.
+pub(crate) fn component_parameters<M: inchworm_fmi_export::Model>(
+    component: &str,
+    model: &M,
+) -> Vec<(String, String)> {
+    inchworm_fmi_export::parameter_values(model)
+        .map(|(name, value)| (format!("{component}.{name}"), value.to_string()))
+        .collect()
+}
+
 /// What a scenario run reports: the engine's error as it is, or the analysis' message (a
 /// trace without the loop's variables, a plot that cannot be drawn).
 #[derive(Debug, thiserror::Error)]

@@ -3,6 +3,8 @@
 
 use std::io::Write;
 
+use inchworm_fmi_export::Var;
+use inchworm_fmu_models::PlantFmu;
 use inchworm_plant::PlantParams;
 pub use inchworm_plant::{Dac, Mode, Outputs};
 
@@ -10,17 +12,19 @@ use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S
 use inchworm_cosim::fmu::{CsFmu, FmuError, VarType};
 
 /// The DAC inputs (V), in the order of [`Dac`]'s fields.
-pub const INPUTS: [&str; 3] = ["dac_earth", "dac_nonearth", "dac_extension"];
-const REAL_OUTPUTS: [&str; 6] = [
-    "encoder_position",
-    "runner_position",
-    "extension",
-    "voltage_earth",
-    "voltage_nonearth",
-    "voltage_extension",
+const INPUTS: [Var<PlantFmu>; 3] =
+    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
+const REAL_OUTPUTS: [Var<PlantFmu>; 6] = [
+    PlantFmu::ENCODER_POSITION,
+    PlantFmu::RUNNER_POSITION,
+    PlantFmu::EXTENSION,
+    PlantFmu::VOLTAGE_EARTH,
+    PlantFmu::VOLTAGE_NONEARTH,
+    PlantFmu::VOLTAGE_EXTENSION,
 ];
-const INTEGER_OUTPUTS: [&str; 3] = ["encoder_counts", "mode", "slip_events"];
-const BOOLEAN_OUTPUTS: [&str; 2] = ["earth_closed", "nonearth_closed"];
+const INTEGER_OUTPUTS: [Var<PlantFmu>; 3] =
+    [PlantFmu::ENCODER_COUNTS, PlantFmu::MODE, PlantFmu::SLIP_EVENTS];
+const BOOLEAN_OUTPUTS: [Var<PlantFmu>; 2] = [PlantFmu::EARTH_CLOSED, PlantFmu::NONEARTH_CLOSED];
 
 /// The plant's `mode` output decoded: the FMU sends [`Mode`]'s discriminant.
 pub fn mode(code: i32) -> Option<Mode> {
@@ -31,42 +35,7 @@ pub fn mode(code: i32) -> Option<Mode> {
 /// `plant.<name>` values for the master: the FMU runs exactly `p`, whatever its start
 /// values are.
 pub fn parameters(p: &PlantParams) -> Vec<(String, String)> {
-    let mut v: Vec<(String, f64)> = vec![
-        ("m_p".into(), p.m_p),
-        ("k_p".into(), p.k_p),
-        ("c_p".into(), p.c_p),
-        ("m_b".into(), p.m_b),
-        ("k_f".into(), p.k_f),
-        ("c_f".into(), p.c_f),
-        ("m_r".into(), p.m_r),
-        ("k_e".into(), p.k_e),
-        ("c_e".into(), p.c_e),
-        ("L_p".into(), p.l_p),
-        ("L_r".into(), p.l_r),
-        ("T_em".into(), p.t_em),
-        ("C".into(), p.c),
-    ];
-    v.extend(
-        p.play_radius.iter().enumerate().map(|(i, &r)| (format!("play_radius[{}]", i + 1), r)),
-    );
-    v.extend(
-        p.play_weight.iter().enumerate().map(|(i, &w)| (format!("play_weight[{}]", i + 1), w)),
-    );
-    v.extend([
-        ("F_d0".into(), p.f_d0),
-        ("gamma".into(), p.gamma),
-        ("V_th".into(), p.v_th),
-        ("f_bessel".into(), p.f_bessel),
-        ("amp_gain".into(), p.amp_gain),
-        ("f_amp".into(), p.f_amp),
-        ("q_enc".into(), p.q_enc),
-        ("rel_tol".into(), p.rel_tol),
-        ("encoder_noise".into(), p.encoder_noise),
-    ]);
-    let mut out: Vec<(String, String)> =
-        v.into_iter().map(|(n, x)| (format!("plant.{n}"), format!("{x}"))).collect();
-    out.push(("plant.noise_seed".into(), p.noise_seed.to_string()));
-    out
+    crate::component_parameters("plant", &PlantFmu::with_params(p.clone()))
 }
 
 /// A plant FMU instance, initialized and ready to step from t = 0.
@@ -84,13 +53,16 @@ impl Plant {
     /// Resolves the docs/model.md §5 variables (a missing or mistyped one is an error naming it) and
     /// initializes the FMU with its default parameters from t = 0.
     pub fn new(mut fmu: CsFmu) -> Result<Self, FmuError> {
-        let inputs = fmu.vrs_of(&INPUTS, VarType::Real)?;
-        let reals = fmu.vrs_of(&REAL_OUTPUTS, VarType::Real)?;
-        let integers = fmu.vrs_of(&INTEGER_OUTPUTS, VarType::Integer)?;
-        let booleans = fmu.vrs_of(&BOOLEAN_OUTPUTS, VarType::Boolean)?;
+        let vrs_of = |vars: &[Var<PlantFmu>], ty| {
+            fmu.vrs_of(&vars.iter().map(|v| v.name()).collect::<Vec<_>>(), ty)
+        };
+        let inputs = vrs_of(&INPUTS, VarType::Real)?;
+        let reals = vrs_of(&REAL_OUTPUTS, VarType::Real)?;
+        let integers = vrs_of(&INTEGER_OUTPUTS, VarType::Integer)?;
+        let booleans = vrs_of(&BOOLEAN_OUTPUTS, VarType::Boolean)?;
         fmu.enter_initialization(None, 0.0, None)?;
         fmu.exit_initialization()?;
-        let q_enc = fmu.real("q_enc")?;
+        let q_enc = fmu.real(PlantFmu::Q_ENC.name())?;
         Ok(Self { fmu, inputs, reals, integers, booleans, q_enc })
     }
 

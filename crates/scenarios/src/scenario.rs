@@ -5,6 +5,8 @@
 use std::path::Path;
 
 use inchworm_controller::{Params, NOMINAL_WEIGHTS, SAMPLE_PERIOD};
+use inchworm_fmi_export::Var;
+use inchworm_fmu_models::ReferenceFmu;
 use inchworm_plant::PlantParams;
 
 use crate::closed_loop::{self, LoopView, REFERENCE_OUTPUT};
@@ -234,11 +236,12 @@ impl Scenario {
         let mut o = self.options(plant, controller);
         o.input = None;
         let points = self.reference.points(0);
-        o.params.push(("reference.profile".into(), "0".into()));
-        o.params.push(("reference.n_points".into(), points.len().to_string()));
+        let param = |v: Var<ReferenceFmu>, x: String| (format!("reference.{}", v.name()), x);
+        o.params.push(param(ReferenceFmu::PROFILE, "0".into()));
+        o.params.push(param(ReferenceFmu::N_POINTS, points.len().to_string()));
         for (i, (t, p)) in points.iter().enumerate() {
-            o.params.push((format!("reference.times[{}]", i + 1), format!("{t:e}")));
-            o.params.push((format!("reference.positions[{}]", i + 1), format!("{p:e}")));
+            o.params.push(param(ReferenceFmu::TIMES_1.element(i), format!("{t:e}")));
+            o.params.push(param(ReferenceFmu::POSITIONS_1.element(i), format!("{p:e}")));
         }
         o.outputs = closed_loop::recorded_as(REFERENCE_OUTPUT);
         o

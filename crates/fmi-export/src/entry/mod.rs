@@ -44,5 +44,5 @@ pub use model_exchange::{
     update_discrete_states, Array, EventSink,
 };
 pub use values::{
-    get, no_variables_of, set, Access, Booleans, CBoolean, Integers, Reals, Value, CLAMPS_IN_FULL,
+    get, no_variables_of, set, Booleans, CBoolean, CTypes, Integers, Reals, Value, CLAMPS_IN_FULL,
 };

@@ -5,6 +5,7 @@ use std::ffi::c_void;
 
 use super::call::{slice, slice_mut, with_instance};
 use super::co_simulation::same_time;
+use super::values::read_row;
 use crate::instance::*;
 use crate::state::*;
 use crate::table::Kind;
@@ -111,9 +112,14 @@ pub unsafe fn get_array<S: Standard, M: Model>(
                     continue;
                 }
             };
-            match inst.model.get_real(vr) {
-                Ok(v) => *out = v,
-                Err(why) => return inst.refuse(func, format_args!("{why}")),
+            let value = match inst.indexed(vr) {
+                Some(entry) => inst.rows_of(entry).first().map(|row| read_row(row, &inst.model)),
+                None => None,
+            };
+            match value {
+                Some(Ok(v)) => *out = v.real(),
+                Some(Err(why)) => return inst.refuse(func, format_args!("{why}")),
+                None => return inst.refuse(func, format_args!("value reference {vr} of the Model Exchange declaration is not in the table")),
             }
         }
         OK

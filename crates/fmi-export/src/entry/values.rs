@@ -5,6 +5,8 @@
 use std::ffi::c_void;
 
 use super::call::{slice, slice_mut, with_instance};
+use crate::access::Row;
+pub use crate::access::Value;
 use crate::instance::*;
 use crate::state::*;
 use crate::table::{Admission, Kind, Variable};
@@ -13,51 +15,19 @@ use crate::Model;
 /// The clamps of one input warned of each in full, before only every tenfold count is.
 pub const CLAMPS_IN_FULL: u64 = 3;
 
-/// A value on its way between the master and the model.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Value {
-    Real(f64),
-    Integer(i32),
-    Boolean(bool),
-}
-
-impl Value {
-    pub fn real(self) -> f64 {
-        match self {
-            Value::Real(x) => x,
-            Value::Integer(i) => f64::from(i),
-            Value::Boolean(b) => f64::from(u8::from(b)),
-        }
-    }
-    pub fn integer(self) -> i32 {
-        match self {
-            Value::Integer(i) => i,
-            Value::Boolean(b) => i32::from(b),
-            Value::Real(x) => x as i32,
-        }
-    }
-    pub fn boolean(self) -> bool {
-        match self {
-            Value::Boolean(b) => b,
-            Value::Integer(i) => i != 0,
-            Value::Real(x) => x != 0.0,
-        }
-    }
-}
-
 /// One `Get*`/`Set*` pair of a standard: the table type its variables have and the C
 /// types it moves. A type parameter rather than a value (a type and a conversion
 /// function) so that each entry point is compiled for its own type: the model's getter
 /// or setter is called directly, the [`Value`] between them folds away, and nothing is
 /// decided per value that the function's name already decided.
-pub trait Access {
+pub trait CTypes {
     /// The table type of the variables the pair reaches.
     const KIND: Kind;
     /// What `Get*` writes.
     type Out: Copy;
     /// What `Set*` reads.
     type In: Copy;
-    /// A value of [`Access::KIND`] (or FMI 3.0's time, a Real) as `Get*` writes it.
+    /// A value of [`CTypes::KIND`] (or FMI 3.0's time, a Real) as `Get*` writes it.
     fn out(v: Value) -> Self::Out;
     /// What `Set*` was given, as the model's value.
     fn value(c: Self::In) -> Value;
@@ -66,7 +36,7 @@ pub trait Access {
 /// `fmi2Get/SetReal`, `fmi3Get/SetFloat64`: a C double either way.
 pub struct Reals;
 
-impl Access for Reals {
+impl CTypes for Reals {
     const KIND: Kind = Kind::Real;
     type Out = f64;
     type In = f64;
@@ -81,7 +51,7 @@ impl Access for Reals {
 /// `fmi2Get/SetInteger`, `fmi3Get/SetInt32`: a 32-bit C int either way.
 pub struct Integers;
 
-impl Access for Integers {
+impl CTypes for Integers {
     const KIND: Kind = Kind::Integer;
     type Out = i32;
     type In = i32;
@@ -133,7 +103,7 @@ impl CBoolean for u8 {
 /// `Get*Boolean` writing `O`, `Set*Boolean` reading `I`.
 pub struct Booleans<O, I>(std::marker::PhantomData<(O, I)>);
 
-impl<O: CBoolean, I: CBoolean> Access for Booleans<O, I> {
+impl<O: CBoolean, I: CBoolean> CTypes for Booleans<O, I> {
     const KIND: Kind = Kind::Boolean;
     type Out = O;
     type In = I;
@@ -163,6 +133,25 @@ impl Addressed {
             Addressed::Time => 1,
         }
     }
+}
+
+/// The value `row` holds on `model`, a non-finite Real refused: a model whose state has
+/// left what it can represent says so instead of handing the master a NaN.
+#[inline]
+pub(crate) fn read_row<M>(row: &Row<M>, model: &M) -> Result<Value, String> {
+    match row.get(model) {
+        Value::Real(x) if !x.is_finite() => Err(not_finite(&row.var, x)),
+        v => Ok(v),
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn not_finite(v: &Variable, x: f64) -> String {
+    format!(
+        "{} (value reference {}) is not finite ({x}): the model's state has left what it can represent",
+        v.name, v.vr
+    )
 }
 
 impl<S: Standard, M: Model> Instance<S, M> {
@@ -221,7 +210,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
 
     /// The values of `what` into the start of `out`, which has room for them.
     #[inline]
-    fn read<A: Access>(&self, what: Addressed, out: &mut [A::Out]) -> Result<(), String> {
+    fn read<A: CTypes>(&self, what: Addressed, out: &mut [A::Out]) -> Result<(), String> {
         let rows = match what {
             Addressed::Variable(entry) => self.rows_of(entry),
             Addressed::Time => {
@@ -231,12 +220,8 @@ impl<S: Standard, M: Model> Instance<S, M> {
         };
         // An array's elements are the table's rows after its first, each with its own
         // value reference (crate::arrays): the model knows only those.
-        for (slot, v) in out.iter_mut().zip(rows) {
-            *slot = A::out(match A::KIND {
-                Kind::Real => self.model.get_real(v.vr).map(Value::Real),
-                Kind::Integer => self.model.get_integer(v.vr).map(Value::Integer),
-                Kind::Boolean => self.model.get_boolean(v.vr).map(Value::Boolean),
-            }?);
+        for (slot, row) in out.iter_mut().zip(rows) {
+            *slot = A::out(read_row(row, &self.model)?);
         }
         Ok(())
     }
@@ -251,13 +236,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
     /// ([`crate::instance::settable_states`]): each stands alone, so a refused one keeps
     /// its previous value and does not stop the others.
     #[inline]
-    fn write<A: Access>(
+    fn write<A: CTypes>(
         &mut self,
         func: &str,
-        (var, settable): (&'static Variable, u16),
+        (row, settable): (&'static Row<M>, u16),
         value: A::In,
     ) -> Status {
-        let vr = var.vr;
+        let var = &row.var;
         if settable & self.state as u16 == 0 {
             let (c, v, s) = (var.causality, var.variability, S::state_name(self.state));
             let why = format_args!("{} ({c:?}, {v:?}) cannot be set in state {s}", var.name);
@@ -265,15 +250,16 @@ impl<S: Standard, M: Model> Instance<S, M> {
         }
         let (stored, clamped_from) = match A::value(value) {
             Value::Real(x) => match var.admit(x) {
-                Admission::Accept(y) | Admission::Limit(y) => (self.model.set_real(vr, y), None),
-                Admission::Clamp(y) => (self.model.set_real(vr, y), Some((x, y))),
+                Admission::Accept(y) | Admission::Limit(y) => {
+                    (row.set(&mut self.model, Value::Real(y)), None)
+                }
+                Admission::Clamp(y) => (row.set(&mut self.model, Value::Real(y)), Some((x, y))),
                 Admission::NonFinite => {
-                    let current = self.model.get_real(vr).unwrap_or(f64::NAN);
+                    let current = row.real(&self.model).unwrap_or(f64::NAN);
                     return self.refuse(func, format_args!("{}", var.refusal(x, current)));
                 }
             },
-            Value::Integer(i) => (self.model.set_integer(vr, i), None),
-            Value::Boolean(b) => (self.model.set_boolean(vr, b), None),
+            other => (row.set(&mut self.model, other), None),
         };
         match (stored, clamped_from) {
             (Err(why), _) => self.refuse(func, format_args!("{why}")),
@@ -379,7 +365,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
 /// `Get*` of one type. One pass: each reference is resolved once and its values read
 /// straight into the master's array; a count that turns out wrong on the way is refused
 /// with the message a count check up front would have given.
-pub unsafe fn get<S: Standard, M: Model, A: Access>(
+pub unsafe fn get<S: Standard, M: Model, A: CTypes>(
     c: *mut c_void,
     func: &str,
     (vr, nvr): (*const u32, usize),
@@ -419,7 +405,7 @@ pub unsafe fn get<S: Standard, M: Model, A: Access>(
 
 /// `Set*` of one type. The call reports the worst outcome of its values; a reference
 /// refused or a wrong count refuses it whole, before any value is stored.
-pub unsafe fn set<S: Standard, M: Model, A: Access>(
+pub unsafe fn set<S: Standard, M: Model, A: CTypes>(
     c: *mut c_void,
     func: &str,
     (vr, nvr): (*const u32, usize),
@@ -443,8 +429,8 @@ pub unsafe fn set<S: Standard, M: Model, A: Access>(
             };
             // Counted above, so the values are there.
             let (these, rest) = values.split_at(entry.len as usize);
-            for (var, &v) in inst.rows_of(entry).iter().zip(these) {
-                status = status.max(inst.write::<A>(func, (var, entry.settable), v));
+            for (row, &v) in inst.rows_of(entry).iter().zip(these) {
+                status = status.max(inst.write::<A>(func, (row, entry.settable), v));
             }
             values = rest;
         }

@@ -18,7 +18,7 @@ use crate::Model;
 /// The complete FMI 3.0 `modelDescription.xml`.
 pub fn model_description<M: Model>() -> String {
     assert!(
-        M::variables().iter().all(|v| v.vr != TIME_VR),
+        M::variables().all(|v| v.vr != TIME_VR),
         "value reference {TIME_VR} is the FMI 3.0 independent variable time"
     );
     let info = M::info();
@@ -53,12 +53,12 @@ pub fn model_description<M: Model>() -> String {
         w,
         r#"    <Float64 name="time" valueReference="{TIME_VR}" description="Simulation time" causality="independent" variability="continuous"/>"#
     );
-    let vars = M::variables();
+    let vars = M::table();
     let entries = arrays::fmi3_entries(vars).unwrap_or_else(|why| {
         panic!("{}: the variable table's arrays: {why}", info.model_identifier)
     });
     for e in &entries {
-        let v = &vars[e.first];
+        let v = &vars[e.first].var;
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
         let mut attrs = unit_and_range(v);
         if let Some(state) = state_of::<M>(v) {
@@ -66,8 +66,10 @@ pub fn model_description<M: Model>() -> String {
         }
         let (name, description, start, close) = if e.is_array(vars) {
             // One start value per element, in the serialization order (element 1 first).
-            let starts: Vec<String> =
-                vars[e.first..e.first + e.len].iter().filter_map(|x| start_text(x.start)).collect();
+            let starts: Vec<String> = vars[e.first..e.first + e.len]
+                .iter()
+                .filter_map(|x| start_text(x.var.start))
+                .collect();
             let start = match starts.len() {
                 0 => String::new(),
                 _ => format!(" start=\"{}\"", starts.join(" ")),
@@ -92,7 +94,7 @@ pub fn model_description<M: Model>() -> String {
     let _ = writeln!(w, "  <ModelStructure>");
     // An array is one unknown, under its first element's value reference.
     let vrs = |pred: &dyn Fn(&Variable) -> bool| -> Vec<u32> {
-        entries.iter().map(|e| &vars[e.first]).filter(|v| pred(v)).map(|v| v.vr).collect()
+        entries.iter().map(|e| &vars[e.first].var).filter(|v| pred(v)).map(|v| v.vr).collect()
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
     let derivatives = vrs(&|v| state_of::<M>(v).is_some());

@@ -17,8 +17,8 @@ macro_rules! for_both {
 }
 
 use inchworm_fmi_export::{
-    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, StepLog, Unit,
-    Variable, Writer,
+    ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, Row, StepLog,
+    Unit, Variable, Writer,
 };
 
 pub const U: u32 = 1;
@@ -49,27 +49,63 @@ static ME: ModelExchange = ModelExchange {
     directional_derivatives: true,
 };
 
-static VARIABLES: [Variable; 11] = [
-    Variable::input("u", U, 0.0, Some("V"), "Drive")
-        .with_range(0.0, 10.0)
-        .worded("drive volts", "drive range"),
-    Variable::integer_input("gain", GAIN, 1, None, "Integer gain on u"),
-    Variable::boolean_input("hold", HOLD, false, "Freeze x while true"),
-    Variable::output("x", X, Kind::Real, Some("V"), "State"),
-    Variable::output("steps", STEPS, Kind::Integer, None, "Steps taken"),
-    Variable::output("positive", POSITIVE, Kind::Boolean, None, "x > 0"),
-    Variable::local("der(x)", DER_X, Some("V/s"), "dx/dt"),
-    Variable::local("above_level", ABOVE_LEVEL, Some("V"), "x - LEVEL: the reset's indicator"),
-    Variable::parameter("k", K, 1.0, Some("1/s"), "Decay rate, > 0"),
-    Variable::integer_parameter(
-        "event_every",
-        EVENT_EVERY,
-        10,
-        None,
-        "Steps between logged events",
-    ),
-    Variable::boolean_parameter("clamp_x", CLAMP_X, false, "Clamp x to [-100, 100]"),
-];
+/// The table of `Toy<$me>`: one per type, as a `static` cannot be generic.
+macro_rules! toy_table {
+    ($me:literal) => {
+        impl ToyTable for Toy<$me> {
+            fn rows() -> &'static [Row<Self>] {
+                static TABLE: [Row<Toy<$me>>; 11] = [
+                    Variable::input("u", U, 0.0, Some("V"), "Drive")
+                        .with_range(0.0, 10.0)
+                        .worded("drive volts", "drive range")
+                        .real(|m| m.u, |m, x| m.u = x),
+                    Variable::integer_input("gain", GAIN, 1, None, "Integer gain on u")
+                        .integer(|m| m.gain, |m, x| m.gain = x),
+                    Variable::boolean_input("hold", HOLD, false, "Freeze x while true")
+                        .boolean(|m| m.hold, |m, x| m.hold = x),
+                    Variable::output("x", X, Kind::Real, Some("V"), "State").real_out(|m| m.x),
+                    Variable::output("steps", STEPS, Kind::Integer, None, "Steps taken")
+                        .integer_out(|m| m.steps),
+                    Variable::output("positive", POSITIVE, Kind::Boolean, None, "x > 0")
+                        .boolean_out(|m| m.x > 0.0),
+                    Variable::local("der(x)", DER_X, Some("V/s"), "dx/dt")
+                        .real_out(|m| m.derivative()),
+                    Variable::local(
+                        "above_level",
+                        ABOVE_LEVEL,
+                        Some("V"),
+                        "x - LEVEL: the reset's indicator",
+                    )
+                    .real_out(|m| m.x - LEVEL),
+                    Variable::parameter("k", K, 1.0, Some("1/s"), "Decay rate, > 0")
+                        .real(|m| m.k, |m, x| m.k = x),
+                    Variable::integer_parameter(
+                        "event_every",
+                        EVENT_EVERY,
+                        10,
+                        None,
+                        "Steps between logged events",
+                    )
+                    .integer(|m| m.event_every, |m, x| m.event_every = x),
+                    Variable::boolean_parameter(
+                        "clamp_x",
+                        CLAMP_X,
+                        false,
+                        "Clamp x to [-100, 100]",
+                    )
+                    .boolean(|m| m.clamp_x, |m, x| m.clamp_x = x),
+                ];
+                &TABLE
+            }
+        }
+    };
+}
+
+pub trait ToyTable: Sized + 'static {
+    fn rows() -> &'static [Row<Self>];
+}
+toy_table!(true);
+toy_table!(false);
 
 static INFO: ModelInfo = ModelInfo {
     model_name: "Toy",
@@ -123,65 +159,18 @@ impl<const WITH_ME: bool> Toy<WITH_ME> {
     }
 }
 
-impl<const WITH_ME: bool> Model for Toy<WITH_ME> {
+impl<const WITH_ME: bool> Model for Toy<WITH_ME>
+where
+    Toy<WITH_ME>: ToyTable,
+{
     fn info() -> &'static ModelInfo {
         &INFO
     }
-    fn variables() -> &'static [Variable] {
-        &VARIABLES
+    fn table() -> &'static [Row<Self>] {
+        Self::rows()
     }
     fn new() -> Self {
         Toy { gain: 1, k: 1.0, event_every: 10, ..Toy::default() }
-    }
-    fn get_real(&self, vr: u32) -> Result<f64, String> {
-        match vr {
-            U => Ok(self.u),
-            X => Ok(self.x),
-            K => Ok(self.k),
-            DER_X => Ok(self.derivative()),
-            ABOVE_LEVEL => Ok(self.x - LEVEL),
-            _ => Err(format!("no Real {vr}")),
-        }
-    }
-    fn get_integer(&self, vr: u32) -> Result<i32, String> {
-        match vr {
-            GAIN => Ok(self.gain),
-            STEPS => Ok(self.steps),
-            EVENT_EVERY => Ok(self.event_every),
-            _ => Err(format!("no Integer {vr}")),
-        }
-    }
-    fn get_boolean(&self, vr: u32) -> Result<bool, String> {
-        match vr {
-            HOLD => Ok(self.hold),
-            POSITIVE => Ok(self.x > 0.0),
-            CLAMP_X => Ok(self.clamp_x),
-            _ => Err(format!("no Boolean {vr}")),
-        }
-    }
-    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
-        match vr {
-            U => self.u = value,
-            K => self.k = value,
-            _ => return Err(format!("no settable Real {vr}")),
-        }
-        Ok(())
-    }
-    fn set_integer(&mut self, vr: u32, value: i32) -> Result<(), String> {
-        match vr {
-            GAIN => self.gain = value,
-            EVENT_EVERY => self.event_every = value,
-            _ => return Err(format!("no settable Integer {vr}")),
-        }
-        Ok(())
-    }
-    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String> {
-        match vr {
-            HOLD => self.hold = value,
-            CLAMP_X => self.clamp_x = value,
-            _ => return Err(format!("no settable Boolean {vr}")),
-        }
-        Ok(())
     }
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
         match self.k > 0.0 && self.event_every > 0 {
