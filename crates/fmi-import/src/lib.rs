@@ -47,7 +47,7 @@ pub use description::{
     ArrayElement, Causality, CoSimulation, ContinuousState, DefaultExperiment, Initial,
     ModelDescription, ModelExchange, VarType, Variability, Variable,
 };
-pub use error::{FmuError, ImportError, Status};
+pub use error::{FmuError, ImportError, LoadError, Status};
 pub use fmu_state::FmuState;
 pub use instance::{Instance, Var};
 pub use loaded::Loaded;
