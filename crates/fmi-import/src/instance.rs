@@ -1,7 +1,7 @@
 //! [`Instance`]: what an FMU instance is in both interfaces, Co-Simulation and Model
 //! Exchange: its loading and unloading, its description and variables by name,
-//! initialization, terminate and reset. Its values ([`crate::values`]) and FMU states
-//! ([`crate::fmu_state`]) are in their own modules; the interface's own calls are on the
+//! initialization, terminate and reset. Its values (`values`) and FMU states
+//! (`fmu_state`) are in their own modules; the interface's own calls are on the
 //! wrapper that owns it, [`crate::CsFmu`] or [`crate::MeFmu`].
 
 use std::collections::HashMap;
