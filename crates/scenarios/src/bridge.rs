@@ -24,7 +24,7 @@ fn initialise(fmu: &mut CsFmu, path: &Path, params: &[(String, String)]) -> Resu
         set_param(fmu, name, value).map_err(|source| Error::Parameter {
             path: path.to_path_buf(),
             name: name.clone(),
-            source,
+            source: Box::new(source),
         })?;
     }
     Ok(fmu.exit_initialization()?)

@@ -51,7 +51,7 @@ pub enum Error {
         path: std::path::PathBuf,
         name: String,
         #[source]
-        source: inchworm_cosim::Error,
+        source: Box<inchworm_cosim::Error>,
     },
     /// The plant FMU's `mode` is none of its four.
     #[error("the plant FMU gave mode {0}, not 1–4")]
