@@ -1,6 +1,7 @@
 //! `inchworm bridge`: either end of the HIL bridge (docs/hil-protocol.md) with the FMUs
 //! behind it.
 
+use super::Text;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -157,7 +158,7 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
     let mode = if args.lockstep { "lock-step" } else { "real time, 500 Hz" };
 
     if board_role {
-        let mechanism = inchworm_scenarios::bridge::FmuMechanism::load(&fmu, &params)?;
+        let mechanism = inchworm_scenarios::bridge::FmuMechanism::load(&fmu, &params).text()?;
         let cfg = BoardConfig {
             lockstep: args.lockstep,
             watchdog_periods: args.watchdog.max(1),
@@ -165,7 +166,7 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             fresh_plant_per_session: args.fresh_plant_per_session,
             ..BoardConfig::default()
         };
-        let mut board = Board::new(mechanism, cfg, log.take())?;
+        let mut board = Board::new(mechanism, cfg, log.take()).text()?;
         if !args.allow.is_empty() {
             board.set_allow(args.allow.clone());
         }
@@ -226,7 +227,7 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         None => None,
     };
     let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
-    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&fmu, &params)?;
+    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&fmu, &params).text()?;
     if let Some(l) = log.as_mut() {
         let mut meta = format!(
             "role=controller\nfmu={}\nlockstep={}\nduration={duration}\n",
@@ -252,7 +253,8 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string())
     );
     let wall = Instant::now();
-    let report = run_controller(&mut comp, &mut transport, &reference, &cfg, log.as_mut(), &STOP)?;
+    let report =
+        run_controller(&mut comp, &mut transport, &reference, &cfg, log.as_mut(), &STOP).text()?;
     let wall = wall.elapsed().as_secs_f64();
     let c = &report.counters;
     println!(

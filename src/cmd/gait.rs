@@ -1,5 +1,6 @@
 //! `inchworm gait`: the plant FMU open loop through the docs/model.md §2.9 gait sequence.
 
+use super::Text;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -42,15 +43,15 @@ fn load_plant(path: &Path, logging: bool) -> Result<Plant, String> {
 
 pub fn run(args: &GaitArgs) -> Result<(), String> {
     // Fail on a missing font or output directory before the run, not after it.
-    plot::load_font(&args.font)?;
+    plot::load_font(&args.font).text()?;
     super::create_dir(&args.out)?;
 
     let mut plant = load_plant(&args.fmu, args.fmi_logging)?;
     let steps = gait::check_sequence(args.repeat as usize);
     let wall = Instant::now();
-    let run = GaitRun::run(&mut plant, &steps)?;
+    let run = GaitRun::run(&mut plant, &steps).text()?;
     let wall = wall.elapsed().as_secs_f64();
-    plant.terminate()?;
+    plant.terminate().text()?;
 
     print_measurements(&run);
     let last = run.samples.last().expect("a run has at least its initial point");

@@ -50,7 +50,7 @@ pub fn create_file(path: &Path) -> Result<BufWriter<File>, String> {
 /// makes the folder, draws and reports.
 pub fn write_png(
     path: &Path,
-    draw: impl FnOnce(&Path) -> Result<(), Box<dyn std::error::Error>>,
+    draw: impl FnOnce(&Path) -> Result<(), Box<dyn std::error::Error + Send + Sync>>,
 ) -> Result<(), String> {
     create_parent(path)?;
     draw(path).map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))?;

@@ -1,5 +1,6 @@
 //! `inchworm replay`: the controller FMU re-run on a controller-side bridge log.
 
+use super::Text;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -22,7 +23,7 @@ pub struct ReplayArgs {
 pub const EXIT_INCOMPLETE: u8 = 3;
 
 pub fn run(args: &ReplayArgs) -> Result<(), String> {
-    let log = read_log(&args.log)?;
+    let log = read_log(&args.log).text()?;
     let meta = log
         .records
         .iter()
@@ -63,8 +64,8 @@ pub fn run(args: &ReplayArgs) -> Result<(), String> {
         return Err(format!("{}: no controller samples", args.log.display()));
     }
     let params = inchworm_scenarios::bridge::params_from_meta(&meta);
-    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&args.fmu, &params)?;
-    let r = replay(&mut comp, &samples)?;
+    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&args.fmu, &params).text()?;
+    let r = replay(&mut comp, &samples).text()?;
     drop(comp);
     println!(
         "replayed {} samples ({} events, {} discontinuities) with {}",

@@ -155,7 +155,7 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let opts = args.sim.options(args.outputs.clone())?;
     // Before any work: a bad font or output path fails before the run, not after it.
     if args.plot.is_some() {
-        plot::load_font(&args.font)?;
+        plot::load_font(&args.font).text()?;
     }
     let stop = signals::stop_on_signals();
     let interfaces = args.interfaces()?;

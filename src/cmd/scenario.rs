@@ -46,14 +46,14 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
     let s = scenario::by_name(&args.name).ok_or_else(|| {
         format!("unknown scenario `{}`; known: {}", args.name, scenario::names().join(", "))
     })?;
-    plot::load_font(&args.font)?;
+    plot::load_font(&args.font).text()?;
     super::create_dir(&args.out)?;
     let ssp = args.dist.join("InchwormSystem.ssp");
     let via = if args.direct { Via::Direct } else { Via::System(&ssp) };
     let wall = Instant::now();
     let traces = s.run(via).text()?;
     let wall = wall.elapsed().as_secs_f64();
-    let views = traces.iter().map(LoopView::new).collect::<Result<Vec<_>, _>>()?;
+    let views = traces.iter().map(LoopView::new).collect::<Result<Vec<_>, _>>().text()?;
     println!("{} ({})", s.title, s.via_text(via));
     for (v, r) in s.variants.iter().zip(&views) {
         println!("  {}", s.summary(v, r));

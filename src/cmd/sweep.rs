@@ -175,7 +175,7 @@ fn check_outputs(args: &SweepArgs, plan: &Plan, metrics: &[String]) -> Result<()
             ));
         }
         plot_count(metrics.len(), plan.names.len())?;
-        plot::load_font(&args.font)?;
+        plot::load_font(&args.font).text()?;
         for m in metrics {
             files.push(args.out.join(format!("hist_{}.png", safe_name(m))));
             for name in &plan.names {

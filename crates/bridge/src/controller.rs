@@ -25,7 +25,7 @@ use inchworm_hil_protocol::{
 use crate::realtime::{now_ns, Pacer};
 use crate::runlog::{ControllerSample, LogWriter, Record};
 use crate::transport::Transport;
-use crate::{describe_fault, Compensator, LinkCounters, OverrunPolicy};
+use crate::{describe_fault, Compensator, Error, LinkCounters, OverrunPolicy};
 
 #[derive(Clone, Copy, Debug)]
 pub struct ControllerConfig {
@@ -167,13 +167,9 @@ impl Link<'_> {
     }
 }
 
-fn link_error(e: io::Error) -> String {
-    format!("link: {e}")
-}
-
-fn log_record(log: &mut Option<&mut LogWriter>, r: Record) -> Result<(), String> {
+fn log_record(log: &mut Option<&mut LogWriter>, r: Record) -> Result<(), Error> {
     match log {
-        Some(l) => l.write(&r).map_err(|e| format!("run log: {e}")),
+        Some(l) => l.write(&r).map_err(Error::RunLog),
         None => Ok(()),
     }
 }
@@ -184,7 +180,7 @@ fn handshake(
     cfg: &ControllerConfig,
     stop: &AtomicBool,
     deadline: u64,
-) -> Result<(), String> {
+) -> Result<(), Error> {
     let hello = Hello {
         version: VERSION,
         role: Role::Controller,
@@ -197,10 +193,10 @@ fn handshake(
     // retried until the deadline and reported only then.
     let mut busy = None;
     loop {
-        link.send(Frame::Hello(hello)).map_err(link_error)?;
+        link.send(Frame::Hello(hello)).map_err(Error::Link)?;
         let retry = now_ns() + 100_000_000;
         while now_ns() < retry {
-            match link.recv(Duration::from_millis(20), cfg.max_gap).map_err(link_error)? {
+            match link.recv(Duration::from_millis(20), cfg.max_gap).map_err(Error::Link)? {
                 Incoming::Hello(h) if h.role == Role::Board && h.version == VERSION => {
                     return Ok(());
                 }
@@ -215,23 +211,16 @@ fn handshake(
                         || (f.reason == FaultReason::SessionRefused
                             && f.detail != session_refused::NO_SESSION) =>
                 {
-                    return Err(format!("the board refused the session: {}", describe_fault(&f)));
+                    return Err(Error::Refused(f));
                 }
                 _ => {}
             }
         }
         if now_ns() > deadline || stop.load(Ordering::Relaxed) {
             if let Some(f) = busy {
-                return Err(format!(
-                    "the board refused the session for {:.1} s: {}",
-                    cfg.handshake_timeout.as_secs_f64(),
-                    describe_fault(&f)
-                ));
+                return Err(Error::Busy { fault: f, seconds: cfg.handshake_timeout.as_secs_f64() });
             }
-            return Err(format!(
-                "no HELLO answer from the board within {:.1} s",
-                cfg.handshake_timeout.as_secs_f64()
-            ));
+            return Err(Error::NoAnswer { seconds: cfg.handshake_timeout.as_secs_f64() });
         }
     }
 }
@@ -240,12 +229,12 @@ fn handshake(
 /// and count to start from. `Ok(Err(_))`: not armed, so the handshake starts over (HELLO
 /// again, then ARM): the board refused this ARM (the fault: another controller completed
 /// its handshake first, or this one's HELLO is no longer remembered), or said nothing.
-fn arm(link: &mut Link) -> Result<Result<EncoderSample, Option<Fault>>, String> {
+fn arm(link: &mut Link) -> Result<Result<EncoderSample, Option<Fault>>, Error> {
     link.enc.reset();
-    link.send(Frame::Arm).map_err(link_error)?;
+    link.send(Frame::Arm).map_err(Error::Link)?;
     let retry = now_ns() + 100_000_000;
     while now_ns() < retry {
-        match link.recv(Duration::from_millis(20), u16::MAX).map_err(link_error)? {
+        match link.recv(Duration::from_millis(20), u16::MAX).map_err(Error::Link)? {
             Incoming::Encoder(e) if e.status & status::ARMED != 0 => return Ok(Ok(e)),
             Incoming::Fault(f) if f.reason == FaultReason::SessionRefused => {
                 return Ok(Err(Some(f)));
@@ -285,7 +274,7 @@ impl Session<'_, '_> {
         comp: &mut C,
         reference: &dyn Fn(f64) -> f64,
         log: &mut Option<&mut LogWriter>,
-    ) -> Result<ControlFlow<Fault>, String> {
+    ) -> Result<ControlFlow<Fault>, Error> {
         if let ControlFlow::Break(f) = self.wait_for_tick(k)? {
             return Ok(ControlFlow::Break(f));
         }
@@ -294,7 +283,7 @@ impl Session<'_, '_> {
         let r = reference(t);
         let codes = comp.codes()?;
         let first_seq =
-            self.link.send(Frame::Dac(DacSample { tick, codes })).map_err(link_error)?;
+            self.link.send(Frame::Dac(DacSample { tick, codes })).map_err(Error::Link)?;
         let (answer, seq) = match self.pacing {
             Pacing::LockStep => match self.await_answer(tick, codes, first_seq)? {
                 ControlFlow::Continue((answer, seq)) => (Some(answer), seq),
@@ -329,7 +318,7 @@ impl Session<'_, '_> {
     /// Real time: sleeps to tick `k`'s deadline (the overrun policy applies), takes the
     /// encoder frames that arrived, keeping the newest, and checks for a dead link.
     /// Lock-step: nothing to wait for, the previous answer started this tick.
-    fn wait_for_tick(&mut self, k: u64) -> Result<ControlFlow<Fault>, String> {
+    fn wait_for_tick(&mut self, k: u64) -> Result<ControlFlow<Fault>, Error> {
         let Pacing::RealTime { pacer, last_heard } = &mut self.pacing else {
             return Ok(ControlFlow::Continue(()));
         };
@@ -350,7 +339,7 @@ impl Session<'_, '_> {
             }
         }
         loop {
-            match self.link.recv(Duration::ZERO, self.cfg.max_gap).map_err(link_error)? {
+            match self.link.recv(Duration::ZERO, self.cfg.max_gap).map_err(Error::Link)? {
                 Incoming::Encoder(e) => {
                     if e.status & status::SAFE != 0 {
                         return Ok(ControlFlow::Break(Fault {
@@ -391,14 +380,14 @@ impl Session<'_, '_> {
         tick: u32,
         codes: [u16; 3],
         first_seq: u16,
-    ) -> Result<ControlFlow<Fault, (EncoderSample, u16)>, String> {
+    ) -> Result<ControlFlow<Fault, (EncoderSample, u16)>, Error> {
         let mut seq = first_seq;
         let mut tries = 0;
         let mut wait_until = now_ns() + self.cfg.retransmit_after.as_nanos() as u64;
         loop {
             let now = now_ns();
             let timeout = Duration::from_nanos(wait_until.saturating_sub(now));
-            match self.link.recv(timeout, self.cfg.max_gap).map_err(link_error)? {
+            match self.link.recv(timeout, self.cfg.max_gap).map_err(Error::Link)? {
                 Incoming::Encoder(e) if e.status & status::SAFE != 0 => {
                     return Ok(ControlFlow::Break(Fault {
                         reason: FaultReason::Silence,
@@ -428,7 +417,7 @@ impl Session<'_, '_> {
                         seq = self
                             .link
                             .send(Frame::Dac(DacSample { tick, codes }))
-                            .map_err(link_error)?;
+                            .map_err(Error::Link)?;
                         wait_until = now_ns() + self.cfg.retransmit_after.as_nanos() as u64;
                     }
                 }
@@ -441,7 +430,7 @@ impl Session<'_, '_> {
         mut self,
         fault: Option<Fault>,
         log: &mut Option<&mut LogWriter>,
-    ) -> Result<ControllerReport, String> {
+    ) -> Result<ControllerReport, Error> {
         let tick = self.start_tick.wrapping_add(self.report.ticks as u32);
         match fault {
             Some(f) => {
@@ -483,7 +472,7 @@ pub fn run_controller<C: Compensator>(
     cfg: &ControllerConfig,
     mut log: Option<&mut LogWriter>,
     stop: &AtomicBool,
-) -> Result<ControllerReport, String> {
+) -> Result<ControllerReport, Error> {
     let mut link = Link {
         tx,
         dac_seq: 0,
@@ -501,13 +490,10 @@ pub fn run_controller<C: Compensator>(
             Ok(start) => break start,
             Err(_) if now_ns() <= deadline && !stop.load(Ordering::Relaxed) => {}
             Err(Some(f)) => {
-                return Err(format!("the board refused the session: {}", describe_fault(&f)));
+                return Err(Error::Refused(f));
             }
             Err(None) => {
-                return Err(format!(
-                    "the board did not arm within {:.1} s",
-                    cfg.handshake_timeout.as_secs_f64()
-                ));
+                return Err(Error::NotArmed { seconds: cfg.handshake_timeout.as_secs_f64() });
             }
         }
     };

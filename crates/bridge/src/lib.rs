@@ -17,6 +17,7 @@
 
 pub mod board;
 pub mod controller;
+mod error;
 pub mod faults;
 pub mod realtime;
 pub mod replay;
@@ -25,6 +26,7 @@ pub mod transport;
 
 use std::time::Duration;
 
+pub use error::{Error, ModelError};
 pub use inchworm_hil_protocol as protocol;
 
 /// The communication period of docs/model.md §5: 500 Hz.
@@ -33,12 +35,12 @@ pub const PERIOD: Duration = Duration::from_millis(2);
 /// The plant side as the board sees it: DAC codes held for one period in, encoder count out.
 pub trait Mechanism {
     /// The encoder count now (before any step).
-    fn counts(&mut self) -> Result<i32, String>;
+    fn counts(&mut self) -> Result<i32, ModelError>;
     /// Holds `codes` for one period; returns the encoder count at its end.
-    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String>;
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, ModelError>;
     /// Back to the state it started in. Hardware cannot do this (the runner stays where
     /// it is), so only test rigs ask for it (`--fresh-plant-per-session`).
-    fn reinitialise(&mut self) -> Result<(), String> {
+    fn reinitialise(&mut self) -> Result<(), ModelError> {
         Err("this mechanism cannot be re-initialised".into())
     }
 }
@@ -46,10 +48,10 @@ pub trait Mechanism {
 /// The controller as the bridge drives it.
 pub trait Compensator {
     /// The DAC codes for the interval that starts now.
-    fn codes(&mut self) -> Result<[u16; 3], String>;
+    fn codes(&mut self) -> Result<[u16; 3], ModelError>;
     /// One tick: the encoder count that holds now and the reference; afterwards
     /// [`codes`](Compensator::codes) gives the next interval's codes.
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String>;
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError>;
 }
 
 /// What became of the frames one side received, the same on both sides.
@@ -95,16 +97,21 @@ pub enum OverrunPolicy {
     Hard,
 }
 
+/// An overrun policy that is neither `soft` nor `hard` (the text as given).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "overrun policy `{}`: use soft (log and continue) or hard (fault to the safe state)",
+    quoted(.0)
+)]
+pub struct UnknownPolicy(pub String);
+
 impl std::str::FromStr for OverrunPolicy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownPolicy;
+    fn from_str(s: &str) -> Result<Self, UnknownPolicy> {
         match s {
             "soft" => Ok(OverrunPolicy::Soft),
             "hard" => Ok(OverrunPolicy::Hard),
-            other => Err(format!(
-                "overrun policy `{}`: use soft (log and continue) or hard (fault to the safe state)",
-                quoted(other)
-            )),
+            other => Err(UnknownPolicy(other.to_owned())),
         }
     }
 }
@@ -160,7 +167,7 @@ mod tests {
         let long = "é".repeat(100_000);
         let q = quoted(&long);
         assert_eq!(q, format!("{}… (200000 bytes in all)", "é".repeat(MAX_QUOTED)));
-        let e = "x".repeat(1 << 20).parse::<OverrunPolicy>().unwrap_err();
+        let e = "x".repeat(1 << 20).parse::<OverrunPolicy>().unwrap_err().to_string();
         assert!(e.len() < 200 && e.contains("(1048576 bytes in all)"), "{e}");
     }
 }

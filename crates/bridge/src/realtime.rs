@@ -123,11 +123,20 @@ pub fn enter_real_time(priority: i32) -> RealTimeSetup {
     setup
 }
 
+/// The system refused SCHED_FIFO at `priority` ([`fifo_thread`]).
+#[derive(Debug, thiserror::Error)]
+#[error("SCHED_FIFO priority {priority} refused ({source})")]
+pub struct FifoRefused {
+    pub priority: i32,
+    #[source]
+    pub source: std::io::Error,
+}
+
 /// Switches the calling thread to SCHED_FIFO at `priority` (threads and processes it
 /// starts afterwards inherit it) and gives back the policy and priority it had, for
 /// [`restore_scheduling`]. Tests take it so the bridge's deadlines hold on a machine whose
 /// cores are busy with other work, as they do for the bridge itself on a rig.
-pub fn fifo_thread(priority: i32) -> Result<(i32, i32), String> {
+pub fn fifo_thread(priority: i32) -> Result<(i32, i32), FifoRefused> {
     // SAFETY: plain system calls on the calling thread with valid arguments.
     unsafe {
         let mut policy = 0;
@@ -136,10 +145,7 @@ pub fn fifo_thread(priority: i32) -> Result<(i32, i32), String> {
         let param = libc::sched_param { sched_priority: priority };
         match libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) {
             0 => Ok((policy, was.sched_priority)),
-            e => Err(format!(
-                "SCHED_FIFO priority {priority} refused ({})",
-                std::io::Error::from_raw_os_error(e)
-            )),
+            e => Err(FifoRefused { priority, source: std::io::Error::from_raw_os_error(e) }),
         }
     }
 }

@@ -4,7 +4,7 @@
 //! the run itself was not deterministic.
 
 use crate::runlog::{ControllerSample, Record};
-use crate::Compensator;
+use crate::{Compensator, ModelError};
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ReplayReport {
@@ -27,7 +27,7 @@ pub fn controller_samples(records: &[Record]) -> Vec<ControllerSample> {
 pub fn replay<C: Compensator>(
     comp: &mut C,
     samples: &[ControllerSample],
-) -> Result<ReplayReport, String> {
+) -> Result<ReplayReport, ModelError> {
     let mut report = ReplayReport::default();
     let mut previous: Option<u32> = None;
     for s in samples {

@@ -16,7 +16,7 @@
 
 use std::fs::File;
 use std::io::{self, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use inchworm_hil_protocol::crc32;
 
@@ -123,7 +123,7 @@ impl Record {
         out.extend_from_slice(&crc.to_le_bytes());
     }
 
-    fn decode(kind: u8, p: &[u8]) -> Result<Record, String> {
+    fn decode(kind: u8, p: &[u8]) -> Result<Record, RecordError> {
         let u16_at = |i: usize| u16::from_le_bytes([p[i], p[i + 1]]);
         let u32_at = |i: usize| u32::from_le_bytes(p[i..i + 4].try_into().unwrap());
         let f64_at = |i: usize| f64::from_le_bytes(p[i..i + 8].try_into().unwrap());
@@ -131,7 +131,7 @@ impl Record {
             if p.len() == n {
                 Ok(())
             } else {
-                Err(format!("record kind {kind} has {} bytes, expected {n}", p.len()))
+                Err(RecordError::Length { kind, len: p.len(), expected: n })
             }
         };
         match kind {
@@ -160,11 +160,7 @@ impl Record {
             }
             KIND_EVENT | KIND_END => {
                 if p.len() < 4 {
-                    return Err(format!(
-                        "{} record of {} bytes is shorter than its tick",
-                        if kind == KIND_END { "end" } else { "event" },
-                        p.len()
-                    ));
+                    return Err(RecordError::NoTick { end: kind == KIND_END, len: p.len() });
                 }
                 let (tick, text) = (u32_at(0), String::from_utf8_lossy(&p[4..]).into_owned());
                 Ok(if kind == KIND_END {
@@ -173,7 +169,7 @@ impl Record {
                     Record::Event { tick, text }
                 })
             }
-            other => Err(format!("unknown record kind {other}")),
+            other => Err(RecordError::UnknownKind(other)),
         }
     }
 }
@@ -235,19 +231,67 @@ impl LogContents {
     }
 }
 
-/// Reads and checks a whole log. A damaged record in the middle is an error naming its
-/// offset (the log cannot be trusted past it); a short last record is a truncated tail.
-pub fn read_log(path: &Path) -> Result<LogContents, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    parse_log(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+/// A log that could not be read ([`read_log`]): the file, or what is in it.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    #[error("{}: {source}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    #[error("{}: {source}", path.display())]
+    Parse {
+        path: PathBuf,
+        #[source]
+        source: ParseError,
+    },
 }
 
-pub fn parse_log(bytes: &[u8]) -> Result<LogContents, String> {
+/// Bytes that are not a whole log ([`parse_log`]), up to the truncated tail it tolerates.
+#[derive(Debug, thiserror::Error)]
+pub enum ParseError {
+    #[error("not an inchworm bridge log (no IWLOG header)")]
+    NotALog,
+    #[error("log format version {found} (this build reads {reads})")]
+    Version { found: u8, reads: u8 },
+    #[error(
+        "record at byte {at}: CRC mismatch (stored {stored:#010x}, computed {computed:#010x})"
+    )]
+    Crc { at: usize, stored: u32, computed: u32 },
+    #[error("record at byte {at}: {source}")]
+    Record {
+        at: usize,
+        #[source]
+        source: RecordError,
+    },
+}
+
+/// A record whose CRC holds but whose contents do not.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error("record kind {kind} has {len} bytes, expected {expected}")]
+    Length { kind: u8, len: usize, expected: usize },
+    #[error("{} record of {len} bytes is shorter than its tick", if *.end { "end" } else { "event" })]
+    NoTick { end: bool, len: usize },
+    #[error("unknown record kind {0}")]
+    UnknownKind(u8),
+}
+
+/// Reads and checks a whole log. A damaged record in the middle is an error naming its
+/// offset (the log cannot be trusted past it); a short last record is a truncated tail.
+pub fn read_log(path: &Path) -> Result<LogContents, LogError> {
+    let bytes = std::fs::read(path)
+        .map_err(|source| LogError::Read { path: path.to_path_buf(), source })?;
+    parse_log(&bytes).map_err(|source| LogError::Parse { path: path.to_path_buf(), source })
+}
+
+pub fn parse_log(bytes: &[u8]) -> Result<LogContents, ParseError> {
     if bytes.len() < MAGIC.len() || &bytes[..5] != b"IWLOG" {
-        return Err("not an inchworm bridge log (no IWLOG header)".into());
+        return Err(ParseError::NotALog);
     }
     if bytes[6] != MAGIC[6] {
-        return Err(format!("log format version {} (this build reads {})", bytes[6], MAGIC[6]));
+        return Err(ParseError::Version { found: bytes[6], reads: MAGIC[6] });
     }
     let mut out = LogContents::default();
     let mut at = MAGIC.len();
@@ -271,11 +315,11 @@ pub fn parse_log(bytes: &[u8]) -> Result<LogContents, String> {
                 out.truncated_at = Some(at as u64);
                 break;
             }
-            return Err(format!("record at byte {at}: CRC mismatch (stored {stored:#010x}, computed {computed:#010x})"));
+            return Err(ParseError::Crc { at, stored, computed });
         }
         out.records.push(
             Record::decode(rest[2], &rest[3..3 + len])
-                .map_err(|e| format!("record at byte {at}: {e}"))?,
+                .map_err(|source| ParseError::Record { at, source })?,
         );
         at += total;
     }
@@ -363,7 +407,9 @@ mod tests {
         let mut bad = bytes.clone();
         bad[MAGIC.len() + 10] ^= 0x40;
         let e = parse_log(&bad).unwrap_err();
-        assert!(e.starts_with("record at byte 8: CRC mismatch"), "{e}");
-        assert!(parse_log(b"hello world").unwrap_err().contains("IWLOG"));
+        assert!(matches!(e, ParseError::Crc { at: 8, .. }), "{e:?}");
+        assert!(e.to_string().starts_with("record at byte 8: CRC mismatch"), "{e}");
+        let e = parse_log(b"hello world").unwrap_err();
+        assert!(matches!(e, ParseError::NotALog) && e.to_string().contains("IWLOG"), "{e}");
     }
 }

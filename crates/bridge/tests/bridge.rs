@@ -14,7 +14,7 @@ use inchworm_bridge::protocol::{self, BoardState, FaultReason, Frame, Packet, MA
 use inchworm_bridge::replay::{controller_samples, replay};
 use inchworm_bridge::runlog::{read_log, LogWriter, Record};
 use inchworm_bridge::transport::{CobsTransport, Transport, UdpTransport};
-use inchworm_bridge::{Compensator, Mechanism, OverrunPolicy};
+use inchworm_bridge::{Compensator, Mechanism, ModelError, OverrunPolicy};
 
 fn lockstep(ticks: u64) -> ControllerConfig {
     ControllerConfig { lockstep: true, ticks, ..ControllerConfig::default() }
@@ -138,13 +138,13 @@ fn lockstep_rides_through_injected_faults_and_stays_exact() {
 struct SlowController(DirectController, u32);
 
 impl Compensator for SlowController {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         if self.1 % 50 == 49 {
             std::thread::sleep(Duration::from_millis(20));
         }
         self.0.codes()
     }
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
         self.1 += 1;
         self.0.step(counts, reference)
     }
@@ -489,10 +489,10 @@ fn the_hard_overrun_policy_faults_to_the_safe_state() {
     let _slot = real_time_slot();
     struct Slow(DirectController, u32);
     impl Compensator for Slow {
-        fn codes(&mut self) -> Result<[u16; 3], String> {
+        fn codes(&mut self) -> Result<[u16; 3], ModelError> {
             self.0.codes()
         }
-        fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+        fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
             self.1 += 1;
             if self.1 == 50 {
                 std::thread::sleep(Duration::from_millis(7));
@@ -670,7 +670,8 @@ fn hello_with_another_mode_is_refused_with_the_reason() {
         None,
         &AtomicBool::new(false),
     )
-    .unwrap_err();
+    .unwrap_err()
+    .to_string();
     let (board, _) = board.finish();
     assert!(e.contains("ProtocolMismatch"), "{e}");
     assert!(

@@ -20,7 +20,7 @@ use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::faults::{FaultPlan, FaultyTransport};
 use inchworm_bridge::protocol::FaultReason;
 use inchworm_bridge::transport::UdpTransport;
-use inchworm_bridge::Compensator;
+use inchworm_bridge::{Compensator, ModelError};
 
 /// Commands a fixed, varied code sequence; ignores the counts.
 struct Sequence(u32);
@@ -36,10 +36,10 @@ impl Sequence {
 }
 
 impl Compensator for Sequence {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         Ok(Sequence::codes(self.0))
     }
-    fn step(&mut self, _counts: i32, _reference: f64) -> Result<(), String> {
+    fn step(&mut self, _counts: i32, _reference: f64) -> Result<(), ModelError> {
         self.0 += 1;
         Ok(())
     }
@@ -109,13 +109,13 @@ struct Slow {
 }
 
 impl Compensator for Slow {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         if self.seq.0 % self.every == self.every - 1 {
             std::thread::sleep(self.stall);
         }
         self.seq.codes()
     }
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
         self.seq.step(counts, reference)
     }
 }

@@ -273,7 +273,7 @@ fn a_hello_from_another_address_during_an_armed_session_is_refused_and_logged() 
     )
     .unwrap_err();
     assert_eq!(
-        e,
+        e.to_string(),
         "the board refused the session for 0.3 s: SessionRefused: the board is armed in a session with another controller"
     );
     let (report, owner_addr) = owner.join().unwrap();

@@ -71,7 +71,8 @@ pub mod ssp;
 pub mod sweep;
 pub mod trace;
 
-/// The FMI import layer (`inchworm-fmi-import`), re-exported: [`fmu::CsFmu`] loads one FMU.
+/// The FMI import layer (`inchworm-fmi-import`), re-exported: [`fmu::CsFmu`] loads one FMU
+/// for Co-Simulation, [`fmu::MeFmu`] for Model Exchange.
 pub use inchworm_fmi_import as fmu;
 
 pub use error::{Error, StopFlag};

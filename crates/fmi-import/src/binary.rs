@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use libloading::Library;
 
 use crate::description::text::cut;
+use crate::error::LoadError;
 use crate::ImportError;
 
 /// The FMI 2.0 platform folder and library extension of this host, from the project's one
@@ -71,18 +72,16 @@ pub(crate) fn c_text(p: *const std::os::raw::c_char) -> String {
 /// segments without checking, so a truncated library kills the process with SIGBUS when
 /// the loader touches the missing pages; refuse it with an error instead. Files that are
 /// not ELF are left to `dlopen` (which then says "invalid ELF header").
-pub(crate) fn check_elf(path: &Path) -> Result<(), String> {
+pub(crate) fn check_elf(path: &Path) -> Result<(), LoadError> {
     use std::io::{Read, Seek, SeekFrom};
-    let mut f = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let len = f.metadata().map_err(|e| e.to_string())?.len();
+    let mut f = std::fs::File::open(path).map_err(LoadError::Read)?;
+    let len = f.metadata().map_err(LoadError::Read)?.len();
     let mut h = [0u8; 64];
-    let n = f.read(&mut h).map_err(|e| e.to_string())?;
+    let n = f.read(&mut h).map_err(LoadError::Read)?;
     if n < 4 || &h[..4] != b"\x7fELF" {
         return Ok(());
     }
-    let truncated = |need: u64| {
-        format!("the file is truncated or damaged: it has {len} bytes, its ELF headers need {need}")
-    };
+    let truncated = |need: u64| LoadError::Truncated { len, need };
     let (wide, little) = (h[4] == 2, h[5] != 2);
     let header = if wide { 64 } else { 52 };
     if (n as u64) < header {
@@ -127,12 +126,10 @@ pub(crate) fn check_elf(path: &Path) -> Result<(), String> {
     }
     let min_entry = if wide { 0x28 } else { 0x14 };
     if phnum > 0 && phentsize < min_entry {
-        return Err(format!("the file is damaged: program header entries of {phentsize} bytes"));
+        return Err(LoadError::EntrySize(phentsize));
     }
     let mut ph = vec![0u8; (phentsize * phnum) as usize];
-    f.seek(SeekFrom::Start(phoff))
-        .and_then(|_| f.read_exact(&mut ph))
-        .map_err(|e| e.to_string())?;
+    f.seek(SeekFrom::Start(phoff)).and_then(|_| f.read_exact(&mut ph)).map_err(LoadError::Read)?;
     for e in ph.chunks(phentsize.max(1) as usize) {
         let (offset, filesz) =
             if wide { (u(e, 0x08, 8), u(e, 0x20, 8)) } else { (u(e, 0x04, 4), u(e, 0x10, 4)) };
@@ -159,11 +156,13 @@ impl Binary {
     pub fn load(dir: &Path, relative: &Path) -> Result<Binary, ImportError> {
         let path = &dir.join(relative);
         let shown = relative.to_path_buf();
-        check_elf(path).map_err(|message| ImportError::Load { library: shown.clone(), message })?;
+        check_elf(path).map_err(|source| ImportError::Load { library: shown.clone(), source })?;
         // SAFETY: loading a library runs its initializers; an FMU's binary is trusted code
         // by the nature of co-simulation (the master runs it).
-        let library = unsafe { Library::new(path) }
-            .map_err(|e| ImportError::Load { library: shown.clone(), message: e.to_string() })?;
+        let library = unsafe { Library::new(path) }.map_err(|e| ImportError::Load {
+            library: shown.clone(),
+            source: LoadError::Dlopen(e),
+        })?;
         Ok(Binary { path: shown, full_path: path.clone(), library })
     }
 

@@ -7,115 +7,93 @@ use std::path::PathBuf;
 use crate::VarType;
 
 /// What went wrong unpacking the archive, reading `modelDescription.xml` or loading the binary.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ImportError {
     /// Reading the file or writing the unpacked copy failed.
+    #[error("{what}: {source}")]
     Io { what: String, source: std::io::Error },
     /// The file is not a zip archive (or a damaged one).
-    NotZip(zip::result::ZipError),
+    #[error("not an FMU: the file is not a zip archive ({0})")]
+    NotZip(#[source] zip::result::ZipError),
     /// An archive entry would land outside the unpack directory (`..`, an absolute path).
+    #[error("the archive entry `{0}` points outside the archive (absolute or `..` path): refused")]
     UnsafePath(String),
     /// The archive has no `modelDescription.xml` at its root.
+    #[error("the archive has no modelDescription.xml at its root")]
     NoModelDescription,
     /// The archive passes a cap of [`crate::archive::Limits`] (the text says which).
+    #[error("{0}: refused")]
     Limit(String),
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
+    #[error("modelDescription.xml line {line}, column {column}: {message}")]
     Description { line: usize, column: usize, message: String },
     /// `fmiVersion` is neither 2.x nor 3.x.
+    #[error(
+        "modelDescription.xml has fmiVersion=\"{0}\": only FMI 2.0 and FMI 3.0 FMUs are supported"
+    )]
     UnsupportedVersion(String),
     /// No `binaries/<platform>/<modelIdentifier>.<ext>` for this platform.
+    #[error("the FMU has no binary for {platform} (expected {expected}; {})", carried(.available))]
     NoBinary { platform: &'static str, expected: String, available: Vec<String> },
-    /// `dlopen` (or `LoadLibrary`) refused the binary (`library`: its path inside the FMU).
-    Load { library: PathBuf, message: String },
+    /// The binary could not be loaded (`library`: its path inside the FMU).
+    #[error("cannot load the FMU's binary {}: {source}", library.display())]
+    Load { library: PathBuf, source: LoadError },
     /// The binary lacks a required function (`library`: its path inside the FMU).
+    #[error("the FMU's binary {} does not export {symbol}", library.display())]
     MissingSymbol { library: PathBuf, symbol: &'static str },
     /// `modelDescription.xml` declares a capability (`flag`) whose function the binary lacks.
+    #[error(
+        "modelDescription.xml declares {flag}=\"true\" but the FMU's binary {} does not export {symbol}",
+        library.display()
+    )]
     MissingCapability { library: PathBuf, symbol: &'static str, flag: &'static str },
     /// Another instance was asked of an FMU that declares
     /// `canBeInstantiatedOnlyOncePerProcess="true"` from the library already loaded.
+    #[error(
+        "{model} declares canBeInstantiatedOnlyOncePerProcess=\"true\": another instance needs a copy of its own, not the library already loaded"
+    )]
     OncePerProcess { model: String },
     /// `fmi2GetTypesPlatform` is not "default".
+    #[error("fmi2GetTypesPlatform returned \"{0}\", expected \"default\"")]
     TypesPlatform(String),
     /// `function` (`fmi2GetVersion`, `fmi3GetVersion`) returned another version.
+    #[error("the binary's {function} returned \"{found}\", expected {expected}x")]
     BinaryVersion { function: &'static str, found: String, expected: &'static str },
     /// `function` (`fmi2Instantiate`, `fmi3InstantiateCoSimulation`) returned NULL.
+    #[error(
+        "{function} returned NULL for instance `{instance}` (the FMU's log messages above say why)"
+    )]
     Instantiate { function: &'static str, instance: String },
     /// A string for the C side holds a NUL byte.
+    #[error("{what} contains a NUL byte")]
     Nul { what: &'static str },
 }
 
-impl fmt::Display for ImportError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ImportError::Io { what, source } => write!(f, "{what}: {source}"),
-            ImportError::NotZip(e) => write!(f, "not an FMU: the file is not a zip archive ({e})"),
-            ImportError::UnsafePath(p) => {
-                write!(
-                    f,
-                    "the archive entry `{p}` points outside the archive (absolute or `..` path): refused"
-                )
-            }
-            ImportError::NoModelDescription => write!(f, "the archive has no modelDescription.xml at its root"),
-            ImportError::Limit(what) => write!(f, "{what}: refused"),
-            ImportError::Description { line, column, message } => {
-                write!(f, "modelDescription.xml line {line}, column {column}: {message}")
-            }
-            ImportError::UnsupportedVersion(v) => {
-                write!(
-                    f,
-                    "modelDescription.xml has fmiVersion=\"{v}\": only FMI 2.0 and FMI 3.0 FMUs are supported"
-                )
-            }
-            ImportError::NoBinary {
-                platform,
-                expected,
-                available,
-            } => {
-                write!(f, "the FMU has no binary for {platform} (expected {expected}")?;
-                if available.is_empty() {
-                    write!(f, "; it carries no binaries at all: a source-only FMU?)")
-                } else {
-                    write!(f, "; it carries: {})", available.join(", "))
-                }
-            }
-            ImportError::Load { library, message } => {
-                write!(f, "cannot load the FMU's binary {}: {message}", library.display())
-            }
-            ImportError::MissingSymbol { library, symbol } => {
-                write!(f, "the FMU's binary {} does not export {symbol}", library.display())
-            }
-            ImportError::MissingCapability { library, symbol, flag } => write!(
-                f,
-                "modelDescription.xml declares {flag}=\"true\" but the FMU's binary {} does not export {symbol}",
-                library.display()
-            ),
-            ImportError::OncePerProcess { model } => write!(
-                f,
-                "{model} declares canBeInstantiatedOnlyOncePerProcess=\"true\": another instance needs a copy of its own, not the library already loaded"
-            ),
-            ImportError::TypesPlatform(p) => {
-                write!(f, "fmi2GetTypesPlatform returned \"{p}\", expected \"default\"")
-            }
-            ImportError::BinaryVersion { function, found, expected } => {
-                write!(f, "the binary's {function} returned \"{found}\", expected {expected}x")
-            }
-            ImportError::Instantiate { function, instance } => write!(
-                f,
-                "{function} returned NULL for instance `{instance}` (the FMU's log messages above say why)"
-            ),
-            ImportError::Nul { what } => write!(f, "{what} contains a NUL byte"),
-        }
+/// The end of [`ImportError::NoBinary`]'s message: the platform folders the FMU carries.
+fn carried(available: &[String]) -> String {
+    if available.is_empty() {
+        "it carries no binaries at all: a source-only FMU?)".to_owned()
+    } else {
+        format!("it carries: {})", available.join(", "))
     }
 }
 
-impl std::error::Error for ImportError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            ImportError::Io { source, .. } => Some(source),
-            ImportError::NotZip(e) => Some(e),
-            _ => None,
-        }
-    }
+/// Why the FMU's binary could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// An ELF file shorter than its headers say, or with damaged headers: refused before
+    /// `dlopen`, which would map the missing pages and die of SIGBUS touching them.
+    #[error("the file is truncated or damaged: it has {len} bytes, its ELF headers need {need}")]
+    Truncated { len: u64, need: u64 },
+    /// Program header entries too short to hold what the standard puts in them.
+    #[error("the file is damaged: program header entries of {0} bytes")]
+    EntrySize(u64),
+    /// Reading the file to check it failed.
+    #[error("{0}")]
+    Read(#[source] std::io::Error),
+    /// `dlopen` (or `LoadLibrary`) refused it.
+    #[error("{0}")]
+    Dlopen(#[source] libloading::Error),
 }
 
 /// The status an `fmi2*` or `fmi3*` call returned (FMI 3.0 has no Pending). `Display`
@@ -191,30 +169,60 @@ impl fmt::Display for Status {
 impl std::error::Error for Status {}
 
 /// Everything that can go wrong between a path on disk and a finished step.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum FmuError {
     /// The FMU file is not there (the usual cause: it has not been built yet).
+    #[error("{}: no such FMU file", .0.display())]
     Missing(PathBuf),
     /// The archive could not be unpacked, its `modelDescription.xml` parsed or its binary loaded.
+    #[error("{}: cannot import the FMU: {source}", path.display())]
     Import { path: PathBuf, source: ImportError },
     /// The FMU offers no Co-Simulation interface.
+    #[error(
+        "{model}: the FMU has no Co-Simulation interface (modelDescription.xml lacks <CoSimulation>)"
+    )]
     NotCoSimulation { model: String },
     /// The FMU offers no Model Exchange interface.
+    #[error(
+        "{model}: the FMU has no Model Exchange interface (modelDescription.xml lacks <ModelExchange>)"
+    )]
     NotModelExchange { model: String },
     /// No variable of that name in `modelDescription.xml`.
+    #[error("{model}: no variable named `{name}` in modelDescription.xml")]
     UnknownVariable { model: String, name: String },
     /// The variable exists but has another type than the call needs.
+    #[error("{model}: variable `{name}` is {found}, expected {expected}")]
     WrongType { model: String, name: String, expected: VarType, found: VarType },
     /// A call returned Discard, Error, Fatal or (FMI 2.0) Pending.
-    Call { model: String, function: &'static str, time: f64, status: Status },
+    #[error(
+        "{model}: {function} returned {} at t = {time} s (the FMU's log messages above say why)",
+        status.spelled(function)
+    )]
+    Call {
+        model: String,
+        function: &'static str,
+        time: f64,
+        #[source]
+        status: Status,
+    },
     /// A call after an earlier one returned Fatal: both standards forbid any further call.
+    #[error(
+        "{model}: {function} refused: {fatal_in} returned {} earlier, after which {} allows no call",
+        fatal_of(fatal_in).0,
+        fatal_of(fatal_in).1
+    )]
     AfterFatal { model: String, function: &'static str, fatal_in: &'static str },
     /// An argument the C side cannot take (a string with a NUL byte, a foreign FMU state).
+    #[error("{model}: {function}: {message}")]
     InvalidArgument { model: String, function: &'static str, message: String },
     /// A call the FMU does not offer (`why`: what in its description says so).
+    #[error("{model}: {function} is not available: {why}")]
     Unsupported { model: String, function: &'static str, why: String },
     /// `fmi3DoStep` returned OK but asked the master to stop: `terminateSimulation`,
     /// `earlyReturn` or `eventHandlingNeeded` set (`why` says which).
+    #[error(
+        "{model}: {function} from t = {time} s: {why} (last successful time {last_time} s); this master steps on a fixed grid and cannot continue"
+    )]
     StepEnded {
         model: String,
         function: &'static str,
@@ -224,78 +232,12 @@ pub enum FmuError {
     },
 }
 
-impl fmt::Display for FmuError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            FmuError::Missing(p) => write!(f, "{}: no such FMU file", p.display()),
-            FmuError::Import { path, source } => write!(f, "{}: cannot import the FMU: {source}", path.display()),
-            FmuError::NotCoSimulation { model } => write!(
-                f,
-                "{model}: the FMU has no Co-Simulation interface (modelDescription.xml lacks <CoSimulation>)"
-            ),
-            FmuError::NotModelExchange { model } => write!(
-                f,
-                "{model}: the FMU has no Model Exchange interface (modelDescription.xml lacks <ModelExchange>)"
-            ),
-            FmuError::UnknownVariable { model, name } => {
-                write!(f, "{model}: no variable named `{name}` in modelDescription.xml")
-            }
-            FmuError::WrongType {
-                model,
-                name,
-                expected,
-                found,
-            } => {
-                write!(f, "{model}: variable `{name}` is {found}, expected {expected}")
-            }
-            FmuError::Call {
-                model,
-                function,
-                time,
-                status,
-            } => write!(
-                f,
-                "{model}: {function} returned {} at t = {time} s (the FMU's log messages above say why)",
-                status.spelled(function)
-            ),
-            FmuError::AfterFatal {
-                model,
-                function,
-                fatal_in,
-            } => {
-                let (fatal, standard) = if standard_of(fatal_in) == "fmi3" {
-                    ("fmi3Fatal", "FMI 3.0")
-                } else {
-                    ("fmi2Fatal", "FMI 2.0")
-                };
-                write!(
-                    f,
-                    "{model}: {function} refused: {fatal_in} returned {fatal} earlier, after which {standard} allows no call"
-                )
-            }
-            FmuError::Unsupported { model, function, why } => {
-                write!(f, "{model}: {function} is not available: {why}")
-            }
-            FmuError::StepEnded { model, function, time, why, last_time } => write!(
-                f,
-                "{model}: {function} from t = {time} s: {why} (last successful time {last_time} s); this master steps on a fixed grid and cannot continue"
-            ),
-            FmuError::InvalidArgument {
-                model,
-                function,
-                message,
-            } => write!(f, "{model}: {function}: {message}"),
-        }
-    }
-}
-
-impl std::error::Error for FmuError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            FmuError::Import { source, .. } => Some(source),
-            FmuError::Call { status, .. } => Some(status),
-            _ => None,
-        }
+/// The Fatal status and the standard's name of the standard of `function`.
+fn fatal_of(function: &str) -> (&'static str, &'static str) {
+    if standard_of(function) == "fmi3" {
+        ("fmi3Fatal", "FMI 3.0")
+    } else {
+        ("fmi2Fatal", "FMI 2.0")
     }
 }
 

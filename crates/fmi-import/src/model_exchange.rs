@@ -1,115 +1,58 @@
-//! [`MeFmu`]: an FMU instantiated for Model Exchange. It is a [`CsFmu`] in everything the
-//! two interfaces share (variables, initialization, FMU state, terminate, reset: reached
-//! through `Deref`), plus the Model Exchange calls; `do_step` on it is refused with
-//! [`FmuError::Unsupported`]. The vectors it reads and writes must have the lengths the
-//! model description gives (number of continuous states, number of event indicators): a
-//! wrong length is an [`FmuError::InvalidArgument`] naming the call, never a C call with a
-//! short buffer.
+//! [`MeFmu`]: an FMU instantiated for Model Exchange. It owns the [`Instance`] both
+//! interfaces share (variables, initialization, FMU state, terminate, reset: its methods
+//! are reached through `Deref`) and adds the Model Exchange calls. The vectors it reads
+//! and writes must have the lengths the model description gives (number of continuous
+//! states, number of event indicators): a wrong length is an
+//! [`FmuError::InvalidArgument`] naming the call, never a C call with a short buffer.
+//!
+//! The interface is in the type: a Model Exchange instance has no `do_step`, and a
+//! Co-Simulation one ([`crate::CsFmu`]) no continuous states.
+//!
+//! ```compile_fail,E0599
+//! fn step(fmu: &mut inchworm_fmi_import::MeFmu) {
+//!     fmu.do_step(0.001).unwrap();
+//! }
+//! ```
+//!
+//! ```compile_fail,E0599
+//! fn states(fmu: &mut inchworm_fmi_import::CsFmu) {
+//!     fmu.set_continuous_states(&[0.0]).unwrap();
+//! }
+//! ```
 
 use std::ops::{Deref, DerefMut};
 use std::path::Path;
-use std::sync::Arc;
 
 use crate::backend::me::{Me, Vector};
-use crate::{archive, ContinuousState, CsFmu, EventUpdate, FmuError, ImportError};
-
-/// What [`MeFmu::load_either`] instantiated.
-#[derive(Debug)]
-pub enum Loaded {
-    Cs(CsFmu),
-    Me(MeFmu),
-}
+use crate::{ContinuousState, EventUpdate, FmuError, Instance};
 
 /// One instantiated Model Exchange FMU (FMI 2.0 or 3.0).
 #[derive(Debug)]
 pub struct MeFmu {
-    fmu: CsFmu,
+    fmu: Instance,
     states: Vec<ContinuousState>,
     event_indicators: usize,
 }
 
 impl Deref for MeFmu {
-    type Target = CsFmu;
-    fn deref(&self) -> &CsFmu {
+    type Target = Instance;
+    fn deref(&self) -> &Instance {
         &self.fmu
     }
 }
 
 impl DerefMut for MeFmu {
-    fn deref_mut(&mut self) -> &mut CsFmu {
+    fn deref_mut(&mut self) -> &mut Instance {
         &mut self.fmu
     }
 }
 
 impl MeFmu {
     /// Unpacks `path`, loads the library of its `<ModelExchange>` and instantiates it for
-    /// Model Exchange under `instance_name` (as [`CsFmu::load`] does for Co-Simulation).
+    /// Model Exchange under `instance_name` (as [`crate::CsFmu::load`] does for
+    /// Co-Simulation).
     pub fn load(path: &Path, instance_name: &str, logging_on: bool) -> Result<Self, FmuError> {
-        if !path.is_file() {
-            return Err(FmuError::Missing(path.to_path_buf()));
-        }
-        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
-        let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
-        Self::wrap(CsFmu::from_unpacked(path, unpacked, instance_name, (logging_on, |_| true))?)
-    }
-
-    /// Unpacks `path` once and instantiates it for Model Exchange if `model_exchange`
-    /// says so of its description, else for Co-Simulation: a master that picks the
-    /// interface by what an FMU offers decides on the description, in one place, and
-    /// unpacks the archive once whichever it picks.
-    pub fn load_either(
-        path: &Path,
-        instance_name: &str,
-        logging_on: bool,
-        model_exchange: impl FnOnce(&crate::ModelDescription) -> bool,
-    ) -> Result<Loaded, FmuError> {
-        if !path.is_file() {
-            return Err(FmuError::Missing(path.to_path_buf()));
-        }
-        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
-        let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
-        let fmu =
-            CsFmu::from_unpacked(path, unpacked, instance_name, (logging_on, model_exchange))?;
-        Ok(match fmu.is_model_exchange() {
-            true => Loaded::Me(Self::wrap(fmu)?),
-            false => Loaded::Cs(fmu),
-        })
-    }
-
-    /// [`MeFmu::load_either`], with a look at the FMU before it is unpacked: its
-    /// `modelDescription.xml` is read from the archive (nothing written to disk) and handed
-    /// to `vet` with the interface `model_exchange` picked; an FMU `vet` refuses is never
-    /// unpacked nor loaded. A master bounds there what it will allocate from the
-    /// description (its states, its event indicators), so that an FMU declaring too much
-    /// is refused with a message instead of failing an allocation, before any temporary
-    /// file exists. The instance keeps the description `vet` saw.
-    pub fn load_vetted<E: From<FmuError>>(
-        path: &Path,
-        instance_name: &str,
-        logging_on: bool,
-        model_exchange: impl FnOnce(&crate::ModelDescription) -> bool,
-        vet: impl FnOnce(&crate::ModelDescription, bool) -> Result<(), E>,
-    ) -> Result<Loaded, E> {
-        if !path.is_file() {
-            return Err(FmuError::Missing(path.to_path_buf()).into());
-        }
-        let import = |source: ImportError| FmuError::Import { path: path.to_path_buf(), source };
-        let text = archive::read_description(path).map_err(import)?;
-        let description = crate::ModelDescription::parse(&text).map_err(import)?;
-        let me = model_exchange(&description);
-        vet(&description, me)?;
-        let unpacked = Arc::new(archive::unpack(path).map_err(import)?);
-        let fmu = CsFmu::from_description(
-            path,
-            unpacked,
-            description,
-            instance_name,
-            (logging_on, |_: &crate::ModelDescription| me),
-        )?;
-        Ok(match fmu.is_model_exchange() {
-            true => Loaded::Me(Self::wrap(fmu)?),
-            false => Loaded::Cs(fmu),
-        })
+        Ok(Self::wrap(Instance::load(path, instance_name, (logging_on, |_| true))?))
     }
 
     /// Another Model Exchange instance from the folder this one was unpacked in.
@@ -118,13 +61,14 @@ impl MeFmu {
         instance_name: &str,
         logging_on: bool,
     ) -> Result<Self, FmuError> {
-        Self::wrap(self.fmu.instantiate_again(instance_name, logging_on)?)
+        Ok(Self::wrap(self.fmu.instantiate_again(instance_name, logging_on)?))
     }
 
-    fn wrap(fmu: CsFmu) -> Result<Self, FmuError> {
-        let me = fmu.description.model_exchange.as_ref().expect("checked by from_unpacked");
+    /// A Model Exchange wrapper of `fmu`, which was instantiated for Model Exchange.
+    pub(crate) fn wrap(fmu: Instance) -> Self {
+        let me = fmu.description.model_exchange.as_ref().expect("checked by from_description");
         let (states, event_indicators) = (me.states.clone(), me.number_of_event_indicators);
-        Ok(MeFmu { fmu, states, event_indicators })
+        MeFmu { fmu, states, event_indicators }
     }
 
     /// The continuous states (value references of each state and its derivative), in the

@@ -118,12 +118,6 @@ fn wrong_lengths_statuses_and_interfaces_are_refused_naming_the_call() {
             e.to_string().contains(&format!("{fmi}GetDirectionalDerivative returned {fmi}Error")),
             "{e}"
         );
-        // A Co-Simulation call on a Model Exchange instance.
-        let e = fmu.do_step(0.001).unwrap_err().to_string();
-        assert_eq!(
-            e,
-            format!("Decay: {fmi}DoStep is not available: the instance was made for Model Exchange, and {fmi}DoStep is a Co-Simulation call")
-        );
     });
 }
 

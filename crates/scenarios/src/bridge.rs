@@ -4,25 +4,30 @@
 
 use std::path::Path;
 
-use inchworm_bridge::{Compensator, Mechanism, PERIOD};
+use inchworm_bridge::{Compensator, Mechanism, ModelError, PERIOD};
 use inchworm_controller::volts_of_code;
 
 use inchworm_cosim::fmu::{CsFmu, VarType};
 use inchworm_cosim::master::set_param;
 
-fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, String> {
-    let mut fmu = CsFmu::load(path, instance, false).map_err(|e| e.to_string())?;
+use crate::Error;
+
+fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, Error> {
+    let mut fmu = CsFmu::load(path, instance, false)?;
     initialise(&mut fmu, path, params)?;
     Ok(fmu)
 }
 
-fn initialise(fmu: &mut CsFmu, path: &Path, params: &[(String, String)]) -> Result<(), String> {
-    fmu.enter_initialization(None, 0.0, None).map_err(|e| e.to_string())?;
+fn initialise(fmu: &mut CsFmu, path: &Path, params: &[(String, String)]) -> Result<(), Error> {
+    fmu.enter_initialization(None, 0.0, None)?;
     for (name, value) in params {
-        set_param(fmu, name, value)
-            .map_err(|e| format!("{}: parameter `{name}`: {e}", path.display()))?;
+        set_param(fmu, name, value).map_err(|source| Error::Parameter {
+            path: path.to_path_buf(),
+            name: name.clone(),
+            source: Box::new(source),
+        })?;
     }
-    fmu.exit_initialization().map_err(|e| e.to_string())
+    Ok(fmu.exit_initialization()?)
 }
 
 /// `InchwormPlant.fmu` (or any FMU with its interface) as the board's mechanism.
@@ -36,33 +41,30 @@ pub struct FmuMechanism {
 }
 
 impl FmuMechanism {
-    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuMechanism, String> {
+    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuMechanism, Error> {
         let fmu = start(path, "plant", params)?;
-        let dac = fmu
-            .vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)
-            .map_err(|e| e.to_string())?;
-        let encoder =
-            fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
+        let dac = fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)?;
+        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
         Ok(FmuMechanism { fmu, dac, encoder, path: path.to_path_buf(), params: params.to_vec() })
     }
 }
 
 impl Mechanism for FmuMechanism {
-    fn counts(&mut self) -> Result<i32, String> {
+    fn counts(&mut self) -> Result<i32, ModelError> {
         let mut c = [0];
-        self.fmu.get_integer(&self.encoder, &mut c).map_err(|e| e.to_string())?;
+        self.fmu.get_integer(&self.encoder, &mut c)?;
         Ok(c[0])
     }
 
-    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
-        self.fmu.set_real(&self.dac, &codes.map(volts_of_code)).map_err(|e| e.to_string())?;
-        self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())?;
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, ModelError> {
+        self.fmu.set_real(&self.dac, &codes.map(volts_of_code))?;
+        self.fmu.do_step(PERIOD.as_secs_f64())?;
         self.counts()
     }
 
-    fn reinitialise(&mut self) -> Result<(), String> {
-        self.fmu.reset().map_err(|e| e.to_string())?;
-        initialise(&mut self.fmu, &self.path, &self.params)
+    fn reinitialise(&mut self) -> Result<(), ModelError> {
+        self.fmu.reset()?;
+        Ok(initialise(&mut self.fmu, &self.path, &self.params)?)
     }
 }
 
@@ -76,37 +78,33 @@ pub struct FmuCompensator {
 }
 
 impl FmuCompensator {
-    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuCompensator, String> {
+    pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuCompensator, Error> {
         let fmu = start(path, "controller", params)?;
-        let codes = fmu
-            .vrs_of(
-                &["dac_earth_code", "dac_nonearth_code", "dac_extension_code"],
-                VarType::Integer,
-            )
-            .map_err(|e| e.to_string())?;
-        let encoder =
-            fmu.vrs_of(&["encoder_counts"], VarType::Integer).map_err(|e| e.to_string())?;
-        let reference = fmu.vrs_of(&["reference"], VarType::Real).map_err(|e| e.to_string())?;
+        let codes = fmu.vrs_of(
+            &["dac_earth_code", "dac_nonearth_code", "dac_extension_code"],
+            VarType::Integer,
+        )?;
+        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
+        let reference = fmu.vrs_of(&["reference"], VarType::Real)?;
         Ok(FmuCompensator { fmu, codes, encoder, reference })
     }
 }
 
 impl Compensator for FmuCompensator {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         let mut c = [0i32; 3];
-        self.fmu.get_integer(&self.codes, &mut c).map_err(|e| e.to_string())?;
+        self.fmu.get_integer(&self.codes, &mut c)?;
         let mut out = [0u16; 3];
         for (o, v) in out.iter_mut().zip(c) {
-            *o = u16::try_from(v)
-                .map_err(|_| format!("the controller FMU gave DAC code {v}, outside 0–65535"))?;
+            *o = u16::try_from(v).map_err(|_| Error::DacCode(v))?;
         }
         Ok(out)
     }
 
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
-        self.fmu.set_integer(&self.encoder, &[counts]).map_err(|e| e.to_string())?;
-        self.fmu.set_real(&self.reference, &[reference]).map_err(|e| e.to_string())?;
-        self.fmu.do_step(PERIOD.as_secs_f64()).map_err(|e| e.to_string())
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
+        self.fmu.set_integer(&self.encoder, &[counts])?;
+        self.fmu.set_real(&self.reference, &[reference])?;
+        Ok(self.fmu.do_step(PERIOD.as_secs_f64())?)
     }
 }
 

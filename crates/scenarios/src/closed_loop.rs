@@ -13,6 +13,7 @@ use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
 use crate::gait::Step;
 use crate::holding::{Held, HoldingRms, Parked, Settle};
+use crate::Error;
 use inchworm_cosim::ssp::Archive;
 use inchworm_cosim::Trace;
 
@@ -121,12 +122,12 @@ pub fn run(
     controller: Params,
     reference: impl Fn(f64) -> f64,
     duration: f64,
-) -> Result<Trace, String> {
-    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+) -> Result<Trace, Error> {
+    let mut plant = Plant::new(plant)?;
     // Before its first tick the controller FMU shows the parked sample with the start
     // estimates; the t = 0 row shows the same.
     let start = parked([0.0; 3], controller.disturbance_start, controller.scale_weights_start);
-    let mut ctrl = Controller::new(controller)?;
+    let mut ctrl = Controller::new(controller).map_err(Error::Controller)?;
     let h = SAMPLE_PERIOD;
     let n = (duration / h).round() as usize;
     let mut names = recorded();
@@ -138,9 +139,7 @@ pub fn run(
     for k in 0..n {
         let t = k as f64 * h;
         let s = ctrl.tick(plant.outputs().encoder_counts, reference(t));
-        plant
-            .step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h)
-            .map_err(|e| e.to_string())?;
+        plant.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h)?;
         let t = (k + 1) as f64 * h;
         trace.push(t, row(reference(t), &plant.outputs(), &s));
         held = s.dac;
@@ -151,10 +150,10 @@ pub fn run(
 /// The plant alone driven open loop by `steps` full forward steps from rest (the paper's
 /// Fig. 11), recorded like the loop so the same analysis, CSV and plot read it: the gait's
 /// volts stand in the controller's DAC columns, the reference and the estimates are 0.
-pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, String> {
+pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, Error> {
     let step = Step::new(1.0)?;
     let volts: Vec<Dac> = (0..steps).flat_map(|_| step.samples()).collect();
-    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
+    let mut plant = Plant::new(plant)?;
     // The volts commanded at sample k are held over the next one; none after the last.
     let commanded = |k: usize| {
         let d = volts.get(k).copied().unwrap_or_default();
@@ -165,7 +164,7 @@ pub fn open_loop_slew(plant: PlantParams, steps: usize) -> Result<Trace, String>
     let mut trace = Trace::new(names);
     trace.push(0.0, row(0.0, &plant.outputs(), &commanded(0)));
     for (k, &dac) in volts.iter().enumerate() {
-        plant.step(dac, SAMPLE_PERIOD).map_err(|e| e.to_string())?;
+        plant.step(dac, SAMPLE_PERIOD)?;
         trace.push((k + 1) as f64 * SAMPLE_PERIOD, row(0.0, &plant.outputs(), &commanded(k + 1)));
     }
     Ok(trace)
@@ -195,12 +194,11 @@ pub struct LoopView {
 
 impl LoopView {
     /// Reads a trace holding [`recorded`] (and [`ITERATED`] if it has it).
-    pub fn new(trace: &Trace) -> Result<LoopView, String> {
-        let col = |name: &str| -> Result<Vec<f64>, String> {
-            trace.column(name).ok_or_else(|| format!("the trace has no `{name}`"))
-        };
+    pub fn new(trace: &Trace) -> Result<LoopView, Error> {
+        let missing = |name: &str| Error::NoVariable(name.to_owned());
+        let col = |name: &str| trace.column(name).ok_or_else(|| missing(name));
         if trace.rows.is_empty() {
-            return Err("the trace is empty".into());
+            return Err(Error::EmptyTrace);
         }
         let after = |v: Vec<f64>| v[1..].to_vec();
         let dac: Vec<Vec<f64>> = DAC.iter().map(|n| col(n)).collect::<Result<_, _>>()?;
@@ -219,14 +217,14 @@ impl LoopView {
         let mut scale_weights = [0.0; 10];
         for (i, w) in scale_weights.iter_mut().enumerate() {
             let name = scale_weight(i);
-            *w = last[trace.index(&name).ok_or_else(|| format!("the trace has no `{name}`"))?];
+            *w = last[trace.index(&name).ok_or_else(|| missing(&name))?];
         }
         Ok(LoopView {
             time: after(trace.times()),
             reference: after(
                 reference_index(&trace.names)
                     .and_then(|i| trace.column(&trace.names[i]))
-                    .ok_or_else(|| format!("the trace has no `{REFERENCE}`"))?,
+                    .ok_or_else(|| missing(REFERENCE))?,
             ),
             encoder_counts: after(col(ENCODER_COUNTS)?).iter().map(|&c| c as i64).collect(),
             encoder_position: after(col(ENCODER_POSITION)?),
@@ -413,10 +411,10 @@ pub fn disturbance_map_run(
     reference: impl Fn(f64) -> f64,
     duration: f64,
     from: f64,
-) -> Result<MapRun, String> {
+) -> Result<MapRun, Error> {
     let controller = Params { disturbance_map: true, ..controller };
-    let mut plant = Plant::new(plant).map_err(|e| e.to_string())?;
-    let mut ctrl = Controller::new(controller)?;
+    let mut plant = Plant::new(plant)?;
+    let mut ctrl = Controller::new(controller).map_err(Error::Controller)?;
     let mut held = [0.0; 3];
     let mut out = MapRun::default();
     let (mut a, mut b) = (0.0, 0.0);
@@ -433,9 +431,7 @@ pub fn disturbance_map_run(
                 out.steps += 1;
             }
         }
-        plant
-            .step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, SAMPLE_PERIOD)
-            .map_err(|e| e.to_string())?;
+        plant.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, SAMPLE_PERIOD)?;
         held = s.dac;
     }
     let n = out.steps.max(1) as f64;

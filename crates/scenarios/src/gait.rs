@@ -10,6 +10,8 @@ use inchworm_controller::gait::Timing;
 pub use inchworm_controller::measurements::Raw as RawMeasurements;
 use inchworm_plant::Dac;
 
+use crate::Error;
+
 /// Controller sample period `T_s` (s), docs/model.md §3.1.
 pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
 /// Samples per step (`T_sp = 100 · T_s = 0.2 s`), docs/model.md §3.1.
@@ -26,9 +28,9 @@ pub struct Step {
 impl Step {
     /// A step of amplitude `y`. `y ≥ 0` runs the forward gait (`y = 0` cycles the brakes
     /// with the extension unpowered), `y < 0` the backward gait with `a = |y|`.
-    pub fn new(y: f64) -> Result<Self, String> {
+    pub fn new(y: f64) -> Result<Self, Error> {
         if !y.is_finite() || y.abs() > 1.0 {
-            return Err(format!("step amplitude {y} is outside [-1, 1]"));
+            return Err(Error::Amplitude(y));
         }
         Ok(Self { amplitude: y })
     }

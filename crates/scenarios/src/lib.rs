@@ -36,19 +36,74 @@ pub(crate) fn component_parameters<M: inchworm_fmi_export::Model>(
         .collect()
 }
 
-/// What a scenario run reports: the engine's error as it is, or the analysis' message (a
-/// trace without the loop's variables, a plot that cannot be drawn).
+/// What a scenario run reports: the engine's error as it is, an FMU's or a model crate's
+/// error as it is, or what the analysis found missing (a trace without the loop's
+/// variables, a value outside an FMU's interface).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
     #[error(transparent)]
     Engine(#[from] inchworm_cosim::Error),
+    /// An FMU of the scenarios' own drivers (the plant FMU's gait, the bridge's FMUs).
+    #[error(transparent)]
+    Fmu(#[from] inchworm_cosim::fmu::FmuError),
+    /// The plant crate refused its parameters.
+    #[error(transparent)]
+    PlantParams(#[from] inchworm_plant::ParamError),
+    /// The plant crate's step failed.
+    #[error(transparent)]
+    PlantStep(#[from] inchworm_plant::StepError),
+    /// The controller crate refused its parameters (its message).
     #[error("{0}")]
-    Analysis(String),
-}
-
-impl From<String> for Error {
-    fn from(message: String) -> Error {
-        Error::Analysis(message)
-    }
+    Controller(String),
+    /// A `--param NAME=VALUE` the FMU at `path` refused.
+    #[error("{}: parameter `{name}`: {source}", path.display())]
+    Parameter {
+        path: std::path::PathBuf,
+        name: String,
+        #[source]
+        source: Box<inchworm_cosim::Error>,
+    },
+    /// The plant FMU's `mode` is none of its four.
+    #[error("the plant FMU gave mode {0}, not 1–4")]
+    PlantMode(i32),
+    /// The plant FMU's `slip_events` is negative.
+    #[error("the plant FMU gave {0} slip events")]
+    SlipEvents(i32),
+    /// The controller FMU's DAC code does not fit the wire's 16 bits.
+    #[error("the controller FMU gave DAC code {0}, outside 0–65535")]
+    DacCode(i32),
+    /// A trace without a variable the analysis reads.
+    #[error("the trace has no `{0}`")]
+    NoVariable(String),
+    /// A trace without a row.
+    #[error("the trace is empty")]
+    EmptyTrace,
+    /// A gait step's amplitude outside [-1, 1].
+    #[error("step amplitude {0} is outside [-1, 1]")]
+    Amplitude(f64),
+    /// A file the scenario writes (its folder, its CSV) cannot be written.
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A plot cannot be drawn.
+    #[error("{}: cannot draw the plot: {source}", path.display())]
+    Plot {
+        path: std::path::PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The plot font cannot be read.
+    #[error("{}: cannot read the plot font: {source} (on Debian: apt-get install fonts-dejavu-core, or pass --font)", path.display())]
+    FontFile {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The plot font is not a font plotters can use.
+    #[error("{}: not a TrueType/OpenType font", .0.display())]
+    NotAFont(std::path::PathBuf),
 }

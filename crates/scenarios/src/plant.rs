@@ -9,6 +9,7 @@ use inchworm_plant::PlantParams;
 pub use inchworm_plant::{Dac, Mode, Outputs};
 
 use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
+use crate::Error;
 use inchworm_cosim::fmu::{CsFmu, FmuError, VarType};
 
 /// The DAC inputs (V), in the order of [`Dac`]'s fields.
@@ -70,13 +71,13 @@ impl Plant {
         self.fmu.time()
     }
 
-    pub fn outputs(&mut self) -> Result<Outputs, String> {
+    pub fn outputs(&mut self) -> Result<Outputs, Error> {
         let mut r = [0.0; 6];
         let mut i = [0; 3];
         let mut b = [false; 2];
-        self.fmu.get_real(&self.reals, &mut r).map_err(|e| e.to_string())?;
-        self.fmu.get_integer(&self.integers, &mut i).map_err(|e| e.to_string())?;
-        self.fmu.get_boolean(&self.booleans, &mut b).map_err(|e| e.to_string())?;
+        self.fmu.get_real(&self.reals, &mut r)?;
+        self.fmu.get_integer(&self.integers, &mut i)?;
+        self.fmu.get_boolean(&self.booleans, &mut b)?;
         Ok(Outputs {
             encoder_counts: i64::from(i[0]),
             encoder_position: r[0],
@@ -85,24 +86,21 @@ impl Plant {
             voltage_earth: r[3],
             voltage_nonearth: r[4],
             voltage_extension: r[5],
-            mode: mode(i[1]).ok_or_else(|| format!("the plant FMU gave mode {}, not 1–4", i[1]))?,
+            mode: mode(i[1]).ok_or(Error::PlantMode(i[1]))?,
             earth_closed: b[0],
             nonearth_closed: b[1],
-            slip_events: u32::try_from(i[2])
-                .map_err(|_| format!("the plant FMU gave {} slip events", i[2]))?,
+            slip_events: u32::try_from(i[2]).map_err(|_| Error::SlipEvents(i[2]))?,
         })
     }
 
     /// Holds `dac` over one controller sample (one 2 ms `fmi2DoStep`).
-    pub fn step(&mut self, dac: Dac) -> Result<(), String> {
-        self.fmu
-            .set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])
-            .map_err(|e| e.to_string())?;
-        self.fmu.do_step(SAMPLE_PERIOD_S).map_err(|e| e.to_string())
+    pub fn step(&mut self, dac: Dac) -> Result<(), FmuError> {
+        self.fmu.set_real(&self.inputs, &[dac.earth, dac.nonearth, dac.extension])?;
+        self.fmu.do_step(SAMPLE_PERIOD_S)
     }
 
-    pub fn terminate(mut self) -> Result<(), String> {
-        self.fmu.terminate().map_err(|e| e.to_string())
+    pub fn terminate(mut self) -> Result<(), FmuError> {
+        self.fmu.terminate()
     }
 }
 
@@ -126,7 +124,7 @@ pub struct GaitRun {
 
 impl GaitRun {
     /// Drives `plant` through `steps`, 100 samples each.
-    pub fn run(plant: &mut Plant, steps: &[Step]) -> Result<Self, String> {
+    pub fn run(plant: &mut Plant, steps: &[Step]) -> Result<Self, Error> {
         let dacs: Vec<Dac> = steps.iter().flat_map(|s| s.samples().collect::<Vec<_>>()).collect();
         let mut samples = Vec::with_capacity(dacs.len() + 1);
         let mut out = plant.outputs()?;

@@ -21,18 +21,14 @@ pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
 const FONT: &str = "sans-serif";
 
 /// Reads a TrueType/OpenType font and registers it as the face every plot uses.
-pub fn load_font(path: &Path) -> Result<(), String> {
-    let bytes = std::fs::read(path).map_err(|e| {
-        format!(
-            "{}: cannot read the plot font: {e} (on Debian: apt-get install fonts-dejavu-core, or pass --font)",
-            path.display()
-        )
-    })?;
+pub fn load_font(path: &Path) -> Result<(), crate::Error> {
+    let bytes = std::fs::read(path)
+        .map_err(|source| crate::Error::FontFile { path: path.to_path_buf(), source })?;
     // plotters keeps registered fonts for the life of the process and wants them 'static;
     // one font per process, so leaking it is the intended use.
     let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
     register_font(FONT, FontStyle::Normal, bytes)
-        .map_err(|_| format!("{}: not a TrueType/OpenType font", path.display()))
+        .map_err(|_| crate::Error::NotAFont(path.to_path_buf()))
 }
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
@@ -46,7 +42,11 @@ const COLORS: [RGBColor; 3] = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
 
 /// A white 1400×900 picture with its title, and its area below the title split at
 /// `split` percent into a top and a bottom panel.
-fn canvas<'a>(path: &'a Path, title: &str, split: u32) -> Result<[Area<'a>; 3], Box<dyn Error>> {
+fn canvas<'a>(
+    path: &'a Path,
+    title: &str,
+    split: u32,
+) -> Result<[Area<'a>; 3], Box<dyn Error + Send + Sync>> {
     let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
     root.fill(&WHITE)?;
     let body = root.titled(title, (FONT, 24))?;
@@ -61,7 +61,7 @@ fn panel<'a, 'b>(
     y: std::ops::Range<f64>,
     x_desc: &str,
     y_desc: &str,
-) -> Result<Chart<'a, 'b>, Box<dyn Error>> {
+) -> Result<Chart<'a, 'b>, Box<dyn Error + Send + Sync>> {
     let mut chart = ChartBuilder::on(area)
         .margin(12)
         .x_label_area_size(40)
@@ -92,7 +92,7 @@ fn padded(lo: f64, hi: f64) -> std::ops::Range<f64> {
 /// Runner position, extension and mode of a gait run in three stacked panels sharing
 /// the time axis; the `s7` averages are marked on the runner trace and each step's
 /// amplitude is written above it.
-pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error>> {
+pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error + Send + Sync>> {
     let (w, h) = (1400u32, 1000u32);
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();
     root.fill(&WHITE)?;
@@ -228,7 +228,7 @@ pub fn closed_loop_png(
     names: &[&str],
     runs: &[LoopView],
     path: &Path,
-) -> Result<(), Box<dyn Error>> {
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let [root, top, bottom] = canvas(path, title, 62)?;
     let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
     let um = 1e6;
@@ -295,7 +295,7 @@ pub fn slew_png(
     names: &[&str],
     runs: &[SlewView],
     path: &Path,
-) -> Result<(), Box<dyn Error>> {
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let [root, top, bottom] = canvas(path, title, 50)?;
     let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
     let (lo, hi) = extent(runs.iter().flat_map(|r| r.position.iter().map(|x| x * 1e3)));
@@ -340,7 +340,11 @@ pub fn slew_png(
 }
 
 /// The recorded variables of an `inchworm run`, one panel each (at most 6), against time.
-pub fn trace_png(title: &str, results: &Trace, path: &Path) -> Result<(), Box<dyn Error>> {
+pub fn trace_png(
+    title: &str,
+    results: &Trace,
+    path: &Path,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let n = results.names.len().clamp(1, 6);
     let (w, h) = (1400u32, 220 * n as u32 + 60);
     let root = BitMapBackend::new(path, (w, h)).into_drawing_area();

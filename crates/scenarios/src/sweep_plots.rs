@@ -35,7 +35,7 @@ pub fn histogram_png(
     values: &[f64],
     bins: usize,
     path: &Path,
-) -> Result<(), Box<dyn Error>> {
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let (lo, hi) = range(values);
     let bins = bins.max(1);
     let width = (hi - lo) / bins as f64;
@@ -76,7 +76,7 @@ pub fn scatter_png(
     ylabel: &str,
     points: &[(f64, f64)],
     path: &Path,
-) -> Result<(), Box<dyn Error>> {
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let xs: Vec<f64> = points.iter().map(|p| p.0).collect();
     let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
     let (x0, x1) = range(&xs);

@@ -49,7 +49,7 @@ pub const REFUSALS_PER_S: f64 = 8.0;
 use crate::realtime::now_ns;
 use crate::runlog::{BoardSample, LogWriter, Record};
 use crate::transport::{Source, Transport};
-use crate::{describe_fault, LinkCounters, Mechanism, OverrunPolicy};
+use crate::{describe_fault, LinkCounters, Mechanism, ModelError, OverrunPolicy};
 
 /// Frames received and what became of them, and the board's own counts.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -119,7 +119,11 @@ pub struct Board<M> {
 }
 
 impl<M: Mechanism> Board<M> {
-    pub fn new(mut mech: M, cfg: BoardConfig, log: Option<LogWriter>) -> Result<Board<M>, String> {
+    pub fn new(
+        mut mech: M,
+        cfg: BoardConfig,
+        log: Option<LogWriter>,
+    ) -> Result<Board<M>, ModelError> {
         let counts = mech.counts()?;
         let mut board = Board {
             cfg,

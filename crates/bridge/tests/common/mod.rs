@@ -10,7 +10,7 @@ use std::thread::JoinHandle;
 use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::faults::{FaultPlan, FaultyTransport};
 use inchworm_bridge::transport::{Transport, UdpTransport};
-use inchworm_bridge::{Compensator, Mechanism};
+use inchworm_bridge::{Compensator, Mechanism, ModelError};
 use inchworm_controller::{volts_of_code, Controller, Params};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
@@ -51,10 +51,10 @@ impl DirectPlant {
 }
 
 impl Mechanism for DirectPlant {
-    fn counts(&mut self) -> Result<i32, String> {
+    fn counts(&mut self) -> Result<i32, ModelError> {
         Ok(self.0.outputs().encoder_counts as i32)
     }
-    fn step(&mut self, codes: [u16; 3]) -> Result<i32, String> {
+    fn step(&mut self, codes: [u16; 3]) -> Result<i32, ModelError> {
         self.0
             .step(
                 Dac {
@@ -67,7 +67,7 @@ impl Mechanism for DirectPlant {
             .map_err(|e| e.to_string())?;
         self.counts()
     }
-    fn reinitialise(&mut self) -> Result<(), String> {
+    fn reinitialise(&mut self) -> Result<(), ModelError> {
         self.0 = Plant::new(PlantParams::default()).map_err(|e| e.to_string())?;
         Ok(())
     }
@@ -85,10 +85,10 @@ impl DirectController {
 }
 
 impl Compensator for DirectController {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         Ok(self.codes)
     }
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
         self.codes = self.ctrl.tick(i64::from(counts), reference).codes;
         Ok(())
     }
@@ -112,10 +112,10 @@ impl Announcing {
 }
 
 impl Compensator for Announcing {
-    fn codes(&mut self) -> Result<[u16; 3], String> {
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
         self.ctrl.codes()
     }
-    fn step(&mut self, counts: i32, reference: f64) -> Result<(), String> {
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
         if self.ticks == self.at {
             if let Some(t) = self.tell.take() {
                 let _ = t.send(());

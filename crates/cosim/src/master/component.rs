@@ -5,7 +5,7 @@ use std::path::Path;
 
 use super::{Interfaces, Port};
 use crate::archive::cut;
-use crate::fmu::{CsFmu, Loaded, MeFmu, ModelDescription};
+use crate::fmu::{CsFmu, Instance, Loaded, ModelDescription};
 use crate::limits;
 use crate::model_exchange::{MeRun, Tolerance};
 use crate::{Error, StopFlag};
@@ -24,8 +24,8 @@ pub(super) enum Fmu {
 }
 
 impl std::ops::Deref for Fmu {
-    type Target = CsFmu;
-    fn deref(&self) -> &CsFmu {
+    type Target = Instance;
+    fn deref(&self) -> &Instance {
         match self {
             Fmu::Cs(f) => f,
             Fmu::Me(m) => &m.fmu,
@@ -34,7 +34,7 @@ impl std::ops::Deref for Fmu {
 }
 
 impl std::ops::DerefMut for Fmu {
-    fn deref_mut(&mut self) -> &mut CsFmu {
+    fn deref_mut(&mut self) -> &mut Instance {
         match self {
             Fmu::Cs(f) => f,
             Fmu::Me(m) => &mut m.fmu,
@@ -73,7 +73,7 @@ impl Fmu {
         tolerance: Tolerance,
     ) -> Result<Fmu, Error> {
         let vet = |md: &ModelDescription, me: bool| limits::check_description(name, md, me);
-        Ok(match MeFmu::load_vetted(source, name, false, |md| want.is_me(md), vet)? {
+        Ok(match Loaded::load_vetted(source, name, false, |md| want.is_me(md), vet)? {
             Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)?),
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
         })

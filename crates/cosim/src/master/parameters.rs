@@ -4,7 +4,7 @@
 use super::component::{resolve, Component};
 use super::{Options, Port, System};
 use crate::archive::cut;
-use crate::fmu::{CsFmu, Var, VarType};
+use crate::fmu::{Instance, Var, VarType};
 use crate::ssp::{Archive, TypedValue};
 use crate::Error;
 
@@ -12,7 +12,7 @@ fn set(components: &mut [Component], p: Port, value: f64) -> Result<(), Error> {
     set_var(&mut components[p.component].fmu, Var { vr: p.vr, ty: p.ty }, value)
 }
 
-fn set_var(f: &mut CsFmu, v: Var, value: f64) -> Result<(), Error> {
+fn set_var(f: &mut Instance, v: Var, value: f64) -> Result<(), Error> {
     match v.ty {
         VarType::Real => f.set_real(&[v.vr], &[value]),
         VarType::Integer | VarType::Enumeration => f.set_integer(&[v.vr], &[value.round() as i32]),
@@ -88,7 +88,7 @@ fn set_text(components: &mut [Component], p: Port, name: &str, text: &str) -> Re
 }
 
 /// Sets one variable of a single FMU by name from text, as `--param NAME=VALUE` does.
-pub fn set_param(fmu: &mut CsFmu, name: &str, text: &str) -> Result<(), Error> {
+pub fn set_param(fmu: &mut Instance, name: &str, text: &str) -> Result<(), Error> {
     let v = fmu.var(name)?;
     set_var(fmu, v, parse_value(v.ty, name, text)?)
 }

@@ -166,7 +166,8 @@ impl MirrorRun {
 /// `<out>/mirror.csv` (the recorded variables) and `<out>/mirror.png`.
 pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> {
     crate::plot::load_font(font)?;
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    std::fs::create_dir_all(out)
+        .map_err(|source| crate::Error::Write { path: out.into(), source })?;
     let ssp = dist.join("MirrorMount.ssp");
     let wall = std::time::Instant::now();
     let run = mirror_run(&ssp)?;
@@ -184,8 +185,9 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
     );
     let csv = out.join("mirror.csv");
     let mut text = Vec::new();
-    run.trace.write_csv(&mut text).map_err(|e| e.to_string())?;
-    std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+    let write = |source| crate::Error::Write { path: csv.clone(), source };
+    run.trace.write_csv(&mut text).map_err(write)?;
+    std::fs::write(&csv, text).map_err(write)?;
     println!("wrote {}", csv.display());
     let png = out.join("mirror.png");
     crate::plot::trace_png(
@@ -193,7 +195,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
         &run.plot_trace(),
         &png,
     )
-    .map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    .map_err(|source| crate::Error::Plot { path: png.clone(), source })?;
     println!("wrote {}", png.display());
     Ok(())
 }

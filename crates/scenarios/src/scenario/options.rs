@@ -120,15 +120,19 @@ pub fn write_extras(name: &str, out: &Path) -> Result<(), crate::Error> {
     for (c, b) in &st.curve {
         text.push_str(&format!("{c},{b:e}\n"));
     }
-    std::fs::write(&csv, text).map_err(|e| format!("{}: {e}", csv.display()))?;
+    std::fs::write(&csv, text)
+        .map_err(|source| crate::Error::Write { path: csv.clone(), source })?;
     println!("wrote {}", csv.display());
     let png = out.join("bdmap_map.png");
-    map_png(&st, &png).map_err(|e| format!("{}: cannot draw the plot: {e}", png.display()))?;
+    map_png(&st, &png).map_err(|source| crate::Error::Plot { path: png.clone(), source })?;
     println!("wrote {}", png.display());
     Ok(())
 }
 
-fn map_png(r: &closed_loop::MapRun, path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+fn map_png(
+    r: &closed_loop::MapRun,
+    path: &Path,
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     use plotters::prelude::*;
     let orange = RGBColor(220, 80, 0);
     let root = BitMapBackend::new(path, (1000, 650)).into_drawing_area();
@@ -206,7 +210,7 @@ pub fn options_png(
     names: &[&str],
     runs: &[LoopView],
     path: &Path,
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     use plotters::prelude::*;
     let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
     let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
