@@ -54,12 +54,15 @@ fn main() {
     let metric_names = ["settle:1e-6", "rms:6:10", "disturbance"];
     let setup = Setup {
         system: ssp.clone(),
-        stop_time: Some(10.0),
-        step_size: None,
-        coupling: Coupling::Jacobi,
-        params: vec![],
-        parameter_set: Some("full-control".into()),
-        input: Some(input.clone()),
+        options: Options {
+            stop_time: Some(10.0),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: Some("full-control".into()),
+            input: Some(input.clone()),
+            outputs: vec![],
+        },
         metrics: Arc::new(LoopMetrics::parse(&metric_names).expect("valid")),
     };
     let sweeps = [

@@ -130,12 +130,15 @@ fn grids_are_a_cartesian_product_times_the_samples() {
 fn fig5_setup(metrics: &[&str]) -> Setup {
     Setup {
         system: ssp(),
-        stop_time: Some(10.0),
-        step_size: None,
-        coupling: Coupling::Jacobi,
-        params: vec![],
-        parameter_set: Some("full-control".into()),
-        input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
+        options: Options {
+            stop_time: Some(10.0),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: Some("full-control".into()),
+            input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
+            outputs: vec![],
+        },
         metrics: Arc::new(LoopMetrics::parse(metrics).unwrap()),
     }
 }
@@ -153,17 +156,9 @@ const METRICS: [&str; 6] = [
 /// trace fed to the reducer a sweep feeds row by row (`Metrics::compute`), so a sweep row
 /// that differs is the run's difference (a reset that missed a state), not the metrics'.
 fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
-    let mut params = setup.params.clone();
-    params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));
-    let opts = Options {
-        stop_time: setup.stop_time,
-        step_size: setup.step_size,
-        coupling: setup.coupling,
-        params,
-        parameter_set: setup.parameter_set.clone(),
-        input: setup.input.clone(),
-        outputs: setup.metrics.recorded(),
-    };
+    let mut opts = setup.options.clone();
+    opts.params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));
+    opts.outputs = setup.metrics.recorded();
     let trace = master::run(&setup.system, &opts, |_| {}).unwrap();
     setup.metrics.compute(&trace).unwrap()
 }
@@ -198,8 +193,9 @@ fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
     let metrics = metrics.for_system(&closed).unwrap();
     assert_eq!(metrics.reference, "reference.reference");
     assert_eq!(metrics.recorded()[0], "reference.reference");
-    let setup =
-        Setup { system: closed, input: None, metrics: Arc::new(metrics), ..fig5_setup(&METRICS) };
+    let fig5 = fig5_setup(&METRICS);
+    let options = Options { input: None, ..fig5.options };
+    let setup = Setup { system: closed, options, metrics: Arc::new(metrics) };
     let names: Vec<String> = vec!["plant.T_em".into()];
     let rows: Vec<Row> = [8.8, 9.2]
         .iter()
@@ -349,12 +345,15 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
         let input = open.then(|| InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap());
         let setup = Setup {
             system: system.clone(),
-            stop_time: Some(0.2),
-            step_size: None,
-            coupling: Coupling::Jacobi,
-            params: vec![],
-            parameter_set: None,
-            input: input.clone(),
+            options: Options {
+                stop_time: Some(0.2),
+                step_size: None,
+                coupling: Coupling::Jacobi,
+                params: vec![],
+                parameter_set: None,
+                input: input.clone(),
+                outputs: vec![],
+            },
             metrics: every_output(&system, &input),
         };
         let names = vec![param.to_string()];

@@ -223,15 +223,9 @@ pub fn run(args: &SweepArgs) -> Result<(), String> {
             w.write_all(plan.to_csv().as_bytes())
         });
     }
-    let opts = args.sim.options(Vec::new())?;
     let setup = Setup {
         system: args.file.clone(),
-        stop_time: opts.stop_time,
-        step_size: opts.step_size,
-        coupling: opts.coupling,
-        params: opts.params,
-        parameter_set: opts.parameter_set,
-        input: opts.input,
+        options: args.sim.options(Vec::new())?,
         metrics: std::sync::Arc::new(metrics),
     };
     let jobs =

@@ -51,12 +51,27 @@ pub struct Loop {
     compensator: Compensator,
 }
 
+/// The compensator a loop iteration runs on the error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Law {
+    /// `C(z) = K (z − a)/(z − 1)` with the [`Gains`]' `k` and `a`: with the plant's own
+    /// integrator, two in the loop.
+    Lead,
+    /// The single-integrator compensator `C(z) = k` (the plant's own integrator is the
+    /// loop's only one, `L(z) = k/(z − 1)`): for use with the disturbance map, whose
+    /// prediction removes the per-step disturbance the second integrator was there for. The
+    /// lead compensator's state is not touched.
+    Proportional(f64),
+}
+
 impl Loop {
     /// One control iteration with measured position `y` and reference `r` (m); returns the
     /// move distance. `deadband`: no move while `|r − y|` is below it (integrators frozen,
     /// so leaving the band resumes from where the loop was, without a windup kick).
+    #[allow(clippy::too_many_arguments)]
     pub fn iterate(
         &mut self,
+        law: Law,
         g: &Gains,
         r: f64,
         y: f64,
@@ -75,36 +90,10 @@ impl Loop {
             return 0.0;
         }
         let (error, ff) = self.feedforward.split(r, y, feedforward);
-        self.compensator.step(g, error) + ff
-    }
-
-    /// [`Loop::iterate`] with the single-integrator compensator `C(z) = k` (the plant's
-    /// own integrator is the loop's only one, `L(z) = k/(z − 1)`): for use with the
-    /// disturbance map, whose prediction removes the per-step disturbance the second
-    /// integrator was there for. The compensator's state is not touched.
-    #[allow(clippy::too_many_arguments)]
-    pub fn iterate_single(
-        &mut self,
-        k: f64,
-        g: &Gains,
-        r: f64,
-        y: f64,
-        prefilter: bool,
-        feedforward: bool,
-        deadband: f64,
-    ) -> f64 {
-        if !self.started {
-            self.started = true;
-            self.prefilter.start(y);
-            self.feedforward.start(y);
+        match law {
+            Law::Lead => self.compensator.step(g, error) + ff,
+            Law::Proportional(k) => k * error + ff,
         }
-        let r = if prefilter { self.prefilter.filter(g.prefilter_pole, r) } else { r };
-        if (r - y).abs() < deadband {
-            self.feedforward.hold(r);
-            return 0.0;
-        }
-        let (error, ff) = self.feedforward.split(r, y, feedforward);
-        k * error + ff
     }
 
     /// No move: the target is held another way (analog mode). The integrators hold, and
@@ -357,13 +346,13 @@ mod tests {
         let g = Gains::default();
         let mut l = Loop::default();
         // y constant, r steps: first move = K e (no feedforward, no prefilter).
-        assert!((l.iterate(&g, 10.0, 0.0, false, false, 0.0) - 3.6).abs() < 1e-12);
+        assert!((l.iterate(Law::Lead, &g, 10.0, 0.0, false, false, 0.0) - 3.6).abs() < 1e-12);
         // Second, same error: D = D_prev + K (e − a e_prev) = 3.6 + 0.36·(10 − 8).
-        assert!((l.iterate(&g, 10.0, 0.0, false, false, 0.0) - 4.32).abs() < 1e-12);
+        assert!((l.iterate(Law::Lead, &g, 10.0, 0.0, false, false, 0.0) - 4.32).abs() < 1e-12);
         // Against a constant per-move disturbance the loop converges with zero error.
         let (mut l, mut y) = (Loop::default(), 0.0);
         for _ in 0..200 {
-            let d = l.iterate(&g, 100.0, y, false, false, 0.0);
+            let d = l.iterate(Law::Lead, &g, 100.0, y, false, false, 0.0);
             y += d + 4.5;
         }
         assert!((y - 100.0).abs() < 1e-6, "final position {y}");
@@ -374,18 +363,18 @@ mod tests {
         let g = Gains::default();
         let mut l = Loop::default();
         // Starting at y = 0 with r = 100: the whole step is fed forward, no feedback yet.
-        assert!((l.iterate(&g, 100.0, 0.0, false, true, 0.0) - 100.0).abs() < 1e-12);
+        assert!((l.iterate(Law::Lead, &g, 100.0, 0.0, false, true, 0.0) - 100.0).abs() < 1e-12);
         // Next iteration at y = 100: no error, no move.
-        assert!(l.iterate(&g, 100.0, 100.0, false, true, 0.0).abs() < 1e-12);
+        assert!(l.iterate(Law::Lead, &g, 100.0, 100.0, false, true, 0.0).abs() < 1e-12);
     }
 
     #[test]
     fn prefilter_smooths_and_deadband_stops() {
         let g = Gains::default();
         let mut l = Loop::default();
-        let d = l.iterate(&g, 100.0, 0.0, true, true, 0.0);
+        let d = l.iterate(Law::Lead, &g, 100.0, 0.0, true, true, 0.0);
         assert!((d - 20.0).abs() < 1e-12, "prefiltered step: 20 % at the first iteration, got {d}");
         let mut l = Loop::default();
-        assert_eq!(l.iterate(&g, 0.5, 0.0, false, false, 1.0), 0.0);
+        assert_eq!(l.iterate(Law::Lead, &g, 0.5, 0.0, false, false, 1.0), 0.0);
     }
 }

@@ -50,7 +50,7 @@ pub use state::STATE_VERSION;
 use analog::Analog;
 use basis::Basis;
 use bdmap::DisturbanceMap;
-use compensator::Loop;
+use compensator::{Law, Loop};
 use dac::quantize;
 use estimator::Estimator;
 use gait::{Direction, Timing};
@@ -286,26 +286,21 @@ impl Controller {
                 return self.output(volts, reference, y_now, true, false);
             }
             if self.full_steps_left == 0 && self.fraction_left.is_none() {
-                let d = if self.params.single_integrator {
-                    self.feedback.iterate_single(
-                        self.params.single_integrator_gain,
-                        &self.params.gains,
-                        reference,
-                        y_measured,
-                        self.params.prefilter,
-                        self.params.feedforward,
-                        self.params.deadband,
-                    )
+                let p = &self.params;
+                let law = if p.single_integrator {
+                    Law::Proportional(p.single_integrator_gain)
                 } else {
-                    self.feedback.iterate(
-                        &self.params.gains,
-                        reference,
-                        y_measured,
-                        self.params.prefilter,
-                        self.params.feedforward,
-                        self.params.deadband,
-                    )
+                    Law::Lead
                 };
+                let d = self.feedback.iterate(
+                    law,
+                    &p.gains,
+                    reference,
+                    y_measured,
+                    p.prefilter,
+                    p.feedforward,
+                    p.deadband,
+                );
                 self.iterations += 1;
                 iterated = true;
                 if d != 0.0 || self.params.deadband == 0.0 {

@@ -34,7 +34,7 @@ fn the_committed_header_is_what_cbindgen_generates() {
             );
         panic!(
             "crates/hil-protocol/ffi/include/inchworm_hil.h differs from the header cbindgen \
-             generates from ffi/src/lib.rs (first at {first}).\n\
+             generates from ffi/src/ (first at {first}).\n\
              Regenerate it with\n    \
              {BLESS}=1 cargo test --release -p inchworm-hil-protocol --test c_api\n\
              and commit the result."

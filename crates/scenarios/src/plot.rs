@@ -77,6 +77,38 @@ fn panel<'a, 'b>(
     Ok(chart)
 }
 
+/// The legend box of the series labelled so far, at `position`.
+fn legend<'a, 'b: 'a>(
+    chart: &mut Chart<'a, 'b>,
+    position: SeriesLabelPosition,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font((FONT, 15))
+        .draw()?;
+    Ok(())
+}
+
+/// The reference of a closed-loop run (µm against time), thin black, labelled.
+fn reference_line(chart: &mut Chart, r: &LoopView) -> Result<(), Box<dyn Error + Send + Sync>> {
+    chart
+        .draw_series(LineSeries::new(
+            r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * 1e6)),
+            BLACK.stroke_width(1),
+        ))?
+        .label("reference")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    Ok(())
+}
+
+/// The end of a time axis that shows every run: the latest last time, and at least 1 s.
+fn time_axis_end<'a>(times: impl Iterator<Item = &'a [f64]>) -> f64 {
+    times.filter_map(|t| t.last()).fold(1.0f64, |a, &b| a.max(b))
+}
+
 /// The smallest and largest of some values.
 fn extent(values: impl IntoIterator<Item = f64>) -> (f64, f64) {
     values
@@ -116,9 +148,7 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error + Send +
     // Runner position.
     let runner: Vec<(f64, f64)> =
         run.samples.iter().map(|s| (s.time, um(s.out.runner_position))).collect();
-    let (lo, hi) = runner
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+    let (lo, hi) = extent(runner.iter().map(|p| p.1));
     let y_range = padded(lo, hi);
     let label_y = y_range.end - (y_range.end - y_range.start) * 0.04;
     let mut chart = ChartBuilder::on(&top)
@@ -159,19 +189,11 @@ pub fn gait_png(run: &GaitRun, path: &Path) -> Result<(), Box<dyn Error + Send +
             )
         }))?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font((FONT, 15))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
 
     // Extension stack elongation.
     let ext: Vec<(f64, f64)> = run.samples.iter().map(|s| (s.time, um(s.out.extension))).collect();
-    let (lo, hi) = ext
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+    let (lo, hi) = extent(ext.iter().map(|p| p.1));
     let mut chart = ChartBuilder::on(&mid)
         .margin(12)
         .x_label_area_size(28)
@@ -230,7 +252,7 @@ pub fn closed_loop_png(
     path: &Path,
 ) -> Result<(), Box<dyn Error + Send + Sync>> {
     let [root, top, bottom] = canvas(path, title, 62)?;
-    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
+    let t_end = time_axis_end(runs.iter().map(|r| &r.time[..]));
     let um = 1e6;
     let pos = |r: &LoopView| -> Vec<(f64, f64)> {
         r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * um)).collect()
@@ -241,13 +263,7 @@ pub fn closed_loop_png(
         }));
     let mut chart = panel(&top, 0.0..t_end, padded(lo, hi), "", "encoder position (µm)")?;
     if let Some(r) = runs.first() {
-        chart
-            .draw_series(LineSeries::new(
-                r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * um)),
-                BLACK.stroke_width(1),
-            ))?
-            .label("reference")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        reference_line(&mut chart, r)?;
     }
     for (i, (r, name)) in runs.iter().zip(names).enumerate() {
         let c = COLORS[i % COLORS.len()];
@@ -266,13 +282,7 @@ pub fn closed_loop_png(
             .label(format!("{name} (parked samples): {settle}"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font((FONT, 15))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
 
     let (lo, hi) = extent(runs.iter().flat_map(|r| r.disturbance_estimate.iter().map(|x| x * um)));
     let mut chart =
@@ -288,6 +298,68 @@ pub fn closed_loop_png(
     Ok(())
 }
 
+/// The figure of a controller-option scenario: position on top, |error| of the held samples
+/// (log scale, nm) below.
+pub fn options_png(
+    title: &str,
+    names: &[&str],
+    runs: &[LoopView],
+    path: &Path,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
+    let [root, top, bottom] = canvas(path, title, 48)?;
+    let t_end = time_axis_end(runs.iter().map(|r| &r.time[..]));
+    let (lo, hi) = extent(
+        runs.iter().flat_map(|r| r.encoder_position.iter().chain(&r.reference).map(|x| x * 1e6)),
+    );
+    let mut chart = panel(&top, 0.0..t_end, padded(lo, hi), "", "encoder position (µm)")?;
+    if let Some(r) = runs.first() {
+        reference_line(&mut chart, r)?;
+    }
+    for (i, (r, name)) in runs.iter().zip(names).enumerate() {
+        let c = COLORS[i % COLORS.len()];
+        chart
+            .draw_series(LineSeries::new(
+                r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * 1e6)),
+                c.stroke_width(2),
+            ))?
+            .label(name.to_string())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    legend(&mut chart, SeriesLabelPosition::LowerRight)?;
+
+    let mut chart = ChartBuilder::on(&bottom)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_end, (0.1f64..1e5f64).log_scale())?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc("time (s)")
+        .y_desc("|error| at held samples (nm)")
+        .label_style((FONT, 16))
+        .draw()?;
+    for (i, r) in runs.iter().enumerate() {
+        let c = COLORS[i % COLORS.len()];
+        let pts: Vec<(f64, f64)> = r
+            .held()
+            .into_iter()
+            .map(|i| (r.time[i], (r.error(i).abs() * 1e9).clamp(0.1, 1e5)))
+            .collect();
+        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.filled())))?;
+    }
+    for (tol, label) in [(1e3, "1 µm"), (2.0, "2 nm")] {
+        chart.draw_series(LineSeries::new([(0.0, tol), (t_end, tol)], BLACK.mix(0.5)))?;
+        chart.draw_series(std::iter::once(Text::new(
+            label,
+            (t_end * 0.005, tol * 1.3),
+            (FONT, 14),
+        )))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
 /// An open-loop slew as the paper's Fig. 11 shows it: the runner position against time on
 /// top, the advance of every gait below.
 pub fn slew_png(
@@ -297,7 +369,7 @@ pub fn slew_png(
     path: &Path,
 ) -> Result<(), Box<dyn Error + Send + Sync>> {
     let [root, top, bottom] = canvas(path, title, 50)?;
-    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
+    let t_end = time_axis_end(runs.iter().map(|r| &r.time[..]));
     let (lo, hi) = extent(runs.iter().flat_map(|r| r.position.iter().map(|x| x * 1e3)));
     let mut chart =
         panel(&top, 0.0..t_end, padded(lo.min(0.0), hi), "time (s)", "runner position (mm)")?;
@@ -316,13 +388,7 @@ pub fn slew_png(
             ))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font((FONT, 15))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
 
     let gaits = runs.iter().map(|r| r.advance.len()).max().unwrap_or(1) as f64;
     let (lo, hi) = extent(runs.iter().flat_map(|r| r.advance.iter().map(|x| x * 1e6)));
@@ -354,9 +420,7 @@ pub fn trace_png(
     let t_end = results.rows.last().map_or(1.0, |r| r.0).max(1e-9);
     for (i, (panel, name)) in panels.iter().zip(&results.names).enumerate() {
         let series: Vec<(f64, f64)> = results.rows.iter().map(|(t, v)| (*t, v[i])).collect();
-        let (lo, hi) = series
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+        let (lo, hi) = extent(series.iter().map(|p| p.1));
         let pad = ((hi - lo) * 0.05).max(hi.abs().max(lo.abs()) * 1e-6).max(1e-12);
         let mut chart = ChartBuilder::on(panel)
             .margin(10)

@@ -4,6 +4,8 @@
 use std::error::Error;
 use std::path::Path;
 
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 const FONT: &str = "sans-serif";
@@ -27,6 +29,50 @@ fn fmt(v: &f64) -> String {
     }
 }
 
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+/// A white 1000×600 picture at `path`.
+fn picture(path: &Path) -> Result<Area<'_>, Box<dyn Error + Send + Sync>> {
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    Ok(root)
+}
+
+/// A chart over the whole of `root` with `title` above it, `y_area` pixels for the y
+/// labels, the axes' descriptions `[x, y]`, and x values written by [`fmt`].
+fn chart<'a, 'b, Y>(
+    root: &'a Area<'b>,
+    title: &str,
+    y_area: u32,
+    x: std::ops::Range<f64>,
+    y: impl AsRangedCoord<CoordDescType = Y, Value = Y::ValueType>,
+    desc: [&str; 2],
+    y_fmt: &dyn Fn(&Y::ValueType) -> String,
+) -> Result<
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
+    Box<dyn Error + Send + Sync>,
+>
+where
+    Y: Ranged + ValueFormatter<Y::ValueType>,
+{
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 22))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(y_area)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .light_line_style(WHITE)
+        .x_desc(desc[0])
+        .y_desc(desc[1])
+        .label_style((FONT, 15))
+        .x_label_formatter(&fmt)
+        .y_label_formatter(y_fmt)
+        .draw()?;
+    Ok(chart)
+}
+
 /// Histogram of `values` in `bins` equal bins; `note` goes in the title (e.g. how many runs
 /// have no value).
 pub fn histogram_png(
@@ -45,22 +91,9 @@ pub fn histogram_png(
         counts[b] += 1;
     }
     let top = counts.iter().copied().max().unwrap_or(1).max(1);
-    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, (FONT, 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(60)
-        .build_cartesian_2d(lo..hi, 0u32..top + top / 10 + 1)?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc(xlabel)
-        .y_desc("runs")
-        .label_style((FONT, 15))
-        .x_label_formatter(&fmt)
-        .draw()?;
+    let root = picture(path)?;
+    let y = 0u32..top + top / 10 + 1;
+    let mut chart = chart(&root, title, 60, lo..hi, y, [xlabel, "runs"], &|c: &u32| c.to_string())?;
     chart.draw_series(counts.iter().enumerate().map(|(i, &c)| {
         let x0 = lo + i as f64 * width;
         Rectangle::new([(x0, 0), (x0 + width, c)], BLUE.mix(0.6).filled())
@@ -81,23 +114,8 @@ pub fn scatter_png(
     let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
     let (x0, x1) = range(&xs);
     let (y0, y1) = range(&ys);
-    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, (FONT, 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(90)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc(xlabel)
-        .y_desc(ylabel)
-        .label_style((FONT, 15))
-        .x_label_formatter(&fmt)
-        .y_label_formatter(&fmt)
-        .draw()?;
+    let root = picture(path)?;
+    let mut chart = chart(&root, title, 90, x0..x1, y0..y1, [xlabel, ylabel], &fmt)?;
     chart.draw_series(points.iter().map(|&p| Circle::new(p, 3, BLUE.mix(0.6).filled())))?;
     root.present()?;
     Ok(())

@@ -31,6 +31,7 @@ pub enum Coupling {
     GaussSeidel,
 }
 
+#[derive(Clone, Debug)]
 pub struct Options {
     pub stop_time: Option<f64>,
     pub step_size: Option<f64>,

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc};
 
-use crate::master::{Coupling, InputTable, Options, Simulation, System};
+use crate::master::{Options, Simulation, System};
 use crate::sweep::metrics::Metrics;
 use crate::sweep::metrics::RowMetrics;
 use crate::sweep::plan::{Plan, Row};
@@ -16,13 +16,9 @@ use crate::{Error, StopFlag};
 #[derive(Clone, Debug)]
 pub struct Setup {
     pub system: PathBuf,
-    pub stop_time: Option<f64>,
-    pub step_size: Option<f64>,
-    pub coupling: Coupling,
-    /// Fixed `--param` values, set before the swept ones.
-    pub params: Vec<(String, String)>,
-    pub parameter_set: Option<String>,
-    pub input: Option<InputTable>,
+    /// The options of every run; the swept values are set after its `params`. Its `outputs`
+    /// are not read: a run records what the metrics read ([`Metrics::recorded`]).
+    pub options: Options,
     pub metrics: Arc<dyn Metrics>,
 }
 
@@ -39,17 +35,11 @@ pub struct Outcome {
 
 impl Setup {
     fn options(&self, names: &[String], row: &Row) -> Options {
-        let mut params = self.params.clone();
-        params.extend(names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}"))));
-        Options {
-            stop_time: self.stop_time,
-            step_size: self.step_size,
-            coupling: self.coupling,
-            params,
-            parameter_set: self.parameter_set.clone(),
-            input: self.input.clone(),
-            outputs: self.metrics.recorded(),
-        }
+        let mut options = self.options.clone();
+        let swept = names.iter().zip(&row.values).map(|(n, v)| (n.clone(), format!("{v}")));
+        options.params.extend(swept);
+        options.outputs = self.metrics.recorded();
+        options
     }
 }
 

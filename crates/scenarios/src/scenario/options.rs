@@ -203,95 +203,9 @@ pub(super) fn options_summary(s: &Scenario, v: &Variant, r: &LoopView) -> String
     )
 }
 
-/// The figure of a controller-option scenario: position on top, |error| of the held samples
-/// (log scale, nm) below.
-pub fn options_png(
-    title: &str,
-    names: &[&str],
-    runs: &[LoopView],
-    path: &Path,
-) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-    use plotters::prelude::*;
-    let colors = [BLUE, RGBColor(220, 80, 0), RGBColor(0, 140, 0)];
-    let root = BitMapBackend::new(path, (1400, 900)).into_drawing_area();
-    root.fill(&WHITE)?;
-    let root = root.titled(title, ("sans-serif", 22))?;
-    let (top, bottom) = root.split_vertically(430);
-    let t_end = runs.iter().filter_map(|r| r.time.last()).fold(1.0f64, |a, &b| a.max(b));
-    let (lo, hi) = runs
-        .iter()
-        .flat_map(|r| r.encoder_position.iter().chain(&r.reference))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x * 1e6), b.max(x * 1e6)));
-    let pad = (hi - lo).max(1.0) * 0.05;
-    let mut chart = ChartBuilder::on(&top)
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..t_end, (lo - pad)..(hi + pad))?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .y_desc("encoder position (µm)")
-        .label_style(("sans-serif", 14))
-        .draw()?;
-    if let Some(r) = runs.first() {
-        chart
-            .draw_series(LineSeries::new(
-                r.time.iter().zip(&r.reference).map(|(&t, &x)| (t, x * 1e6)),
-                BLACK.stroke_width(1),
-            ))?
-            .label("reference")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
-    }
-    for (i, (r, name)) in runs.iter().zip(names).enumerate() {
-        let c = colors[i % colors.len()];
-        chart
-            .draw_series(LineSeries::new(
-                r.time.iter().zip(&r.encoder_position).map(|(&t, &x)| (t, x * 1e6)),
-                c.stroke_width(2),
-            ))?
-            .label(name.to_string())
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
-    }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 15))
-        .draw()?;
-    let mut chart = ChartBuilder::on(&bottom)
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(80)
-        .build_cartesian_2d(0.0..t_end, (0.1f64..1e5f64).log_scale())?;
-    chart
-        .configure_mesh()
-        .light_line_style(WHITE)
-        .x_desc("time (s)")
-        .y_desc("|error| at held samples (nm)")
-        .label_style(("sans-serif", 14))
-        .draw()?;
-    for (i, r) in runs.iter().enumerate() {
-        let c = colors[i % colors.len()];
-        let pts: Vec<(f64, f64)> = r
-            .held()
-            .into_iter()
-            .map(|i| (r.time[i], (r.error(i).abs() * 1e9).clamp(0.1, 1e5)))
-            .collect();
-        chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 1, c.filled())))?;
-    }
-    for (tol, label) in [(1e3, "1 µm"), (2.0, "2 nm")] {
-        chart.draw_series(LineSeries::new([(0.0, tol), (t_end, tol)], BLACK.mix(0.5)))?;
-        chart.draw_series(std::iter::once(Text::new(
-            label,
-            (t_end * 0.005, tol * 1.3),
-            ("sans-serif", 14),
-        )))?;
-    }
-    root.present()?;
-    Ok(())
-}
+/// The figure of a controller-option scenario, re-exported where the scenarios' callers
+/// find it.
+pub use crate::plot::options_png;
 
 #[cfg(test)]
 mod controller_option_tests {
