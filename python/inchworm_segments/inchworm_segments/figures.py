@@ -170,6 +170,7 @@ def piston_map(png, csv_path, result, optics):
         ax.set_aspect("equal")
         ax.set_title(title, fontsize=8)
         fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(lo, lim), cmap=cmap), ax=ax, shrink=0.8, label="nm")
+    fig.subplots_adjust(wspace=0.5)
     fig.suptitle("Segment piston (surface, about the aperture mean): segment number and nm", fontsize=9)
     fig.savefig(png, dpi=110)
     plt.close(fig)
