@@ -19,13 +19,13 @@ import math
 import multiprocessing
 import sys
 
+import hcipy  # pinned by scripts/setup.sh: a venv without it fails here, it is not skipped
 import numpy as np
 import pytest
 
 from conftest import ROOT
 
 sys.path.insert(0, str(ROOT / "python" / "inchworm_segments"))
-hcipy = pytest.importorskip("hcipy")  # noqa: E402  (pinned by scripts/setup.sh)
 from inchworm_segments import __main__ as cli  # noqa: E402
 from inchworm_segments import frames as F  # noqa: E402
 from inchworm_segments.config import InputError, Telescope, rings_for  # noqa: E402
