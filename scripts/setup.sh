@@ -5,7 +5,8 @@
 # (bindgen in fmi-sys, used by the FMU import tests), binutils (nm/readelf for the symbol
 # check), libtbb12 (Ecos's runtime), and a Python venv in .venv with FMPy, pytest and the
 # two other SSP masters the tests run the system in: Ecos (ecospy) and OSP libcosim
-# (libcosimpy); dask for python/inchworm_dask and poppy for python/inchworm_optics.
+# (libcosimpy); dask for python/inchworm_dask, poppy for python/inchworm_optics and hcipy
+# for python/inchworm_segments.
 # For the FMUs' other platforms (docs/platforms.md): Debian's Rust for its browsers
 # (rustc-web, cargo-web, rust-web-src: builds the standard library for another target),
 # the MinGW-w64 and aarch64 cross compilers and glibc, and Wine and qemu-user, which run
@@ -52,3 +53,10 @@ fi
 OPTICS_REQS="poppy==1.1.2 astropy==8.0.2 scipy==1.17.1 numexpr==2.14.2 matplotlib==3.11.2 numpy==2.4.6"
 install_pins $OPTICS_REQS
 .venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_optics
+
+# The segmented telescope and its coronagraph (python/inchworm_segments): hcipy 0.7.1 and
+# what it needs beyond the optics' pins, pinned, then the local package itself
+# (reinstalled every time, so the venv has this tree's version).
+SEGMENTS_REQS="hcipy==0.7.1 asdf==6.0.0 imageio==2.38.2 xxhash==4.1.0 tqdm==4.70.1 pyyaml==6.0.4 pillow==13.0.0 importlib-metadata==10.2.0"
+install_pins $SEGMENTS_REQS
+.venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_segments

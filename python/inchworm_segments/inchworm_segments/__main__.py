@@ -1,0 +1,135 @@
+"""`python -m inchworm_segments` (or `inchworm-segments`): every segment's pose at every 2 ms
+sample, from a poses CSV (or the seeded synthetic co-phasing run), through the segmented
+telescope and a perfect coronagraph; prints the numbers, writes the CSVs and PNGs."""
+import argparse
+import concurrent.futures
+import json
+import multiprocessing
+import os
+import pathlib
+import sys
+import time
+
+from .config import RANGES, SAMPLE_S, InputError, Telescope, check_range, rings_for
+
+#: What the command writes into --out.
+OUTPUTS = ("segments-samples.csv", "segments-frames.csv", "segments-timeseries.png", "segments-strip.png",
+           "segments-strip.csv", "segments-piston-map.png", "segments-piston-map.csv", "segments-summary.csv",
+           "segments-telescope.json")
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise InputError(f"{message} (see --help)")
+
+
+def parse_args(argv):
+    p = _Parser(prog="inchworm-segments", description=__doc__)
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--poses", help="poses CSV: time, then seg{k}_piston_m, seg{k}_tip_rad, seg{k}_tilt_rad "
+                                     "for every segment, then optionally parked (0/1)")
+    src.add_argument("--synthetic", type=float, metavar="SECONDS", default=None,
+                     help="no CSV: the seeded synthetic co-phasing run of this many seconds (written to "
+                          "--out/segments-poses.csv)")
+    p.add_argument("--rings", type=int, help="rings of segments round the centre with --synthetic (default 1: 7 segments; 2: 19; 3: 37)")
+    p.add_argument("--no-centre", action="store_true",
+                   help="with --synthetic: leave the central segment out (with --poses the count of segments says)")
+    p.add_argument("--seed", type=int, default=2026, help="the synthetic run's seed")
+    p.add_argument("--out", default="out/segments", help="folder for the CSVs and PNGs")
+    p.add_argument("--frame-ms", type=float, default=50.0, help="frame exposure, ms (a whole number of 2 ms samples)")
+    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                   help="local processes for the frames (1: serial; the numbers are the same bit for bit)")
+    for name in ("flat_to_flat_m", "gap_m", "wavelength_m", "pupil_px", "supersampling", "q", "fov_lambda_d",
+                 "dark_inner_lambda_d", "dark_outer_lambda_d"):
+        default = getattr(Telescope, name)
+        p.add_argument("--" + name.replace("_", "-"), type=type(default), default=default,
+                       help=f"telescope: default {default:g}, accepted {RANGES[name][0]:g}..{RANGES[name][1]:g} "
+                            f"({RANGES[name][3]})")
+    return p.parse_args(argv)
+
+
+def _frame_samples(frame_ms):
+    n = frame_ms * 1e-3 / SAMPLE_S
+    if not (n >= 1 and abs(n - round(n)) < 1e-9 and n <= 1e6):
+        raise InputError(f"--frame-ms {frame_ms:g}: accepted a whole number of {SAMPLE_S * 1e3:g} ms samples, at least one")
+    return int(round(n))
+
+
+def prepare(args):
+    """(telescope, t, poses, parked, frame_samples) from the arguments, or an InputError."""
+    from . import poses as P
+
+    frame_samples = _frame_samples(args.frame_ms)
+    if args.workers < 1:
+        raise InputError(f"--workers {args.workers}: accepted an integer ≥ 1")
+    geometry = {k: getattr(args, k) for k in ("flat_to_flat_m", "gap_m", "wavelength_m", "pupil_px", "supersampling",
+                                              "q", "fov_lambda_d", "dark_inner_lambda_d", "dark_outer_lambda_d")}
+    if args.poses:
+        t, poses, parked = P.read_csv(args.poses)
+        rings, centre = rings_for(poses.shape[1])
+        if args.rings is not None or args.no_centre:
+            raise InputError("--rings and --no-centre are for --synthetic; with --poses the CSV's segment count says")
+    else:
+        duration = 2.0 if args.synthetic is None else args.synthetic
+        if not 0 < duration <= 3600:
+            raise InputError(f"--synthetic {duration:g}: accepted 0 < seconds ≤ 3600")
+        rings, centre = (1 if args.rings is None else args.rings), not args.no_centre
+        check_range("rings", rings)
+        count = Telescope(rings=rings, centre=centre, **geometry).segment_count
+        t, poses, parked = P.synthetic(count, duration, seed=args.seed)
+    tel = Telescope(rings=rings, centre=centre, **geometry)
+    if parked is None:
+        import numpy as np
+
+        parked = np.zeros(len(t), dtype=bool)
+    if len(t) < frame_samples:
+        raise InputError(f"{len(t)} samples: accepted at least one frame ({frame_samples} samples of --frame-ms {args.frame_ms:g})")
+    return tel, t, poses, parked, frame_samples
+
+
+def run(args):
+    from . import figures
+    from . import frames as F
+    from . import poses as P
+
+    tel, t, poses, parked, frame_samples = prepare(args)
+    out = pathlib.Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    if not args.poses:
+        P.write_csv(out / "segments-poses.csv", t, poses, parked)
+    start = time.time()
+    optics = F.optics_for(tel)  # built before the workers fork, so they inherit it
+    if args.workers > 1:
+        ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
+        with concurrent.futures.ProcessPoolExecutor(args.workers, mp_context=ctx) as pool:
+            result = F.run(tel, t, poses, parked, frame_samples, executor=pool)
+    else:
+        result = F.run(tel, t, poses, parked, frame_samples)
+    elapsed = time.time() - start
+    numbers = figures.summary(result)
+    figures.timeseries(out / "segments-timeseries.png", out / "segments-samples.csv", out / "segments-frames.csv", result)
+    figures.strip(out / "segments-strip.png", out / "segments-strip.csv", result, optics)
+    figures.piston_map(out / "segments-piston-map.png", out / "segments-piston-map.csv", result, optics)
+    figures.write_summary_csv(out / "segments-summary.csv", numbers)
+    (out / "segments-telescope.json").write_text(json.dumps({**tel.as_dict(), "diameter_m": tel.diameter_m,
+                                                              "segment_count": tel.segment_count}, indent=1) + "\n")
+    for k, v in numbers.items():
+        print(f"{k:28s} {'—' if v is None else format(v, '.4g') if isinstance(v, float) else v}")
+    print(f"{'optics_s':28s} {elapsed:.3g} ({args.workers} worker{'s' if args.workers > 1 else ''})")
+    return 0
+
+
+def main(argv=None):
+    try:
+        args = parse_args(sys.argv[1:] if argv is None else argv)
+        return run(args)
+    except InputError as e:
+        print(f"inchworm-segments: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"inchworm-segments: error: {e}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
