@@ -1,0 +1,91 @@
+//! A model the FMUs export (`inchworm-fmu-models`), driven in-process through its
+//! [`Model`] trait, every variable named through the model's own table: the same code the
+//! FMU runs, with no FFI between. Values go through what the export layer applies to a
+//! master's `fmi2SetReal` (non-finite refused, a value past its declared range clamped), and
+//! steps through its `check_step`, so a native client computes what the FMU computes.
+
+use inchworm_fmi_export::{Kind, Model, StepLog, Variable};
+
+use crate::Error;
+
+pub struct Driven<M: Model> {
+    pub(crate) model: M,
+    client: String,
+    log: StepLog,
+}
+
+impl<M: Model> Driven<M> {
+    /// A fresh instance, `client` naming it in errors.
+    pub fn new(client: impl Into<String>) -> Self {
+        Driven { model: M::new(), client: client.into(), log: StepLog::new(false) }
+    }
+
+    pub fn client(&self) -> &str {
+        &self.client
+    }
+
+    /// The table row of `name`.
+    pub fn variable(&self, name: &str) -> Result<&'static Variable, Error> {
+        M::variables().iter().find(|v| v.name == name).ok_or_else(|| Error::UnknownVariable {
+            client: self.client.clone(),
+            name: name.to_owned(),
+            known: M::variables().iter().map(|v| v.name).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    fn refused(&self, message: String) -> Error {
+        Error::Model { client: self.client.clone(), message }
+    }
+
+    /// Sets a variable by name: a Real through the layer's admission, an Integer or a
+    /// Boolean from a whole number (a Boolean from 0 or 1).
+    pub fn set(&mut self, name: &str, value: f64) -> Result<(), Error> {
+        let v = self.variable(name)?;
+        self.set_var(v, value)
+    }
+
+    pub(crate) fn set_var(&mut self, v: &'static Variable, value: f64) -> Result<(), Error> {
+        let r = match v.kind {
+            Kind::Real => {
+                let current = self.model.get_real(v.vr).map_err(|m| self.refused(m))?;
+                let (x, _clamped) = v.admit_real(value, current).map_err(|m| self.refused(m))?;
+                self.model.set_real(v.vr, x)
+            }
+            Kind::Integer if value.fract() == 0.0 && value.abs() <= f64::from(i32::MAX) => {
+                self.model.set_integer(v.vr, value as i32)
+            }
+            Kind::Boolean if value == 0.0 || value == 1.0 => {
+                self.model.set_boolean(v.vr, value == 1.0)
+            }
+            kind => Err(format!("{} is {kind:?}: {value} is not one of its values", v.name)),
+        };
+        r.map_err(|m| self.refused(m))
+    }
+
+    /// Reads a variable by name as `f64` (an Integer exactly, a Boolean as 0 or 1).
+    pub fn get(&self, name: &str) -> Result<f64, Error> {
+        let v = self.variable(name)?;
+        self.get_var(v)
+    }
+
+    pub(crate) fn get_var(&self, v: &'static Variable) -> Result<f64, Error> {
+        let r = match v.kind {
+            Kind::Real => self.model.get_real(v.vr),
+            Kind::Integer => self.model.get_integer(v.vr).map(f64::from),
+            Kind::Boolean => self.model.get_boolean(v.vr).map(|b| f64::from(u8::from(b))),
+        };
+        r.map_err(|m| self.refused(m))
+    }
+
+    /// Leaves initialization at `start_time`: the model checks its parameters.
+    pub fn exit_initialization(&mut self, start_time: f64) -> Result<(), Error> {
+        self.model.exit_initialization(start_time).map_err(|m| self.refused(m))
+    }
+
+    /// One step from `t` of `h` seconds.
+    pub fn step(&mut self, t: f64, h: f64) -> Result<(), Error> {
+        self.model.check_step(t, h).map_err(|m| self.refused(m))?;
+        let r = self.model.do_step(t, h, &mut self.log);
+        r.map_err(|m| self.refused(format!("step from t = {t} s: {m}")))
+    }
+}
