@@ -221,13 +221,9 @@ impl FmuClient {
     /// [`FmuClient::parameter`] from text, as an SSP parameter binding writes it (`true`,
     /// `false` or a number).
     pub fn parameter_text(mut self, name: &str, text: &str) -> Result<Self, Error> {
-        let value = match text.trim() {
-            "true" => 1.0,
-            "false" => 0.0,
-            t => t.parse::<f64>().map_err(|_| {
-                self.usage(format!("parameter `{name}`: `{text}` is not a number"))
-            })?,
-        };
+        let value = crate::table::ssp_value(text).ok_or_else(|| {
+            self.usage(format!("parameter `{name}`: `{text}` is neither a number nor a Boolean"))
+        })?;
         self.set_parameter(name, value)?;
         Ok(self)
     }

@@ -20,7 +20,7 @@ use crate::Error;
 const DACS: [&str; 3] = ["dac_earth", "dac_nonearth", "dac_extension"];
 const ENCODER: &str = "encoder_counts";
 
-pub struct Inchworm<const ID: u8 = 0> {
+pub struct Inchworm<const ID: u8> {
     controller: Driven<ControllerFmu>,
     plant: Driven<PlantFmu>,
     /// Steps done: the time is `k × SAMPLE_PERIOD`, as the master keeps it.

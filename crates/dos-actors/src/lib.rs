@@ -29,7 +29,7 @@ pub use inchworm::Inchworm;
 pub use logger::{Logger, Sampler};
 pub use mount::{MirrorMount, Mount};
 pub use reference::ReferenceSource;
-pub use table::Driven;
+pub use table::{ssp_value, Driven};
 pub use uid::FmiName;
 
 /// The framework's client interface, for [`fmu_io!`] in other crates.

@@ -16,14 +16,22 @@ pub struct Logger {
 }
 
 impl Logger {
-    /// The column of UID `U`, if it was read.
+    /// The column of UID `U`, if it was read, its complete rows ([`Logger::rows`]).
     pub fn column<U: UniqueIdentifier>(&self) -> Option<&[f64]> {
         self.named(&interface::trim_type_name::<U>())
     }
 
-    /// A column by its name.
+    /// A column by its name, its complete rows.
     pub fn named(&self, name: &str) -> Option<&[f64]> {
-        self.columns.iter().find(|(n, _)| n == name).map(|(_, c)| c.as_slice())
+        let rows = self.rows();
+        self.columns.iter().find(|(n, _)| n == name).map(|(_, c)| &c[..rows])
+    }
+
+    /// The rows every column has. The logger's actor reads its inputs one by one; when a
+    /// model ends, the inputs still running may have brought one value more than the
+    /// others (an actor that steps once more before it sees its inputs close).
+    pub fn rows(&self) -> usize {
+        self.columns.iter().map(|(_, c)| c.len()).min().unwrap_or(0)
     }
 
     /// The column names, in the order of their first value.

@@ -11,7 +11,7 @@ use crate::table::Driven;
 use crate::uid::{FmiName, Reference};
 use crate::Error;
 
-pub struct ReferenceSource<const ID: u8 = 0> {
+pub struct ReferenceSource<const ID: u8> {
     reference: Driven<ReferenceFmu>,
     period: f64,
     samples: u64,

@@ -89,3 +89,12 @@ impl<M: Model> Driven<M> {
         r.map_err(|m| self.refused(format!("step from t = {t} s: {m}")))
     }
 }
+
+/// A value as an SSP parameter binding writes it: `true`, `false` or a number.
+pub fn ssp_value(text: &str) -> Option<f64> {
+    match text.trim() {
+        "true" => Some(1.0),
+        "false" => Some(0.0),
+        t => t.parse().ok(),
+    }
+}

@@ -15,7 +15,7 @@ pub trait FmiName {
 macro_rules! chain_uid {
     ($($(#[$doc:meta])* $uid:ident: $ty:ty = $name:literal;)+) => {$(
         $(#[$doc])*
-        pub enum $uid<const ID: u8 = 0> {}
+        pub enum $uid<const ID: u8> {}
         impl<const ID: u8> UniqueIdentifier for $uid<ID> {
             type DataType = $ty;
         }
