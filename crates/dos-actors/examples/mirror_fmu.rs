@@ -50,21 +50,26 @@ where
     controller.add_output().bootstrap().build::<DacEarth<ID>>().into_input(&mut plant)?;
     controller.add_output().bootstrap().build::<DacNonearth<ID>>().into_input(&mut plant)?;
     controller.add_output().bootstrap().build::<DacExtension<ID>>().into_input(&mut plant)?;
+    // A multiplexed output sends to its inputs in order and stops at the first that has
+    // gone: the logger first, on unbounded channels, so that when the model ends (the
+    // controller and the mount drop their inputs) the logger has the last row.
     plant
         .add_output()
+        .unbounded()
         .bootstrap()
         .multiplex(2)
         .build::<EncoderCounts<ID>>()
-        .into_input(&mut controller)
-        .into_input(sink)?;
+        .into_input(sink)
+        .into_input(&mut controller)?;
     match mount {
         Some(mount) => plant
             .add_output()
+            .unbounded()
             .bootstrap()
             .multiplex(2)
             .build::<RunnerPosition<ID>>()
-            .into_input(mount)
-            .into_input(sink)?,
+            .into_input(sink)
+            .into_input(mount)?,
         None => plant.add_output().bootstrap().build::<RunnerPosition<ID>>().into_input(sink)?,
     }
     Ok(vec![Box::new(source), Box::new(sampler), Box::new(controller), Box::new(plant)])

@@ -25,13 +25,16 @@ pub const BASE: f64 = 1e-3;
 pub const R: usize = 2;
 
 /// A chain's reference: `command`, parameters of the reference table by name, sampled at
-/// 1 kHz for `steps` actuator steps, and the sampler that hands each second sample on.
+/// 1 kHz, and the sampler that hands each second sample on: `steps + 1` of them, so the
+/// actuators step once past `t_steps`. Each actor ends when an input closes, so one that
+/// ends first can cut a neighbour's last send; the extra step keeps every output up to
+/// `t_steps` whole, and [`Logger`] keeps the rows all its inputs have.
 pub fn reference<const ID: u8>(
     command: &[(String, f64)],
     steps: u64,
 ) -> Result<(Actor<ReferenceSource<ID>, 0, 1>, Actor<Sampler<Reference<ID>>, 1, R>), BoxError> {
-    // The actuators' step k takes the sample at k R base samples: R (steps - 1) + 1 of them.
-    let samples = R as u64 * (steps - 1) + 1;
+    // The actuators' step k takes the sample at k R base samples: R steps + 1 of them.
+    let samples = R as u64 * steps + 1;
     let mut source = ReferenceSource::<ID>::new(&format!("reference_{ID}"), BASE, samples)?;
     for (name, value) in command {
         source = source.parameter(name, *value)?;
@@ -58,13 +61,16 @@ where
     let (source, mut sampler) = reference::<ID>(command, steps)?;
     let mut actuator: Actor<_, R, R> = Inchworm::<ID>::new(&format!("inchworm_{ID}"))?.into();
     sampler.add_output().build::<Reference<ID>>().into_input(&mut actuator)?;
+    // The logger first, on unbounded channels: when the model ends and the mount has
+    // dropped its inputs, the send to the mount fails, and the logger has its row already.
     actuator
         .add_output()
+        .unbounded()
         .bootstrap()
         .multiplex(2)
         .build::<RunnerPosition<ID>>()
-        .into_input(mount)
-        .into_input(sink)?;
+        .into_input(sink)
+        .into_input(mount)?;
     actuator.add_output().bootstrap().build::<EncoderCounts<ID>>().into_input(sink)?;
     Ok(vec![Box::new(source), Box::new(sampler), Box::new(actuator)])
 }
