@@ -21,7 +21,7 @@ use gmt_dos_actors::prelude::*;
 use inchworm_dos_actors::interface::TryRead;
 use inchworm_dos_actors::uid::*;
 use inchworm_dos_actors::{FmuClient, Logger};
-use mirror_native::{reference, BoxError, R};
+pub use mirror_native::{reference, BoxError, R};
 use tokio::sync::Mutex;
 
 /// The FMUs' communication step: the actuators' 2 ms sample, R base samples.

@@ -115,22 +115,23 @@ impl FmuClient {
         let (jobs, inbox) = mpsc::channel::<Job>();
         let (ready, loaded) = mpsc::channel::<Result<(), FmuError>>();
         let name = instance.to_owned();
-        let spawned = std::thread::Builder::new().name(format!("fmu {instance}")).spawn(move || {
-            let mut fmu = match CsFmu::load(&path, &name, false) {
-                Ok(fmu) => {
-                    let _ = ready.send(Ok(()));
-                    fmu
+        let spawned =
+            std::thread::Builder::new().name(format!("fmu {instance}")).spawn(move || {
+                let mut fmu = match CsFmu::load(&path, &name, false) {
+                    Ok(fmu) => {
+                        let _ = ready.send(Ok(()));
+                        fmu
+                    }
+                    Err(e) => {
+                        let _ = ready.send(Err(e));
+                        return;
+                    }
+                };
+                // Until the client is dropped; the instance is freed on this thread.
+                for job in inbox {
+                    job(&mut fmu);
                 }
-                Err(e) => {
-                    let _ = ready.send(Err(e));
-                    return;
-                }
-            };
-            // Until the client is dropped; the instance is freed on this thread.
-            for job in inbox {
-                job(&mut fmu);
-            }
-        });
+            });
         let thread = spawned.map_err(|e| Error::Usage {
             client: client.clone(),
             message: format!("cannot start the FMU's thread: {e}"),

@@ -62,7 +62,12 @@ pub fn master_run(ssp: &Path, outputs: Vec<String>) -> inchworm_cosim::Trace {
 fn same_bits(what: &str, actors: Option<&[f64]>, master: &[f64]) {
     let actors = actors.unwrap_or_else(|| panic!("{what}: not logged"));
     // The model steps once past the master's last row (mirror_native::reference).
-    assert!(actors.len() >= master.len(), "{what}: {} rows, the master's {}", actors.len(), master.len());
+    assert!(
+        actors.len() >= master.len(),
+        "{what}: {} rows, the master's {}",
+        actors.len(),
+        master.len()
+    );
     for (k, (a, m)) in actors.iter().zip(master).enumerate() {
         assert_eq!(a.to_bits(), m.to_bits(), "{what}, row {k}: {a} against the master's {m}");
     }
