@@ -11,7 +11,7 @@
 
 #[path = "mirror_native.rs"]
 #[allow(dead_code)]
-mod mirror_native;
+pub mod mirror_native;
 
 use std::path::Path;
 use std::sync::Arc;

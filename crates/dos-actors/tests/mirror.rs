@@ -3,13 +3,12 @@
 //! piston, tip and tilt traces of `inchworm run dist/MirrorMount.ssp` bit for bit, each
 //! actuator's reference table read from the SSP's parameter bindings.
 
-#[path = "../examples/mirror_native.rs"]
-#[allow(dead_code)]
-mod mirror_native;
-
+// mirror_fmu.rs holds mirror_native.rs as its module.
 #[path = "../examples/mirror_fmu.rs"]
 #[allow(dead_code)]
 mod mirror_fmu;
+
+use mirror_fmu::mirror_native;
 
 use std::path::{Path, PathBuf};
 
