@@ -103,12 +103,7 @@ pub async fn network(
     tasks.extend(fmu_chain::<1>(c, p, &commands[1], steps, Some(&mut mount), &mut sink)?);
     let (c, p) = actuator::<2>(dist)?;
     tasks.extend(fmu_chain::<2>(c, p, &commands[2], steps, Some(&mut mount), &mut sink)?);
-    mount.add_output().bootstrap().build::<Piston>().into_input(&mut sink)?;
-    mount.add_output().bootstrap().build::<Tip>().into_input(&mut sink)?;
-    mount.add_output().bootstrap().build::<Tilt>().into_input(&mut sink)?;
-    tasks.push(Box::new(mount));
-    tasks.push(Box::new(sink));
-    Model::new(tasks).name("mirror-fmu").quiet().check()?.run().await?;
+    mirror_native::run_with_mount(tasks, mount, sink, "mirror-fmu").await?;
     Ok(logger)
 }
 

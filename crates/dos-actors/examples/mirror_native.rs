@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use gmt_dos_actors::framework::model::Task;
 use gmt_dos_actors::prelude::*;
-use inchworm_dos_actors::interface::TryRead;
+use inchworm_dos_actors::interface::{TryRead, TryWrite};
 use inchworm_dos_actors::uid::{EncoderCounts, Piston, Reference, RunnerPosition, Tilt, Tip};
 use inchworm_dos_actors::{Inchworm, Logger, MirrorMount, Mount, ReferenceSource, Sampler};
 use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
@@ -86,13 +86,27 @@ pub async fn network(
     let mut tasks = chain::<0>(&commands[0], steps, &mut mount, &mut sink)?;
     tasks.extend(chain::<1>(&commands[1], steps, &mut mount, &mut sink)?);
     tasks.extend(chain::<2>(&commands[2], steps, &mut mount, &mut sink)?);
+    run_with_mount(tasks, mount, sink, "mirror-network").await?;
+    Ok(logger)
+}
+
+/// Runs the actors of `tasks` with the mount (its pose to the logger) and the logger.
+pub async fn run_with_mount<C>(
+    mut tasks: Vec<Box<dyn Task>>,
+    mut mount: Actor<C, R, R>,
+    mut sink: Actor<Logger, R, 0>,
+    name: &str,
+) -> Result<(), BoxError>
+where
+    C: TryWrite<Piston> + TryWrite<Tip> + TryWrite<Tilt> + 'static,
+{
     mount.add_output().bootstrap().build::<Piston>().into_input(&mut sink)?;
     mount.add_output().bootstrap().build::<Tip>().into_input(&mut sink)?;
     mount.add_output().bootstrap().build::<Tilt>().into_input(&mut sink)?;
     tasks.push(Box::new(mount));
     tasks.push(Box::new(sink));
-    Model::new(tasks).name("mirror-network").quiet().check()?.run().await?;
-    Ok(logger)
+    Model::new(tasks).name(name).quiet().check()?.run().await?;
+    Ok(())
 }
 
 /// The same mount as one client ([`MirrorMount`]) fed by the three references.
