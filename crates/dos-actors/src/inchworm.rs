@@ -7,7 +7,7 @@
 //! `inchworm run` bit for bit.
 
 use inchworm_controller::SAMPLE_PERIOD;
-use inchworm_fmi_export::Variable;
+use inchworm_fmi_export::Row;
 use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use interface::{Data, TryRead, TryUpdate, TryWrite, UniqueIdentifier};
 
@@ -28,9 +28,9 @@ pub struct Inchworm<const ID: u8> {
     started: bool,
     /// (controller output, plant input) of each DAC; (plant output, controller input) of
     /// the encoder; the controller's reference input.
-    dacs: [(&'static Variable, &'static Variable); 3],
-    encoder: (&'static Variable, &'static Variable),
-    reference: &'static Variable,
+    dacs: [(&'static Row<ControllerFmu>, &'static Row<PlantFmu>); 3],
+    encoder: (&'static Row<PlantFmu>, &'static Row<ControllerFmu>),
+    reference: &'static Row<ControllerFmu>,
 }
 
 impl<const ID: u8> Inchworm<ID> {
@@ -92,9 +92,9 @@ impl<const ID: u8> Inchworm<ID> {
     pub fn step(&mut self) -> Result<(), Error> {
         self.start()?;
         let t = self.k as f64 * SAMPLE_PERIOD;
-        let encoder = self.plant.get_var(self.encoder.0)?;
+        let encoder = self.plant.get_var(self.encoder.0);
         for (out, input) in self.dacs {
-            let volts = self.controller.get_var(out)?;
+            let volts = self.controller.get_var(out);
             self.plant.set_var(input, volts)?;
         }
         self.controller.set_var(self.encoder.1, encoder)?;
@@ -115,7 +115,7 @@ impl<const ID: u8> Inchworm<ID> {
         self.start()?;
         if name != ENCODER {
             if let Ok(v) = self.controller.variable(name) {
-                return self.controller.get_var(v);
+                return Ok(self.controller.get_var(v));
             }
         }
         self.plant.get(name)

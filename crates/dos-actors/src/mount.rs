@@ -4,7 +4,7 @@
 //! `dist/MirrorMount.ssp` (three actuators and the mount) as one client.
 
 use inchworm_controller::SAMPLE_PERIOD;
-use inchworm_fmi_export::Variable;
+use inchworm_fmi_export::Row;
 use inchworm_fmu_models::MountFmu;
 use interface::{Data, TryRead, TryUpdate, TryWrite};
 
@@ -17,7 +17,7 @@ use crate::{Error, Inchworm};
 /// outputs after a step are the pose of the positions set before it.
 pub struct Mount {
     mount: Driven<MountFmu>,
-    inputs: [&'static Variable; 3],
+    inputs: [&'static Row<MountFmu>; 3],
     k: u64,
     started: bool,
 }

@@ -4,7 +4,7 @@
 //! master's `fmi2SetReal` (non-finite refused, a value past its declared range clamped), and
 //! steps through its `check_step`, so a native client computes what the FMU computes.
 
-use inchworm_fmi_export::{Kind, Model, StepLog, Variable};
+use inchworm_fmi_export::{row_named, Kind, Model, Row, StepLog, Value};
 
 use crate::Error;
 
@@ -25,11 +25,11 @@ impl<M: Model> Driven<M> {
     }
 
     /// The table row of `name`.
-    pub fn variable(&self, name: &str) -> Result<&'static Variable, Error> {
-        M::variables().iter().find(|v| v.name == name).ok_or_else(|| Error::UnknownVariable {
+    pub fn variable(&self, name: &str) -> Result<&'static Row<M>, Error> {
+        row_named::<M>(name).ok_or_else(|| Error::UnknownVariable {
             client: self.client.clone(),
             name: name.to_owned(),
-            known: M::variables().iter().map(|v| v.name).collect::<Vec<_>>().join(", "),
+            known: M::variables().map(|v| v.name).collect::<Vec<_>>().join(", "),
         })
     }
 
@@ -40,41 +40,37 @@ impl<M: Model> Driven<M> {
     /// Sets a variable by name: a Real through the layer's admission, an Integer or a
     /// Boolean from a whole number (a Boolean from 0 or 1).
     pub fn set(&mut self, name: &str, value: f64) -> Result<(), Error> {
-        let v = self.variable(name)?;
-        self.set_var(v, value)
+        let row = self.variable(name)?;
+        self.set_var(row, value)
     }
 
-    pub(crate) fn set_var(&mut self, v: &'static Variable, value: f64) -> Result<(), Error> {
-        let r = match v.kind {
+    pub(crate) fn set_var(&mut self, row: &'static Row<M>, value: f64) -> Result<(), Error> {
+        let v = &row.var;
+        let value = match v.kind {
             Kind::Real => {
-                let current = self.model.get_real(v.vr).map_err(|m| self.refused(m))?;
+                let current = row.get(&self.model).real();
                 let (x, _clamped) = v.admit_real(value, current).map_err(|m| self.refused(m))?;
-                self.model.set_real(v.vr, x)
+                Value::Real(x)
             }
             Kind::Integer if value.fract() == 0.0 && value.abs() <= f64::from(i32::MAX) => {
-                self.model.set_integer(v.vr, value as i32)
+                Value::Integer(value as i32)
             }
-            Kind::Boolean if value == 0.0 || value == 1.0 => {
-                self.model.set_boolean(v.vr, value == 1.0)
+            Kind::Boolean if value == 0.0 || value == 1.0 => Value::Boolean(value == 1.0),
+            kind => {
+                let message = format!("{} is {kind:?}: {value} is not one of its values", v.name);
+                return Err(self.refused(message));
             }
-            kind => Err(format!("{} is {kind:?}: {value} is not one of its values", v.name)),
         };
-        r.map_err(|m| self.refused(m))
+        row.set(&mut self.model, value).map_err(|m| self.refused(m))
     }
 
     /// Reads a variable by name as `f64` (an Integer exactly, a Boolean as 0 or 1).
     pub fn get(&self, name: &str) -> Result<f64, Error> {
-        let v = self.variable(name)?;
-        self.get_var(v)
+        Ok(self.get_var(self.variable(name)?))
     }
 
-    pub(crate) fn get_var(&self, v: &'static Variable) -> Result<f64, Error> {
-        let r = match v.kind {
-            Kind::Real => self.model.get_real(v.vr),
-            Kind::Integer => self.model.get_integer(v.vr).map(f64::from),
-            Kind::Boolean => self.model.get_boolean(v.vr).map(|b| f64::from(u8::from(b))),
-        };
-        r.map_err(|m| self.refused(m))
+    pub(crate) fn get_var(&self, row: &'static Row<M>) -> f64 {
+        row.get(&self.model).real()
     }
 
     /// Leaves initialization at `start_time`: the model checks its parameters.
