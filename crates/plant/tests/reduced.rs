@@ -181,18 +181,20 @@ fn gaits(direction: Direction, y: f64, n: usize) -> Vec<Dac> {
 }
 
 /// Asserts the reduced plant is the converged CS plant on `dacs` (positions to a hundredth of
-/// a count, the same counts and modes) and within a count of CS at its default `rel_tol`.
-fn holds(what: &str, p: PlantParams, dacs: &[Dac]) {
+/// a count, the same modes, the encoder at most `apart` counts apart: a position that close
+/// to a rounding boundary may fall either side) and within a count of CS at its default
+/// `rel_tol`.
+fn holds(what: &str, p: PlantParams, dacs: &[Dac], apart: i64) {
     let (counts, counts_converged, position, modes) = against_cs(p, dacs);
     eprintln!("{what}, exact reduced integration: runner within {position:.2e} counts of converged CS (encoder {counts_converged} apart, {modes} samples in another mode), encoder within {counts} count(s) of CS at its default rel_tol");
-    assert_eq!((counts_converged, modes), (0, 0));
+    assert!(counts_converged <= apart && modes == 0, "{counts_converged} counts, {modes} modes");
     assert!(position < 0.01, "{position} counts");
     assert!(counts <= 1, "{counts} counts");
 }
 
 #[test]
 fn the_check_trace_reduced_is_the_cs_trace() {
-    holds("check trace", PlantParams::fia20(), &common::check_gaits());
+    holds("check trace", PlantParams::fia20(), &common::check_gaits(), 0);
 }
 
 #[test]
@@ -208,7 +210,7 @@ fn a_slip_episode_reduced_is_the_cs_trace() {
         cs.step(*dac, H).unwrap();
     }
     assert_eq!(cs.outputs().slip_events, 1);
-    holds("slip episode", PlantParams::fia20(), &dacs);
+    holds("slip episode", PlantParams::fia20(), &dacs, 0);
 }
 
 #[test]
@@ -218,14 +220,15 @@ fn a_load_dependent_disturbance_reduced_is_the_cs_trace() {
     // surge ringing first decides a hysteresis memory (a formulation without it parts from
     // CS there, and the stall amplifies that 50-fold).
     let p = PlantParams { gamma: 40.0, ..PlantParams::fia20() };
-    holds("γ = 40, 30 forward gaits", p, &gaits(Direction::Forward, 1.0, 30));
+    holds("γ = 40, 30 forward gaits", p, &gaits(Direction::Forward, 1.0, 30), 0);
 }
 
-/// The 60 s of it, about 40 s of CPU: `cargo test --release -p inchworm-plant --test
-/// reduced -- --ignored --nocapture`.
+/// The 60 s of it, about 70 s of CPU: `cargo test --release -p inchworm-plant --test
+/// reduced -- --ignored --nocapture`. Measured: within 1.3e-3 counts of converged CS, the
+/// encoder one count apart where the runner sat that close to a rounding boundary.
 #[test]
 #[ignore]
 fn sixty_seconds_of_a_load_dependent_disturbance_reduced_is_the_cs_trace() {
     let p = PlantParams { gamma: 40.0, ..PlantParams::fia20() };
-    holds("γ = 40, 60 s of forward gaits", p, &gaits(Direction::Forward, 1.0, 300));
+    holds("γ = 40, 60 s of forward gaits", p, &gaits(Direction::Forward, 1.0, 300), 1);
 }
