@@ -39,23 +39,15 @@ pub use super::EventReport;
 /// non-earth channel likewise: the model's states but for nodes 1 and 2.
 pub const N_STATES: usize = 13;
 
+/// The model's states ([`super::SLOTS`]) after its first four, nodes 1 and 2.
 const REDUCED: [Slot; N_STATES] = {
-    use Slot::*;
-    [
-        Z(ix::Y3),
-        Z(ix::V3),
-        Z(ix::Y4),
-        Z(ix::V4),
-        Z(ix::BX1),
-        Z(ix::BX2),
-        Z(ix::VX),
-        Earth(0),
-        Earth(1),
-        Earth(2),
-        Nonearth(0),
-        Nonearth(1),
-        Nonearth(2),
-    ]
+    let mut slots = [Slot::Z(0); N_STATES];
+    let mut i = 0;
+    while i < N_STATES {
+        slots[i] = super::SLOTS[super::N_STATES - N_STATES + i];
+        i += 1;
+    }
+    slots
 };
 
 /// The inner nodes, and everything else in `linear`'s state.
