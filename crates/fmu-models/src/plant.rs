@@ -2,11 +2,11 @@
 //! interface of docs/model.md §5. This file is the variable table and the mapping of value
 //! references onto `inchworm_plant`; all FMI behaviour lives in `inchworm-fmi-export`.
 
+use inchworm_board::{DAC_FULL_SCALE, ENCODER_RESOLUTION};
 use inchworm_fmi_export::{
     ContinuousState, EventUpdate, Kind, Model, ModelExchange, ModelInfo, Reader, Row, StepLog,
     Unit, Variable, Writer,
 };
-use inchworm_board::{DAC_FULL_SCALE, ENCODER_RESOLUTION};
 use inchworm_plant::continuous::{EventBudget, N_STATES};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
