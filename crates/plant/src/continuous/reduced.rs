@@ -141,6 +141,10 @@ pub struct Reduced {
     /// The fast part at the last split, and that time.
     fast: Fast,
     since: f64,
+    /// The fast part at the time of the last [`Reduced::join`] (its bits): a master sets the
+    /// time and then the states at it, and evaluates the rates and their Jacobian there, so
+    /// one exponential serves them all.
+    at: Option<(u64, Fast)>,
     /// Every configuration's split, by the plant's configuration key.
     configs: Arc<Vec<Config>>,
 }
@@ -171,8 +175,14 @@ impl Reduced {
             }
         }
         let since = plant.time;
-        let mut r =
-            Reduced { s: plant.z, plant, fast: Fast::zeros(), since, configs: Arc::new(configs) };
+        let mut r = Reduced {
+            s: plant.z,
+            plant,
+            fast: Fast::zeros(),
+            since,
+            at: None,
+            configs: Arc::new(configs),
+        };
         r.split();
         Ok(r)
     }
@@ -192,6 +202,7 @@ impl Reduced {
         self.s = self.plant.z;
         self.since = self.plant.time;
         self.fast = Fast::zeros();
+        self.at = None;
         if let Some(Split { x, y, .. }) = &self.configs[self.plant.config_key()].split {
             let z = &self.plant.z;
             let x2 = SMatrix::<f64, 8, 1>::from_fn(|i, _| z[SLOW[i]]);
@@ -210,7 +221,15 @@ impl Reduced {
         let z = &mut self.plant.z;
         match &self.configs[key].split {
             Some(Split { x, y, l }) => {
-                let f = (l * (self.plant.time - self.since)).exp() * self.fast;
+                let t = self.plant.time.to_bits();
+                let f = match self.at {
+                    Some((at, f)) if at == t => f,
+                    _ => {
+                        let f = (l * (self.plant.time - self.since)).exp() * self.fast;
+                        self.at = Some((t, f));
+                        f
+                    }
+                };
                 let s = SMatrix::<f64, 8, 1>::from_fn(|i, _| self.s[SLOW[i]]);
                 let x2 = s + y * f;
                 let x1 = x * x2 + f;
