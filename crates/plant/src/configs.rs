@@ -95,7 +95,7 @@ pub(crate) fn table(configs: &[Option<ConfigTable>], key: usize) -> &Propagators
 impl Plant {
     #[inline]
     pub(crate) fn config_key(&self) -> usize {
-        (self.mode.index() << N_PLAYS) | usize::from(self.hysteresis.sliding)
+        (self.state.mode.index() << N_PLAYS) | usize::from(self.state.hysteresis.sliding)
     }
 
     /// Builds the tables of the current configuration if it has none yet; returns its key
@@ -112,11 +112,11 @@ impl Plant {
     #[cold]
     #[inline(never)]
     fn build_config(&mut self, key: usize) {
-        let w_s = self.hysteresis.sticking_weight();
-        let a = linear::system_matrix(&self.params, self.mode, w_s);
+        let w_s = self.state.hysteresis.sticking_weight();
+        let a = linear::system_matrix(&self.params, self.state.mode, w_s);
         let watched = vec![
             linear::xi_row(&self.params, w_s),
-            linear::drive_rate_row(&self.params, self.mode),
+            linear::drive_rate_row(&self.params, self.state.mode),
         ];
         let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level, |m| m.exp()));
         self.configs[key] = Some(t);

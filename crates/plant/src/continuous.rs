@@ -100,9 +100,9 @@ pub struct EventReport {
 impl Plant {
     pub fn continuous_states(&self) -> [f64; N_STATES] {
         SLOTS.map(|s| match s {
-            Slot::Z(i) => self.z[i],
-            Slot::Earth(i) => self.earth[i],
-            Slot::Nonearth(i) => self.nonearth[i],
+            Slot::Z(i) => self.state.z[i],
+            Slot::Earth(i) => self.state.earth[i],
+            Slot::Nonearth(i) => self.state.nonearth[i],
         })
     }
 
@@ -110,16 +110,16 @@ impl Plant {
     pub fn set_continuous_states(&mut self, x: &[f64; N_STATES]) {
         for (s, v) in SLOTS.iter().zip(x) {
             match *s {
-                Slot::Z(i) => self.z[i] = *v,
-                Slot::Earth(i) => self.earth[i] = *v,
-                Slot::Nonearth(i) => self.nonearth[i] = *v,
+                Slot::Z(i) => self.state.z[i] = *v,
+                Slot::Earth(i) => self.state.earth[i] = *v,
+                Slot::Nonearth(i) => self.state.nonearth[i] = *v,
             }
         }
     }
 
     /// The state and chains with `dac` in their held-input entries, as a step holds it.
     fn held(&self, dac: Dac) -> (Vector, Chain, Chain) {
-        let (mut z, mut e, mut n) = (self.z, self.earth, self.nonearth);
+        let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
         z[ix::UX] = held_volts(dac.extension);
         e[3] = held_volts(dac.earth);
         n[3] = held_volts(dac.nonearth);
@@ -129,9 +129,11 @@ impl Plant {
     fn system_matrix(&self) -> linear::Matrix {
         match &self.configs[self.config_key()] {
             Some(cfg) => cfg.a,
-            None => {
-                linear::system_matrix(&self.params, self.mode, self.hysteresis.sticking_weight())
-            }
+            None => linear::system_matrix(
+                &self.params,
+                self.state.mode,
+                self.state.hysteresis.sticking_weight(),
+            ),
         }
     }
 
@@ -174,9 +176,9 @@ impl Plant {
     pub fn event_indicators(&self) -> [f64; N_INDICATORS] {
         indicators(
             &self.params,
-            self.mode,
-            &self.hysteresis,
-            (&self.z, &self.earth, &self.nonearth),
+            self.state.mode,
+            &self.state.hysteresis,
+            (&self.state.z, &self.state.earth, &self.state.nonearth),
         )
     }
 
@@ -185,14 +187,14 @@ impl Plant {
     /// what the exact solver does at a located event and at the end of a step.
     pub fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
         let before = self.continuous_states();
-        (self.z, self.earth, self.nonearth) = self.held(dac);
-        self.time = t;
+        (self.state.z, self.state.earth, self.state.nonearth) = self.held(dac);
+        self.state.time = t;
         let mut step = StepReport::default();
         self.handle_event(&mut step);
-        if self.mode == Mode::Drive {
+        if self.state.mode == Mode::Drive {
             // The runner rides on node 3, as at the end of a step.
-            self.z[ix::Y4] = self.z[ix::Y3] + self.drive_offset;
-            self.z[ix::V4] = self.z[ix::V3];
+            self.state.z[ix::Y4] = self.state.z[ix::Y3] + self.state.drive_offset;
+            self.state.z[ix::V4] = self.state.z[ix::V3];
         }
         self.sample_encoder();
         let after = self.continuous_states();

@@ -94,11 +94,11 @@ impl Mode {
     }
 }
 
-/// The inchworm plant of docs/model.md §2, advanced by exact piecewise-linear propagation
-/// between located events (see `linear`).
+/// What changes as the plant runs, and only that: a step that fails restores it whole
+/// (`Plant::step`), and `save_state` writes it. The rest of `Plant` is its parameters and
+/// caches derived from them.
 #[derive(Clone, Debug)]
-pub struct Plant {
-    params: PlantParams,
+pub(crate) struct Dynamics {
     time: f64,
     z: Vector,
     earth: Chain,
@@ -115,6 +115,14 @@ pub struct Plant {
     slip_events: u32,
     encoder_counts: i64,
     rng: u64,
+}
+
+/// The inchworm plant of docs/model.md §2, advanced by exact piecewise-linear propagation
+/// between located events (see `linear`).
+#[derive(Clone, Debug)]
+pub struct Plant {
+    params: PlantParams,
+    state: Dynamics,
     chain: Arc<Propagators<4>>,
     /// Lazily built propagators, indexed by mode and sliding set.
     configs: Vec<Option<ConfigTable>>,
@@ -172,19 +180,21 @@ impl Plant {
         let armed = Armed::of(&hysteresis);
         Ok(Plant {
             params,
-            time: 0.0,
-            z,
-            earth: Chain::zeros(),
-            nonearth: Chain::zeros(),
-            earth_closed: true,
-            nonearth_closed: false,
-            mode: Mode::Hold,
-            hysteresis,
-            armed,
-            drive_offset: 0.0,
-            slip_events: 0,
-            encoder_counts: 0,
-            rng,
+            state: Dynamics {
+                time: 0.0,
+                z,
+                earth: Chain::zeros(),
+                nonearth: Chain::zeros(),
+                earth_closed: true,
+                nonearth_closed: false,
+                mode: Mode::Hold,
+                hysteresis,
+                armed,
+                drive_offset: 0.0,
+                slip_events: 0,
+                encoder_counts: 0,
+                rng,
+            },
             chain,
             configs: vec![None; 4 << N_PLAYS],
             remainders: vec![None; 4 << N_PLAYS],
@@ -204,11 +214,11 @@ impl Plant {
 
     /// Simulated time (s).
     pub fn time(&self) -> f64 {
-        self.time
+        self.state.time
     }
 
     pub fn mode(&self) -> Mode {
-        self.mode
+        self.state.mode
     }
 
     /// With `true`, every step goes through the event loop (no quiet step) and every scan
@@ -232,33 +242,33 @@ impl Plant {
     #[doc(hidden)]
     pub fn set_mechanics(&mut self, y: [f64; 4], v: [f64; 4]) {
         for (i, j) in [ix::Y1, ix::Y2, ix::Y3, ix::Y4].into_iter().enumerate() {
-            self.z[j] = y[i];
+            self.state.z[j] = y[i];
         }
         for (i, j) in [ix::V1, ix::V2, ix::V3, ix::V4].into_iter().enumerate() {
-            self.z[j] = v[i];
+            self.state.z[j] = v[i];
         }
-        self.drive_offset = y[3] - y[2];
+        self.state.drive_offset = y[3] - y[2];
     }
 
     /// Play memories (V), for inspection and tests.
     pub fn play_memories(&self) -> [f64; N_PLAYS] {
-        self.hysteresis.memory
+        self.state.hysteresis.memory
     }
 
     pub fn outputs(&self) -> Outputs {
         let p = &self.params;
         Outputs {
-            encoder_counts: self.encoder_counts,
-            encoder_position: self.encoder_counts as f64 * p.q_enc,
-            runner_position: self.z[ix::Y4],
-            extension: self.z[ix::Y3],
-            voltage_earth: self.earth[2],
-            voltage_nonearth: self.nonearth[2],
-            voltage_extension: self.z[ix::VX],
-            mode: self.mode,
-            earth_closed: self.earth_closed,
-            nonearth_closed: self.nonearth_closed,
-            slip_events: self.slip_events,
+            encoder_counts: self.state.encoder_counts,
+            encoder_position: self.state.encoder_counts as f64 * p.q_enc,
+            runner_position: self.state.z[ix::Y4],
+            extension: self.state.z[ix::Y3],
+            voltage_earth: self.state.earth[2],
+            voltage_nonearth: self.state.nonearth[2],
+            voltage_extension: self.state.z[ix::VX],
+            mode: self.state.mode,
+            earth_closed: self.state.earth_closed,
+            nonearth_closed: self.state.nonearth_closed,
+            slip_events: self.state.slip_events,
         }
     }
 
@@ -266,20 +276,20 @@ impl Plant {
     pub fn positions(&self) -> [f64; 4] {
         let l = self.params.l_p / 3.0;
         [
-            l + self.z[ix::Y1],
-            2.0 * l + self.z[ix::Y2],
-            3.0 * l + self.z[ix::Y3],
-            self.params.l_r + self.z[ix::Y4],
+            l + self.state.z[ix::Y1],
+            2.0 * l + self.state.z[ix::Y2],
+            3.0 * l + self.state.z[ix::Y3],
+            self.params.l_r + self.state.z[ix::Y4],
         ]
     }
 
     /// `ξ`, the PZT charge in volts (docs/model.md §2.4).
     pub fn charge_voltage(&self) -> f64 {
-        linear::xi_row(&self.params, self.hysteresis.sticking_weight()).dot(&self.z)
+        linear::xi_row(&self.params, self.state.hysteresis.sticking_weight()).dot(&self.state.z)
     }
 
     /// Velocities `v1..v4` (m/s).
     pub fn velocities(&self) -> [f64; 4] {
-        [self.z[ix::V1], self.z[ix::V2], self.z[ix::V3], self.z[ix::V4]]
+        [self.state.z[ix::V1], self.state.z[ix::V2], self.state.z[ix::V3], self.state.z[ix::V4]]
     }
 }

@@ -157,10 +157,10 @@ impl Plant {
     /// unchanged) otherwise, and then the event loop takes the step.
     pub(crate) fn quiet_step(&mut self, dac: Dac, h: f64) -> Option<StepReport> {
         let repeated = std::mem::replace(&mut self.last_h, h.to_bits()) == h.to_bits();
-        if self.scan_always || self.hysteresis.sliding != 0 {
+        if self.scan_always || self.state.hysteresis.sliding != 0 {
             return None;
         }
-        let mode = self.mode.index();
+        let mode = self.state.mode.index();
         let key = mode << N_PLAYS;
         if self.quiet[mode].as_ref().is_none_or(|p| p.h != h.to_bits()) {
             // Plans are for the steps a master repeats; the first step of a length and the
@@ -179,14 +179,14 @@ impl Plant {
             p.step(dac, h).expect("the quiet step is finite");
             p
         };
-        self.z = q.z;
-        self.earth = q.earth;
-        self.nonearth = q.nonearth;
-        self.hysteresis.direction = q.direction;
-        self.armed.sync_direction(&self.hysteresis);
+        self.state.z = q.z;
+        self.state.earth = q.earth;
+        self.state.nonearth = q.nonearth;
+        self.state.hysteresis.direction = q.direction;
+        self.state.armed.sync_direction(&self.state.hysteresis);
         self.scan_stats.skipped += q.long_segments;
         self.scan_stats.quiet += 1;
-        self.time += h;
+        self.state.time += h;
         self.sample_encoder();
         #[cfg(debug_assertions)]
         {
@@ -226,7 +226,7 @@ impl Plant {
     fn quiet_state_inline<const AVX: bool>(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
         let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
         let cfg = table(&self.configs, key);
-        let (mut z, mut e, mut n) = (self.z, self.earth, self.nonearth);
+        let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
         let volts = crate::solver::held_volts;
         z[ix::UX] = volts(dac.extension);
         e[3] = volts(dac.earth);
@@ -235,11 +235,13 @@ impl Plant {
         let rate = cfg.watched[1].dot(&z);
         let direction = crate::solver::rate_sign(rate);
         let xi = cfg.watched[0].dot(&z);
-        debug_assert!(!self.armed.keeps(xi) || self.hysteresis.sync_keeps(xi, direction));
-        if !self.armed.keeps(xi) && !self.hysteresis.sync_keeps(xi, direction) {
+        debug_assert!(
+            !self.state.armed.keeps(xi) || self.state.hysteresis.sync_keeps(xi, direction)
+        );
+        if !self.state.armed.keeps(xi) && !self.state.hysteresis.sync_keeps(xi, direction) {
             return None;
         }
-        z[ix::C0] = self.armed.c0();
+        z[ix::C0] = self.state.armed.c0();
         let watch = self.watch(cfg);
         let split = plan.mechanics.split_inline::<AVX>(&z);
         let ranges = [
@@ -260,12 +262,12 @@ impl Plant {
             mul_vec_inline::<4, AVX>(chain_phi, &e),
             mul_vec_inline::<4, AVX>(chain_phi, &n),
         );
-        if self.mode == Mode::Drive {
-            z[ix::Y4] = z[ix::Y3] + self.drive_offset;
+        if self.state.mode == Mode::Drive {
+            z[ix::Y4] = z[ix::Y3] + self.state.drive_offset;
             z[ix::V4] = z[ix::V3];
         }
         // `0·x` is ±0 for a finite `x` and NaN otherwise.
-        let finite = (self.time + h).is_finite()
+        let finite = (self.state.time + h).is_finite()
             && (z * 0.0).sum() + (e * 0.0).sum() + (n * 0.0).sum() == 0.0;
         finite.then_some(Quiet {
             z,

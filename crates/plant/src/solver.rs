@@ -39,56 +39,6 @@ impl std::fmt::Display for StepError {
 
 impl std::error::Error for StepError {}
 
-/// The dynamic state of a plant, to undo a step.
-struct Snapshot {
-    time: f64,
-    z: Vector,
-    earth: Chain,
-    nonearth: Chain,
-    brakes: (bool, bool),
-    mode: Mode,
-    hysteresis: Hysteresis,
-    armed: Armed,
-    drive_offset: f64,
-    slip_events: u32,
-    encoder_counts: i64,
-    rng: u64,
-}
-
-impl Snapshot {
-    fn take(p: &Plant) -> Snapshot {
-        Snapshot {
-            time: p.time,
-            z: p.z,
-            earth: p.earth,
-            nonearth: p.nonearth,
-            brakes: (p.earth_closed, p.nonearth_closed),
-            mode: p.mode,
-            hysteresis: p.hysteresis.clone(),
-            armed: p.armed,
-            drive_offset: p.drive_offset,
-            slip_events: p.slip_events,
-            encoder_counts: p.encoder_counts,
-            rng: p.rng,
-        }
-    }
-
-    fn restore(self, p: &mut Plant) {
-        p.time = self.time;
-        p.z = self.z;
-        p.earth = self.earth;
-        p.nonearth = self.nonearth;
-        (p.earth_closed, p.nonearth_closed) = self.brakes;
-        p.mode = self.mode;
-        p.hysteresis = self.hysteresis;
-        p.armed = self.armed;
-        p.drive_offset = self.drive_offset;
-        p.slip_events = self.slip_events;
-        p.encoder_counts = self.encoder_counts;
-        p.rng = self.rng;
-    }
-}
-
 /// A sign change of `ξ̇` whose larger end is below this fraction of the magnitude of its
 /// terms is rounding, not a turn (a 3-term dot product rounds to ~1e-16 of it).
 const TURN_NOISE: f64 = 1e-12;
@@ -357,16 +307,16 @@ impl Plant {
         if let Some(report) = self.quiet_step(dac, h) {
             return Ok(report);
         }
-        let before = Snapshot::take(self);
+        let before = self.state.clone();
         let report = self.advance_held(dac, h);
         // Three plain loops: the chained iterator cost ~390 instructions a step.
-        let finite = self.time.is_finite()
-            && self.z.iter().all(|v| v.is_finite())
-            && self.earth.iter().all(|v| v.is_finite())
-            && self.nonearth.iter().all(|v| v.is_finite());
+        let finite = self.state.time.is_finite()
+            && self.state.z.iter().all(|v| v.is_finite())
+            && self.state.earth.iter().all(|v| v.is_finite())
+            && self.state.nonearth.iter().all(|v| v.is_finite());
         if !finite {
             let time = before.time;
-            before.restore(self);
+            self.state = before;
             return Err(StepError::NonFinite { time });
         }
         Ok(report)
@@ -374,9 +324,9 @@ impl Plant {
 
     fn advance_held(&mut self, dac: Dac, h: f64) -> StepReport {
         let mut report = StepReport::default();
-        self.z[ix::UX] = held_volts(dac.extension);
-        self.earth[3] = held_volts(dac.earth);
-        self.nonearth[3] = held_volts(dac.nonearth);
+        self.state.z[ix::UX] = held_volts(dac.extension);
+        self.state.earth[3] = held_volts(dac.earth);
+        self.state.nonearth[3] = held_volts(dac.nonearth);
         self.sync_hysteresis();
 
         let (mut left, rest) = ticks_of(h);
@@ -388,10 +338,10 @@ impl Plant {
         let scan_level = self.chain.scan_level;
         let fine = 1u64 << scan_level;
         let total = left;
-        let t0 = self.time;
+        let t0 = self.state.time;
         // The step's first state: a step that stops nowhere ends at its whole-step
         // propagator times this (`whole`), the quiet step's one product.
-        let first = (self.z, self.earth, self.nonearth);
+        let first = (self.state.z, self.state.earth, self.state.nonearth);
         let mut stopless = true;
         while left > 0 {
             let brakes_before = report.brake_events;
@@ -403,9 +353,9 @@ impl Plant {
                     let key = self.config();
                     let cfg = table(&self.configs, key);
                     let ticks = (clear as u64) << scan_level;
-                    self.z = cfg.advance(self.z, ticks, 0.0);
-                    self.earth = self.chain.advance(self.earth, ticks, 0.0);
-                    self.nonearth = self.chain.advance(self.nonearth, ticks, 0.0);
+                    self.state.z = cfg.advance(self.state.z, ticks, 0.0);
+                    self.state.earth = self.chain.advance(self.state.earth, ticks, 0.0);
+                    self.state.nonearth = self.chain.advance(self.state.nonearth, ticks, 0.0);
                     left -= ticks;
                 }
                 if clear < points {
@@ -441,16 +391,16 @@ impl Plant {
         } else if rest > 0.0 {
             let key = self.config();
             let cfg = table(&self.configs, key);
-            self.z = cfg.advance(self.z, 0, rest);
-            self.earth = self.chain.advance(self.earth, 0, rest);
-            self.nonearth = self.chain.advance(self.nonearth, 0, rest);
+            self.state.z = cfg.advance(self.state.z, 0, rest);
+            self.state.earth = self.chain.advance(self.state.earth, 0, rest);
+            self.state.nonearth = self.chain.advance(self.state.nonearth, 0, rest);
         }
-        if self.mode == Mode::Drive {
+        if self.state.mode == Mode::Drive {
             // The runner rides on node 3: remove the rounding drift of the two equal rows.
-            self.z[ix::Y4] = self.z[ix::Y3] + self.drive_offset;
-            self.z[ix::V4] = self.z[ix::V3];
+            self.state.z[ix::Y4] = self.state.z[ix::Y3] + self.state.drive_offset;
+            self.state.z[ix::V4] = self.state.z[ix::V3];
         }
-        self.time += h;
+        self.state.time += h;
         self.sample_encoder();
         report
     }
@@ -487,7 +437,7 @@ impl Plant {
         let key = self.config();
         let cfg = table(&self.configs, key);
         let chain = &*self.chain;
-        let (z0, e0, n0) = (self.z, self.earth, self.nonearth);
+        let (z0, e0, n0) = (self.state.z, self.state.earth, self.state.nonearth);
         let watch = self.watch(cfg);
         let (xi1, rate1) =
             (cfg.level_value::<AVX>(level, 0, &z0), cfg.level_value::<AVX>(level, 1, &z0));
@@ -516,7 +466,7 @@ impl Plant {
             end = Some((z1, e1, n1));
         }
         if !hit && !extremum {
-            (self.z, self.earth, self.nonearth) =
+            (self.state.z, self.state.earth, self.state.nonearth) =
                 end.unwrap_or_else(|| propagate(&z0, &e0, &n0, level));
             return (1 << level, false);
         }
@@ -536,8 +486,8 @@ impl Plant {
         }
         // The first resolution interval at whose end the stop condition holds.
         let r = self.resolution_level().min(level);
-        (self.z, self.earth, self.nonearth) = propagate(&z, &e, &n, r);
-        let event = watch.event(&self.z, &self.earth, &self.nonearth);
+        (self.state.z, self.state.earth, self.state.nonearth) = propagate(&z, &e, &n, r);
+        let event = watch.event(&self.state.z, &self.state.earth, &self.state.nonearth);
         if event {
             self.handle_event(report);
         }
@@ -562,23 +512,25 @@ impl Plant {
         let phi = &self.remainders[key].as_ref().expect("just filled").phi;
         let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
         let (z1, e1, n1) = (
-            mul_vec(phi, &self.z),
-            mul_vec(chain_phi, &self.earth),
-            mul_vec(chain_phi, &self.nonearth),
+            mul_vec(phi, &self.state.z),
+            mul_vec(chain_phi, &self.state.earth),
+            mul_vec(chain_phi, &self.state.nonearth),
         );
         let watch = self.watch(cfg);
         if watch.event(&z1, &e1, &n1) {
             return false;
         }
-        let (rate0, rate1) = (watch.rate(&self.z), watch.rate(&z1));
-        if watch.direction == 0.0 && rate0 * rate1 < 0.0 && watch.turns(&self.z, &z1, rate0, rate1)
+        let (rate0, rate1) = (watch.rate(&self.state.z), watch.rate(&z1));
+        if watch.direction == 0.0
+            && rate0 * rate1 < 0.0
+            && watch.turns(&self.state.z, &z1, rate0, rate1)
         {
-            let (xi0, xi1) = (watch.xi(&self.z), watch.xi(&z1));
+            let (xi0, xi1) = (watch.xi(&self.state.z), watch.xi(&z1));
             if watch.extremum_may_cross(xi0, xi1, rate0, rate1, TICK * ticks as f64) {
                 return false;
             }
         }
-        (self.z, self.earth, self.nonearth) = (z1, e1, n1);
+        (self.state.z, self.state.earth, self.state.nonearth) = (z1, e1, n1);
         true
     }
 
@@ -605,7 +557,7 @@ impl Plant {
         ) else {
             return false;
         };
-        (self.z, self.earth, self.nonearth) =
+        (self.state.z, self.state.earth, self.state.nonearth) =
             (mul_vec(phi, &first.0), mul_vec(chain_phi, &first.1), mul_vec(chain_phi, &first.2));
         true
     }
@@ -614,9 +566,9 @@ impl Plant {
     fn blind(&mut self, level: usize) -> (u64, bool) {
         let key = self.config();
         let cfg = table(&self.configs, key);
-        self.z = mul_vec(&cfg.phi[level], &self.z);
-        self.earth = mul_vec(&self.chain.phi[level], &self.earth);
-        self.nonearth = mul_vec(&self.chain.phi[level], &self.nonearth);
+        self.state.z = mul_vec(&cfg.phi[level], &self.state.z);
+        self.state.earth = mul_vec(&self.chain.phi[level], &self.state.earth);
+        self.state.nonearth = mul_vec(&self.chain.phi[level], &self.state.nonearth);
         (1 << level, false)
     }
 
@@ -672,7 +624,7 @@ impl Plant {
         points: usize,
     ) -> usize {
         let chain = &self.chain;
-        let (z, e, n) = (&self.z, &self.earth, &self.nonearth);
+        let (z, e, n) = (&self.state.z, &self.state.earth, &self.state.nonearth);
         let dt = TICK * (1u64 << chain.scan_level) as f64;
         let mut xi_prev = watch.xi(z);
         let mut rate_prev = watch.rate(z);
@@ -725,10 +677,10 @@ impl Plant {
         let brake = |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s));
         self.clear_on(
             watch,
-            || brake(&self.earth),
-            || brake(&self.nonearth),
+            || brake(&self.state.earth),
+            || brake(&self.state.nonearth),
             || {
-                let s = cfg.split(&self.z)?;
+                let s = cfg.split(&self.state.z)?;
                 Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
             },
         )
@@ -794,17 +746,17 @@ impl Plant {
     /// What to watch in the current configuration, whose table is `cfg`: its watched rows
     /// are `ξ` and the sign of `ξ̇` (built from the same parameters, so the same bits).
     pub(crate) fn watch<'a>(&self, cfg: &'a Propagators<{ linear::N }>) -> Watch<'a> {
-        let Armed { up, down, direction, .. } = self.armed;
+        let Armed { up, down, direction, .. } = self.state.armed;
         #[cfg(debug_assertions)]
         {
-            let fresh = Armed::of(&self.hysteresis);
+            let fresh = Armed::of(&self.state.hysteresis);
             assert!(fresh.up.to_bits() == up.to_bits() && fresh.down.to_bits() == down.to_bits());
             assert!(fresh.direction.to_bits() == direction.to_bits());
-            assert!(fresh.c0.to_bits() == self.armed.c0.to_bits());
+            assert!(fresh.c0.to_bits() == self.state.armed.c0.to_bits());
         }
         debug_assert!(
-            cfg.watched[0] == linear::xi_row(&self.params, self.hysteresis.sticking_weight())
-                && cfg.watched[1] == linear::drive_rate_row(&self.params, self.mode)
+            cfg.watched[0] == linear::xi_row(&self.params, self.state.hysteresis.sticking_weight())
+                && cfg.watched[1] == linear::drive_rate_row(&self.params, self.state.mode)
         );
         debug_assert!((0..linear::N).all(|i| {
             ([ix::Y3, ix::VX, ix::C0].contains(&i) || cfg.watched[0][i] == 0.0)
@@ -812,8 +764,8 @@ impl Plant {
         }));
         Watch {
             vth: self.params.v_th,
-            earth_closed: self.earth_closed,
-            nonearth_closed: self.nonearth_closed,
+            earth_closed: self.state.earth_closed,
+            nonearth_closed: self.state.nonearth_closed,
             xi_row: &cfg.watched[0],
             rate_row: &cfg.watched[1],
             direction,
@@ -825,14 +777,14 @@ impl Plant {
     /// Applies the brake switches and the hysteresis changes found at the current state.
     pub(crate) fn handle_event(&mut self, report: &mut StepReport) {
         let vth = self.params.v_th;
-        let earth_closed = self.earth[2] < vth;
-        let nonearth_closed = self.nonearth[2] >= vth;
-        report.brake_events += u32::from(earth_closed != self.earth_closed)
-            + u32::from(nonearth_closed != self.nonearth_closed);
-        self.earth_closed = earth_closed;
-        self.nonearth_closed = nonearth_closed;
+        let earth_closed = self.state.earth[2] < vth;
+        let nonearth_closed = self.state.nonearth[2] >= vth;
+        report.brake_events += u32::from(earth_closed != self.state.earth_closed)
+            + u32::from(nonearth_closed != self.state.nonearth_closed);
+        self.state.earth_closed = earth_closed;
+        self.state.nonearth_closed = nonearth_closed;
         let mode = Mode::from_brakes(earth_closed, nonearth_closed);
-        if mode != self.mode {
+        if mode != self.state.mode {
             self.switch_mode(mode);
             if mode == Mode::Free {
                 report.slips += 1;
@@ -843,7 +795,7 @@ impl Plant {
 
     /// The jump conditions of docs/model.md §2.2.
     fn switch_mode(&mut self, mode: Mode) {
-        let z = &mut self.z;
+        let z = &mut self.state.z;
         match mode {
             Mode::Locked => {
                 for i in [ix::V1, ix::V2, ix::V3, ix::V4] {
@@ -853,15 +805,15 @@ impl Plant {
             Mode::Drive => {
                 let m3 = linear::masses(&self.params).m3;
                 let m_r = self.params.m_r;
-                self.drive_offset = z[ix::Y4] - z[ix::Y3];
+                self.state.drive_offset = z[ix::Y4] - z[ix::Y3];
                 let v = (m3 * z[ix::V3] + m_r * z[ix::V4]) / (m3 + m_r);
                 z[ix::V3] = v;
                 z[ix::V4] = v;
             }
             Mode::Hold => z[ix::V4] = 0.0,
-            Mode::Free => self.slip_events += 1,
+            Mode::Free => self.state.slip_events += 1,
         }
-        self.mode = mode;
+        self.state.mode = mode;
     }
 
     /// Brings the play memories and the sliding set up to the current `ξ` and its direction,
@@ -869,41 +821,42 @@ impl Plant {
     fn sync_hysteresis(&mut self) {
         // The rows of the current configuration, from its table if it has one (same bits).
         let (xi, rate) = match &self.configs[self.config_key()] {
-            Some(cfg) => (cfg.watched[0].dot(&self.z), cfg.watched[1].dot(&self.z)),
+            Some(cfg) => (cfg.watched[0].dot(&self.state.z), cfg.watched[1].dot(&self.state.z)),
             None => (
-                linear::xi_row(&self.params, self.hysteresis.sticking_weight()).dot(&self.z),
-                linear::drive_rate_row(&self.params, self.mode).dot(&self.z),
+                linear::xi_row(&self.params, self.state.hysteresis.sticking_weight())
+                    .dot(&self.state.z),
+                linear::drive_rate_row(&self.params, self.state.mode).dot(&self.state.z),
             ),
         };
-        if self.armed.keeps(xi) {
+        if self.state.armed.keeps(xi) {
             // Inside the keep interval `sync` keeps every memory and slips nothing
             // (`Hysteresis::sync_keeps`); of what it derives only the direction changes,
             // and `Armed` weighs it only for slipping elements. The quiet step's shortcut,
             // taken at the start of every event-loop step and after most of its stops.
-            debug_assert!(self.hysteresis.sync_keeps(xi, rate_sign(rate)));
-            self.hysteresis.direction = rate_sign(rate);
-            self.armed.sync_direction(&self.hysteresis);
+            debug_assert!(self.state.hysteresis.sync_keeps(xi, rate_sign(rate)));
+            self.state.hysteresis.direction = rate_sign(rate);
+            self.state.armed.sync_direction(&self.state.hysteresis);
             debug_assert!({
-                let fresh = Armed::of(&self.hysteresis);
-                fresh.up.to_bits() == self.armed.up.to_bits()
-                    && fresh.down.to_bits() == self.armed.down.to_bits()
-                    && fresh.c0.to_bits() == self.armed.c0.to_bits()
-                    && fresh.direction.to_bits() == self.armed.direction.to_bits()
+                let fresh = Armed::of(&self.state.hysteresis);
+                fresh.up.to_bits() == self.state.armed.up.to_bits()
+                    && fresh.down.to_bits() == self.state.armed.down.to_bits()
+                    && fresh.c0.to_bits() == self.state.armed.c0.to_bits()
+                    && fresh.direction.to_bits() == self.state.armed.direction.to_bits()
             });
         } else {
-            self.hysteresis.sync(xi, rate_sign(rate));
-            self.armed = Armed::of(&self.hysteresis);
+            self.state.hysteresis.sync(xi, rate_sign(rate));
+            self.state.armed = Armed::of(&self.state.hysteresis);
         }
-        self.z[ix::C0] = self.armed.c0;
+        self.state.z[ix::C0] = self.state.armed.c0;
     }
 
     pub(crate) fn sample_encoder(&mut self) {
-        let mut x = self.z[ix::Y4];
+        let mut x = self.state.z[ix::Y4];
         if self.params.encoder_noise > 0.0 {
-            x += self.params.encoder_noise * gaussian(&mut self.rng);
+            x += self.params.encoder_noise * gaussian(&mut self.state.rng);
         }
         // f64::round rounds half away from zero, as docs/model.md §2.6 asks.
-        self.encoder_counts = (x / self.params.q_enc).round() as i64;
+        self.state.encoder_counts = (x / self.params.q_enc).round() as i64;
     }
 }
 

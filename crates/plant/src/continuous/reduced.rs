@@ -174,9 +174,9 @@ impl Reduced {
                 })?);
             }
         }
-        let since = plant.time;
+        let since = plant.state.time;
         let mut r = Reduced {
-            s: plant.z,
+            s: plant.state.z,
             plant,
             fast: Fast::zeros(),
             since,
@@ -199,12 +199,12 @@ impl Reduced {
     /// Splits the physical state in the current configuration: the fast part from now on,
     /// and the slow state.
     fn split(&mut self) {
-        self.s = self.plant.z;
-        self.since = self.plant.time;
+        self.s = self.plant.state.z;
+        self.since = self.plant.state.time;
         self.fast = Fast::zeros();
         self.at = None;
         if let Some(Split { x, y, .. }) = &self.configs[self.plant.config_key()].split {
-            let z = &self.plant.z;
+            let z = &self.plant.state.z;
             let x2 = SMatrix::<f64, 8, 1>::from_fn(|i, _| z[SLOW[i]]);
             let x1 = Fast::from_fn(|i, _| z[FAST[i]]);
             self.fast = x1 - x * x2;
@@ -218,14 +218,14 @@ impl Reduced {
     /// The physical state at the plant's time from the slow state and the fast part.
     fn join(&mut self) {
         let key = self.plant.config_key();
-        let z = &mut self.plant.z;
+        let z = &mut self.plant.state.z;
         match &self.configs[key].split {
             Some(Split { x, y, l }) => {
-                let t = self.plant.time.to_bits();
+                let t = self.plant.state.time.to_bits();
                 let f = match self.at {
                     Some((at, f)) if at == t => f,
                     _ => {
-                        let f = (l * (self.plant.time - self.since)).exp() * self.fast;
+                        let f = (l * (self.plant.state.time - self.since)).exp() * self.fast;
                         self.at = Some((t, f));
                         f
                     }
@@ -250,15 +250,15 @@ impl Reduced {
 
     /// The master's time: the fast part moves with it.
     pub fn set_time(&mut self, t: f64) {
-        self.plant.time = t;
+        self.plant.state.time = t;
         self.join();
     }
 
     pub fn continuous_states(&self) -> [f64; N_STATES] {
         REDUCED.map(|slot| match slot {
             Slot::Z(i) => self.s[i],
-            Slot::Earth(i) => self.plant.earth[i],
-            Slot::Nonearth(i) => self.plant.nonearth[i],
+            Slot::Earth(i) => self.plant.state.earth[i],
+            Slot::Nonearth(i) => self.plant.state.nonearth[i],
         })
     }
 
@@ -268,8 +268,8 @@ impl Reduced {
         for (slot, v) in REDUCED.iter().zip(x) {
             match *slot {
                 Slot::Z(i) => self.s[i] = *v,
-                Slot::Earth(i) => self.plant.earth[i] = *v,
-                Slot::Nonearth(i) => self.plant.nonearth[i] = *v,
+                Slot::Earth(i) => self.plant.state.earth[i] = *v,
+                Slot::Nonearth(i) => self.plant.state.nonearth[i] = *v,
             }
         }
         self.join();
@@ -298,12 +298,12 @@ impl Reduced {
     /// configuration, the state split anew in the configuration it leaves.
     pub fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
         let before = self.continuous_states();
-        if t.to_bits() != self.plant.time.to_bits() {
+        if t.to_bits() != self.plant.state.time.to_bits() {
             self.set_time(t);
         }
-        let physical = (self.plant.z, self.plant.config_key());
+        let physical = (self.plant.state.z, self.plant.config_key());
         let mut report = self.plant.event_update(dac, t);
-        if physical != (self.plant.z, self.plant.config_key()) {
+        if physical != (self.plant.state.z, self.plant.config_key()) {
             self.split();
         }
         let after = self.continuous_states();
