@@ -19,8 +19,8 @@ use inchworm_dos_actors::{ssp_value, Logger};
 use inchworm_fmi_export::{Model, Var};
 use inchworm_fmu_models::{MountFmu, PlantFmu};
 
-/// 2 s: the piston move and the settling (the tip from 4 s is the same code path).
-const STEPS: u64 = 1000;
+/// 5 s: the piston move, its settling and the tip commanded at 4 s.
+const STEPS: u64 = 2500;
 
 pub fn dist() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist")
