@@ -8,14 +8,11 @@ use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::instance::Status;
 use inchworm_fmi_export::testing::{Harness, Master};
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::{ControllerFmu, PlantFmu, ReferenceFmu};
 
 const T: f64 = 0.002;
 const Q_ENC: f64 = 1.2e-9;
-const ENCODER_COUNTS: u32 = 1;
-const REFERENCE: u32 = 2;
-const DAC_NONEARTH: u32 = 11;
-const SERVO_ERROR: u32 = 16;
 
 /// The sample index of `p` if it is a 2 ms instant up to the layer's 1e-9 rounding.
 fn instant(p: f64) -> Option<u64> {
@@ -25,12 +22,27 @@ fn instant(p: f64) -> Option<u64> {
 
 /// Every output of the controller, as bits.
 fn outputs<S: Master>(c: &Harness<ControllerFmu, S>) -> Vec<u64> {
-    let reals = [10, 11, 12, 16, 17, 18, 19, 21].into_iter();
-    let mut v: Vec<u64> = reals.map(|vr| ok(c.real(vr)).to_bits()).collect();
+    let reals = [
+        ControllerFmu::DAC_EARTH,
+        ControllerFmu::DAC_NONEARTH,
+        ControllerFmu::DAC_EXTENSION,
+        ControllerFmu::SERVO_ERROR,
+        ControllerFmu::DISTURBANCE_ESTIMATE,
+        ControllerFmu::STEP_FORWARD,
+        ControllerFmu::STEP_BACKWARD,
+        ControllerFmu::FRACTION,
+    ];
+    let mut v: Vec<u64> = reals.iter().map(|r| ok(c.real(r.vr())).to_bits()).collect();
     // The estimator's ten weights: scalars in FMI 2.0, one array in FMI 3.0.
-    v.extend(ok(c.reals(30, 10)).iter().map(|w| w.to_bits()));
-    v.extend([13, 14, 15, 20].map(|vr| ok(c.integer(vr)) as u64));
-    v.push(ok(c.boolean(22)) as u64);
+    v.extend(ok(c.reals(ControllerFmu::SCALE_WEIGHTS_1.vr(), 10)).iter().map(|w| w.to_bits()));
+    let integers = [
+        ControllerFmu::DAC_EARTH_CODE,
+        ControllerFmu::DAC_NONEARTH_CODE,
+        ControllerFmu::DAC_EXTENSION_CODE,
+        ControllerFmu::N_STEPS,
+    ];
+    v.extend(integers.map(|i| ok(c.integer(i.vr())) as u64));
+    v.push(ok(c.boolean(ControllerFmu::MOVING.vr())) as u64);
     v
 }
 
@@ -42,7 +54,7 @@ fn ok<X>((status, x): (Status, X)) -> X {
 
 fn controller<S: Master>(name: &str, reference: f64) -> Harness<ControllerFmu, S> {
     let c = Harness::<ControllerFmu, S>::init(name);
-    assert_eq!(c.set_real(REFERENCE, reference), 0);
+    assert_eq!(c.set_real(ControllerFmu::REFERENCE.vr(), reference), 0);
     c
 }
 
@@ -59,10 +71,10 @@ fn synthetic<S: Master>(
     let mut counts = 0;
     let mut out = Vec::new();
     for w in points.windows(2) {
-        assert_eq!(c.set_integer(ENCODER_COUNTS, encoder(w[0], counts)), 0);
+        assert_eq!(c.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), encoder(w[0], counts)), 0);
         assert_eq!(c.step(w[0], w[1] - w[0]), 0, "step {w:?}: {:?}", c.logged());
         if instant(w[1]).is_some() {
-            counts += (ok(c.real(DAC_NONEARTH)) > 5.0) as i32 * 2;
+            counts += (ok(c.real(ControllerFmu::DAC_NONEARTH.vr())) > 5.0) as i32 * 2;
         }
         out.push((w[1], outputs(&c)));
     }
@@ -145,14 +157,14 @@ fn latencies<S: Master>(points: &[f64]) -> Vec<(f64, f64)> {
     let mut seen = 0;
     for w in points.windows(2) {
         let counts = (w[0] / 1e-4).round() as i32;
-        assert_eq!(c.set_integer(ENCODER_COUNTS, counts), 0);
+        assert_eq!(c.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts), 0);
         let status = c.step(w[0], w[1] - w[0]);
         assert!(status == 0 || status == 1, "step {w:?}: {:?}", c.logged());
         // The last write instant reached: floor(end / T) up to rounding.
         let last = (w[1] / T + 1e-9).floor() as u64;
         if last > seen && last >= 1 {
             seen = last;
-            let latched = -ok(c.real(SERVO_ERROR)) / Q_ENC * 1e-4;
+            let latched = -ok(c.real(ControllerFmu::SERVO_ERROR.vr())) / Q_ENC * 1e-4;
             let write = last as f64 * T;
             // The latch of write n is at instant n - 1: the last point at or before it.
             let expected = points.iter().copied().rfind(|&p| p <= write - T + 1e-12);
@@ -227,11 +239,11 @@ fn straddling_steps_follow_the_latch_and_write_rule() {
         if k % 3 == 0 {
             held = counts;
         }
-        assert_eq!(c.set_integer(ENCODER_COUNTS, held), 0);
+        assert_eq!(c.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), held), 0);
         assert_eq!(c.step(p, 1e-3), 0);
         if (k + 1) % 3 == 0 {
             if instant(q).is_some() {
-                counts += (ok(c.real(DAC_NONEARTH)) > 5.0) as i32 * 2;
+                counts += (ok(c.real(ControllerFmu::DAC_NONEARTH.vr())) > 5.0) as i32 * 2;
             }
             rows.push(outputs(&c));
         }
@@ -251,13 +263,12 @@ fn straddling_steps_follow_the_latch_and_write_rule() {
 
 // ---- The closed loop: Fig. 5 at other master steps --------------------------------
 
-mod plant_vr {
-    pub const DAC: [u32; 3] = [1, 2, 3];
-    pub const ENCODER_POSITION: u32 = 11;
-    pub const ENCODER_COUNTS: u32 = 10;
-}
-const PROFILE: u32 = 100;
 const PROFILE_FIG5: i32 = 1;
+/// The controller's DAC outputs and the plant's inputs they drive.
+const DAC: [Var<ControllerFmu>; 3] =
+    [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION];
+const PLANT_DAC: [Var<PlantFmu>; 3] =
+    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
 
 /// Per 2 ms instant: reference, encoder position, the DAC sample the plant receives.
 type Row = (f64, f64, [f64; 3]);
@@ -266,7 +277,7 @@ type Row = (f64, f64, [f64; 3]);
 fn fig5_reference<S: Master>() -> Harness<ReferenceFmu, S> {
     let refr = Harness::<ReferenceFmu, S>::new("reference");
     assert_eq!((refr.setup(), refr.enter()), (0, 0));
-    assert_eq!(refr.set_integer(PROFILE, PROFILE_FIG5), 0);
+    assert_eq!(refr.set_integer(ReferenceFmu::PROFILE.vr(), PROFILE_FIG5), 0);
     assert_eq!(refr.exit(), 0);
     refr
 }
@@ -282,18 +293,18 @@ fn fig5<S: Master>(h: f64, end: f64) -> Vec<Row> {
     for k in 0..=n {
         let t = k as f64 * h;
         // Jacobi: every output at t, then every input, then every FMU steps.
-        let r = ok(refr.real(1));
-        let counts = ok(plant.integer(plant_vr::ENCODER_COUNTS));
-        let dac = [10, 11, 12].map(|vr| ok(ctrl.real(vr)));
+        let r = ok(refr.real(ReferenceFmu::REFERENCE.vr()));
+        let counts = ok(plant.integer(PlantFmu::ENCODER_COUNTS.vr()));
+        let dac = DAC.map(|var| ok(ctrl.real(var.vr())));
         if instant(t).is_some() {
-            rows.push((r, ok(plant.real(plant_vr::ENCODER_POSITION)), dac));
+            rows.push((r, ok(plant.real(PlantFmu::ENCODER_POSITION.vr())), dac));
         }
         if k == n {
             break;
         }
-        assert_eq!(ctrl.set_integer(ENCODER_COUNTS, counts), 0);
-        assert_eq!(ctrl.set_real(REFERENCE, r), 0);
-        assert_eq!(plant.set_reals(&plant_vr::DAC, &dac), 0);
+        assert_eq!(ctrl.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts), 0);
+        assert_eq!(ctrl.set_real(ControllerFmu::REFERENCE.vr(), r), 0);
+        assert_eq!(plant.set_reals(&PLANT_DAC.map(Var::vr), &dac), 0);
         for (what, status) in [
             ("plant", plant.step(t, h)),
             ("controller", ctrl.step(t, h)),
@@ -364,9 +375,9 @@ fn a_state_saved_between_instants_replays_bit_for_bit() {
         (from..from + n)
             .map(|k| {
                 let t = k as f64 * 1e-3;
-                assert_eq!(c.set_integer(ENCODER_COUNTS, counts), 0);
+                assert_eq!(c.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts), 0);
                 assert_eq!(c.step(t, 1e-3), 0);
-                counts += (ok(c.real(DAC_NONEARTH)) > 5.0) as i32 * 2;
+                counts += (ok(c.real(ControllerFmu::DAC_NONEARTH.vr())) > 5.0) as i32 * 2;
                 outputs(c)
             })
             .collect::<Vec<_>>()
@@ -398,26 +409,32 @@ fn fig5_me<S: Master>(end: f64) -> (Vec<Row>, Vec<f64>) {
     let n = (end / T).round() as usize;
     for k in 0..=n {
         let t = k as f64 * T;
-        let r = ok(refr.real(1));
+        let r = ok(refr.real(ReferenceFmu::REFERENCE.vr()));
         assert_eq!(
-            ctrl.set_integer(ENCODER_COUNTS, ok(plant.integer(plant_vr::ENCODER_COUNTS))),
+            ctrl.set_integer(
+                ControllerFmu::ENCODER_COUNTS.vr(),
+                ok(plant.integer(PlantFmu::ENCODER_COUNTS.vr()))
+            ),
             0
         );
-        assert_eq!(ctrl.set_real(REFERENCE, r), 0);
+        assert_eq!(ctrl.set_real(ControllerFmu::REFERENCE.vr(), r), 0);
         let (status, update, terminate) = ctrl.update();
         assert_eq!((status, update.states_changed, terminate), (0, false, false), "{t}");
         let next = update.next_event_time.expect("a time event at every instant");
-        let dac = [10, 11, 12].map(|vr| ok(ctrl.real(vr)));
-        rows.push((r, ok(plant.real(plant_vr::ENCODER_POSITION)), dac));
+        let dac = DAC.map(|var| ok(ctrl.real(var.vr())));
+        rows.push((r, ok(plant.real(PlantFmu::ENCODER_POSITION.vr())), dac));
         if k == n {
             break;
         }
         assert_eq!(ctrl.enter_continuous_time_mode(), 0);
         // Between events the outputs hold, whatever the continuous input does.
         let held = outputs(&ctrl);
-        assert_eq!((ctrl.set_time(0.5 * (t + next)), ctrl.set_real(REFERENCE, -r)), (0, 0));
+        assert_eq!(
+            (ctrl.set_time(0.5 * (t + next)), ctrl.set_real(ControllerFmu::REFERENCE.vr(), -r)),
+            (0, 0)
+        );
         assert_eq!(outputs(&ctrl), held);
-        assert_eq!(plant.set_reals(&plant_vr::DAC, &dac), 0);
+        assert_eq!(plant.set_reals(&PLANT_DAC.map(Var::vr), &dac), 0);
         for (what, status) in [("plant", plant.step(t, T)), ("reference", refr.step(t, T))] {
             assert!(status == 0 || status == 1, "{what} at {t}: status {status}");
         }
@@ -461,7 +478,7 @@ fn events_off_the_grid_follow_the_step_rule() {
     use inchworm_fmi_export::entry::Array;
     let me = Harness::<ControllerFmu, Fmi2>::init_me("me");
     let cs = controller::<Fmi2>("cs", 60e-6);
-    assert_eq!(me.set_real(REFERENCE, 60e-6), 0);
+    assert_eq!(me.set_real(ControllerFmu::REFERENCE.vr(), 60e-6), 0);
     assert_eq!((me.array(Array::States, 0).0, me.array(Array::EventIndicators, 0).0), (0, 0));
     assert_eq!(me.array(Array::Derivatives, 1).0, 3, "no continuous states");
     assert_eq!(me.update().1.next_event_time, Some(T), "after the latch at 0: the write at s_1");

@@ -4,20 +4,10 @@
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{categories_of, payload_of, with_payload, Harness};
+use inchworm_fmi_export::{parameter_values, Model, Var};
 use inchworm_fmu_models::ControllerFmu;
 
 type H = Harness<ControllerFmu>;
-
-const ENCODER_COUNTS: u32 = 1;
-const REFERENCE: u32 = 2;
-const DAC_EARTH: u32 = 10;
-const DAC_NONEARTH: u32 = 11;
-const DAC_NONEARTH_CODE: u32 = 14;
-const N_STEPS: u32 = 20;
-const MOVING: u32 = 22;
-const FEEDFORWARD: u32 = 100;
-const SAMPLES_PER_STEP: u32 = 105;
-const BASIS_PEAK_5: u32 = 124;
 
 /// Drives the controller against a synthetic encoder (each forward extension sample moves
 /// it by 2 nm), returning the DAC codes sample by sample.
@@ -25,12 +15,16 @@ fn drive(h: &H, k0: usize, samples: usize) -> Vec<(i32, f64, i32)> {
     let mut out = Vec::new();
     let mut counts = 0;
     for k in k0..k0 + samples {
-        assert_eq!(h.set_integer(ENCODER_COUNTS, counts), fmi2OK);
+        assert_eq!(h.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts), fmi2OK);
         assert_eq!(h.step(k as f64 * 0.002, 0.002), fmi2OK, "{:?}", h.logged());
-        let (_, dac_n) = h.real(DAC_NONEARTH);
-        let (_, code) = h.integer(DAC_NONEARTH_CODE);
+        let (_, dac_n) = h.real(ControllerFmu::DAC_NONEARTH.vr());
+        let (_, code) = h.integer(ControllerFmu::DAC_NONEARTH_CODE.vr());
         counts += (dac_n > 5.0) as i32 * 2;
-        out.push((code, h.real(DAC_EARTH).1, h.integer(N_STEPS).1));
+        out.push((
+            code,
+            h.real(ControllerFmu::DAC_EARTH.vr()).1,
+            h.integer(ControllerFmu::N_STEPS.vr()).1,
+        ));
     }
     out
 }
@@ -87,20 +81,20 @@ fn a_call_runs_a_bounded_number_of_samples_whatever_time_it_is_given() {
 #[test]
 fn timing_contract_one_sample_delay() {
     let h = H::init("timing");
-    assert_eq!(h.set_real(REFERENCE, 100e-6), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), 100e-6), fmi2OK);
     // Before any step the outputs are the parked sample.
-    assert_eq!(h.real(DAC_NONEARTH), (fmi2OK, 0.0));
+    assert_eq!(h.real(ControllerFmu::DAC_NONEARTH.vr()), (fmi2OK, 0.0));
     // doStep(0, 2 ms) chooses the move and outputs sample 2 (still parked).
     assert_eq!(h.step(0.0, 0.002), fmi2OK);
-    assert_eq!(h.integer(N_STEPS), (fmi2OK, 3));
-    assert_eq!(h.boolean(MOVING), (fmi2OK, true));
-    assert_eq!(h.real(DAC_NONEARTH).1, 0.0);
+    assert_eq!(h.integer(ControllerFmu::N_STEPS.vr()), (fmi2OK, 3));
+    assert_eq!(h.boolean(ControllerFmu::MOVING.vr()), (fmi2OK, true));
+    assert_eq!(h.real(ControllerFmu::DAC_NONEARTH.vr()).1, 0.0);
     // After the step ending at 13 × 2 ms the output is sample 15: non-earth powered.
     assert_eq!(h.step(0.002, 0.024), fmi2OK, "12 samples in one call");
-    assert_eq!(h.real(DAC_NONEARTH).1, 0.0, "sample 14");
+    assert_eq!(h.real(ControllerFmu::DAC_NONEARTH.vr()).1, 0.0, "sample 14");
     assert_eq!(h.step(0.026, 0.002), fmi2OK);
-    assert_eq!(h.real(DAC_NONEARTH).1, 10.0, "sample 15");
-    assert_eq!(h.integer(DAC_NONEARTH_CODE).1, 65535);
+    assert_eq!(h.real(ControllerFmu::DAC_NONEARTH.vr()).1, 10.0, "sample 15");
+    assert_eq!(h.integer(ControllerFmu::DAC_NONEARTH_CODE.vr()).1, 65535);
     // Any step size is accepted (tests/any_step.rs has the rule); a non-positive one is not.
     assert_eq!(h.step(0.028, 0.003), fmi2OK);
     assert_eq!(h.step(0.031, 0.0), fmi2Error);
@@ -111,25 +105,26 @@ fn timing_contract_one_sample_delay() {
 #[test]
 fn bad_inputs_and_parameters_are_refused_with_a_message() {
     let h = H::init("inputs");
-    assert_eq!(h.set_real(REFERENCE, 5e-6), fmi2OK);
-    assert_eq!(h.set_real(REFERENCE, f64::NAN), fmi2Error);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), 5e-6), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), f64::NAN), fmi2Error);
     assert!(h.saw(fmi2Error, &["reference", "NaN", "keeping 0.000005"]), "{:?}", h.logged());
-    assert_eq!(h.real(REFERENCE), (fmi2OK, 5e-6));
+    assert_eq!(h.real(ControllerFmu::REFERENCE.vr()), (fmi2OK, 5e-6));
     assert_eq!(h.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
-    assert_eq!(h.real(999).0, fmi2Error);
-    assert_eq!(h.set_real(DAC_EARTH, 1.0), fmi2Error, "outputs cannot be set");
+    assert_eq!(h.real(999).0, fmi2Error, "999 is no variable's value reference");
+    assert_eq!(h.set_real(ControllerFmu::DAC_EARTH.vr(), 1.0), fmi2Error, "outputs cannot be set");
     assert_eq!(
-        h.set_boolean(FEEDFORWARD, false),
+        h.set_boolean(ControllerFmu::FEEDFORWARD.vr(), false),
         fmi2Error,
         "fixed parameters cannot change after initialization"
     );
 
     for (what, set) in [
         (
-            "samples_per_step",
-            Box::new(|h: &H| h.set_integer(SAMPLES_PER_STEP, 3)) as Box<dyn Fn(&H) -> fmi2Status>,
+            ControllerFmu::SAMPLES_PER_STEP.name(),
+            Box::new(|h: &H| h.set_integer(ControllerFmu::SAMPLES_PER_STEP.vr(), 3))
+                as Box<dyn Fn(&H) -> fmi2Status>,
         ),
-        ("basis_peak", Box::new(|h: &H| h.set_real(BASIS_PEAK_5, 2e-6))),
+        ("basis_peak", Box::new(|h: &H| h.set_real(ControllerFmu::BASIS_PEAK_5.vr(), 2e-6))),
     ] {
         let h = H::new("params");
         assert_eq!(h.setup(), fmi2OK);
@@ -148,7 +143,7 @@ fn bad_inputs_and_parameters_are_refused_with_a_message() {
 #[test]
 fn state_round_trips_replay_bit_for_bit() {
     let a = H::init("a");
-    assert_eq!(a.set_real(REFERENCE, 60e-6), fmi2OK);
+    assert_eq!(a.set_real(ControllerFmu::REFERENCE.vr(), 60e-6), fmi2OK);
     drive(&a, 0, 150);
     let s = a.get_state();
     let bytes = a.serialize();
@@ -169,12 +164,12 @@ fn state_round_trips_replay_bit_for_bit() {
 #[test]
 fn debug_logging_enables_exactly_the_named_categories() {
     let h = H::init("logging");
-    assert_eq!(h.set_real(REFERENCE, 60e-6), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), 60e-6), fmi2OK);
     drive(&h, 0, 150);
     assert_eq!(h.take_logged(), Vec::<String>::new(), "no debug messages without debug logging");
 
     assert_eq!(h.set_debug_logging(true, &["logEvents"]), fmi2OK);
-    assert_eq!(h.set_real(REFERENCE, -40e-6), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), -40e-6), fmi2OK);
     drive(&h, 150, 300);
     let events = h.take_logged();
     assert_eq!(
@@ -183,7 +178,7 @@ fn debug_logging_enables_exactly_the_named_categories() {
     );
 
     assert_eq!(h.set_debug_logging(true, &[]), fmi2OK);
-    assert_eq!(h.set_real(REFERENCE, 30e-6), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), 30e-6), fmi2OK);
     drive(&h, 450, 600);
     let all = h.take_logged();
     assert_eq!(categories_of(&all), ["logAll", "logEvents"]);
@@ -193,7 +188,7 @@ fn debug_logging_enables_exactly_the_named_categories() {
 
     assert_eq!(h.set_debug_logging(false, &["logEvents", "logAll"]), fmi2OK);
     assert_eq!(h.take_logged(), ["0|logAll|fmi2SetDebugLogging"]);
-    assert_eq!(h.set_real(REFERENCE, 0.0), fmi2OK);
+    assert_eq!(h.set_real(ControllerFmu::REFERENCE.vr(), 0.0), fmi2OK);
     drive(&h, 1050, 600);
     assert_eq!(h.take_logged(), Vec::<String>::new());
 
@@ -226,23 +221,21 @@ fn hex(s: &str) -> Vec<u8> {
     (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
 }
 
-const PREFILTER: u32 = 101;
-
 #[test]
 fn state_payload_keeps_format_1_byte_for_byte() {
     let a = H::new("format");
     // In initialization mode, where the restored copy may be read back.
     assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(a.set_boolean(PREFILTER, true), fmi2OK);
-    assert_eq!(a.set_integer(SAMPLES_PER_STEP, 50), fmi2OK);
-    assert_eq!(a.set_integer(ENCODER_COUNTS, -12), fmi2OK);
+    assert_eq!(a.set_boolean(ControllerFmu::PREFILTER.vr(), true), fmi2OK);
+    assert_eq!(a.set_integer(ControllerFmu::SAMPLES_PER_STEP.vr(), 50), fmi2OK);
+    assert_eq!(a.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), -12), fmi2OK);
     let blob = a.serialize();
     assert_eq!(payload_of::<ControllerFmu>(&blob), hex(CONTROLLER_FORMAT_1));
     let b = H::new("restored");
     assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
-    assert_eq!(b.boolean(PREFILTER), (fmi2OK, true));
-    assert_eq!(b.integer(SAMPLES_PER_STEP), (fmi2OK, 50));
-    assert_eq!(b.integer(ENCODER_COUNTS), (fmi2OK, -12));
+    assert_eq!(b.boolean(ControllerFmu::PREFILTER.vr()), (fmi2OK, true));
+    assert_eq!(b.integer(ControllerFmu::SAMPLES_PER_STEP.vr()), (fmi2OK, 50));
+    assert_eq!(b.integer(ControllerFmu::ENCODER_COUNTS.vr()), (fmi2OK, -12));
     assert_eq!(b.serialize(), blob);
 }
 
@@ -251,18 +244,32 @@ fn parameters_a_master_could_not_have_set_are_refused_in_a_state() {
     let a = H::new("source");
     let blob = a.serialize();
     let payload = payload_of::<ControllerFmu>(&blob);
-    // Parameters in table order: feedforward, prefilter, ..., samples_per_step 6th, deadband 5th.
-    let at = |i: usize, x: f64| {
+    // The payload starts with the parameters in table order, 8 bytes each.
+    let at = |var: Var<ControllerFmu>, x: f64| {
+        let i = parameter_values(&ControllerFmu::new()).position(|(n, _)| n == var.name());
+        let i = i.expect("a parameter");
         let mut p = payload.clone();
         p[8 * i..8 * i + 8].copy_from_slice(&x.to_le_bytes());
         with_payload::<ControllerFmu>(&blob, &p)
     };
     let b = H::new("target");
     for (bytes, why) in [
-        (at(1, 0.5), "parameter prefilter has the invalid Boolean value 0.5"),
-        (at(5, 1.5), "parameter samples_per_step has the invalid Integer value 1.5"),
-        (at(5, -1.0), "parameter samples_per_step has the invalid Integer value -1"),
-        (at(4, f64::NAN), "parameter deadband has the invalid Real value NaN"),
+        (
+            at(ControllerFmu::PREFILTER, 0.5),
+            "parameter prefilter has the invalid Boolean value 0.5",
+        ),
+        (
+            at(ControllerFmu::SAMPLES_PER_STEP, 1.5),
+            "parameter samples_per_step has the invalid Integer value 1.5",
+        ),
+        (
+            at(ControllerFmu::SAMPLES_PER_STEP, -1.0),
+            "parameter samples_per_step has the invalid Integer value -1",
+        ),
+        (
+            at(ControllerFmu::DEADBAND, f64::NAN),
+            "parameter deadband has the invalid Real value NaN",
+        ),
         (
             with_payload::<ControllerFmu>(&blob, &payload[..100]),
             "model state truncated in its 46 parameters",

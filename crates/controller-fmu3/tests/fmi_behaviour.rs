@@ -9,10 +9,6 @@ use inchworm_fmi_export::fmi3::ffi::*;
 use inchworm_fmi_export::testing::Harness;
 use inchworm_fmu_models::ControllerFmu;
 
-const ENCODER_COUNTS: u32 = 1;
-const REFERENCE: u32 = 2;
-const DAC_NONEARTH: u32 = 11;
-const N_STEPS: u32 = 20;
 const H: f64 = 0.002;
 
 #[test]
@@ -20,25 +16,43 @@ fn outputs_equal_the_fmi2_fmu_bit_for_bit() {
     let two = Harness::<ControllerFmu>::init("fmi2");
     let three = Harness::<ControllerFmu, Fmi3>::init("fmi3");
     let r = 40e-6;
-    assert_eq!((two.set_real(REFERENCE, r), three.set_real(REFERENCE, r)), (0, 0));
+    assert_eq!(
+        (
+            two.set_real(ControllerFmu::REFERENCE.vr(), r),
+            three.set_real(ControllerFmu::REFERENCE.vr(), r)
+        ),
+        (0, 0)
+    );
     let mut counts = 0;
     for k in 0..1500 {
         assert_eq!(
-            (two.set_integer(ENCODER_COUNTS, counts), three.set_integer(ENCODER_COUNTS, counts)),
+            (
+                two.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts),
+                three.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), counts)
+            ),
             (0, 0)
         );
         assert_eq!((two.step(k as f64 * H, H), three.step(k as f64 * H, H)), (0, 0));
-        for vr in 10..=12 {
+        for var in
+            [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION]
+        {
+            let (vr, name) = (var.vr(), var.name());
             assert_eq!(
                 three.real(vr).1.to_bits(),
                 two.real(vr).1.to_bits(),
-                "vr {vr} at sample {k}"
+                "{name} at sample {k}"
             );
         }
-        for vr in [13, 14, 15, N_STEPS] {
-            assert_eq!(three.integer(vr), two.integer(vr), "vr {vr} at sample {k}");
+        for var in [
+            ControllerFmu::DAC_EARTH_CODE,
+            ControllerFmu::DAC_NONEARTH_CODE,
+            ControllerFmu::DAC_EXTENSION_CODE,
+            ControllerFmu::N_STEPS,
+        ] {
+            let (vr, name) = (var.vr(), var.name());
+            assert_eq!(three.integer(vr), two.integer(vr), "{name} at sample {k}");
         }
-        counts += (three.real(DAC_NONEARTH).1 > 5.0) as i32 * 2;
+        counts += (three.real(ControllerFmu::DAC_NONEARTH.vr()).1 > 5.0) as i32 * 2;
     }
     assert_ne!(counts, 0, "the loop moved");
 }
@@ -48,7 +62,7 @@ fn the_exported_symbols_drive_the_same_instance_as_the_generic_entry_points() {
     let h = Harness::<ControllerFmu, Fmi3>::init("exported");
     let r = 100e-6;
     unsafe {
-        assert_eq!(fmu::fmi3SetFloat64(h.c, &REFERENCE, 1, &r, 1), fmi3OK);
+        assert_eq!(fmu::fmi3SetFloat64(h.c, &ControllerFmu::REFERENCE.vr(), 1, &r, 1), fmi3OK);
         let (mut ev, mut term, mut early, mut last) = (true, true, true, f64::NAN);
         assert_eq!(
             fmu::fmi3DoStep(h.c, 0.0, H, true, &mut ev, &mut term, &mut early, &mut last),
@@ -66,7 +80,7 @@ fn the_exported_symbols_drive_the_same_instance_as_the_generic_entry_points() {
             fmi3Error
         );
     }
-    assert_eq!(h.integer(N_STEPS), (0, 3));
+    assert_eq!(h.integer(ControllerFmu::N_STEPS.vr()), (0, 3));
     assert!(h.saw(fmi3Error, &["fmi3DoStep", "must be finite and > 0"]), "{:?}", h.logged());
 }
 

@@ -15,6 +15,7 @@ use gmt_dos_actors::prelude::*;
 use inchworm_cosim::ssp::{first_bindings, Archive};
 use inchworm_dos_actors::uid::{DacEarth, EncoderCounts, RunnerPosition};
 use inchworm_dos_actors::{ssp_value, FmuClient, Logger};
+use inchworm_fmu_models::PlantFmu;
 use mirror_fmu::{fmu_chain, STEP};
 
 fn dist() -> PathBuf {
@@ -88,6 +89,8 @@ async fn fmi3_plant_and_fmi2_controller_are_the_mixed_ssp_bit_for_bit() {
     }
     let logger = run(controller, plant, &reference, STEPS).await.unwrap();
 
+    let (counts, runner) = (PlantFmu::ENCODER_COUNTS.name(), PlantFmu::RUNNER_POSITION.name());
+    let (counts, runner) = (format!("plant.{counts}"), format!("plant.{runner}"));
     let opts = inchworm_cosim::Options {
         stop_time: Some(STEPS as f64 * STEP),
         step_size: None,
@@ -95,14 +98,14 @@ async fn fmi3_plant_and_fmi2_controller_are_the_mixed_ssp_bit_for_bit() {
         params: Vec::new(),
         parameter_set: None,
         input: None,
-        outputs: vec!["plant.encoder_counts".into(), "plant.runner_position".into()],
+        outputs: vec![counts.clone(), runner.clone()],
     };
     let trace = inchworm_cosim::master::run(&ssp, &opts, |_| {}).unwrap();
     for (column, name) in [
-        (logger.column::<EncoderCounts<0>>().unwrap(), "plant.encoder_counts"),
-        (logger.column::<RunnerPosition<0>>().unwrap(), "plant.runner_position"),
+        (logger.column::<EncoderCounts<0>>().unwrap(), counts),
+        (logger.column::<RunnerPosition<0>>().unwrap(), runner),
     ] {
-        let master = trace.column(name).unwrap();
+        let master = trace.column(&name).unwrap();
         assert!(
             column.len() >= master.len(),
             "{name}: {} rows, the master's {}",

@@ -16,6 +16,8 @@ use inchworm_cosim::ssp::{first_bindings, Archive};
 use inchworm_cosim::Options;
 use inchworm_dos_actors::uid::{EncoderCounts, Piston, Tilt, Tip};
 use inchworm_dos_actors::{ssp_value, Logger};
+use inchworm_fmi_export::{Model, Var};
+use inchworm_fmu_models::{MountFmu, PlantFmu};
 
 /// 5 s: the piston move, its settling and the tip commanded at 4 s.
 const STEPS: u64 = 2500;
@@ -37,10 +39,16 @@ fn commands() -> [Vec<(String, f64)>; 3] {
     })
 }
 
+/// The master's name of `var` of the SSP's `component`.
+fn path<M: Model>(component: &str, var: Var<M>) -> String {
+    format!("{component}.{}", var.name())
+}
+
 /// The master's trace of the mount and the encoders.
 fn master() -> inchworm_cosim::Trace {
-    let mut outputs: Vec<String> = ["piston", "tip", "tilt"].map(|n| format!("mount.{n}")).into();
-    outputs.extend(["a", "b", "c"].map(|x| format!("plant_{x}.encoder_counts")));
+    let pose = [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT];
+    let mut outputs: Vec<String> = pose.map(|v| path("mount", v)).into();
+    outputs.extend(["a", "b", "c"].map(|x| path(&format!("plant_{x}"), PlantFmu::ENCODER_COUNTS)));
     master_run(&dist().join("MirrorMount.ssp"), outputs)
 }
 
@@ -73,13 +81,15 @@ fn same_bits(what: &str, actors: Option<&[f64]>, master: &[f64]) {
 }
 
 fn check(logger: &Logger, trace: &inchworm_cosim::Trace) {
-    let col = |n: &str| trace.column(n).unwrap();
-    same_bits("piston", logger.column::<Piston>(), &col("mount.piston"));
-    same_bits("tip", logger.column::<Tip>(), &col("mount.tip"));
-    same_bits("tilt", logger.column::<Tilt>(), &col("mount.tilt"));
-    same_bits("encoder a", logger.column::<EncoderCounts<0>>(), &col("plant_a.encoder_counts"));
-    same_bits("encoder b", logger.column::<EncoderCounts<1>>(), &col("plant_b.encoder_counts"));
-    same_bits("encoder c", logger.column::<EncoderCounts<2>>(), &col("plant_c.encoder_counts"));
+    let col = |n: String| trace.column(&n).unwrap();
+    let pose = |v: Var<MountFmu>| col(path("mount", v));
+    let encoder = |x: &str| col(path(&format!("plant_{x}"), PlantFmu::ENCODER_COUNTS));
+    same_bits("piston", logger.column::<Piston>(), &pose(MountFmu::PISTON));
+    same_bits("tip", logger.column::<Tip>(), &pose(MountFmu::TIP));
+    same_bits("tilt", logger.column::<Tilt>(), &pose(MountFmu::TILT));
+    same_bits("encoder a", logger.column::<EncoderCounts<0>>(), &encoder("a"));
+    same_bits("encoder b", logger.column::<EncoderCounts<1>>(), &encoder("b"));
+    same_bits("encoder c", logger.column::<EncoderCounts<2>>(), &encoder("c"));
     // Not a trivial agreement: the mount has moved by the end.
     let piston = logger.column::<Piston>().unwrap();
     assert!(piston.last().unwrap() > &25e-6, "piston at the end: {:?}", piston.last());

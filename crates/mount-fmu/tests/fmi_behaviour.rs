@@ -5,24 +5,27 @@
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::Harness;
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::mount::{actuator_positions, pose, ANGLE_A_DEG, RADIUS};
 use inchworm_fmu_models::MountFmu;
 
 type H = Harness<MountFmu>;
 
-const POSITION_A: u32 = 1;
-const PISTON: u32 = 10;
-const TIP: u32 = 11;
-const TILT: u32 = 12;
-const RADIUS_VR: u32 = 100;
+/// The three actuators' positions, a, b, c.
+const POSITIONS: [Var<MountFmu>; 3] =
+    [MountFmu::POSITION_A, MountFmu::POSITION_B, MountFmu::POSITION_C];
 
 /// Sets the positions before step `k` and takes it: the outputs then hold the pose of the
 /// positions that held during the step.
 fn set_positions(h: &H, k: usize, z: [f64; 3]) {
-    for (i, z) in z.iter().enumerate() {
-        assert_eq!(h.set_real(POSITION_A + i as u32, *z), fmi2OK);
+    for (var, z) in POSITIONS.iter().zip(z) {
+        assert_eq!(h.set_real(var.vr(), z), fmi2OK);
     }
-    assert_eq!(h.real(PISTON).1, h.real(PISTON).1, "unchanged until the step");
+    assert_eq!(
+        h.real(MountFmu::PISTON.vr()).1,
+        h.real(MountFmu::PISTON.vr()).1,
+        "unchanged until the step"
+    );
     assert_eq!(h.step(k as f64 * 0.002, 0.002), fmi2OK);
 }
 
@@ -31,20 +34,29 @@ fn piston_tip_and_tilt_of_three_positions() {
     let h = H::init("mount");
     // All three equal: pure piston.
     set_positions(&h, 0, [30e-6; 3]);
-    assert!((h.real(PISTON).1 - 30e-6).abs() < 1e-18);
-    assert!(h.real(TIP).1.abs() < 1e-15 && h.real(TILT).1.abs() < 1e-15);
+    assert!((h.real(MountFmu::PISTON.vr()).1 - 30e-6).abs() < 1e-18);
+    assert!(
+        h.real(MountFmu::TIP.vr()).1.abs() < 1e-15 && h.real(MountFmu::TILT.vr()).1.abs() < 1e-15
+    );
     // Actuator a (on +y, 50 mm) up by 0.3 um, b and c (at y = -R/2) down 0.15: tip 6 urad.
     set_positions(&h, 1, [0.3e-6, -0.15e-6, -0.15e-6]);
-    assert!(h.real(PISTON).1.abs() < 1e-20);
-    assert!((h.real(TIP).1 - 0.3e-6 / RADIUS).abs() < 1e-15, "{}", h.real(TIP).1);
-    assert!(h.real(TILT).1.abs() < 1e-15);
+    assert!(h.real(MountFmu::PISTON.vr()).1.abs() < 1e-20);
+    assert!(
+        (h.real(MountFmu::TIP.vr()).1 - 0.3e-6 / RADIUS).abs() < 1e-15,
+        "{}",
+        h.real(MountFmu::TIP.vr()).1
+    );
+    assert!(h.real(MountFmu::TILT.vr()).1.abs() < 1e-15);
     // b (210 deg) and c (330 deg) opposite: tilt about y, x_c - x_b = R sqrt 3.
     set_positions(&h, 2, [0.0, -1e-6, 1e-6]);
-    assert!((h.real(TILT).1 - 2e-6 / (RADIUS * 3f64.sqrt())).abs() < 1e-15);
-    assert!(h.real(TIP).1.abs() < 1e-15);
+    assert!((h.real(MountFmu::TILT.vr()).1 - 2e-6 / (RADIUS * 3f64.sqrt())).abs() < 1e-15);
+    assert!(h.real(MountFmu::TIP.vr()).1.abs() < 1e-15);
     // Sample and hold: new positions show after the next step only.
-    assert_eq!(h.set_real(POSITION_A, 1.0), fmi2OK);
-    assert!(h.real(TILT).1 > 0.0 && h.real(PISTON).1.abs() < 1e-18, "still the held pose");
+    assert_eq!(h.set_real(MountFmu::POSITION_A.vr(), 1.0), fmi2OK);
+    assert!(
+        h.real(MountFmu::TILT.vr()).1 > 0.0 && h.real(MountFmu::PISTON.vr()).1.abs() < 1e-18,
+        "still the held pose"
+    );
 }
 
 #[test]
@@ -62,12 +74,16 @@ fn actuator_positions_invert_the_pose() {
 fn bad_values_are_refused() {
     let h = H::new("params");
     assert_eq!((h.setup(), h.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(h.set_real(RADIUS_VR, 0.0), fmi2OK);
+    assert_eq!(h.set_real(MountFmu::RADIUS.vr(), 0.0), fmi2OK);
     assert_eq!(h.exit(), fmi2Error);
-    assert!(h.saw(fmi2Error, &["fmi2ExitInitializationMode", "radius"]), "{:?}", h.logged());
+    assert!(
+        h.saw(fmi2Error, &["fmi2ExitInitializationMode", MountFmu::RADIUS.name()]),
+        "{:?}",
+        h.logged()
+    );
     let h = H::init("inputs");
-    assert_eq!(h.set_real(POSITION_A, f64::NAN), fmi2Error);
-    assert_eq!(h.set_real(TIP, 1.0), fmi2Error, "outputs cannot be set");
+    assert_eq!(h.set_real(MountFmu::POSITION_A.vr(), f64::NAN), fmi2Error);
+    assert_eq!(h.set_real(MountFmu::TIP.vr(), 1.0), fmi2Error, "outputs cannot be set");
 }
 
 #[test]
@@ -77,7 +93,7 @@ fn state_round_trips() {
     let bytes = a.serialize();
     let b = H::new("b");
     assert_eq!(b.deserialize(&bytes), fmi2OK, "{:?}", b.logged());
-    for vr in [PISTON, TIP, TILT] {
+    for vr in [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT].map(Var::vr) {
         assert_eq!(b.real(vr), a.real(vr));
     }
 }

@@ -11,16 +11,13 @@ use std::sync::Mutex;
 use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{callbacks, categories_of, payload_of, Harness, Log};
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_plant_fmu as fmu;
 
-const DAC_EARTH: u32 = 1;
-const DAC_NONEARTH: u32 = 2;
-const DAC_EXTENSION: u32 = 3;
-const ENCODER_COUNTS: u32 = 10;
-const RUNNER_POSITION: u32 = 12;
-const M_P: u32 = 100;
-const PLAY_RADIUS_2: u32 = 114;
+/// The three DAC inputs: earth, non-earth, extension.
+const DACS: [Var<PlantFmu>; 3] =
+    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
 
 struct Instance {
     c: fmi2Component,
@@ -120,12 +117,15 @@ impl Instance {
                 72..=86 => (0.0, 0.0, 10.0 * y),
                 _ => (0.0, 0.0, 0.0),
             };
-            for (vr, v) in [(DAC_EARTH, e), (DAC_NONEARTH, n), (DAC_EXTENSION, x)] {
-                assert_eq!(self.set_real(vr, v), fmi2OK);
+            for (var, v) in DACS.into_iter().zip([e, n, x]) {
+                assert_eq!(self.set_real(var.vr(), v), fmi2OK);
             }
             let t = (k0 + k - 1) as f64 * 0.002;
             assert_eq!(self.step(t, 0.002), fmi2OK, "doStep at t = {t}: {:?}", self.logged());
-            out.push((self.integer(ENCODER_COUNTS).1, self.real(RUNNER_POSITION).1));
+            out.push((
+                self.integer(PlantFmu::ENCODER_COUNTS.vr()).1,
+                self.real(PlantFmu::RUNNER_POSITION.vr()).1,
+            ));
         }
         out
     }
@@ -140,10 +140,10 @@ impl Drop for Instance {
 #[test]
 fn nan_input_is_refused_and_the_instance_stays_usable() {
     let i = Instance::init("nan");
-    assert_eq!(i.set_real(DAC_EXTENSION, 4.0), fmi2OK);
-    assert_eq!(i.set_real(DAC_EXTENSION, f64::NAN), fmi2Error);
+    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), 4.0), fmi2OK);
+    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), f64::NAN), fmi2Error);
     assert!(
-        i.saw(fmi2Error, &["fmi2SetReal", "dac_extension", "NaN", "keeping 4 V"]),
+        i.saw(fmi2Error, &["fmi2SetReal", PlantFmu::DAC_EXTENSION.name(), "NaN", "keeping 4 V"]),
         "{:?}",
         i.logged()
     );
@@ -152,31 +152,31 @@ fn nan_input_is_refused_and_the_instance_stays_usable() {
         ["3|logStatusError|fmi2SetReal: dac_extension = NaN refused: DAC volts must be finite; keeping 4 V"],
         "the function is named once, then the reason"
     );
-    assert_eq!(i.real(DAC_EXTENSION), (fmi2OK, 4.0), "the last valid value is kept");
-    assert_eq!(i.set_real(DAC_NONEARTH, f64::INFINITY), fmi2Error);
+    assert_eq!(i.real(PlantFmu::DAC_EXTENSION.vr()), (fmi2OK, 4.0), "the last valid value is kept");
+    assert_eq!(i.set_real(PlantFmu::DAC_NONEARTH.vr(), f64::INFINITY), fmi2Error);
     assert_eq!(i.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
-    assert_eq!(i.set_real(DAC_EXTENSION, 5.0), fmi2OK);
+    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), 5.0), fmi2OK);
     assert_eq!(i.step(0.002, 0.002), fmi2OK);
 }
 
 #[test]
 fn out_of_range_volts_are_clamped_with_a_warning() {
     let i = Instance::init("range");
-    assert_eq!(i.set_real(DAC_EARTH, 12.5), fmi2Warning);
+    assert_eq!(i.set_real(PlantFmu::DAC_EARTH.vr(), 12.5), fmi2Warning);
     assert_eq!(
         i.logged(),
         ["1|logStatusWarning|fmi2SetReal: dac_earth = 12.5 V is outside the DAC range 0-10 V, clamped to 10 V"]
     );
-    assert_eq!(i.real(DAC_EARTH), (fmi2OK, 10.0));
-    assert_eq!(i.set_real(DAC_NONEARTH, -0.5), fmi2Warning);
-    assert_eq!(i.real(DAC_NONEARTH), (fmi2OK, 0.0));
+    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()), (fmi2OK, 10.0));
+    assert_eq!(i.set_real(PlantFmu::DAC_NONEARTH.vr(), -0.5), fmi2Warning);
+    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()), (fmi2OK, 0.0));
     // Several values in one call: each stands alone, the call reports the worst.
-    let vrs = [DAC_EARTH, DAC_NONEARTH, DAC_EXTENSION];
+    let vrs = DACS.map(Var::vr);
     let vals = [1.0, f64::NAN, 11.0];
     assert_eq!(unsafe { fmu::fmi2SetReal(i.c, vrs.as_ptr(), 3, vals.as_ptr()) }, fmi2Error);
-    assert_eq!(i.real(DAC_EARTH).1, 1.0);
-    assert_eq!(i.real(DAC_NONEARTH).1, 0.0);
-    assert_eq!(i.real(DAC_EXTENSION).1, 10.0);
+    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()).1, 1.0);
+    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()).1, 0.0);
+    assert_eq!(i.real(PlantFmu::DAC_EXTENSION.vr()).1, 10.0);
 }
 
 /// FMPy's linear interpolation of the inputs hands the plant 10.000000000000002 V for a DAC
@@ -186,18 +186,23 @@ fn out_of_range_volts_are_clamped_with_a_warning() {
 fn volts_a_rounding_past_the_dac_range_are_its_limits_without_a_warning() {
     let i = Instance::init("rounding");
     i.take_logged();
-    let vrs = [DAC_EARTH, DAC_NONEARTH, DAC_EXTENSION];
+    let vrs = DACS.map(Var::vr);
     let vals = [10.000000000000002, -1e-15, 9.999999999999998];
     assert_eq!(unsafe { fmu::fmi2SetReal(i.c, vrs.as_ptr(), 3, vals.as_ptr()) }, fmi2OK);
     assert_eq!(i.logged(), Vec::<String>::new());
-    assert_eq!(i.real(DAC_EARTH).1.to_bits(), 10.0f64.to_bits());
-    assert_eq!(i.real(DAC_NONEARTH).1.to_bits(), 0.0f64.to_bits());
-    assert_eq!(i.real(DAC_EXTENSION).1, 9.999999999999998, "inside the range: as given");
+    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()).1.to_bits(), 10.0f64.to_bits());
+    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()).1.to_bits(), 0.0f64.to_bits());
+    assert_eq!(
+        i.real(PlantFmu::DAC_EXTENSION.vr()).1,
+        9.999999999999998,
+        "inside the range: as given"
+    );
 }
 
 #[test]
 fn bad_parameters_fail_initialization_naming_the_parameter() {
-    for (vr, value, name) in [(M_P, -0.025, "m_p"), (PLAY_RADIUS_2, 5.0, "play_radius[2]")] {
+    for (var, value) in [(PlantFmu::M_P, -0.025), (PlantFmu::PLAY_RADIUS_2, 5.0)] {
+        let (vr, name) = (var.vr(), var.name());
         let i = Instance::new("params");
         assert_eq!(i.setup(), fmi2OK);
         assert_eq!(i.set_real(vr, value), fmi2OK, "validated at initialization, as a whole");
@@ -212,8 +217,8 @@ fn bad_parameters_fail_initialization_naming_the_parameter() {
         assert_eq!(unsafe { fmu::fmi2Reset(i.c) }, fmi2OK, "reset recovers the instance");
     }
     let i = Instance::new("nan-param");
-    assert_eq!(i.set_real(M_P, f64::NAN), fmi2Error);
-    assert!(i.saw(fmi2Error, &["m_p", "finite"]));
+    assert_eq!(i.set_real(PlantFmu::M_P.vr(), f64::NAN), fmi2Error);
+    assert!(i.saw(fmi2Error, &[PlantFmu::M_P.name(), "finite"]));
 }
 
 /// Asserts that every line is a debug (fmi2OK) message and returns the categories seen.
@@ -234,7 +239,7 @@ fn debug_logging_shows_the_plants_brake_events() {
     assert!(events.iter().all(|l| l.contains("brake switch")), "{events:?}");
     assert!(events.iter().any(|l| l.contains("Hold -> Locked")), "{events:?}");
     assert_eq!(i.set_debug_logging(fmi2False, &[]), fmi2OK);
-    assert_eq!(i.set_real(DAC_EARTH, 12.0), fmi2Warning, "warnings still go out");
+    assert_eq!(i.set_real(PlantFmu::DAC_EARTH.vr(), 12.0), fmi2Warning, "warnings still go out");
     assert!(i.take_logged()[0].starts_with("1|logStatusWarning|fmi2SetReal: dac_earth = 12 V"));
 }
 
@@ -336,20 +341,19 @@ fn hex(s: &str) -> Vec<u8> {
 
 #[test]
 fn state_payload_keeps_format_1_byte_for_byte() {
-    const NOISE_SEED: u32 = 132;
     let a = Harness::<PlantFmu>::new("format");
     // In initialization mode, where the restored copy may be read back.
     assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(a.set_real(M_P, 0.03), fmi2OK);
-    assert_eq!(a.set_real(DAC_NONEARTH, 3.5), fmi2OK);
-    assert_eq!(a.set_integer(NOISE_SEED, -7), fmi2OK);
+    assert_eq!(a.set_real(PlantFmu::M_P.vr(), 0.03), fmi2OK);
+    assert_eq!(a.set_real(PlantFmu::DAC_NONEARTH.vr(), 3.5), fmi2OK);
+    assert_eq!(a.set_integer(PlantFmu::NOISE_SEED.vr(), -7), fmi2OK);
     let blob = a.serialize();
     assert_eq!(payload_of::<PlantFmu>(&blob), hex(PLANT_FORMAT_1));
     let b = Harness::<PlantFmu>::new("restored");
     assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
-    assert_eq!(b.real(M_P), (fmi2OK, 0.03));
-    assert_eq!(b.real(DAC_NONEARTH), (fmi2OK, 3.5));
-    assert_eq!(b.integer(NOISE_SEED), (fmi2OK, -7));
+    assert_eq!(b.real(PlantFmu::M_P.vr()), (fmi2OK, 0.03));
+    assert_eq!(b.real(PlantFmu::DAC_NONEARTH.vr()), (fmi2OK, 3.5));
+    assert_eq!(b.integer(PlantFmu::NOISE_SEED.vr()), (fmi2OK, -7));
     assert_eq!(b.serialize(), blob);
 }
 

@@ -7,16 +7,38 @@ use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::entry::Array;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::PlantFmu;
 
 const N: usize = 17;
-const DAC: [u32; 3] = [3, 1, 2]; // extension, earth, non-earth
-const MODE: u32 = 17;
-const DERIVATIVE: u32 = 220;
+const DAC: [Var<PlantFmu>; 3] =
+    [PlantFmu::DAC_EXTENSION, PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH];
 
-/// The value references of the continuous states, from the description.
+/// The continuous states in the order of `inchworm_plant::continuous`, with their
+/// derivatives.
+const STATES: [(Var<PlantFmu>, Var<PlantFmu>); N] = [
+    (PlantFmu::NODE1_DISPLACEMENT, PlantFmu::DER_NODE1_DISPLACEMENT),
+    (PlantFmu::NODE1_VELOCITY, PlantFmu::DER_NODE1_VELOCITY),
+    (PlantFmu::NODE2_DISPLACEMENT, PlantFmu::DER_NODE2_DISPLACEMENT),
+    (PlantFmu::NODE2_VELOCITY, PlantFmu::DER_NODE2_VELOCITY),
+    (PlantFmu::EXTENSION, PlantFmu::DER_EXTENSION),
+    (PlantFmu::NODE3_VELOCITY, PlantFmu::DER_NODE3_VELOCITY),
+    (PlantFmu::RUNNER_POSITION, PlantFmu::DER_RUNNER_POSITION),
+    (PlantFmu::RUNNER_VELOCITY, PlantFmu::DER_RUNNER_VELOCITY),
+    (PlantFmu::BESSEL_EXTENSION, PlantFmu::DER_BESSEL_EXTENSION),
+    (PlantFmu::BESSEL_EXTENSION_RATE, PlantFmu::DER_BESSEL_EXTENSION_RATE),
+    (PlantFmu::VOLTAGE_EXTENSION, PlantFmu::DER_VOLTAGE_EXTENSION),
+    (PlantFmu::BESSEL_EARTH, PlantFmu::DER_BESSEL_EARTH),
+    (PlantFmu::BESSEL_EARTH_RATE, PlantFmu::DER_BESSEL_EARTH_RATE),
+    (PlantFmu::VOLTAGE_EARTH, PlantFmu::DER_VOLTAGE_EARTH),
+    (PlantFmu::BESSEL_NONEARTH, PlantFmu::DER_BESSEL_NONEARTH),
+    (PlantFmu::BESSEL_NONEARTH_RATE, PlantFmu::DER_BESSEL_NONEARTH_RATE),
+    (PlantFmu::VOLTAGE_NONEARTH, PlantFmu::DER_VOLTAGE_NONEARTH),
+];
+
+/// The value references of the continuous states.
 fn states() -> Vec<u32> {
-    vec![200, 201, 202, 203, 13, 204, 12, 205, 206, 207, 16, 208, 209, 14, 210, 211, 15]
+    STATES.iter().map(|(x, _)| x.vr()).collect()
 }
 
 /// A state in HOLD with every mode of the stack and both chains moving.
@@ -29,12 +51,12 @@ fn moving() -> [f64; N] {
 
 fn fd_check<S: Master>() {
     let h = Harness::<PlantFmu, S>::init_me("jacobian");
-    assert_eq!(h.set_reals(&DAC, &[6.0, 3.0, 2.0]), 0);
+    assert_eq!(h.set_reals(&DAC.map(Var::vr), &[6.0, 3.0, 2.0]), 0);
     assert_eq!(h.update().0, 0);
     assert_eq!(h.enter_continuous_time_mode(), 0);
     let x0 = moving();
     assert_eq!(h.set_states(&x0), 0, "{:?}", h.logged());
-    let der: Vec<u32> = (0..N as u32).map(|i| DERIVATIVE + i).collect();
+    let der: Vec<u32> = STATES.iter().map(|(_, d)| d.vr()).collect();
     let f = |x: &[f64; N]| {
         assert_eq!(h.set_states(x), 0);
         let (s, d) = h.array(Array::Derivatives, N);
@@ -69,7 +91,7 @@ fn fd_check<S: Master>() {
         assert_eq!(own, [1.0]);
     }
     assert_eq!(h.set_states(&x0), 0);
-    for vr in DAC {
+    for vr in DAC.map(Var::vr) {
         let (s, column) = h.directional(&der, &[vr], &[1.0]);
         assert_eq!(s, 0);
         let base = h.real(vr).1;
@@ -88,7 +110,7 @@ fn fd_check<S: Master>() {
     );
     assert!(worst < 1e-6, "{worst}");
     assert_eq!(
-        h.directional(&[DERIVATIVE], &[100], &[1.0]).0,
+        h.directional(&[der[0]], &[PlantFmu::M_P.vr()], &[1.0]).0,
         3,
         "no derivative with respect to a parameter"
     );
@@ -111,7 +133,7 @@ fn brake_switch<S: Master>() {
     assert_eq!(h.update().0, 0);
     assert_eq!(h.enter_continuous_time_mode(), 0);
     let mut x = [0.0; N];
-    x[13] = 55.0;
+    x[13] = 55.0; // voltage_earth, STATES[13]
     assert_eq!(h.set_states(&x), 0);
     let (s, z) = h.array(Array::EventIndicators, 5);
     assert_eq!((s, z[0]), (0, 5.0), "earth volts − V_th");
@@ -123,7 +145,7 @@ fn brake_switch<S: Master>() {
         "FREE is a warning: {:?}",
         h.logged()
     );
-    assert_eq!(h.integer(MODE), (0, 4));
+    assert_eq!(h.integer(PlantFmu::MODE.vr()), (0, 4));
 }
 
 #[test]
@@ -146,11 +168,11 @@ fn chattering<S: Master>() {
         assert_eq!(h.enter_continuous_time_mode(), 0);
         assert_eq!(h.set_time(t), 0);
         k += 1;
-        x[16] = if k % 2 == 1 { 50.0 + 1e-6 } else { 50.0 - 1e-6 };
+        x[16] = if k % 2 == 1 { 50.0 + 1e-6 } else { 50.0 - 1e-6 }; // voltage_nonearth
         assert_eq!(h.set_states(&x), 0);
         assert_eq!(h.enter_event_mode(), 0);
         let (s, _, term) = h.update();
-        (s, term, h.integer(MODE).1, k % 2 == 1)
+        (s, term, h.integer(PlantFmu::MODE.vr()).1, k % 2 == 1)
     };
     for i in 0..19_999 {
         let (s, term, mode, above) = chatter(1e-3 + f64::from(i) * 1e-8);

@@ -38,9 +38,9 @@ fn the_radii_and_weights_are_arrays_got_and_set_whole() {
     assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &play_radius, 1, one.as_ptr(), 1) }, ERROR);
     assert!(h.saw(ERROR, &["nValues 1 differs from the 5 values of the 1 value references"]));
     assert_eq!(radii_and_weights(&h, 9).0, ERROR);
-    let element = play_radius + 1;
+    let element = PlantFmu::PLAY_RADIUS_1.element(1).vr();
     assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &element, 1, one.as_ptr(), 1) }, ERROR);
-    assert!(h.saw(ERROR, &["unknown value reference 114"]));
+    assert!(h.saw(ERROR, &[&format!("unknown value reference {element}")]));
     assert_eq!(radii_and_weights(&h, 10).1[..5], radii);
 
     // A NaN element is refused alone, by its element's name; the others are set.

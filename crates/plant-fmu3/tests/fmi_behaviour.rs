@@ -9,19 +9,23 @@ use std::sync::Mutex;
 
 use inchworm_fmi_export::fmi3::ffi::*;
 use inchworm_fmi_export::fmi3::testing::log_callback;
+use inchworm_fmi_export::fmi3::TIME_VR;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{Harness, Log};
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::PlantFmu;
 use inchworm_plant_fmu3 as fmu;
 
-const DAC_EARTH: u32 = 1;
-const DAC_NONEARTH: u32 = 2;
-const DAC_EXTENSION: u32 = 3;
-const ENCODER_COUNTS: u32 = 10;
-const RUNNER_POSITION: u32 = 12;
-const MODE: u32 = 17;
-const TIME: u32 = 0;
 const H: f64 = 0.002;
+/// Every Real output of the plant.
+const REAL_OUTPUTS: [Var<PlantFmu>; 6] = [
+    PlantFmu::ENCODER_POSITION,
+    PlantFmu::RUNNER_POSITION,
+    PlantFmu::EXTENSION,
+    PlantFmu::VOLTAGE_EARTH,
+    PlantFmu::VOLTAGE_NONEARTH,
+    PlantFmu::VOLTAGE_EXTENSION,
+];
 
 /// An instance behind the exported `fmi3*` symbols.
 struct Exported {
@@ -102,18 +106,21 @@ impl Drop for Exported {
 #[test]
 fn a_state_serialized_by_the_fmi2_fmu_restores_in_the_fmi3_fmu() {
     let two = Harness::<PlantFmu>::init("fmi2");
-    assert_eq!(two.set_real(DAC_EXTENSION, 10.0), 0);
+    assert_eq!(two.set_real(PlantFmu::DAC_EXTENSION.vr(), 10.0), 0);
     for k in 0..20 {
         assert_eq!(two.step(k as f64 * H, H), 0);
     }
     let blob = two.serialize();
     let three = Exported::init("from-fmi2");
     assert_eq!(three.deserialize(&blob), fmi3OK, "{:?}", three.log.0.lock().unwrap());
-    assert_eq!(three.real(TIME), (fmi3OK, 20.0 * H));
+    assert_eq!(three.real(TIME_VR), (fmi3OK, 20.0 * H));
     for k in 20..40 {
         assert_eq!(two.step(k as f64 * H, H), 0);
         assert_eq!(three.step(k as f64 * H, H), fmi3OK);
-        assert_eq!(three.real(RUNNER_POSITION).1.to_bits(), two.real(RUNNER_POSITION).1.to_bits());
+        assert_eq!(
+            three.real(PlantFmu::RUNNER_POSITION.vr()).1.to_bits(),
+            two.real(PlantFmu::RUNNER_POSITION.vr()).1.to_bits()
+        );
     }
 }
 
@@ -132,18 +139,28 @@ fn the_passive_check_trace_through_fmi3_equals_fmi2_bit_for_bit() {
     let mut worst = 0;
     for (k, r) in rows.iter().enumerate() {
         let t = k as f64 * H;
-        for (vr, v) in [(DAC_EARTH, r[1]), (DAC_NONEARTH, r[2]), (DAC_EXTENSION, r[3])] {
+        for (var, v) in [
+            (PlantFmu::DAC_EARTH, r[1]),
+            (PlantFmu::DAC_NONEARTH, r[2]),
+            (PlantFmu::DAC_EXTENSION, r[3]),
+        ] {
+            let vr = var.vr();
             assert_eq!((two.set_real(vr, v), three.set_real(vr, v)), (0, fmi3OK));
         }
         assert_eq!((two.step(t, H), three.step(t, H)), (0, fmi3OK));
-        let counts = two.integer(ENCODER_COUNTS);
-        assert_eq!(three.integer(ENCODER_COUNTS), counts, "encoder at sample {k}");
-        assert_eq!(three.integer(MODE), two.integer(MODE), "mode at sample {k}");
-        for vr in 11..=16 {
+        let counts = two.integer(PlantFmu::ENCODER_COUNTS.vr());
+        assert_eq!(three.integer(PlantFmu::ENCODER_COUNTS.vr()), counts, "encoder at sample {k}");
+        assert_eq!(
+            three.integer(PlantFmu::MODE.vr()),
+            two.integer(PlantFmu::MODE.vr()),
+            "mode at sample {k}"
+        );
+        for var in REAL_OUTPUTS {
             assert_eq!(
-                three.real(vr).1.to_bits(),
-                two.real(vr).1.to_bits(),
-                "vr {vr} at sample {k}"
+                three.real(var.vr()).1.to_bits(),
+                two.real(var.vr()).1.to_bits(),
+                "{} at sample {k}",
+                var.name()
             );
         }
         worst = worst.max((counts.1 - r[4] as i32).abs());

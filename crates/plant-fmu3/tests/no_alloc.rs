@@ -7,21 +7,31 @@
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
+use inchworm_fmi_export::Var;
 use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
 #[path = "../../../tests/support/counting_alloc.rs"]
 mod counting_alloc;
 use counting_alloc::allocations;
 
-const PLANT_DAC: [u32; 3] = [1, 2, 3];
-const OUTPUTS: [u32; 6] = [11, 12, 13, 14, 15, 16];
-const PLANT_COUNTS: u32 = 10;
-const PLANT_K_P: u32 = 101;
+const PLANT_DAC: [Var<PlantFmu>; 3] =
+    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
+/// The plant's Real outputs.
+const OUTPUTS: [Var<PlantFmu>; 6] = [
+    PlantFmu::ENCODER_POSITION,
+    PlantFmu::RUNNER_POSITION,
+    PlantFmu::EXTENSION,
+    PlantFmu::VOLTAGE_EARTH,
+    PlantFmu::VOLTAGE_NONEARTH,
+    PlantFmu::VOLTAGE_EXTENSION,
+];
 const H: f64 = 0.002;
 
 /// Forward gaits, sample by sample: the allocations counted in each kind of call.
 fn plant<S: Master>() -> [u64; 3] {
     let h = Harness::<PlantFmu, S>::init("alloc");
+    let (dac, outputs) = (PLANT_DAC.map(Var::vr), OUTPUTS.map(Var::vr));
+    let (counts, k_p) = (PlantFmu::ENCODER_COUNTS.vr(), PlantFmu::K_P.vr());
     let mut counted = [0u64; 3];
     for k in 0..2000usize {
         let v = match k % 100 {
@@ -35,16 +45,16 @@ fn plant<S: Master>() -> [u64; 3] {
         };
         let warm = k >= 200;
         let before = allocations();
-        assert_eq!(h.set_reals(&PLANT_DAC, &v), 0);
+        assert_eq!(h.set_reals(&dac, &v), 0);
         let set = allocations();
         assert_eq!(h.step(k as f64 * H, H), 0);
         let step = allocations();
-        for vr in OUTPUTS {
+        for vr in outputs {
             assert_eq!(h.real(vr).0, 0);
         }
-        assert_eq!(h.integer(PLANT_COUNTS).0, 0);
+        assert_eq!(h.integer(counts).0, 0);
         // A parameter too: it is read through a copy of the parameter set.
-        assert_eq!(h.real(PLANT_K_P), (0, 3.0e7));
+        assert_eq!(h.real(k_p), (0, 3.0e7));
         let get = allocations();
         if warm {
             counted[0] += set - before;
@@ -52,49 +62,54 @@ fn plant<S: Master>() -> [u64; 3] {
             counted[2] += get - step;
         }
     }
-    assert_ne!(h.integer(PLANT_COUNTS).1, 0, "the runner moved");
+    assert_ne!(h.integer(counts).1, 0, "the runner moved");
     assert!(h.logged().is_empty());
     counted
 }
 
-const ENCODER_COUNTS: u32 = 1;
-const REFERENCE: u32 = 2;
-const DAC: [u32; 3] = [10, 11, 12];
-const CODES: [u32; 3] = [13, 14, 15];
-const N_STEPS: u32 = 20;
-const PREFILTER: u32 = 101;
-const DEADBAND: u32 = 104;
-const SAMPLES_PER_STEP: u32 = 105;
+const DAC: [Var<ControllerFmu>; 3] =
+    [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION];
+const CODES: [Var<ControllerFmu>; 3] = [
+    ControllerFmu::DAC_EARTH_CODE,
+    ControllerFmu::DAC_NONEARTH_CODE,
+    ControllerFmu::DAC_EXTENSION_CODE,
+];
 
 /// A synthetic encoder moving 2 nm per powered extension sample: the allocations counted
 /// in each kind of call.
 fn controller<S: Master>() -> [u64; 3] {
     let h = Harness::<ControllerFmu, S>::init("alloc");
+    let (encoder_counts, reference_vr) =
+        (ControllerFmu::ENCODER_COUNTS.vr(), ControllerFmu::REFERENCE.vr());
+    let (dac_vrs, codes) = (DAC.map(Var::vr), CODES.map(Var::vr));
+    let (n_steps, prefilter) = (ControllerFmu::N_STEPS.vr(), ControllerFmu::PREFILTER.vr());
+    let (deadband, samples_per_step) =
+        (ControllerFmu::DEADBAND.vr(), ControllerFmu::SAMPLES_PER_STEP.vr());
     let mut counted = [0u64; 3];
     let (mut counts, mut moves) = (0, 0);
     for k in 0..3000usize {
         let reference = if k < 1500 { 60e-6 } else { -20e-6 };
         let warm = k >= 200;
         let before = allocations();
-        assert_eq!(h.set_real(REFERENCE, reference), 0);
-        assert_eq!(h.set_integer(ENCODER_COUNTS, counts), 0);
+        assert_eq!(h.set_real(reference_vr, reference), 0);
+        assert_eq!(h.set_integer(encoder_counts, counts), 0);
         let set = allocations();
         assert_eq!(h.step(k as f64 * H, H), 0);
         let step = allocations();
         let mut dac = [0.0; 3];
-        for (vr, v) in DAC.iter().zip(&mut dac) {
+        for (vr, v) in dac_vrs.iter().zip(&mut dac) {
             let (status, value) = h.real(*vr);
             assert_eq!(status, 0);
             *v = value;
         }
-        for vr in CODES {
+        for vr in codes {
             assert_eq!(h.integer(vr).0, 0);
         }
         // Parameters of each type, read through a copy of the parameters.
-        assert_eq!(h.real(DEADBAND), (0, 0.0));
-        assert_eq!(h.integer(SAMPLES_PER_STEP), (0, 100));
-        assert_eq!(h.boolean(PREFILTER), (0, false));
-        moves = moves.max(h.integer(N_STEPS).1);
+        assert_eq!(h.real(deadband), (0, 0.0));
+        assert_eq!(h.integer(samples_per_step), (0, 100));
+        assert_eq!(h.boolean(prefilter), (0, false));
+        moves = moves.max(h.integer(n_steps).1);
         let get = allocations();
         counts += if dac[2] > 5.0 { 2 } else { -1 } * i32::from(dac[1] > 5.0);
         if warm {

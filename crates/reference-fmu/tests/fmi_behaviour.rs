@@ -10,19 +10,12 @@ use inchworm_fmu_models::ReferenceFmu;
 
 type H = Harness<ReferenceFmu>;
 
-const REFERENCE: u32 = 1;
-const PROFILE: u32 = 100;
-const N_POINTS: u32 = 101;
-const RAMP_TIME: u32 = 102;
-const TIMES: u32 = 200;
-const POSITIONS: u32 = 300;
-
 /// The output at every communication point k h, k = 0..=n (the first read before any step).
 fn trace(h: &H, step: f64, n: usize) -> Vec<f64> {
-    let mut out = vec![h.real(REFERENCE).1];
+    let mut out = vec![h.real(ReferenceFmu::REFERENCE.vr()).1];
     for k in 0..n {
         assert_eq!(h.step(k as f64 * step, step), fmi2OK, "{:?}", h.logged());
-        out.push(h.real(REFERENCE).1);
+        out.push(h.real(ReferenceFmu::REFERENCE.vr()).1);
     }
     out
 }
@@ -31,12 +24,12 @@ fn trace(h: &H, step: f64, n: usize) -> Vec<f64> {
 fn table(points: &[(f64, f64)], ramp: f64) -> H {
     let h = H::new("table");
     assert_eq!((h.setup(), h.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(h.set_integer(N_POINTS, points.len() as i32), fmi2OK);
+    assert_eq!(h.set_integer(ReferenceFmu::N_POINTS.vr(), points.len() as i32), fmi2OK);
     for (i, (t, p)) in points.iter().enumerate() {
-        assert_eq!(h.set_real(TIMES + i as u32, *t), fmi2OK);
-        assert_eq!(h.set_real(POSITIONS + i as u32, *p), fmi2OK);
+        assert_eq!(h.set_real(ReferenceFmu::TIMES_1.element(i).vr(), *t), fmi2OK);
+        assert_eq!(h.set_real(ReferenceFmu::POSITIONS_1.element(i).vr(), *p), fmi2OK);
     }
-    assert_eq!(h.set_real(RAMP_TIME, ramp), fmi2OK);
+    assert_eq!(h.set_real(ReferenceFmu::RAMP_TIME.vr(), ramp), fmi2OK);
     assert_eq!(h.exit(), fmi2OK, "{:?}", h.logged());
     h
 }
@@ -49,7 +42,7 @@ fn default_is_the_fig5_step_from_t0() {
     // Any step size: the reference has no sample period of its own.
     let h = H::init("any step");
     assert_eq!(h.step(0.0, 0.0015), fmi2OK);
-    assert_eq!(h.real(REFERENCE), (fmi2OK, 100e-6));
+    assert_eq!(h.real(ReferenceFmu::REFERENCE.vr()), (fmi2OK, 100e-6));
 }
 
 #[test]
@@ -80,37 +73,54 @@ fn a_table_is_held_piecewise_constant_and_ramps_when_asked() {
 fn named_profiles() {
     let h = H::new("staircase");
     assert_eq!((h.setup(), h.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(h.set_integer(PROFILE, 2), fmi2OK);
+    assert_eq!(h.set_integer(ReferenceFmu::PROFILE.vr(), 2), fmi2OK);
     assert_eq!(h.exit(), fmi2OK);
     let mut t = 0.0;
     for (k, um) in STAIRCASE_UM.iter().enumerate() {
         // Step to just inside the level, then to its end.
         let start = k as f64 * 100.0;
         assert_eq!(h.step(t, start + 1.0 - t), fmi2OK);
-        assert_eq!(h.real(REFERENCE).1, um * 1e-6, "level {k}");
+        assert_eq!(h.real(ReferenceFmu::REFERENCE.vr()).1, um * 1e-6, "level {k}");
         t = start + 1.0;
     }
     let h = H::new("step");
     assert_eq!((h.setup(), h.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(h.set_real(POSITIONS, 5e-6), fmi2OK);
-    assert_eq!(h.set_integer(PROFILE, 1), fmi2OK);
+    assert_eq!(h.set_real(ReferenceFmu::POSITIONS_1.vr(), 5e-6), fmi2OK);
+    assert_eq!(h.set_integer(ReferenceFmu::PROFILE.vr(), 1), fmi2OK);
     assert_eq!(h.exit(), fmi2OK);
-    assert_eq!(h.real(REFERENCE), (fmi2OK, 100e-6), "profile 1 ignores the table");
+    assert_eq!(
+        h.real(ReferenceFmu::REFERENCE.vr()),
+        (fmi2OK, 100e-6),
+        "profile 1 ignores the table"
+    );
 }
 
 #[test]
 fn bad_parameters_are_refused_with_a_message() {
     for (what, set) in [
-        ("n_points", Box::new(|h: &H| h.set_integer(N_POINTS, 0)) as Box<dyn Fn(&H) -> fmi2Status>),
-        ("n_points", Box::new(|h: &H| h.set_integer(N_POINTS, MAX_POINTS as i32 + 1))),
-        ("profile", Box::new(|h: &H| h.set_integer(PROFILE, 7))),
-        ("ramp_time", Box::new(|h: &H| h.set_real(RAMP_TIME, -1.0))),
         (
-            "times[2]",
+            ReferenceFmu::N_POINTS.name(),
+            Box::new(|h: &H| h.set_integer(ReferenceFmu::N_POINTS.vr(), 0))
+                as Box<dyn Fn(&H) -> fmi2Status>,
+        ),
+        (
+            ReferenceFmu::N_POINTS.name(),
+            Box::new(|h: &H| h.set_integer(ReferenceFmu::N_POINTS.vr(), MAX_POINTS as i32 + 1)),
+        ),
+        (
+            ReferenceFmu::PROFILE.name(),
+            Box::new(|h: &H| h.set_integer(ReferenceFmu::PROFILE.vr(), 7)),
+        ),
+        (
+            ReferenceFmu::RAMP_TIME.name(),
+            Box::new(|h: &H| h.set_real(ReferenceFmu::RAMP_TIME.vr(), -1.0)),
+        ),
+        (
+            ReferenceFmu::TIMES_1.element(1).name(),
             Box::new(|h: &H| {
-                h.set_integer(N_POINTS, 2);
-                h.set_real(TIMES, 1.0);
-                h.set_real(TIMES + 1, 0.5)
+                h.set_integer(ReferenceFmu::N_POINTS.vr(), 2);
+                h.set_real(ReferenceFmu::TIMES_1.vr(), 1.0);
+                h.set_real(ReferenceFmu::TIMES_1.element(1).vr(), 0.5)
             }),
         ),
     ] {
@@ -125,14 +135,18 @@ fn bad_parameters_are_refused_with_a_message() {
         );
     }
     let h = H::init("inputs");
-    assert_eq!(h.set_real(REFERENCE, 1.0), fmi2Error, "the output cannot be set");
-    assert_eq!(h.set_real(TIMES, f64::NAN), fmi2Error);
     assert_eq!(
-        h.set_integer(N_POINTS, 3),
+        h.set_real(ReferenceFmu::REFERENCE.vr(), 1.0),
+        fmi2Error,
+        "the output cannot be set"
+    );
+    assert_eq!(h.set_real(ReferenceFmu::TIMES_1.vr(), f64::NAN), fmi2Error);
+    assert_eq!(
+        h.set_integer(ReferenceFmu::N_POINTS.vr(), 3),
         fmi2Error,
         "fixed parameters cannot change after initialization"
     );
-    assert_eq!(h.real(999).0, fmi2Error);
+    assert_eq!(h.real(999).0, fmi2Error, "999 is no variable's value reference");
 }
 
 #[test]
@@ -143,7 +157,7 @@ fn state_round_trips_replay_bit_for_bit() {
     let bytes = a.serialize();
     let next = |h: &H| {
         (100..600)
-            .map(|k| (h.step(k as f64 * 0.002, 0.002), h.real(REFERENCE).1))
+            .map(|k| (h.step(k as f64 * 0.002, 0.002), h.real(ReferenceFmu::REFERENCE.vr()).1))
             .collect::<Vec<_>>()
     };
     let first = next(&a);
