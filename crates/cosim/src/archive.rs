@@ -59,9 +59,10 @@ fn dir_bytes(dir: &Path) -> u64 {
     total
 }
 
-/// Bytes the zip at `path` inflates to, counted by inflating it (the sizes an archive
-/// declares are not to be trusted) and stopping past `budget`: `None` once more. A file
-/// that is not a zip counts 0: its loader refuses it with its own message.
+/// Bytes the FMU at `path` unpacks to (the entries a run needs,
+/// [`fmu_archive::is_run_entry`]), counted by inflating them (the sizes an archive declares
+/// are not to be trusted) and stopping past `budget`: `None` once more. A file that is not
+/// a zip counts 0: its loader refuses it with its own message.
 fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
     let Ok(file) = std::fs::File::open(path) else { return Ok(Some(0)) };
     let Ok(mut zip) = zip::ZipArchive::new(std::io::BufReader::new(file)) else {
@@ -69,6 +70,10 @@ fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
     };
     let mut total = 0u64;
     for i in 0..zip.len() {
+        let needed = zip.name_for_index(i).and_then(fmu_archive::safe_relative);
+        if !needed.is_some_and(|rel| fmu_archive::is_run_entry(&rel)) {
+            continue;
+        }
         let Ok(entry) = zip.by_index(i) else { return Ok(Some(total)) };
         let left = budget - total;
         let n = std::io::copy(&mut std::io::Read::take(entry, left + 1), &mut std::io::sink())

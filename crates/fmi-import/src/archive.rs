@@ -107,6 +107,27 @@ fn too_big(what: String, env: &str, limit: u64) -> ImportError {
     ImportError::Limit(format!("{what} (limit {limit} bytes; raise it with {env})"))
 }
 
+/// Whether an FMU's entry (its path inside the archive, made safe by [`safe_relative`]) is
+/// one a run needs: `modelDescription.xml`, `resources/` (the files the FMU may read at
+/// run time) and the folders of this host's library under either standard's name
+/// (`binaries/linux64/` and `binaries/x86_64-linux/` on 64-bit Linux; which one is used is
+/// the description's to say). The other platforms' libraries, `documentation/`, `sources/`
+/// and `extra/` stay in the archive: no run reads them, and a five-platform FMU's other
+/// four libraries are most of its bytes.
+pub fn is_run_entry(rel: &Path) -> bool {
+    let mut parts = rel.components().map(|c| c.as_os_str());
+    match parts.next().and_then(|p| p.to_str()) {
+        Some("modelDescription.xml") => parts.next().is_none(),
+        Some("resources") => true,
+        Some("binaries") => {
+            let folder = parts.next().and_then(|p| p.to_str());
+            let host = inchworm_fmi_abi::platform::host();
+            folder.is_some_and(|f| host.is_some_and(|h| h.fmi2 == Some(f) || h.fmi3 == f))
+        }
+        _ => false,
+    }
+}
+
 /// Unpacks every entry of `zip` into `dir`, refusing names that leave it and stopping at
 /// the first cap passed; regular files only (a symbolic-link entry becomes a plain file
 /// holding its target's name, so nothing unpacked points outside `dir`).
@@ -114,6 +135,19 @@ pub fn extract<R: Read + Seek>(
     zip: &mut zip::ZipArchive<R>,
     dir: &Path,
     limits: &Limits,
+) -> Result<(), ImportError> {
+    extract_where(zip, dir, limits, |_| true)
+}
+
+/// [`extract`] of the entries `keep` accepts (by their safe relative path). Every name is
+/// checked all the same, and the entry cap counts the whole archive. A skipped entry under
+/// `binaries/` leaves its platform folder, empty, so that an FMU without this host's
+/// library is refused with the platforms it does carry.
+pub fn extract_where<R: Read + Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    dir: &Path,
+    limits: &Limits,
+    keep: impl Fn(&Path) -> bool,
 ) -> Result<(), ImportError> {
     if zip.len() as u64 > limits.entries {
         return Err(ImportError::Limit(format!(
@@ -136,9 +170,19 @@ pub fn extract<R: Read + Seek>(
         if rel.as_os_str().is_empty() {
             continue;
         }
-        let target = dir.join(&rel);
         let io_err =
             |source: io::Error| ImportError::Io { what: format!("cannot unpack `{name}`"), source };
+        if !keep(&rel) {
+            let mut parts = rel.components();
+            if let (Some(top), Some(platform)) = (parts.next(), parts.next()) {
+                if top.as_os_str() == "binaries" && (parts.next().is_some() || entry.is_dir()) {
+                    let folder = Path::new(top.as_os_str()).join(platform.as_os_str());
+                    fs::create_dir_all(dir.join(folder)).map_err(io_err)?;
+                }
+            }
+            continue;
+        }
+        let target = dir.join(&rel);
         if entry.is_dir() {
             fs::create_dir_all(&target).map_err(io_err)?;
             continue;
@@ -182,8 +226,9 @@ pub fn extract<R: Read + Seek>(
     Ok(())
 }
 
-/// Unpacks the FMU at `path` within [`Limits::from_env`]; fails if it is not a zip, has an
-/// entry pointing outside the directory, passes a cap, or lacks `modelDescription.xml`.
+/// Unpacks what a run of the FMU at `path` needs ([`is_run_entry`]) within
+/// [`Limits::from_env`]; fails if it is not a zip, has an entry pointing outside the
+/// directory, passes a cap, or lacks `modelDescription.xml`.
 pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
     unpack_with(path, &Limits::from_env()?)
 }
@@ -193,7 +238,7 @@ pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError
     let mut zip = open_zip(path)?;
     description_index(&mut zip)?;
     let dir = temp_dir("inchworm-fmu-")?;
-    extract(&mut zip, dir.path(), limits)?;
+    extract_where(&mut zip, dir.path(), limits, is_run_entry)?;
     let md = fs::read(dir.path().join("modelDescription.xml"))
         .map_err(|_| ImportError::NoModelDescription)?;
     Ok(Unpacked { dir, model_description: description_text(&md)? })
