@@ -1,5 +1,8 @@
-//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop; and the
-//! bounded, confined unpacking both FMUs and the master's SSP archives go through.
+//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop, or into
+//! the [`cache`] of unpacked FMUs when a program turns it on; and the bounded, confined
+//! unpacking both FMUs and the master's SSP archives go through.
+
+pub mod cache;
 
 use std::fs;
 use std::io::{self, Read, Seek};
@@ -62,17 +65,34 @@ pub fn env_cap(name: &'static str, default: u64) -> Result<u64, ImportError> {
 }
 
 /// An unpacked FMU: the directory and the text of its `modelDescription.xml`. Dropping it
-/// deletes the directory.
+/// deletes a temporary directory, and releases a cache entry for another load.
 #[derive(Debug)]
 pub struct Unpacked {
-    dir: tempfile::TempDir,
+    dir: Dir,
     pub(crate) model_description: String,
+}
+
+/// Where an FMU was unpacked.
+#[derive(Debug)]
+enum Dir {
+    /// A fresh temporary directory of its own.
+    Temp(tempfile::TempDir),
+    /// An entry of the [`cache`].
+    Cached(cache::InUse),
 }
 
 impl Unpacked {
     /// The directory the archive was unpacked into.
     pub fn dir(&self) -> &Path {
-        self.dir.path()
+        match &self.dir {
+            Dir::Temp(d) => d.path(),
+            Dir::Cached(entry) => entry.dir(),
+        }
+    }
+
+    /// Whether the directory is an entry of the [`cache`] (kept after the run).
+    pub fn is_cached(&self) -> bool {
+        matches!(self.dir, Dir::Cached(_))
     }
 }
 
@@ -227,21 +247,34 @@ pub fn extract_where<R: Read + Seek>(
 }
 
 /// Unpacks what a run of the FMU at `path` needs ([`is_run_entry`]) within
-/// [`Limits::from_env`]; fails if it is not a zip, has an entry pointing outside the
-/// directory, passes a cap, or lacks `modelDescription.xml`.
+/// [`Limits::from_env`], through the [`cache`] if it is on; fails if it is not a zip, has
+/// an entry pointing outside the directory, passes a cap, or lacks `modelDescription.xml`.
 pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
-    unpack_with(path, &Limits::from_env()?)
+    let limits = Limits::from_env()?;
+    match cache::root() {
+        Some(root) => cache::unpack_cached(path, &root, &limits),
+        None => unpack_with(path, &limits),
+    }
 }
 
-/// [`unpack`] within `limits`.
+/// [`unpack`] within `limits`, into a temporary directory of its own.
 pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError> {
     let mut zip = open_zip(path)?;
     description_index(&mut zip)?;
+    unpack_zip(&mut zip, limits)
+}
+
+/// What a run needs of `zip`, whose `modelDescription.xml` is known to be at its root,
+/// unpacked within `limits` into a temporary directory of its own.
+fn unpack_zip<R: Read + Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    limits: &Limits,
+) -> Result<Unpacked, ImportError> {
     let dir = temp_dir("inchworm-fmu-")?;
-    extract_where(&mut zip, dir.path(), limits, is_run_entry)?;
+    extract_where(zip, dir.path(), limits, is_run_entry)?;
     let md = fs::read(dir.path().join("modelDescription.xml"))
         .map_err(|_| ImportError::NoModelDescription)?;
-    Ok(Unpacked { dir, model_description: description_text(&md)? })
+    Ok(Unpacked { dir: Dir::Temp(dir), model_description: description_text(&md)? })
 }
 
 /// The text of the `modelDescription.xml` of the FMU at `path`, read from the archive
