@@ -1,16 +1,18 @@
 //! `cargo bench -p inchworm --bench closed_loop`: the closed loop over 600 s of the
-//! Figs. 6–7 staircase (prefilter on, 2 ms Jacobi), four ways in this one run:
+//! Figs. 6–7 staircase (prefilter on, 2 ms Jacobi), five ways in this one run:
 //!
 //! * the Rust master stepping both FMUs (the loop of `inchworm run` on
 //!   dist/InchwormSystemOpen.ssp, its rows streamed to a sink);
 //! * the crates coupled directly (no FMI), recording the scenario's full row every step;
+//! * a plain Jacobi loop in C on the same FMUs' FMI 2.0 libraries (`benches/fmu_jacobi.c`,
+//!   compiled here with the system `cc`): the FMUs through the bare C API, no master;
 //! * a plain Jacobi loop in FMPy on the same FMUs (`benches/fmpy_jacobi.py`, through the
 //!   repository's `.venv/bin/python`; skipped, with the reason printed, without it);
 //! * a speed anchor in C (`benches/rk4_anchor.c`, compiled here with the system `cc`):
 //!   fixed-step RK4 of the plant's quiet 14-state linear system alone, checked against
 //!   its exact propagation.
 //!
-//! The master and FMPy loops are timed from the first step to the last, their systems
+//! The master, C and FMPy loops are timed from the first step to the last, their systems
 //! loaded and initialised before (the master's set-up time is printed apart); the direct
 //! coupling builds its two structs inside its time, which is nothing beside 600 s of steps.
 //!
@@ -159,6 +161,85 @@ fn fmpy(root: &Path, dist: &Path) -> Result<Timed, String> {
     }
 }
 
+/// The C Jacobi loop (`benches/fmu_jacobi.c`, compiled here with the system `cc`): the
+/// same FMUs' FMI 2.0 libraries stepped by a plain loop in C, no master between; the
+/// FMUs unpacked into temporary folders first (removed when this returns).
+fn c_jacobi(root: &Path, dist: &Path) -> Result<Timed, String> {
+    use inchworm_fmi_import::archive;
+    use inchworm_fmi_import::{ModelDescription, VarType};
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fmu_jacobi");
+    let cc = Command::new("cc")
+        .args(["-O2", "-std=c99", "-o"])
+        .arg(&exe)
+        .arg(root.join("benches/fmu_jacobi.c"))
+        .arg("-ldl")
+        .output()
+        .map_err(|e| format!("cc: {e}"))?;
+    if !cc.status.success() {
+        return Err(format!("cc failed: {}", String::from_utf8_lossy(&cc.stderr)));
+    }
+    // This host's FMI 2.0 platform folder and library extension (`linux64`, `so`).
+    let (folder, ext) = inchworm_fmi_import::fmi2_platform();
+    let mut input = String::new();
+    let mut unpacked = Vec::new();
+    let mut descriptions = Vec::new();
+    for name in ["InchwormPlant.fmu", "InchwormController.fmu"] {
+        let path = dist.join(name);
+        let text = archive::read_description(&path).map_err(|e| format!("{name}: {e}"))?;
+        let md = ModelDescription::parse(&text).map_err(|e| format!("{name}: {e}"))?;
+        let id = &md.co_simulation.as_ref().ok_or("no Co-Simulation")?.model_identifier;
+        let u = archive::unpack_with(&path, &archive::Limits::DEFAULT)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let lib = u.dir().join("binaries").join(folder).join(format!("{id}.{ext}"));
+        let resources = u.dir().join("resources");
+        input += &format!("{}\n{}\nfile://{}\n", lib.display(), md.guid, resources.display());
+        unpacked.push(u);
+        descriptions.push(md);
+    }
+    let vr = |md: &ModelDescription, name: &str, ty: VarType| -> Result<u32, String> {
+        match md.variable(name) {
+            Some(v) if v.ty == ty => Ok(v.vr),
+            _ => Err(format!("{}: no {ty} variable {name}", md.model_name)),
+        }
+    };
+    let (plant, ctrl) = (&descriptions[0], &descriptions[1]);
+    let dac = ["dac_earth", "dac_nonearth", "dac_extension"];
+    for n in dac {
+        input += &format!("{}\n", vr(plant, n, VarType::Real)?);
+    }
+    input += &format!("{}\n", vr(plant, "encoder_counts", VarType::Integer)?);
+    for n in dac {
+        input += &format!("{}\n", vr(ctrl, n, VarType::Real)?);
+    }
+    input += &format!("{}\n", vr(ctrl, "encoder_counts", VarType::Integer)?);
+    input += &format!("{}\n", vr(ctrl, "reference", VarType::Real)?);
+    input += &format!("{}\n", vr(ctrl, "prefilter", VarType::Boolean)?);
+    input += &format!("{DURATION}\n");
+    let mut child = Command::new(&exe)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{}: {e}", exe.display()))?;
+    child.stdin.take().expect("piped").write_all(input.as_bytes()).map_err(|e| e.to_string())?;
+    let out = child.wait_with_output().map_err(|e| e.to_string())?;
+    let v: Vec<f64> = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    match v[..] {
+        [wall, cpu, count] if out.status.success() => {
+            Ok(Timed { wall, cpu, sim_s: DURATION, final_count: Some(count as i64) })
+        }
+        _ => Err(format!(
+            "{} failed ({}): {}",
+            exe.display(),
+            out.status,
+            String::from_utf8_lossy(&out.stderr).trim()
+        )),
+    }
+}
+
 /// The C anchor: its times for `RK4_SECONDS` of the quiet plant and the largest deviation
 /// of its end state from the exact propagation, relative to the state's size.
 fn anchor(root: &Path) -> Result<(Timed, f64), String> {
@@ -257,6 +338,7 @@ fn main() {
         keep_best(&mut coupled, Timed::of(DURATION, || direct_loop(&s, &controller, DURATION)));
     }
     let (master, coupled) = (master.expect("runs"), coupled.expect("runs"));
+    let c_loop = c_jacobi(root, &dist);
     let fmpy = fmpy(root, &dist);
     let anchor = anchor(root);
     let load_after = load_average();
@@ -270,6 +352,10 @@ fn main() {
         &format!("{}; loading and initialising apart: {:.1} ms wall", count(&master), setup * 1e3),
     );
     coupled.print("crates coupled directly (no FMI)", &count(&coupled));
+    match &c_loop {
+        Ok(c) => c.print("C Jacobi loop, same FMUs", &count(c)),
+        Err(why) => println!("  C Jacobi loop: not run: {why}"),
+    }
     match &fmpy {
         Ok(f) => f.print("FMPy Jacobi loop, same FMUs", &count(f)),
         Err(why) => println!("  FMPy Jacobi loop: not run: {why}"),
@@ -285,13 +371,23 @@ fn main() {
     }
     println!("ratios (CPU time; wall time in brackets):");
     println!(
-        "  master: {:.0}x real time, {:.2} of the 2000x target; {:.2} us per step more than the direct coupling, {:.2}x its time ({:.2}x)",
+        "  master: {:.0}x real time, {:.2} of the 5000x target; {:.2} us per step more than the direct coupling, {:.2}x its time ({:.2}x)",
         master.speed(),
-        master.speed() / 2000.0,
+        master.speed() / 5000.0,
         (master.cpu - coupled.cpu) / (DURATION / H) * 1e6,
         master.cpu / coupled.cpu,
         master.wall / coupled.wall
     );
+    if let Ok(c) = &c_loop {
+        println!(
+            "  master vs the C Jacobi loop: {:.2}x its time ({:.2}x), {:+.3} us per step; C loop: {:.0}x real time, {:.2} of the 5000x target",
+            master.cpu / c.cpu,
+            master.wall / c.wall,
+            (master.cpu - c.cpu) / (DURATION / H) * 1e6,
+            c.speed(),
+            c.speed() / 5000.0
+        );
+    }
     if let Ok(f) = &fmpy {
         println!(
             "  master vs the FMPy loop: {:.1}x faster ({:.1}x), target 15x",
@@ -301,15 +397,25 @@ fn main() {
     }
     if let Ok((a, _)) = &anchor {
         println!(
-            "  master (both FMUs, events and all) vs the C RK4 of the quiet plant alone: {:.1}x faster per simulated second ({:.1}x)",
+            "  master (both FMUs, events and all) vs the C RK4 of the quiet plant alone: {:.1}x faster per simulated second ({:.1}x); target 100x (a master step at most 0.01 of the anchor's)",
             master.speed() / a.speed(),
             (a.wall / a.sim_s) / (master.wall / master.sim_s)
         );
+        if let Ok(c) = &c_loop {
+            println!(
+                "  C Jacobi loop vs the C RK4 anchor: {:.1}x faster per simulated second ({:.1}x)",
+                c.speed() / a.speed(),
+                (a.wall / a.sim_s) / (c.wall / c.sim_s)
+            );
+        }
     }
     println!("machine load average (1, 5, 15 min): {load_before} before, {load_after} after");
 
     if let Ok(f) = &fmpy {
         assert_eq!(f.final_count, master.final_count, "FMPy and the Rust master disagree");
+    }
+    if let Ok(c) = &c_loop {
+        assert_eq!(c.final_count, master.final_count, "the C loop and the Rust master disagree");
     }
     assert_eq!(
         master.final_count, coupled.final_count,

@@ -102,6 +102,11 @@ fn main() -> ExitCode {
         eprintln!("error: internal error (a bug in inchworm, please report it): {what}{at}");
     }));
     let cli = Cli::parse();
+    // Every run of this process takes its FMUs' unpacked files from the cache of unpacked
+    // FMUs (docs/ssp.md, Temporary folders and the FMU cache).
+    inchworm_cosim::fmu::archive::cache::set_root(
+        inchworm_cosim::fmu::archive::cache::default_root(),
+    );
     let level = match &cli.command {
         Command::Gait(args) if args.fmi_logging => log::LevelFilter::Info,
         Command::Bridge(_) => log::LevelFilter::Info,

@@ -163,11 +163,13 @@ fn scratch(tag: &str) -> PathBuf {
     d
 }
 
-/// `inchworm run FMU ARGS…` with TMPDIR at `dir/tmp`, writing into `dir`.
+/// `inchworm run FMU ARGS…` with TMPDIR at `dir/tmp`, writing into `dir`. The FMU cache
+/// is off: these runs unpack into TMPDIR, whose folders the tests watch (the cache's runs
+/// are tests/run_cache.rs's).
 fn inchworm_run(dir: &Path, fmu: &Path, args: &[&str]) -> Command {
     let mut c = Command::new(BIN);
     c.arg("run").arg(fmu).arg("--out").arg(dir.join("out.csv")).args(args);
-    c.env("TMPDIR", dir.join("tmp"));
+    c.env("TMPDIR", dir.join("tmp")).env("INCHWORM_FMU_CACHE", "off");
     c
 }
 

@@ -159,9 +159,11 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     }
     let stop = signals::stop_on_signals();
     let interfaces = args.interfaces()?;
+    let load = Instant::now();
     let sim = master::System::load_as(&args.file, &interfaces).text()?;
     signals::interrupted()?;
     let sim = sim.initialise(&opts).text()?.stop_when(stop);
+    let load_s = load.elapsed().as_secs_f64();
     let names = sim.record_names().to_vec();
     let out = &args.out;
     let io = |e: std::io::Error| format!("{}: {e}", out.display());
@@ -170,11 +172,12 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let mut sample = args.plot.as_ref().map(|_| Decimated::new(names.clone(), PLOT_POINTS));
     let show = std::io::stderr().is_terminal();
     let mut shown = 0;
+    let mut rows_text = trace::RowWriter::new();
     let (mut rows, mut end) = (0u64, 0.0);
     let wall = Instant::now();
     let ran = sim.run_into(
         |t, row| {
-            trace::write_row(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
+            rows_text.write(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
             if let Some(s) = &mut sample {
                 s.push(t, row);
             }
@@ -208,19 +211,14 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
         }
     };
     flushed?;
+    let loop_s = wall.elapsed().as_secs_f64();
     println!("wrote {}", out.display());
-    let wall = wall.elapsed().as_secs_f64();
     if let (Some(png), Some(sample)) = (&args.plot, sample) {
         let title = format!("inchworm run {}", args.file.display());
         super::write_png(png, |p| plot::trace_png(&title, &sample.finish(), p))?;
     }
-    // A Model Exchange component can run slower than real time: "0x" would hide by how much.
-    let speed = end / wall;
-    let digits = if speed < 10.0 { 2 } else { 0 };
-    println!(
-        "{end} s simulated in {wall:.3} s ({speed:.digits$}x real time); {} variables, {rows} rows",
-        names.len(),
-    );
+    let timing = master::Timing { load_s, loop_s, simulated_s: end };
+    println!("{timing}; {} variables, {rows} rows", names.len());
     for (component, stats) in &ran.model_exchange {
         println!("{component} (Model Exchange): {stats}");
     }

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
-use std::time::Instant;
 
 use clap::Args;
 
@@ -50,16 +49,13 @@ pub fn run(args: &ScenarioArgs) -> Result<(), String> {
     super::create_dir(&args.out)?;
     let ssp = args.dist.join("InchwormSystem.ssp");
     let via = if args.direct { Via::Direct } else { Via::System(&ssp) };
-    let wall = Instant::now();
-    let traces = s.run(via).text()?;
-    let wall = wall.elapsed().as_secs_f64();
+    let (traces, timing) = s.run_timed(via).text()?;
     let views = traces.iter().map(LoopView::new).collect::<Result<Vec<_>, _>>().text()?;
     println!("{} ({})", s.title, s.via_text(via));
     for (v, r) in s.variants.iter().zip(&views) {
         println!("  {}", s.summary(v, r));
     }
-    let sim: f64 = s.duration * views.len() as f64;
-    println!("{sim:.0} s simulated in {wall:.2} s ({:.0}x real time)", sim / wall);
+    println!("{timing}");
     let slug = |name: &str| -> String {
         name.split(|c: char| !c.is_alphanumeric())
             .filter(|w| !w.is_empty())

@@ -30,7 +30,8 @@ def built():
 
 @pytest.fixture
 def tmp(tmp_path):
-    """The folder the binary unpacks into (its TMPDIR); checked empty after the case."""
+    """The folder the binary unpacks into (its TMPDIR; the FMU cache is off in these runs, so
+    the FMUs are unpacked there too); checked empty after the case."""
     t = tmp_path / "tmpdir"
     t.mkdir()
     yield t
@@ -38,7 +39,7 @@ def tmp(tmp_path):
 
 
 def inchworm(tmp, *args, env=None, timeout=60):
-    e = dict(os.environ, TMPDIR=str(tmp))
+    e = dict(os.environ, TMPDIR=str(tmp), INCHWORM_FMU_CACHE="off")
     e.pop("RUST_BACKTRACE", None)
     e.update(env or {})
     return subprocess.run(
@@ -136,7 +137,7 @@ def rss_kib(pid):
 @pytest.mark.parametrize("sig,name", [(signal.SIGTERM, "SIGTERM"), (signal.SIGINT, "SIGINT")])
 def test_a_long_run_streams_in_flat_memory_and_a_signal_cleans_up(tmp, tmp_path, sig, name):
     out = tmp_path / "long.csv"
-    e = dict(os.environ, TMPDIR=str(tmp))
+    e = dict(os.environ, TMPDIR=str(tmp), INCHWORM_FMU_CACHE="off")
     p = subprocess.Popen([str(BIN), "run", SSP, "--input", ref_csv(tmp_path), "--stop-time", "1e9", "--out", out],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e)
     try:
@@ -790,7 +791,7 @@ def test_a_row_asked_for_that_the_plan_gives_twice_is_refused(tmp, tmp_path):
 def test_a_long_sweep_run_streams_and_stops_on_sigterm_keeping_its_rows(tmp, tmp_path):
     # 5e9 steps: the whole trace was reserved up front and the allocation aborted (SIGABRT).
     out = tmp_path / "o"
-    e = dict(os.environ, TMPDIR=str(tmp))
+    e = dict(os.environ, TMPDIR=str(tmp), INCHWORM_FMU_CACHE="off")
     p = subprocess.Popen([str(BIN), "sweep", SSP, "--input", ref_csv(tmp_path), "--grid", "plant.T_em=8.8;9",
                           "--stop-time", "1e7", "--jobs", "1", "--no-plots", "--out", out],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e)

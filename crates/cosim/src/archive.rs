@@ -59,9 +59,10 @@ fn dir_bytes(dir: &Path) -> u64 {
     total
 }
 
-/// Bytes the zip at `path` inflates to, counted by inflating it (the sizes an archive
-/// declares are not to be trusted) and stopping past `budget`: `None` once more. A file
-/// that is not a zip counts 0: its loader refuses it with its own message.
+/// Bytes the FMU at `path` unpacks to (the entries a run needs,
+/// [`fmu_archive::is_run_entry`]), counted by inflating them (the sizes an archive declares
+/// are not to be trusted) and stopping past `budget`: `None` once more. A file that is not
+/// a zip counts 0: its loader refuses it with its own message.
 fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
     let Ok(file) = std::fs::File::open(path) else { return Ok(Some(0)) };
     let Ok(mut zip) = zip::ZipArchive::new(std::io::BufReader::new(file)) else {
@@ -69,6 +70,10 @@ fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
     };
     let mut total = 0u64;
     for i in 0..zip.len() {
+        let needed = zip.name_for_index(i).and_then(fmu_archive::safe_relative);
+        if !needed.is_some_and(|rel| fmu_archive::is_run_entry(&rel)) {
+            continue;
+        }
         let Ok(entry) = zip.by_index(i) else { return Ok(Some(total)) };
         let left = budget - total;
         let n = std::io::copy(&mut std::io::Read::take(entry, left + 1), &mut std::io::sink())
@@ -84,7 +89,8 @@ fn inflated_size(path: &Path, budget: u64) -> Result<Option<u64>, Error> {
 /// One unpacking budget for a whole system: the SSP unpacked in `dir` and every FMU its
 /// components reference together within the total cap ([`Limits::total_bytes`],
 /// `INCHWORM_MAX_UNPACKED_BYTES`). An FMU that several components reference counts once,
-/// as the master unpacks it once (see `System::load`); one that must be unpacked apart
+/// as the master unpacks it once (see `System::load`), and one the cache of unpacked FMUs
+/// holds already ([`fmu_archive::cache`]) not at all, as nothing of it is written; one that must be unpacked apart
 /// for every instance (`canBeInstantiatedOnlyOncePerProcess`) is counted again by
 /// [`check_another_copy`] before each further copy. Each archive alone is held to the cap
 /// as it is unpacked; without this, an SSP that references one FMU many times would
@@ -100,8 +106,13 @@ pub fn check_system_budget(dir: &Path, components: &[(&str, &Path)]) -> Result<u
             fmu_archive::ENV_TOTAL
         ))
     };
+    let cache = fmu_archive::cache::root();
     for (i, (name, source)) in components.iter().enumerate() {
         if components[..i].iter().any(|(_, earlier)| earlier == source) {
+            continue;
+        }
+        // An FMU the cache holds is taken from it: nothing of it is written.
+        if cache.as_deref().is_some_and(|root| fmu_archive::cache::holds(root, source)) {
             continue;
         }
         let left = cap.saturating_sub(used);

@@ -36,8 +36,9 @@ impl Trace {
     /// `f64`.
     pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         write_header(w, &self.names)?;
+        let mut rows = RowWriter::new();
         for (t, v) in &self.rows {
-            write_row(w, *t, v)?;
+            rows.write(w, *t, v)?;
         }
         Ok(())
     }
@@ -48,13 +49,46 @@ pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Re
     writeln!(w, "time,{}", names.join(","))
 }
 
-/// One CSV row of [`Trace::write_csv`].
-pub fn write_row(w: &mut dyn std::io::Write, t: f64, row: &[f64]) -> std::io::Result<()> {
-    write!(w, "{t}")?;
-    for x in row {
-        write!(w, ",{x}")?;
+/// The CSV rows of [`Trace::write_csv`], one after another, for a writer that streams
+/// them. Each value is its `{}` text (the shortest that reads back as the same `f64`); a
+/// value with the bits of its column's value in the row before takes that row's text
+/// instead of being formatted again. A closed loop's slow columns (a DAC between gaits, a
+/// mode, a held reference) change in a few rows in a hundred, and formatting a float costs
+/// more than a step of the loop, so a long run's CSV costs a fraction and no byte changes.
+#[derive(Debug, Default)]
+pub struct RowWriter {
+    /// Per column: the bits of its last value and that value's text (empty before the
+    /// first row).
+    last: Vec<(u64, String)>,
+}
+
+impl RowWriter {
+    pub fn new() -> RowWriter {
+        RowWriter::default()
     }
-    writeln!(w)
+
+    /// Writes the row `t, row…` and its line end.
+    pub fn write(
+        &mut self,
+        w: &mut dyn std::io::Write,
+        t: f64,
+        row: &[f64],
+    ) -> std::io::Result<()> {
+        use std::fmt::Write;
+        if self.last.len() != row.len() {
+            self.last = vec![(0, String::new()); row.len()];
+        }
+        write!(w, "{t}")?;
+        for (x, (bits, text)) in row.iter().zip(&mut self.last) {
+            if text.is_empty() || *bits != x.to_bits() {
+                text.clear();
+                write!(text, ",{x}").expect("a String takes any text");
+                *bits = x.to_bits();
+            }
+            w.write_all(text.as_bytes())?;
+        }
+        writeln!(w)
+    }
 }
 
 /// A bounded, evenly spaced sample of a run of any length, for a plot: it keeps every
@@ -132,10 +166,34 @@ mod tests {
         t.write_csv(&mut whole).unwrap();
         let mut streamed = Vec::new();
         write_header(&mut streamed, &t.names).unwrap();
+        let mut rows = RowWriter::new();
         for (time, row) in &t.rows {
-            write_row(&mut streamed, *time, row).unwrap();
+            rows.write(&mut streamed, *time, row).unwrap();
         }
         assert_eq!(whole, streamed);
         assert_eq!(String::from_utf8(whole).unwrap(), "time,a,b\n0,1.5,-2\n0.002,0.0000001,3\n");
+    }
+
+    #[test]
+    fn a_repeated_value_is_written_as_a_fresh_one_would_be() {
+        // Each row's text as `{}` formats it, whether a column repeats its last value or
+        // not; 0 and -0, and two NaNs, are told apart by their bits.
+        let rows: [(f64, [f64; 3]); 6] = [
+            (0.0, [0.0, 1.25, f64::NAN]),
+            (0.002, [0.0, 1.25, f64::NAN]),
+            (0.004, [-0.0, 1.25, -f64::NAN]),
+            (0.006, [-0.0, 3e-9, f64::INFINITY]),
+            (0.008, [0.0, 3e-9, 1e300]),
+            (0.01, [0.0, 3e-9, 1e300]),
+        ];
+        let mut out = Vec::new();
+        let mut w = RowWriter::new();
+        let mut expected = String::new();
+        for (t, row) in &rows {
+            w.write(&mut out, *t, row).unwrap();
+            expected += &format!("{t},{},{},{}\n", row[0], row[1], row[2]);
+        }
+        assert_eq!(String::from_utf8(out).unwrap(), expected);
+        assert!(expected.contains("0.004,-0,1.25,NaN\n"), "{expected}");
     }
 }

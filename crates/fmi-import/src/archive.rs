@@ -1,5 +1,8 @@
-//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop; and the
-//! bounded, confined unpacking both FMUs and the master's SSP archives go through.
+//! Unpacking an FMU (a zip archive) into a fresh directory, removed again on drop, or into
+//! the [`cache`] of unpacked FMUs when a program turns it on; and the bounded, confined
+//! unpacking both FMUs and the master's SSP archives go through.
+
+pub mod cache;
 
 use std::fs;
 use std::io::{self, Read, Seek};
@@ -62,17 +65,34 @@ pub fn env_cap(name: &'static str, default: u64) -> Result<u64, ImportError> {
 }
 
 /// An unpacked FMU: the directory and the text of its `modelDescription.xml`. Dropping it
-/// deletes the directory.
+/// deletes a temporary directory, and releases a cache entry for another load.
 #[derive(Debug)]
 pub struct Unpacked {
-    dir: tempfile::TempDir,
+    dir: Dir,
     pub(crate) model_description: String,
+}
+
+/// Where an FMU was unpacked.
+#[derive(Debug)]
+enum Dir {
+    /// A fresh temporary directory of its own.
+    Temp(tempfile::TempDir),
+    /// An entry of the [`cache`].
+    Cached(cache::InUse),
 }
 
 impl Unpacked {
     /// The directory the archive was unpacked into.
     pub fn dir(&self) -> &Path {
-        self.dir.path()
+        match &self.dir {
+            Dir::Temp(d) => d.path(),
+            Dir::Cached(entry) => entry.dir(),
+        }
+    }
+
+    /// Whether the directory is an entry of the [`cache`] (kept after the run).
+    pub fn is_cached(&self) -> bool {
+        matches!(self.dir, Dir::Cached(_))
     }
 }
 
@@ -107,6 +127,27 @@ fn too_big(what: String, env: &str, limit: u64) -> ImportError {
     ImportError::Limit(format!("{what} (limit {limit} bytes; raise it with {env})"))
 }
 
+/// Whether an FMU's entry (its path inside the archive, made safe by [`safe_relative`]) is
+/// one a run needs: `modelDescription.xml`, `resources/` (the files the FMU may read at
+/// run time) and the folders of this host's library under either standard's name
+/// (`binaries/linux64/` and `binaries/x86_64-linux/` on 64-bit Linux; which one is used is
+/// the description's to say). The other platforms' libraries, `documentation/`, `sources/`
+/// and `extra/` stay in the archive: no run reads them, and a five-platform FMU's other
+/// four libraries are most of its bytes.
+pub fn is_run_entry(rel: &Path) -> bool {
+    let mut parts = rel.components().map(|c| c.as_os_str());
+    match parts.next().and_then(|p| p.to_str()) {
+        Some("modelDescription.xml") => parts.next().is_none(),
+        Some("resources") => true,
+        Some("binaries") => {
+            let folder = parts.next().and_then(|p| p.to_str());
+            let host = inchworm_fmi_abi::platform::host();
+            folder.is_some_and(|f| host.is_some_and(|h| h.fmi2 == Some(f) || h.fmi3 == f))
+        }
+        _ => false,
+    }
+}
+
 /// Unpacks every entry of `zip` into `dir`, refusing names that leave it and stopping at
 /// the first cap passed; regular files only (a symbolic-link entry becomes a plain file
 /// holding its target's name, so nothing unpacked points outside `dir`).
@@ -114,6 +155,19 @@ pub fn extract<R: Read + Seek>(
     zip: &mut zip::ZipArchive<R>,
     dir: &Path,
     limits: &Limits,
+) -> Result<(), ImportError> {
+    extract_where(zip, dir, limits, |_| true)
+}
+
+/// [`extract`] of the entries `keep` accepts (by their safe relative path). Every name is
+/// checked all the same, and the entry cap counts the whole archive. A skipped entry under
+/// `binaries/` leaves its platform folder, empty, so that an FMU without this host's
+/// library is refused with the platforms it does carry.
+pub fn extract_where<R: Read + Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    dir: &Path,
+    limits: &Limits,
+    keep: impl Fn(&Path) -> bool,
 ) -> Result<(), ImportError> {
     if zip.len() as u64 > limits.entries {
         return Err(ImportError::Limit(format!(
@@ -136,9 +190,19 @@ pub fn extract<R: Read + Seek>(
         if rel.as_os_str().is_empty() {
             continue;
         }
-        let target = dir.join(&rel);
         let io_err =
             |source: io::Error| ImportError::Io { what: format!("cannot unpack `{name}`"), source };
+        if !keep(&rel) {
+            let mut parts = rel.components();
+            if let (Some(top), Some(platform)) = (parts.next(), parts.next()) {
+                if top.as_os_str() == "binaries" && (parts.next().is_some() || entry.is_dir()) {
+                    let folder = Path::new(top.as_os_str()).join(platform.as_os_str());
+                    fs::create_dir_all(dir.join(folder)).map_err(io_err)?;
+                }
+            }
+            continue;
+        }
+        let target = dir.join(&rel);
         if entry.is_dir() {
             fs::create_dir_all(&target).map_err(io_err)?;
             continue;
@@ -182,21 +246,35 @@ pub fn extract<R: Read + Seek>(
     Ok(())
 }
 
-/// Unpacks the FMU at `path` within [`Limits::from_env`]; fails if it is not a zip, has an
-/// entry pointing outside the directory, passes a cap, or lacks `modelDescription.xml`.
+/// Unpacks what a run of the FMU at `path` needs ([`is_run_entry`]) within
+/// [`Limits::from_env`], through the [`cache`] if it is on; fails if it is not a zip, has
+/// an entry pointing outside the directory, passes a cap, or lacks `modelDescription.xml`.
 pub fn unpack(path: &Path) -> Result<Unpacked, ImportError> {
-    unpack_with(path, &Limits::from_env()?)
+    let limits = Limits::from_env()?;
+    match cache::root() {
+        Some(root) => cache::unpack_cached(path, &root, &limits),
+        None => unpack_with(path, &limits),
+    }
 }
 
-/// [`unpack`] within `limits`.
+/// [`unpack`] within `limits`, into a temporary directory of its own.
 pub fn unpack_with(path: &Path, limits: &Limits) -> Result<Unpacked, ImportError> {
     let mut zip = open_zip(path)?;
     description_index(&mut zip)?;
+    unpack_zip(&mut zip, limits)
+}
+
+/// What a run needs of `zip`, whose `modelDescription.xml` is known to be at its root,
+/// unpacked within `limits` into a temporary directory of its own.
+fn unpack_zip<R: Read + Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    limits: &Limits,
+) -> Result<Unpacked, ImportError> {
     let dir = temp_dir("inchworm-fmu-")?;
-    extract(&mut zip, dir.path(), limits)?;
+    extract_where(zip, dir.path(), limits, is_run_entry)?;
     let md = fs::read(dir.path().join("modelDescription.xml"))
         .map_err(|_| ImportError::NoModelDescription)?;
-    Ok(Unpacked { dir, model_description: description_text(&md)? })
+    Ok(Unpacked { dir: Dir::Temp(dir), model_description: description_text(&md)? })
 }
 
 /// The text of the `modelDescription.xml` of the FMU at `path`, read from the archive

@@ -24,6 +24,9 @@ pub enum ImportError {
     /// The archive passes a cap of [`crate::archive::Limits`] (the text says which).
     #[error("{0}: refused")]
     Limit(String),
+    /// The folder of [`crate::archive::cache`] cannot be trusted (the text says why).
+    #[error("{0}")]
+    Cache(String),
     /// `modelDescription.xml` is malformed XML, lacks an attribute or holds a bad value.
     #[error("modelDescription.xml line {line}, column {column}: {message}")]
     Description { line: usize, column: usize, message: String },

@@ -2,8 +2,10 @@
 //! finds variables by name, and says what went wrong and where when a file, name or
 //! value is bad. Both standards go through the same code up to the C calls:
 //!
-//! * [`archive`] unpacks the FMU into a fresh temporary directory (zip-slip-safe, capped),
-//!   removed when the last instance made from it is dropped;
+//! * [`archive`] unpacks what a run reads of the FMU into a fresh temporary directory
+//!   (zip-slip-safe, capped), removed when the last instance made from it is dropped, or
+//!   takes it from the cache of unpacked FMUs ([`archive::cache`]) when a program turns
+//!   it on;
 //! * [`description`] reads `modelDescription.xml` of either standard into one
 //!   [`ModelDescription`] with one strict reader (line/column errors, a truncated file
 //!   refused, duplicate names, numbers, `modelIdentifier` a plain file name, a size cap);

@@ -119,6 +119,48 @@ fn the_unpacked_copy_is_removed_on_drop() {
 }
 
 #[test]
+fn only_what_a_run_reads_is_unpacked() {
+    let dir = scratch("run-entries");
+    let path = dir.join("five_platforms.fmu");
+    let mut entries = common::entries(&dist("InchwormPlant.fmu"));
+    entries.push(("binaries/win64/InchwormPlant.dll".into(), vec![7; 4096]));
+    entries.push(("binaries/x86_64-windows/InchwormPlant.dll".into(), vec![7; 4096]));
+    entries.push(("resources/table.csv".into(), b"t,x\n0,1\n".to_vec()));
+    entries.push(("sources/model.c".into(), b"int x;".to_vec()));
+    common::write_zip(&path, &entries);
+    let fmu = CsFmu::load(&path, "plant", false).unwrap();
+    let root = fmu.unpacked_dir();
+    let mut found = Vec::new();
+    let mut todo = vec![root.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            let rel = p.strip_prefix(root).unwrap().to_string_lossy().replace('\\', "/");
+            if p.is_dir() {
+                todo.push(p);
+                found.push(format!("{rel}/"));
+            } else {
+                found.push(rel);
+            }
+        }
+    }
+    found.sort();
+    assert_eq!(
+        found,
+        [
+            "binaries/",
+            "binaries/linux64/",
+            "binaries/linux64/InchwormPlant.so",
+            "binaries/win64/",
+            "binaries/x86_64-windows/",
+            "modelDescription.xml",
+            "resources/",
+            "resources/table.csv",
+        ]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+#[test]
 fn vendor_annotations_and_unknown_attributes_are_tolerated() {
     let dir = scratch("tolerant");
     let path = plant_variant(

@@ -10,7 +10,7 @@ use inchworm_fmu_models::ReferenceFmu;
 use inchworm_plant::PlantParams;
 
 use crate::closed_loop::{self, LoopView, REFERENCE_OUTPUT};
-use inchworm_cosim::master::{self, Coupling, InputTable, Options};
+use inchworm_cosim::master::{self, Coupling, InputTable, Options, Timing};
 use inchworm_cosim::Trace;
 
 /// What drives the plant in one variant.
@@ -250,12 +250,27 @@ impl Scenario {
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
     /// whatever `via` says.
     pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, crate::Error> {
+        self.run_variant_timed(v, via).map(|(trace, _)| trace)
+    }
+
+    /// [`Scenario::run_variant`], with where its wall time went (a run of the crates has
+    /// nothing to load: all of it is loop).
+    pub fn run_variant_timed(
+        &self,
+        v: &Variant,
+        via: Via,
+    ) -> Result<(Trace, Timing), crate::Error> {
+        let start = std::time::Instant::now();
+        let crates = |trace: Trace| {
+            let loop_s = start.elapsed().as_secs_f64();
+            Ok((trace, Timing { load_s: 0.0, loop_s, simulated_s: self.duration }))
+        };
         match (&v.drive, via) {
-            (Drive::OpenLoopSlew, _) => Ok(closed_loop::open_loop_slew(
+            (Drive::OpenLoopSlew, _) => crates(closed_loop::open_loop_slew(
                 v.plant.clone(),
                 (self.duration / (SAMPLES_PER_GAIT as f64 * SAMPLE_PERIOD)).round() as usize,
             )?),
-            (Drive::Controller(p), Via::Direct) => Ok(closed_loop::run(
+            (Drive::Controller(p), Via::Direct) => crates(closed_loop::run(
                 v.plant.clone(),
                 (**p).clone(),
                 |t| self.reference.value(0, t),
@@ -264,26 +279,39 @@ impl Scenario {
             (Drive::Controller(p), Via::System(ssp)) => {
                 // The closed system carries its reference as a component of that name.
                 if closed_loop::reference_name(ssp)? != REFERENCE_OUTPUT {
-                    return Ok(master::run(ssp, &self.options(&v.plant, p), |_| {})?);
+                    return Ok(master::run_timed(ssp, &self.options(&v.plant, p), |_| {})?);
                 }
                 // A reference of more points than the reference FMU's table holds runs on
                 // the open sibling, fed from the system input.
                 if self.reference.points(0).len() > REFERENCE_TABLE_POINTS {
                     let open = ssp.with_file_name("InchwormSystemOpen.ssp");
-                    return Ok(master::run(&open, &self.options(&v.plant, p), |_| {})?);
+                    return Ok(master::run_timed(&open, &self.options(&v.plant, p), |_| {})?);
                 }
-                let mut trace = master::run(ssp, &self.closed_options(&v.plant, p), |_| {})?;
+                let (mut trace, timing) =
+                    master::run_timed(ssp, &self.closed_options(&v.plant, p), |_| {})?;
                 for name in trace.names.iter_mut().filter(|n| n.as_str() == REFERENCE_OUTPUT) {
                     *name = "reference".into();
                 }
-                Ok(trace)
+                Ok((trace, timing))
             }
         }
     }
 
     /// Every variant, in order.
     pub fn run(&self, via: Via) -> Result<Vec<Trace>, crate::Error> {
-        self.variants.iter().map(|v| self.run_variant(v, via)).collect()
+        self.run_timed(via).map(|(traces, _)| traces)
+    }
+
+    /// [`Scenario::run`], with where the runs' wall time went, all variants together.
+    pub fn run_timed(&self, via: Via) -> Result<(Vec<Trace>, Timing), crate::Error> {
+        let mut all = Timing::default();
+        let mut traces = Vec::new();
+        for v in &self.variants {
+            let (trace, timing) = self.run_variant_timed(v, via)?;
+            traces.push(trace);
+            all = all.and(timing);
+        }
+        Ok((traces, all))
     }
 
     /// How the runs went through `via`, for the report's first line.

@@ -9,6 +9,7 @@ mod component;
 mod parameters;
 mod simulation;
 mod system;
+mod timing;
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -22,6 +23,7 @@ use crate::{Error, StopFlag};
 use batches::Batches;
 use component::Component;
 pub use parameters::set_param;
+pub use timing::{run_timed, Timing};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coupling {
@@ -148,18 +150,10 @@ pub struct RunEnd {
 /// stop time and records the chosen variables at every communication point, t = 0 first.
 ///
 /// The whole trace is kept in memory: for short runs (scenarios, tests). A long run
-/// streams its rows with [`Simulation::run_into`].
+/// streams its rows with [`Simulation::run_into`]. [`run_timed`] also says where the run's
+/// wall time went.
 pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Trace, Error> {
-    let sim = System::load(path)?.initialise(opts)?;
-    let mut trace = Trace::new(sim.record_names().to_vec());
-    sim.run_into(
-        |t, row| {
-            trace.push(t, row.to_vec());
-            Ok::<(), Error>(())
-        },
-        progress,
-    )?;
-    Ok(trace)
+    run_timed(path, opts, progress).map(|(trace, _)| trace)
 }
 
 /// A communication point of a running [`Simulation`] to come back to: every component's

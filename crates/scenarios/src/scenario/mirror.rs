@@ -74,6 +74,11 @@ fn settle(
 /// references' bindings) and measures it on the parked samples, as the paper's figures
 /// are measured.
 pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, crate::Error> {
+    mirror_run_timed(ssp).map(|(run, _)| run)
+}
+
+/// [`mirror_run`], with where its wall time went.
+pub fn mirror_run_timed(ssp: &Path) -> Result<(MirrorRun, Timing), crate::Error> {
     let opts = Options {
         stop_time: Some(MIRROR_DURATION),
         step_size: Some(SAMPLE_PERIOD),
@@ -83,8 +88,8 @@ pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, crate::Error> {
         input: None,
         outputs: mirror_recorded(),
     };
-    let trace = master::run(ssp, &opts, |_| {})?;
-    Ok(MirrorRun::measure(trace))
+    let (trace, timing) = master::run_timed(ssp, &opts, |_| {})?;
+    Ok((MirrorRun::measure(trace), timing))
 }
 
 impl MirrorRun {
@@ -169,9 +174,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
     std::fs::create_dir_all(out)
         .map_err(|source| crate::Error::Write { path: out.into(), source })?;
     let ssp = dist.join("MirrorMount.ssp");
-    let wall = std::time::Instant::now();
-    let run = mirror_run(&ssp)?;
-    let wall = wall.elapsed().as_secs_f64();
+    let (run, timing) = mirror_run_timed(&ssp)?;
     println!(
         "Mirror mount: three inchworm chains 120° apart on a 50 mm radius ({}, Jacobi 2 ms)",
         ssp.display()
@@ -179,10 +182,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
     for l in run.summary().lines() {
         println!("  {l}");
     }
-    println!(
-        "{MIRROR_DURATION:.0} s simulated in {wall:.2} s ({:.0}x real time)",
-        MIRROR_DURATION / wall
-    );
+    println!("{timing}");
     let csv = out.join("mirror.csv");
     let mut text = Vec::new();
     let write = |source| crate::Error::Write { path: csv.clone(), source };
