@@ -51,6 +51,38 @@ pub struct RunArgs {
     /// (1e-30 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().atol)]
     pub me_atol: f64,
+    /// Threads: an SSP's independent subsystems (the connected components of its
+    /// connections) in up to this many parts, each stepped on a thread of its own; the
+    /// rows are the one-thread run's, bit for bit. Default 1: runs are often many at once
+    /// (sweeps, tests, a cluster's workers), which already fill the cores.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub jobs: u64,
+    /// Run part K (1 to N) alone of the parts `--jobs N` splits the SSP into, recording the
+    /// columns it owns, for a run spread over processes or machines
+    /// (python/inchworm_dask); `--show-split` says which columns each part records.
+    #[arg(long, value_name = "K/N", conflicts_with = "jobs")]
+    pub part: Option<String>,
+    /// Print the split of `--jobs N` (or `--part K/N`) and run nothing: each recorded
+    /// column of the whole run, in order, as `part<TAB>name` (parts from 1).
+    #[arg(long)]
+    pub show_split: bool,
+}
+
+impl RunArgs {
+    /// `--part K/N` as (K - 1, N), or none.
+    fn part(&self) -> Result<Option<(usize, usize)>, String> {
+        let Some(text) = &self.part else { return Ok(None) };
+        let bad = || format!("--part {text}: give K/N with 1 <= K <= N <= 256, e.g. 1/2");
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let (k, n): (usize, usize) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if !(1 <= k && k <= n && n <= 256) {
+            return Err(bad());
+        }
+        Ok(Some((k - 1, n)))
+    }
 }
 
 impl RunArgs {
@@ -159,10 +191,52 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     }
     let stop = signals::stop_on_signals();
     let interfaces = args.interfaces()?;
+    let part = args.part()?;
+    let is_ssp = args.file.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+    let jobs = part.map_or(args.jobs as usize, |(_, n)| n);
+    if args.show_split || part.is_some() || (jobs > 1 && is_ssp) {
+        if !is_ssp {
+            return Err(format!("{}: --part and --show-split split an .ssp", args.file.display()));
+        }
+        let parallel = master::Parallel::new(&args.file, &interfaces, &opts, jobs).text()?;
+        if args.show_split {
+            let split = parallel.split();
+            for (name, (p, _)) in split.record_names.iter().zip(&split.columns) {
+                println!("{}\t{name}", p + 1);
+            }
+            return Ok(());
+        }
+        return match part {
+            Some((k, _)) => {
+                let sim = parallel.load(k).text()?;
+                signals::interrupted()?;
+                let sim = sim.stop_when(stop);
+                let names = sim.record_names().to_vec();
+                write_run(args, names, |sink, progress| sim.run_into(sink, progress))
+            }
+            None => {
+                let names = parallel.record_names().to_vec();
+                write_run(args, names, |sink, progress| parallel.run_into(&stop, sink, progress))
+            }
+        };
+    }
     let sim = master::System::load_as(&args.file, &interfaces).text()?;
     signals::interrupted()?;
     let sim = sim.initialise(&opts).text()?.stop_when(stop);
     let names = sim.record_names().to_vec();
+    write_run(args, names, |sink, progress| sim.run_into(sink, progress))
+}
+
+/// The rows of a run, through `run(sink, progress)`, written to `--out` as CSV of `names`
+/// (and the plot), and the run's summary printed.
+fn write_run(
+    args: &RunArgs,
+    names: Vec<String>,
+    run: impl FnOnce(
+        &mut dyn FnMut(f64, &[f64]) -> Result<(), Stopped>,
+        &mut dyn FnMut(f64),
+    ) -> Result<master::RunEnd, Stopped>,
+) -> Result<(), String> {
     let out = &args.out;
     let io = |e: std::io::Error| format!("{}: {e}", out.display());
     let mut csv = super::create_file(out)?;
@@ -172,8 +246,8 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let mut shown = 0;
     let (mut rows, mut end) = (0u64, 0.0);
     let wall = Instant::now();
-    let ran = sim.run_into(
-        |t, row| {
+    let ran = run(
+        &mut |t, row| {
             trace::write_row(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
             if let Some(s) = &mut sample {
                 s.push(t, row);
@@ -182,7 +256,7 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
             end = t;
             Ok(())
         },
-        |f| {
+        &mut |f| {
             let pct = (f * 100.0) as u32;
             if show && pct >= shown + 5 {
                 shown = pct;

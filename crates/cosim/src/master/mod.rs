@@ -6,11 +6,13 @@
 mod batches;
 mod checkpoint;
 mod component;
+mod parallel;
 mod parameters;
+pub mod partition;
 mod simulation;
 mod system;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use crate::fmu::{FmuState, VarType};
@@ -21,6 +23,7 @@ use crate::trace::Trace;
 use crate::{Error, StopFlag};
 use batches::Batches;
 use component::Component;
+pub use parallel::Parallel;
 pub use parameters::set_param;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,6 +105,9 @@ pub struct System {
     connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
+    /// The SSD's components that other parts run ([`System::load_part`]): their
+    /// parameters are those parts' to set. Empty for a whole system.
+    elsewhere: BTreeSet<String>,
 }
 
 /// An initialized system stepping on a fixed communication grid `k h` (phase 3 of [`run`]).
