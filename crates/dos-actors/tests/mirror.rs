@@ -17,8 +17,8 @@ use inchworm_cosim::Options;
 use inchworm_dos_actors::uid::{EncoderCounts, Piston, Tilt, Tip};
 use inchworm_dos_actors::{ssp_value, Logger};
 
-/// 2 s: the piston move and the settling (the tip from 4 s is the same code path).
-const STEPS: u64 = 1000;
+/// 5 s: the piston move, its settling and the tip commanded at 4 s.
+const STEPS: u64 = 2500;
 
 pub fn dist() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist")

@@ -224,12 +224,12 @@ impl<M: Model> Var<M> {
 }
 
 /// Declares a model's table and names its rows: `table!(Model, TABLE; NAME: row, …)`
-/// defines `static TABLE: [Row<Model>; n]` and one associated constant `Model::NAME` of
+/// (or `table!(Model, pub(super) TABLE; …)`) defines `static TABLE: [Row<Model>; n]` and one associated constant `Model::NAME` of
 /// type [`Var<Model>`] per row.
 #[macro_export]
 macro_rules! table {
-    ($model:ty, $table:ident; $($id:ident: $row:expr),+ $(,)?) => {
-        static $table: [$crate::Row<$model>; [$(stringify!($id)),+].len()] = [$($row),+];
+    ($model:ty, $vis:vis $table:ident; $($id:ident: $row:expr),+ $(,)?) => {
+        $vis static $table: [$crate::Row<$model>; [$(stringify!($id)),+].len()] = [$($row),+];
         /// The rows of the table in order, to name them.
         #[allow(non_camel_case_types, clippy::upper_case_acronyms, dead_code)]
         enum __Rows { $($id),+ }

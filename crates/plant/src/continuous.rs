@@ -15,6 +15,11 @@
 //! At an event, [`Plant::event_update`] applies what the solver applies at a located
 //! event: the jump conditions of the brakes (docs/model.md §2.2), then the hysteresis
 //! re-derived from the exact `ξ` and the sign of `ξ̇`.
+//!
+//! These are the model's equations, the stack as its three elements; its surge modes (17
+//! and 29 kHz) hold a BDF integrator's steps to a few µs (docs/model.md §5). [`reduced`] is
+//! the same plant with those modes carried in closed form and only the slow ones left to
+//! the integrator; it shares the slots, the rates and the Jacobian's layout with this one.
 
 use nalgebra::SMatrix;
 
@@ -22,6 +27,8 @@ use crate::hysteresis::Hysteresis;
 use crate::linear::{self, ix, mul_vec, Chain, ChainMatrix, Vector};
 use crate::solver::held_volts;
 use crate::{Dac, Mode, Plant, PlantParams, StepReport};
+
+pub mod reduced;
 
 /// Continuous states: the mechanics (`y1 v1 y2 v2 y3 v3 y4 v4`, positions as deviations
 /// from rest), the extension channel (Bessel output, its rate, amplifier volts), then the
@@ -37,6 +44,17 @@ enum Slot {
     Z(usize),
     Earth(usize),
     Nonearth(usize),
+}
+
+impl Slot {
+    /// The DAC channel held in the state's block: extension, earth, non-earth.
+    fn input(self) -> usize {
+        match self {
+            Slot::Z(_) => 0,
+            Slot::Earth(_) => 1,
+            Slot::Nonearth(_) => 2,
+        }
+    }
 }
 
 const SLOTS: [Slot; N_STATES] = {
@@ -62,15 +80,12 @@ const SLOTS: [Slot; N_STATES] = {
     ]
 };
 
-/// The DAC channel held in a state's block: extension, earth, non-earth.
-const INPUT_OF: [usize; N_STATES] = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 2, 2, 2];
-
 /// `∂ẋ/∂x` and `∂ẋ/∂u` of the current configuration, `u` = (extension, earth, non-earth)
-/// DAC volts.
+/// DAC volts, for a formulation of `S` states.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Jacobian {
-    pub states: SMatrix<f64, N_STATES, N_STATES>,
-    pub inputs: SMatrix<f64, N_STATES, 3>,
+pub struct Jacobian<const S: usize = N_STATES> {
+    pub states: SMatrix<f64, S, S>,
+    pub inputs: SMatrix<f64, S, 3>,
 }
 
 /// What one event update did.
@@ -123,16 +138,21 @@ impl Plant {
     /// The rate of every continuous state with `dac` held, in the current configuration.
     pub fn derivatives(&self, dac: Dac) -> [f64; N_STATES] {
         let (z, e, n) = self.held(dac);
-        rates(&self.system_matrix(), &self.chain.a, (&z, &e, &n))
+        rates(&SLOTS, &self.system_matrix(), &self.chain.a, (&z, &e, &n))
     }
 
     /// The exact Jacobian of [`Plant::derivatives`]: the configuration's matrices.
     pub fn jacobian(&self) -> Jacobian {
-        let a = self.system_matrix();
+        self.jacobian_of(&SLOTS, &self.system_matrix())
+    }
+
+    /// The Jacobian of the rates of the states `slots` under the rate matrix `a` of the
+    /// mechanics and the extension channel and the plant's channel matrix.
+    fn jacobian_of<const S: usize>(&self, slots: &[Slot; S], a: &linear::Matrix) -> Jacobian<S> {
         let m = &self.chain.a;
         let mut j = Jacobian { states: SMatrix::zeros(), inputs: SMatrix::zeros() };
-        for (r, sr) in SLOTS.iter().enumerate() {
-            for (c, sc) in SLOTS.iter().enumerate() {
+        for (r, sr) in slots.iter().enumerate() {
+            for (c, sc) in slots.iter().enumerate() {
                 j.states[(r, c)] = match (*sr, *sc) {
                     (Slot::Z(a_r), Slot::Z(a_c)) => a[(a_r, a_c)],
                     (Slot::Earth(a_r), Slot::Earth(a_c))
@@ -141,7 +161,7 @@ impl Plant {
                 };
             }
             // Held volts inside 0-10 V enter linearly; the layer clamps inputs to that range.
-            j.inputs[(r, INPUT_OF[r])] = match *sr {
+            j.inputs[(r, sr.input())] = match *sr {
                 Slot::Z(a_r) => a[(a_r, ix::UX)],
                 Slot::Earth(a_r) | Slot::Nonearth(a_r) => m[(a_r, 3)],
             };
@@ -181,16 +201,17 @@ impl Plant {
     }
 }
 
-/// The rates of the continuous states of `(z, e, n)` under the system matrix `a` and the
+/// The rates of the states `slots` of `(z, e, n)` under the system matrix `a` and the
 /// channel matrix `m`.
-fn rates(
+fn rates<const S: usize>(
+    slots: &[Slot; S],
     a: &linear::Matrix,
     m: &ChainMatrix,
     (z, e, n): (&Vector, &Chain, &Chain),
-) -> [f64; N_STATES] {
+) -> [f64; S] {
     let dz = mul_vec(a, z);
     let (de, dn) = (mul_vec(m, e), mul_vec(m, n));
-    SLOTS.map(|s| match s {
+    slots.map(|s| match s {
         Slot::Z(i) => dz[i],
         Slot::Earth(i) => de[i],
         Slot::Nonearth(i) => dn[i],
@@ -230,7 +251,7 @@ pub fn at_rest(p: &PlantParams, dac: Dac) -> ([f64; N_STATES], [f64; N_INDICATOR
     let h = Hysteresis::new(p.play_radius, p.play_weight);
     let a = linear::system_matrix(p, Mode::Hold, h.sticking_weight());
     let rest = (&z, &e, &n);
-    (rates(&a, &linear::chain_matrix(p), rest), indicators(p, Mode::Hold, &h, rest))
+    (rates(&SLOTS, &a, &linear::chain_matrix(p), rest), indicators(p, Mode::Hold, &h, rest))
 }
 
 /// Event-mode updates a Model Exchange plant takes per 2 ms window, the Co-Simulation

@@ -1,0 +1,446 @@
+//! The reduced formulation for Model Exchange (docs/model.md §5.1): the integrator carries
+//! the plant's slow motion only (the runner outside DRIVE and the three analog channels);
+//! the lightly damped mechanical modes, the stack's surge (17 and 29 kHz) and node 3's ring
+//! on the stack and flexure (the 2.2 kHz runner–flexure ring in DRIVE, 4.5 kHz in HOLD), are
+//! carried by the plant itself, in closed form.
+//!
+//! In each configuration (mode and sliding set) the model is linear, `ż = A z`. Split `z`
+//! into the stack's nodes `x1 = (y1, v1, y2, v2, y3, v3)` and the rest `x2`: the runner, the
+//! extension channel and the held constants (`1`, the DAC volts, `c0`). The slow modes span
+//! the invariant subspace `x1 = X x2`, `X` the solution of `X (A22 + A21 X) = A11 X + A12`
+//! nearest the quasi-static `−A11⁻¹ A12`; in the coordinates
+//!
+//! `f = x1 − X x2` (fast), `s = x2 − Y f` (slow), `Y L − S Y = A21`, `L = A11 − X A21`,
+//! `S = A22 + A21 X`,
+//!
+//! the dynamics separate exactly: `ṡ = S s`, `ḟ = L f`. The integrator integrates `s` (the
+//! slow eigenvalues are the model's: the channels, the runner in FREE, the zeros of HOLD,
+//! LOCKED and of the runner riding on node 3 in DRIVE); the fast part is
+//! `f(t) = e^{L (t − t_e)} f(t_e)` from the last split at `t_e`, and the plant's physical
+//! state is `x2 = s + Y f`, `x1 = X x2 + f`. At an event the model's jump conditions act on
+//! the physical state, and `f` and `s` are taken anew in the configuration it leaves. The
+//! formulation has no error of its own: only the integrator's, on `s`.
+//!
+//! LOCKED has no mechanics: there `s` is the physical state and the stack stays frozen.
+
+use std::sync::Arc;
+
+use nalgebra::SMatrix;
+
+use super::{rates, Jacobian, Slot, N_INDICATORS};
+use crate::linear::{self, ix, Matrix, Vector};
+use crate::params::N_PLAYS;
+use crate::{Dac, Mode, ParamError, Plant, PlantParams};
+
+pub use super::EventReport;
+
+/// Continuous states: the slow parts of `y4 v4` (the runner, a deviation from rest), the
+/// extension channel (Bessel output, its rate, amplifier volts), then the earth and the
+/// non-earth channel likewise: the model's states but for the stack's nodes.
+pub const N_STATES: usize = 11;
+
+/// The model's states ([`super::SLOTS`]) after its first six, the stack's nodes.
+const REDUCED: [Slot; N_STATES] = {
+    let mut slots = [Slot::Z(0); N_STATES];
+    let mut i = 0;
+    while i < N_STATES {
+        slots[i] = super::SLOTS[super::N_STATES - N_STATES + i];
+        i += 1;
+    }
+    slots
+};
+
+/// The stack's nodes, and everything else in `linear`'s state.
+const FAST: [usize; 6] = [ix::Y1, ix::V1, ix::Y2, ix::V2, ix::Y3, ix::V3];
+const SLOW: [usize; 8] = [ix::Y4, ix::V4, ix::BX1, ix::BX2, ix::VX, ix::ONE, ix::UX, ix::C0];
+
+/// Iterations of the invariant-subspace equations before the modes count as not separated.
+/// Each shrinks the error by about the ratio of the slow to the fast frequencies (the
+/// amplifier's 475 Hz to the 2.2 kHz DRIVE ring, 0.21, for the nominal devices): 30 or so
+/// reach rounding.
+const MAX_ITERATIONS: usize = 400;
+
+type Fast = SMatrix<f64, 6, 1>;
+
+/// One configuration's split into slow and fast parts.
+#[derive(Clone, Debug)]
+struct Split {
+    x: SMatrix<f64, 6, 8>,
+    y: SMatrix<f64, 8, 6>,
+    l: SMatrix<f64, 6, 6>,
+}
+
+/// One configuration's reduced dynamics.
+#[derive(Clone, Debug)]
+struct Config {
+    /// `S` over `linear`'s state: the rows of `x2` the slow dynamics, those of `x1` zero.
+    a: Matrix,
+    /// `None` in LOCKED.
+    split: Option<Split>,
+}
+
+fn block<const R: usize, const C: usize>(
+    a: &Matrix,
+    rows: &[usize; R],
+    cols: &[usize; C],
+) -> SMatrix<f64, R, C> {
+    SMatrix::from_fn(|r, c| a[(rows[r], cols[c])])
+}
+
+/// Iterates `m ← step(m)` to its fixed point; `None` if it doesn't settle (rounding leaves
+/// a relative change of 1e-14 or so there) or leaves the finite numbers.
+fn fixed_point<const R: usize, const C: usize>(
+    mut m: SMatrix<f64, R, C>,
+    step: impl Fn(&SMatrix<f64, R, C>) -> SMatrix<f64, R, C>,
+) -> Option<SMatrix<f64, R, C>> {
+    for _ in 0..MAX_ITERATIONS {
+        let next = step(&m);
+        if !next.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let settled = next.iter().zip(m.iter()).all(|(n, o)| (n - o).abs() <= 1e-12 * n.abs());
+        m = next;
+        if settled {
+            return Some(m);
+        }
+    }
+    None
+}
+
+/// The split of the model's rate matrix `a`; `None` if its fast and slow modes are not
+/// separated.
+fn reduce(a: &Matrix, mode: Mode) -> Option<Config> {
+    if mode == Mode::Locked {
+        return Some(Config { a: *a, split: None });
+    }
+    let (a11, a12) = (block(a, &FAST, &FAST), block(a, &FAST, &SLOW));
+    let (a21, a22) = (block(a, &SLOW, &FAST), block(a, &SLOW, &SLOW));
+    let a11_inv = a11.try_inverse()?;
+    let x = fixed_point(-a11_inv * a12, |x| a11_inv * (x * (a22 + a21 * x) - a12))?;
+    let l = a11 - x * a21;
+    let l_inv = l.try_inverse()?;
+    let s = a22 + a21 * x;
+    let y = fixed_point(a21 * l_inv, |y| (a21 + s * y) * l_inv)?;
+    let mut r = Matrix::zeros();
+    for (i, &row) in SLOW.iter().enumerate() {
+        for (j, &col) in SLOW.iter().enumerate() {
+            r[(row, col)] = s[(i, j)];
+        }
+    }
+    r.iter().all(|v| v.is_finite()).then_some(Config { a: r, split: Some(Split { x, y, l }) })
+}
+
+/// The plant in the reduced formulation, driven through the Model Exchange calls below:
+/// the integrator's slow states, the fast part in closed form, and the [`Plant`] holding
+/// the physical state they make at the current time.
+#[derive(Clone, Debug)]
+pub struct Reduced {
+    plant: Plant,
+    /// The slow state over `linear`'s layout (the entries of `x1` unused).
+    s: Vector,
+    /// The fast part at the last split, and that time.
+    fast: Fast,
+    since: f64,
+    /// The fast part at the time of the last [`Reduced::join`] (its bits): a master sets the
+    /// time and then the states at it, and evaluates the rates and their Jacobian there, so
+    /// one exponential serves them all.
+    at: Option<(u64, Fast)>,
+    /// Every configuration's split, by the plant's configuration key.
+    configs: Arc<Vec<Config>>,
+}
+
+impl Reduced {
+    /// At rest (docs/model.md §2.7) at time 0; the parameters are validated, and refused
+    /// if the stack's modes are not separated from the slow ones in some configuration (no
+    /// nominal device comes near that).
+    pub fn new(params: PlantParams) -> Result<Self, ParamError> {
+        Reduced::from_plant(Plant::new(params)?)
+    }
+
+    /// The reduced formulation of `plant`'s state at its time.
+    pub fn from_plant(plant: Plant) -> Result<Self, ParamError> {
+        let p = plant.params();
+        let mut configs = Vec::with_capacity(4 << N_PLAYS);
+        for mode in [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free] {
+            for sliding in 0..1u32 << N_PLAYS {
+                let w: f64 = (0..N_PLAYS)
+                    .filter(|&i| sliding & (1 << i) == 0)
+                    .map(|i| p.play_weight[i])
+                    .sum();
+                let a = linear::system_matrix(p, mode, w);
+                configs.push(reduce(&a, mode).ok_or_else(|| ParamError {
+                    field: "m_p".into(),
+                    reason: format!("in {mode:?} the stack's modes are not separated from the analog chain's and the runner's: the reduced formulation needs them several times faster"),
+                })?);
+            }
+        }
+        let since = plant.time;
+        let mut r = Reduced {
+            s: plant.z,
+            plant,
+            fast: Fast::zeros(),
+            since,
+            at: None,
+            configs: Arc::new(configs),
+        };
+        r.split();
+        Ok(r)
+    }
+
+    /// The plant: its physical state at the current time, outputs, mode and state bytes.
+    pub fn plant(&self) -> &Plant {
+        &self.plant
+    }
+
+    fn config(&self) -> &Config {
+        &self.configs[self.plant.config_key()]
+    }
+
+    /// Splits the physical state in the current configuration: the fast part from now on,
+    /// and the slow state.
+    fn split(&mut self) {
+        self.s = self.plant.z;
+        self.since = self.plant.time;
+        self.fast = Fast::zeros();
+        self.at = None;
+        if let Some(Split { x, y, .. }) = &self.configs[self.plant.config_key()].split {
+            let z = &self.plant.z;
+            let x2 = SMatrix::<f64, 8, 1>::from_fn(|i, _| z[SLOW[i]]);
+            let x1 = Fast::from_fn(|i, _| z[FAST[i]]);
+            self.fast = x1 - x * x2;
+            let s = x2 - y * self.fast;
+            for (i, &k) in SLOW.iter().enumerate() {
+                self.s[k] = s[i];
+            }
+        }
+    }
+
+    /// The physical state at the plant's time from the slow state and the fast part.
+    fn join(&mut self) {
+        let key = self.plant.config_key();
+        let z = &mut self.plant.z;
+        match &self.configs[key].split {
+            Some(Split { x, y, l }) => {
+                let t = self.plant.time.to_bits();
+                let f = match self.at {
+                    Some((at, f)) if at == t => f,
+                    _ => {
+                        let f = (l * (self.plant.time - self.since)).exp() * self.fast;
+                        self.at = Some((t, f));
+                        f
+                    }
+                };
+                let s = SMatrix::<f64, 8, 1>::from_fn(|i, _| self.s[SLOW[i]]);
+                let x2 = s + y * f;
+                let x1 = x * x2 + f;
+                for (i, &k) in SLOW.iter().enumerate() {
+                    z[k] = x2[i];
+                }
+                for (i, &k) in FAST.iter().enumerate() {
+                    z[k] = x1[i];
+                }
+            }
+            None => {
+                for &k in &SLOW {
+                    z[k] = self.s[k];
+                }
+            }
+        }
+    }
+
+    /// The master's time: the fast part moves with it.
+    pub fn set_time(&mut self, t: f64) {
+        self.plant.time = t;
+        self.join();
+    }
+
+    pub fn continuous_states(&self) -> [f64; N_STATES] {
+        REDUCED.map(|slot| match slot {
+            Slot::Z(i) => self.s[i],
+            Slot::Earth(i) => self.plant.earth[i],
+            Slot::Nonearth(i) => self.plant.nonearth[i],
+        })
+    }
+
+    /// Sets the continuous states (the integrator's); the physical state follows, the
+    /// discrete state stays.
+    pub fn set_continuous_states(&mut self, x: &[f64; N_STATES]) {
+        for (slot, v) in REDUCED.iter().zip(x) {
+            match *slot {
+                Slot::Z(i) => self.s[i] = *v,
+                Slot::Earth(i) => self.plant.earth[i] = *v,
+                Slot::Nonearth(i) => self.plant.nonearth[i] = *v,
+            }
+        }
+        self.join();
+    }
+
+    /// The rate of every continuous state with `dac` held, in the current configuration.
+    pub fn derivatives(&self, dac: Dac) -> [f64; N_STATES] {
+        let (held, e, n) = self.plant.held(dac);
+        let mut s = self.s;
+        s[ix::UX] = held[ix::UX];
+        rates(&REDUCED, &self.config().a, &self.plant.chain.a, (&s, &e, &n))
+    }
+
+    /// The exact Jacobian of [`Reduced::derivatives`]: the configuration's matrices.
+    pub fn jacobian(&self) -> Jacobian<N_STATES> {
+        self.plant.jacobian_of(&REDUCED, &self.config().a)
+    }
+
+    /// The model's event indicators on the physical state ([`Plant::event_indicators`]).
+    pub fn event_indicators(&self) -> [f64; N_INDICATORS] {
+        self.plant.event_indicators()
+    }
+
+    /// Event mode at time `t` with `dac` held: the model's update on the physical state
+    /// ([`Plant::event_update`]), then, if it changed the physical state or the
+    /// configuration, the state split anew in the configuration it leaves.
+    pub fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
+        let before = self.continuous_states();
+        if t.to_bits() != self.plant.time.to_bits() {
+            self.set_time(t);
+        }
+        let physical = (self.plant.z, self.plant.config_key());
+        let mut report = self.plant.event_update(dac, t);
+        if physical != (self.plant.z, self.plant.config_key()) {
+            self.split();
+        }
+        let after = self.continuous_states();
+        report.states_changed = before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits());
+        report
+    }
+}
+
+/// The derivatives and indicators of the reduced plant at rest (docs/model.md §2.7) with
+/// `dac` held, as a plant built from `p` has them after its first event update: before one
+/// is built, a master may already read them.
+pub fn at_rest(
+    p: &PlantParams,
+    dac: Dac,
+) -> Result<([f64; N_STATES], [f64; N_INDICATORS]), ParamError> {
+    let mut r = Reduced::new(p.clone())?;
+    r.event_update(dac, 0.0);
+    Ok((r.derivatives(dac), r.event_indicators()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Complex, DMatrix};
+    use std::f64::consts::PI;
+
+    /// Every configuration of the default devices: its mode, the model's matrix and the
+    /// reduced one.
+    fn configurations(p: &PlantParams) -> Vec<(Mode, Matrix, Config)> {
+        let r = Reduced::new(p.clone()).unwrap();
+        let modes = [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free];
+        (0..4usize << N_PLAYS)
+            .map(|key| {
+                let (mode, sliding) = (modes[key >> N_PLAYS], key & ((1 << N_PLAYS) - 1));
+                let w: f64 = (0..N_PLAYS)
+                    .filter(|&i| sliding & (1 << i) == 0)
+                    .map(|i| p.play_weight[i])
+                    .sum();
+                (mode, linear::system_matrix(p, mode, w), r.configs[key].clone())
+            })
+            .collect()
+    }
+
+    /// Eigenvalues (rad/s) of the rows and columns `idx` of `a`.
+    fn eigenvalues(a: &Matrix, idx: &[usize]) -> Vec<Complex<f64>> {
+        let m = DMatrix::from_fn(idx.len(), idx.len(), |r, c| a[(idx[r], idx[c])]);
+        m.complex_eigenvalues().iter().copied().collect()
+    }
+
+    /// The states that move: the mechanics and the extension channel.
+    const MOVING: [usize; 11] =
+        [ix::Y1, ix::V1, ix::Y2, ix::V2, ix::Y3, ix::V3, ix::Y4, ix::V4, ix::BX1, ix::BX2, ix::VX];
+
+    #[test]
+    fn the_slow_eigenvalues_are_the_models_and_no_fast_one_is_left() {
+        for p in [PlantParams::fia20(), PlantParams::fia6()] {
+            let (mut fastest_full, mut fastest_reduced, mut worst) = (0.0f64, 0.0f64, 0.0f64);
+            for (mode, full, reduced) in configurations(&p) {
+                if mode == Mode::Locked {
+                    assert!(reduced.split.is_none() && reduced.a == full);
+                    continue;
+                }
+                let ef = eigenvalues(&full, &MOVING);
+                let er = eigenvalues(&reduced.a, &MOVING[6..]);
+                let hz = |l: &Complex<f64>| l.norm() / (2.0 * PI);
+                fastest_full = ef.iter().map(hz).fold(fastest_full, f64::max);
+                fastest_reduced = er.iter().map(hz).fold(fastest_reduced, f64::max);
+                // Each reduced eigenvalue is one of the model's, to rounding.
+                for l in &er {
+                    let nearest = ef.iter().map(|m| (m - l).norm()).fold(f64::INFINITY, f64::min);
+                    // Relative, and absolute below 1000 rad/s (DRIVE's pair at 0, a Jordan block
+                    // the solver splits by ~1e-5 rad/s).
+                    let e = nearest / l.norm().max(1000.0);
+                    worst = worst.max(e);
+                    // The eigenvalue solver's own error on the model's badly scaled matrix
+                    // (entries from 1 to 1e10) is of this order.
+                    assert!(e < 1e-6, "{mode:?}: {l} is not an eigenvalue of the model ({e:e})");
+                }
+                // And the model's 6 fastest (node 3's ring, 2.1-4.6 kHz, and the surge) are
+                // the ones left out: the rest is 475 Hz or slower.
+                let mut by_size: Vec<f64> = ef.iter().map(hz).collect();
+                by_size.sort_by(f64::total_cmp);
+                let n = by_size.len();
+                assert!(by_size[n - 7] < 500.0 && by_size[n - 6] > 2e3, "{mode:?}: {by_size:?}");
+            }
+            eprintln!("T_em = {}: fastest mode {fastest_full:.0} Hz in the model, {fastest_reduced:.0} Hz reduced; reduced eigenvalues within {worst:.1e} of the model's", p.t_em);
+            assert!(fastest_full > 28e3, "{fastest_full}");
+            assert!(fastest_reduced < 500.0, "{fastest_reduced}");
+        }
+    }
+
+    /// The propagator over 1.024 s, where every mode has decayed by e⁻³³ or more: 1 ms
+    /// exponentiated (its norm small enough to be exact), squared ten times.
+    fn settle(a: &Matrix) -> Matrix {
+        let mut m = (a * 1e-3).exp();
+        for _ in 0..10 {
+            m = m * m;
+        }
+        m
+    }
+
+    #[test]
+    fn the_static_solution_is_the_models() {
+        let p = PlantParams::fia20();
+        let mut worst = 0.0f64;
+        for (mode, full, reduced) in configurations(&p) {
+            let Some(Split { x, y, .. }) = &reduced.split else { continue };
+            // A state away from rest: moving, the amplifier at 65 V, an offset c0.
+            let mut z = Vector::zeros();
+            (z[ix::ONE], z[ix::UX], z[ix::BX1], z[ix::VX], z[ix::C0]) = (1.0, 7.0, 6.0, 65.0, -3.0);
+            (z[ix::Y1], z[ix::V1], z[ix::Y2], z[ix::V2]) = (0.3e-6, -0.02, 1.9e-6, 0.03);
+            (z[ix::Y3], z[ix::V3], z[ix::Y4], z[ix::V4]) = (2e-6, 0.01, 5e-6, 0.01);
+            if mode == Mode::Drive {
+                z[ix::V4] = z[ix::V3];
+            }
+            let settled = settle(&full) * z;
+            let x2 = SMatrix::<f64, 8, 1>::from_fn(|i, _| z[SLOW[i]]);
+            let f = Fast::from_fn(|i, _| z[FAST[i]]) - x * x2;
+            let mut s = Vector::zeros();
+            for (i, &k) in SLOW.iter().enumerate() {
+                s[k] = (x2 - y * f)[i];
+            }
+            // Settled, the fast part is gone: the physical state is `x2 = s`, `x1 = X x2`.
+            let mut s_settled = settle(&reduced.a) * s;
+            let x1 = x * SMatrix::<f64, 8, 1>::from_fn(|i, _| s_settled[SLOW[i]]);
+            for (i, &k) in FAST.iter().enumerate() {
+                s_settled[k] = x1[i];
+            }
+            for &k in &[ix::Y1, ix::Y2, ix::Y3, ix::Y4, ix::VX] {
+                let scale = if k == ix::VX { 100.0 } else { 1e-5 };
+                let e = (settled[k] - s_settled[k]).abs() / scale;
+                worst = worst.max(e);
+                // The settling products' rounding on the model's stiff matrix is of this order.
+                assert!(e < 1e-6, "{mode:?}, state {k}: {} against {}", settled[k], s_settled[k]);
+            }
+            assert!(settled[ix::Y3].abs() > 1e-6, "{mode:?}: the stack is loaded");
+        }
+        eprintln!("static solutions within {worst:.1e} (of 10 µm, 100 V)");
+    }
+}
