@@ -74,10 +74,8 @@ impl RunArgs {
         let Some(text) = &self.part else { return Ok(None) };
         let bad = || format!("--part {text}: give K/N with 1 <= K <= N <= 256, e.g. 1/2");
         let (k, n) = text.split_once('/').ok_or_else(bad)?;
-        let (k, n): (usize, usize) = (
-            k.trim().parse().map_err(|_| bad())?,
-            n.trim().parse().map_err(|_| bad())?,
-        );
+        let (k, n): (usize, usize) =
+            (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
         if !(1 <= k && k <= n && n <= 256) {
             return Err(bad());
         }

@@ -204,8 +204,8 @@ impl Parallel {
                     Ok(Message::Failed(e)) => return Err(e.into()),
                     Err(_) => {
                         return Err(Error::Config(format!(
-                            "part {k} of the system stopped without a word (a bug: please report it)"
-                        ))
+                        "part {k} of the system stopped without a word (a bug: please report it)"
+                    ))
                         .into())
                     }
                 }

@@ -116,7 +116,14 @@ impl System {
         }
         if let Some((elsewhere, _)) = part {
             let kept = |c: &&crate::ssp::Component| !elsewhere.contains(&c.name);
-            sources = a.system.components.iter().zip(sources).filter(|(c, _)| kept(c)).map(|(_, s)| s).collect();
+            sources = a
+                .system
+                .components
+                .iter()
+                .zip(sources)
+                .filter(|(c, _)| kept(c))
+                .map(|(_, s)| s)
+                .collect();
             super::partition::keep_part(&mut a.system, elsewhere);
         }
         let named: Vec<(&str, &Path)> = a
