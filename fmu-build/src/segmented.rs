@@ -268,4 +268,68 @@ mod tests {
         assert!(p(&["--rings", "1"]).unwrap_err().contains("--out"));
         assert!(p(&["--rings", "1", "--out", "a", "--fast"]).unwrap_err().contains("--fast"));
     }
+
+    /// Every row of the SSP `path` run to `stop` s, as the CSV bytes `inchworm run` writes:
+    /// on this thread as one system (`jobs` 1), or split into `jobs` parts on threads.
+    fn trace(path: &Path, stop: f64, jobs: usize) -> (Vec<u8>, Vec<String>) {
+        use inchworm_cosim::master::{Coupling, Interfaces, Options, Parallel, System};
+        use inchworm_cosim::{trace, Error, StopFlag};
+        let opts = Options {
+            stop_time: Some(stop),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: None,
+            input: None,
+            outputs: vec![],
+        };
+        let mut csv = Vec::new();
+        let mut sink = |t: f64, row: &[f64]| -> Result<(), Error> {
+            trace::write_row(&mut csv, t, row).map_err(|e| Error::Config(e.to_string()))
+        };
+        let names = if jobs == 1 {
+            let sim = System::load(path).unwrap().initialise(&opts).unwrap();
+            let names = sim.record_names().to_vec();
+            sim.run_into(&mut sink, |_| {}).unwrap();
+            names
+        } else {
+            let parallel = Parallel::new(path, &Interfaces::default(), &opts, jobs).unwrap();
+            assert_eq!(parallel.split().parts.len(), jobs);
+            let names = parallel.record_names().to_vec();
+            parallel.run_into(&StopFlag::new(), &mut sink, |_| {}).unwrap();
+            names
+        };
+        (csv, names)
+    }
+
+    #[test]
+    fn the_seven_segment_mirror_runs_to_the_same_bytes_on_one_thread_and_two() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mirror.ssp");
+        let spec = system(&Mirror { rings: 1, centre: true, seed: 1 });
+        crate::write_system(&crate::workspace_root(), &spec, &[], &path)
+            .unwrap_or_else(|e| panic!("{e}: run `cargo run --release -p fmu-build` first"));
+        let (one, names) = trace(&path, 1.0, 1);
+        let (two, names_two) = trace(&path, 1.0, 2);
+        assert_eq!(names, names_two);
+        assert_eq!(one.len(), two.len());
+        assert!(one == two, "the rows of --jobs 2 differ from those of one thread");
+        // 501 rows; every segment's mount has reached the 30 µm piston within 1 µm, each
+        // on its own actuators' draws (no two segments the same trajectory).
+        let text = String::from_utf8(one).unwrap();
+        let rows: Vec<Vec<f64>> =
+            text.lines().map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+        assert_eq!(rows.len(), 501);
+        let piston = |k: usize| {
+            let name = format!("seg{k}_mount.{}", inchworm_fmu_models::MountFmu::PISTON.name());
+            let i = names.iter().position(|n| *n == name).unwrap() + 1;
+            rows.iter().map(|r| r[i]).collect::<Vec<f64>>()
+        };
+        let pistons: Vec<Vec<f64>> = (0..7).map(piston).collect();
+        for (k, p) in pistons.iter().enumerate() {
+            let end = p[500];
+            assert!((end - ssp::MIRROR_PISTON).abs() < 1e-6, "segment {k}: piston {end} m at 1 s");
+            assert!(pistons[..k].iter().all(|q| q != p), "segment {k} moves as an earlier one");
+        }
+    }
 }
