@@ -66,6 +66,16 @@ pub struct RunArgs {
     /// column of the whole run, in order, as `part<TAB>name` (parts from 1).
     #[arg(long)]
     pub show_split: bool,
+    /// Reduce every actuator of the run to the sweep's metrics (an actuator: a plant
+    /// `{a}plant{b}` recorded with its encoder position, its controller `{a}controller{b}`
+    /// and reference `{a}reference{b}`, as `fmu-build segmented` names them), and write
+    /// DIR/actuators.csv (one row an actuator) and DIR/spread.png (a histogram a metric).
+    #[arg(long, value_name = "DIR")]
+    pub spread: Option<PathBuf>,
+    /// A metric of --spread, as `inchworm sweep --metric` takes it; repeatable; default:
+    /// settle:1e-6, rms:6:10 and disturbance.
+    #[arg(long = "spread-metric", value_name = "METRIC", requires = "spread")]
+    pub spread_metrics: Vec<String>,
 }
 
 impl RunArgs {
@@ -184,7 +194,7 @@ impl From<inchworm_cosim::Error> for Stopped {
 pub fn run(args: &RunArgs) -> Result<(), String> {
     let opts = args.sim.options(args.outputs.clone())?;
     // Before any work: a bad font or output path fails before the run, not after it.
-    if args.plot.is_some() {
+    if args.plot.is_some() || args.spread.is_some() {
         plot::load_font(&args.font).text()?;
     }
     let stop = signals::stop_on_signals();
@@ -240,6 +250,11 @@ fn write_run(
     let mut csv = super::create_file(out)?;
     trace::write_header(&mut csv, &names).map_err(io)?;
     let mut sample = args.plot.as_ref().map(|_| Decimated::new(names.clone(), PLOT_POINTS));
+    let mut spread = args
+        .spread
+        .as_ref()
+        .map(|_| super::spread::spread(&args.spread_metrics, &names))
+        .transpose()?;
     let show = std::io::stderr().is_terminal();
     let mut shown = 0;
     let (mut rows, mut end) = (0u64, 0.0);
@@ -248,6 +263,9 @@ fn write_run(
         &mut |t, row| {
             trace::write_row(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
             if let Some(s) = &mut sample {
+                s.push(t, row);
+            }
+            if let Some(s) = &mut spread {
                 s.push(t, row);
             }
             rows += 1;
@@ -285,6 +303,9 @@ fn write_run(
     if let (Some(png), Some(sample)) = (&args.plot, sample) {
         let title = format!("inchworm run {}", args.file.display());
         super::write_png(png, |p| plot::trace_png(&title, &sample.finish(), p))?;
+    }
+    if let (Some(dir), Some(spread)) = (&args.spread, &spread) {
+        super::spread::write(dir, spread)?;
     }
     // A Model Exchange component can run slower than real time: "0x" would hide by how much.
     let speed = end / wall;
