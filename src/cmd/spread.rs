@@ -29,13 +29,14 @@ pub fn spread(texts: &[String], names: &[String]) -> Result<Spread, String> {
     Spread::new(&metrics, names).map_err(|e| format!("--spread: {e}"))
 }
 
-/// The unit a metric is shown in, and its value in that unit per SI unit.
-fn unit(m: &Metric) -> (&'static str, f64) {
+/// The unit a metric is shown in and its value in that unit per SI unit; none for a
+/// count or any variable's value, shown as recorded.
+fn unit(m: &Metric) -> Option<(&'static str, f64)> {
     match m.kind {
-        Kind::Settle { .. } => ("s", 1.0),
-        Kind::ParkedRms { .. } => ("nm", 1e9),
-        Kind::Disturbance => ("um", 1e6),
-        Kind::Slips | Kind::Reduce(_) => ("SI", 1.0),
+        Kind::Settle { .. } => Some(("s", 1.0)),
+        Kind::ParkedRms { .. } => Some(("nm", 1e9)),
+        Kind::Disturbance => Some(("um", 1e6)),
+        Kind::Slips | Kind::Reduce(_) => None,
     }
 }
 
@@ -47,7 +48,11 @@ pub fn write(dir: &Path, spread: &Spread) -> Result<(), String> {
     let results = spread.finish();
     let mut panels = Vec::new();
     for (i, name) in spread.metrics().iter().enumerate() {
-        let (unit, scale) = unit(&Metric::parse(name).text()?);
+        let unit = unit(&Metric::parse(name).text()?);
+        let (label, scale) = match unit {
+            Some((u, scale)) => (format!("{name} ({u})"), scale),
+            None => (name.clone(), 1.0),
+        };
         let mut v: Vec<f64> = results
             .iter()
             .filter_map(|(_, m)| m[i])
@@ -62,7 +67,7 @@ pub fn write(dir: &Path, spread: &Spread) -> Result<(), String> {
             let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
             let median = v[v.len() / 2];
             println!(
-                "{name} ({unit}) over {} actuators: min {lo:.4}, median {median:.4}, mean {mean:.4}, sd {sd:.4}, max {hi:.4}{}",
+                "{label} over {} actuators: min {lo:.4}, median {median:.4}, mean {mean:.4}, sd {sd:.4}, max {hi:.4}{}",
                 v.len(),
                 if missing > 0 { format!("; {missing} without a value") } else { String::new() }
             );
@@ -70,7 +75,7 @@ pub fn write(dir: &Path, spread: &Spread) -> Result<(), String> {
             println!("{name}: no actuator has a value");
         }
         let title = format!("{name}: {} actuators, {missing} without", v.len());
-        panels.push((title, format!("{name} ({unit})"), v));
+        panels.push((title, label, v));
     }
     let png = dir.join("spread.png");
     super::write_png(&png, |p| sweep_plots::histograms_png(&panels, "actuators", BINS, p))

@@ -89,16 +89,18 @@ pub fn histogram_png(
     Ok(())
 }
 
-/// One histogram a panel, side by side: each panel's (title, x label, values) in `bins`
-/// equal bins, counted in `what` (the y label).
+/// One histogram a panel, three panels a row: each panel's (title, x label, values) in
+/// `bins` equal bins, counted in `what` (the y label).
 pub fn histograms_png(
     panels: &[(String, String, Vec<f64>)],
     what: &str,
     bins: usize,
     path: &Path,
 ) -> Result<(), Box<dyn Error + Send + Sync>> {
-    let root = picture(path, (600 * panels.len().max(1) as u32, 500))?;
-    for ((title, xlabel, values), area) in panels.iter().zip(root.split_evenly((1, panels.len()))) {
+    let cols = panels.len().clamp(1, 3);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let root = picture(path, (600 * cols as u32, 450 * rows as u32))?;
+    for ((title, xlabel, values), area) in panels.iter().zip(root.split_evenly((rows, cols))) {
         histogram(&area, title, [xlabel, what], values, bins)?;
     }
     root.present()?;
