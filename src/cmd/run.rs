@@ -245,16 +245,16 @@ fn write_run(
         &mut dyn FnMut(f64),
     ) -> Result<master::RunEnd, Stopped>,
 ) -> Result<(), String> {
-    let out = &args.out;
-    let io = |e: std::io::Error| format!("{}: {e}", out.display());
-    let mut csv = super::create_file(out)?;
-    trace::write_header(&mut csv, &names).map_err(io)?;
-    let mut sample = args.plot.as_ref().map(|_| Decimated::new(names.clone(), PLOT_POINTS));
     let mut spread = args
         .spread
         .as_ref()
         .map(|_| super::spread::spread(&args.spread_metrics, &names))
         .transpose()?;
+    let out = &args.out;
+    let io = |e: std::io::Error| format!("{}: {e}", out.display());
+    let mut csv = super::create_file(out)?;
+    trace::write_header(&mut csv, &names).map_err(io)?;
+    let mut sample = args.plot.as_ref().map(|_| Decimated::new(names.clone(), PLOT_POINTS));
     let show = std::io::stderr().is_terminal();
     let mut shown = 0;
     let (mut rows, mut end) = (0u64, 0.0);
