@@ -122,8 +122,12 @@ pub fn system(m: &Mirror) -> SystemSpec {
     SystemSpec {
         name: "SegmentedMirror",
         description: format!(
-            "Hexagonal segmented mirror, {} ring(s) {centre} the centre: {n} segments, each an InchwormMount on three InchwormReference, InchwormController, InchwormPlant chains; each plant's F_d0, T_em, k_e drawn with seed {} (fmu-build segmented)",
-            m.rings, m.seed
+            "Hexagonal segmented mirror, {} ring(s) {centre} the centre: {n} segments, each an InchwormMount on three InchwormReference, InchwormController, InchwormPlant chains; each plant's {}, {}, {} drawn with seed {} (fmu-build segmented)",
+            m.rings,
+            PlantFmu::F_D0.name(),
+            PlantFmu::T_EM.name(),
+            PlantFmu::K_E.name(),
+            m.seed
         ),
         components,
         connectors: vec![],
