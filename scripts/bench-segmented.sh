@@ -5,7 +5,10 @@
 # instantiation, initialisation, stepping and the CSV), its real-time factor, its CPU time
 # (user + system, all threads), its largest resident set per actuator (/usr/bin/time) and
 # the 1-minute load average after it; each ring count ends with the ratio of the fastest
-# one-thread run to the fastest two-thread run. Every run records each mount's piston, tip and tilt, and
+# one-thread run to the fastest two-thread run. Each repeat also runs the two parts of
+# `--jobs 2` alone as processes (`--part 1/2`, `--part 2/2`, jobs `p1`, `p2`), and prints
+# the one-thread run's CPU time over the larger part's: what two idle cores could gain,
+# read from CPU times, which a loaded host changes far less than wall times. Every run records each mount's piston, tip and tilt, and
 # the two runs' CSVs are compared byte for byte.
 #
 # Usage: scripts/bench-segmented.sh [RINGS …]  (default: 1 3 16)
@@ -38,11 +41,18 @@ for r in "${rings[@]}"; do
     done
     declare -A best=()
     for ((i = 0; i < repeat; i++)); do
-        for jobs in 1 2; do
+        declare -A cpu=()
+        for jobs in 1 2 p1 p2; do
             csv="$out/mirror${r}_jobs$jobs.csv"
+            case $jobs in
+                p1) how=(--part 1/2) ;;
+                p2) how=(--part 2/2) ;;
+                *) how=(--jobs "$jobs") ;;
+            esac
             stats=$( { /usr/bin/time -f '%e %U %S %M' "$bin/inchworm" run "$ssp" --stop-time "$stop" \
-                --jobs "$jobs" "${outputs[@]}" --out "$csv" >/dev/null; } 2>&1 | tail -1)
+                "${how[@]}" "${outputs[@]}" --out "$csv" >/dev/null; } 2>&1 | tail -1)
             read -r wall user sys rss <<<"$stats"
+            cpu[$jobs]=$(echo "$user + $sys" | bc -l)
             load=$(cut -d' ' -f1 /proc/loadavg)
             printf '%-6s %-9s %-10s %-5s %-9s %-8s %-8s %-14s %s\n' "$r" "$segments" "$actuators" "$jobs" "$wall" \
                 "$(echo "$stop / $wall" | bc -l | xargs printf '%.3g')" "$(echo "$user + $sys" | bc -l)" \
@@ -51,6 +61,9 @@ for r in "${rings[@]}"; do
                 best[$jobs]=$wall
             fi
         done
+        larger=$(echo "if (${cpu[p1]} > ${cpu[p2]}) ${cpu[p1]} else ${cpu[p2]}" | bc -l)
+        echo "rings $r, repeat $((i + 1)): one-thread CPU / larger part's CPU = $(echo "${cpu[1]} / $larger" | bc -l | xargs printf '%.2f')"
+        unset cpu
         cmp -s "$out/mirror${r}_jobs1.csv" "$out/mirror${r}_jobs2.csv" \
             || { echo "rings $r: the CSVs of --jobs 1 and --jobs 2 differ" >&2; exit 1; }
     done
