@@ -37,6 +37,8 @@ enum Message {
 /// An SSP system split for `jobs` threads, not yet loaded.
 pub struct Parallel {
     path: PathBuf,
+    /// The SSP unpacked once, its folder shared by every part.
+    archive: Archive,
     interfaces: Interfaces,
     opts: Options,
     split: Split,
@@ -66,6 +68,7 @@ impl Parallel {
         Ok(Parallel {
             n_steps,
             path: path.to_path_buf(),
+            archive,
             interfaces: interfaces.clone(),
             opts: opts.clone(),
             split,
@@ -137,7 +140,8 @@ impl Parallel {
         }
         let elsewhere = self.split.elsewhere(k);
         let records = &self.split.part_records[k];
-        let system = System::load_part(&self.path, &self.interfaces, &elsewhere, records)?;
+        let archive = self.archive.clone();
+        let system = System::load_part(&self.path, archive, &self.interfaces, &elsewhere, records)?;
         system.initialise(&Options { outputs: Vec::new(), ..self.opts.clone() })
     }
 

@@ -44,26 +44,31 @@ impl System {
 
     /// [`System::load`], with the components of `interfaces` run as Model Exchange.
     pub fn load_as(path: &Path, interfaces: &Interfaces) -> Result<System, Error> {
-        System::load_selected(path, interfaces, None)
+        System::load_selected(path, None, interfaces, None)
     }
 
-    /// One part of the SSP `path` ([`partition::Split`]): every component but those of
-    /// `elsewhere`, which other parts run, and the connections among its own; it records
-    /// `records` (by default). Every name, source and `--interface` is checked against the
-    /// whole SSD, as a whole run checks them, so a part refuses what the whole run refuses.
+    /// One part of the SSP `path`, unpacked as `archive` ([`partition::Split`]): every
+    /// component but those of `elsewhere`, which other parts run, and the connections
+    /// among its own; it records `records` (by default). Every name, source and
+    /// `--interface` is checked against the whole SSD, as a whole run checks them, so a
+    /// part refuses what the whole run refuses. The parts of one split share `archive`'s
+    /// unpacked folder (a clone each).
     ///
     /// [`partition::Split`]: super::partition::Split
     pub fn load_part(
         path: &Path,
+        archive: Archive,
         interfaces: &Interfaces,
         elsewhere: &BTreeSet<String>,
         records: &[String],
     ) -> Result<System, Error> {
-        System::load_selected(path, interfaces, Some((elsewhere, records)))
+        System::load_selected(path, Some(archive), interfaces, Some((elsewhere, records)))
     }
 
+    /// `path` (unpacked as `archive`, if given), whole or the part `part`.
     fn load_selected(
         path: &Path,
+        archive: Option<Archive>,
         interfaces: &Interfaces,
         part: Option<(&BTreeSet<String>, &[String])>,
     ) -> Result<System, Error> {
@@ -99,7 +104,10 @@ impl System {
         }
         // The tolerance before the archive is unpacked, the names once its SSD is read.
         interfaces.tolerance.check()?;
-        let mut a = Archive::open(path)?;
+        let mut a = match archive {
+            Some(a) => a,
+            None => Archive::open(path)?,
+        };
         let here = |e: Error| e.context(path.display().to_string());
         let names: Vec<String> = a.system.components.iter().map(|c| c.name.clone()).collect();
         interfaces.check(&names).map_err(here)?;
