@@ -31,6 +31,7 @@ use inchworm_fmi_export::{fmi3, model_description, Model};
 mod check;
 mod evidence;
 mod platforms;
+mod segmented;
 mod ssp;
 
 use platforms::{Output, Target};
@@ -327,14 +328,27 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
 
 /// The `.ssp` of one system: the SSD, each FMU once, every parameter set.
 fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
+    let out = system_path(root, s);
+    write_system(root, &s.spec, s.fmi3, &out)?;
+    Ok(out)
+}
+
+/// Writes `spec` as the `.ssp` `out`, its FMUs taken from `dist/` (`dist/fmi3/` those of
+/// `fmi3`).
+fn write_system(
+    root: &Path,
+    spec: &ssp::SystemSpec,
+    fmi3: &[&str],
+    out: &Path,
+) -> Result<(), String> {
     let mut fmus = Vec::new();
-    for id in s.spec.fmus() {
-        let standard = if s.fmi3.contains(&id) { Standard::Fmi3 } else { Standard::Fmi2 };
+    for id in spec.fmus() {
+        let standard = if fmi3.contains(&id) { Standard::Fmi3 } else { Standard::Fmi2 };
         let p = dist_dir(root, standard).join(format!("{id}.fmu"));
         fmus.push((id, std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?));
     }
-    let ssd = s.spec.system_description();
-    let sets = s.spec.parameter_files();
+    let ssd = spec.system_description();
+    let sets = spec.parameter_files();
     let mut entries: Vec<(String, &[u8])> = vec![("SystemStructure.ssd".into(), ssd.as_bytes())];
     for (id, bytes) in &fmus {
         entries.push((format!("resources/{id}.fmu"), bytes));
@@ -342,9 +356,7 @@ fn package_system(root: &Path, s: &System) -> Result<PathBuf, String> {
     for (path, text) in &sets {
         entries.push((path.clone(), text.as_bytes()));
     }
-    let out = system_path(root, s);
-    write_zip(&out, &entries)?;
-    Ok(out)
+    write_zip(out, &entries)
 }
 
 /// Where the `.ssp` of `s` goes: `dist/` or `dist/fmi3/`, under its archive's name.
@@ -447,9 +459,13 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
 
 fn main() -> ExitCode {
     let root = workspace_root();
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    if argv.first().is_some_and(|a| a == segmented::COMMAND) {
+        return segmented::main(&argv[1..], |spec, out| write_system(&root, spec, &[], out));
+    }
     let (fmus, systems) = (fmus(), systems());
     let files = committed_files(&fmus, &systems);
-    let args = match parse_args(&std::env::args().skip(1).collect::<Vec<_>>()) {
+    let args = match parse_args(&argv) {
         Ok(a) => a,
         Err(e) => {
             eprintln!("fmu-build: {e}");

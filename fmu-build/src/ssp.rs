@@ -270,7 +270,7 @@ fn start<M: Model>(v: Var<M>) -> (String, Value) {
     (v.name().to_string(), start.unwrap_or_else(|| panic!("{} has no start value", v.name())))
 }
 
-fn binding(set: &str, values: Vec<(String, Value)>) -> Binding {
+pub fn binding(set: &str, values: Vec<(String, Value)>) -> Binding {
     Binding { set: set.into(), values }
 }
 
@@ -421,19 +421,23 @@ pub const MIRROR_TIP: f64 = 4e-6;
 pub const MIRROR_TIP_TIME: f64 = 4.0;
 pub const MIRROR_CHAINS: [&str; 3] = ["a", "b", "c"];
 
-/// `MirrorMount.ssp`: three reference → controller → plant chains, 120° apart on a 50 mm
-/// radius, and the mount kinematics on their runner positions. Each reference's first
-/// (and only) binding, `default`, is its actuator's share of the command: the piston
-/// from t = 0, the piston and the tip from `MIRROR_TIP_TIME`.
-pub fn mirror_mount() -> SystemSpec {
+/// One mount: three reference → controller → plant chains, 120° apart on a 50 mm
+/// radius, and the mount kinematics on their runner positions, its components named
+/// `{prefix}reference_x`, `{prefix}controller_x`, `{prefix}plant_x` (x = a, b, c) and
+/// `{prefix}mount`. Each reference's first (and only) binding, `default`, is its
+/// actuator's share of the command: the piston from t = 0, the piston and the tip from
+/// `MIRROR_TIP_TIME`. `plants[i]` are plant x's bindings (none: the FMU's defaults).
+pub fn mount(prefix: &str, plants: [Vec<Binding>; 3]) -> (Vec<Component>, Vec<Connection>) {
     use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
     use inchworm_fmu_models::MountFmu;
     let z = actuator_positions(MIRROR_PISTON, MIRROR_TIP, 0.0, RADIUS, ANGLE_A_DEG);
     let mount_inputs = [MountFmu::POSITION_A, MountFmu::POSITION_B, MountFmu::POSITION_C];
+    let mount = format!("{prefix}mount");
     let mut components = Vec::new();
     let mut connections = Vec::new();
-    for (i, x) in MIRROR_CHAINS.iter().enumerate() {
-        let (r, c, p) = (format!("reference_{x}"), format!("controller_{x}"), format!("plant_{x}"));
+    for ((i, x), plant_bindings) in MIRROR_CHAINS.iter().enumerate().zip(plants) {
+        let r = format!("{prefix}reference_{x}");
+        let (c, p) = (format!("{prefix}controller_{x}"), format!("{prefix}plant_{x}"));
         let command = reference_table(&[(0.0, MIRROR_PISTON), (MIRROR_TIP_TIME, z[i])], 0.0);
         components.push(component(
             &r,
@@ -442,21 +446,27 @@ pub fn mirror_mount() -> SystemSpec {
             vec![binding("default", command)],
         ));
         components.push(component(&c, fmu::<ControllerFmu>(), controller_connectors(), vec![]));
-        components.push(component(&p, fmu::<PlantFmu>(), plant_connectors(), vec![]));
+        components.push(component(&p, fmu::<PlantFmu>(), plant_connectors(), plant_bindings));
         let reference = ReferenceFmu::REFERENCE.name();
         connections.push(link(&r, reference, &c, ControllerFmu::REFERENCE.name()));
         connections.extend(loop_connections(&c, &p));
         let position = mount_inputs[i].name();
-        connections.push(link(&p, PlantFmu::RUNNER_POSITION.name(), "mount", position));
+        connections.push(link(&p, PlantFmu::RUNNER_POSITION.name(), &mount, position));
     }
     components.push(component(
-        "mount",
+        &mount,
         fmu::<MountFmu>(),
         names(
             &[mount_inputs.as_slice(), &[MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT]].concat(),
         ),
         vec![],
     ));
+    (components, connections)
+}
+
+/// `MirrorMount.ssp`: one [`mount`], its plants and controllers the FMUs' defaults.
+pub fn mirror_mount() -> SystemSpec {
+    let (components, connections) = mount("", [vec![], vec![], vec![]]);
     SystemSpec {
         name: "MirrorMount",
         description: "Three-actuator mirror mount: three InchwormReference, InchwormController, InchwormPlant chains 120 deg apart on a 50 mm radius, InchwormMount turns the runner positions into piston, tip and tilt".into(),

@@ -13,6 +13,7 @@ pub mod replay;
 pub mod run;
 pub mod scenario;
 pub mod signals;
+pub mod spread;
 pub mod sweep;
 
 /// Creates the folder `path` goes in, if it has one and it is missing.

@@ -51,6 +51,46 @@ pub struct RunArgs {
     /// (1e-30 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().atol)]
     pub me_atol: f64,
+    /// Threads: an SSP's independent subsystems (the connected components of its
+    /// connections) in up to this many parts, each stepped on a thread of its own; the
+    /// rows are the one-thread run's, bit for bit. Default 1: runs are often many at once
+    /// (sweeps, tests, a cluster's workers), which already fill the cores.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub jobs: u64,
+    /// Run part K (1 to N) alone of the parts `--jobs N` splits the SSP into, recording the
+    /// columns it owns, for a run spread over processes or machines
+    /// (python/inchworm_dask); `--show-split` says which columns each part records.
+    #[arg(long, value_name = "K/N", conflicts_with = "jobs")]
+    pub part: Option<String>,
+    /// Print the split of `--jobs N` (or `--part K/N`) and run nothing: each recorded
+    /// column of the whole run, in order, as `part<TAB>name` (parts from 1).
+    #[arg(long)]
+    pub show_split: bool,
+    /// Reduce every actuator of the run to the sweep's metrics (an actuator: a plant
+    /// `{a}plant{b}` recorded with its encoder position, its controller `{a}controller{b}`
+    /// and reference `{a}reference{b}`, as `fmu-build segmented` names them), and write
+    /// DIR/actuators.csv (one row an actuator) and DIR/spread.png (a histogram a metric).
+    #[arg(long, value_name = "DIR")]
+    pub spread: Option<PathBuf>,
+    /// A metric of --spread, as `inchworm sweep --metric` takes it; repeatable; default:
+    /// settle:1e-6, rms:6:10 and disturbance.
+    #[arg(long = "spread-metric", value_name = "METRIC", requires = "spread")]
+    pub spread_metrics: Vec<String>,
+}
+
+impl RunArgs {
+    /// `--part K/N` as (K - 1, N), or none.
+    fn part(&self) -> Result<Option<(usize, usize)>, String> {
+        let Some(text) = &self.part else { return Ok(None) };
+        let bad = || format!("--part {text}: give K/N with 1 <= K <= N <= 256, e.g. 1/2");
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let (k, n): (usize, usize) =
+            (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+        if !(1 <= k && k <= n && n <= 256) {
+            return Err(bad());
+        }
+        Ok(Some((k - 1, n)))
+    }
 }
 
 impl RunArgs {
@@ -154,17 +194,69 @@ impl From<inchworm_cosim::Error> for Stopped {
 pub fn run(args: &RunArgs) -> Result<(), String> {
     let opts = args.sim.options(args.outputs.clone())?;
     // Before any work: a bad font or output path fails before the run, not after it.
-    if args.plot.is_some() {
+    if args.plot.is_some() || args.spread.is_some() {
         plot::load_font(&args.font).text()?;
     }
     let stop = signals::stop_on_signals();
     let interfaces = args.interfaces()?;
     let load = Instant::now();
+    let part = args.part()?;
+    let is_ssp = args.file.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
+    let jobs = part.map_or(args.jobs as usize, |(_, n)| n);
+    if args.show_split || part.is_some() || (jobs > 1 && is_ssp) {
+        if !is_ssp {
+            return Err(format!("{}: --part and --show-split split an .ssp", args.file.display()));
+        }
+        let parallel = master::Parallel::new(&args.file, &interfaces, &opts, jobs).text()?;
+        if args.show_split {
+            let split = parallel.split();
+            for (name, (p, _)) in split.record_names.iter().zip(&split.columns) {
+                println!("{}\t{name}", p + 1);
+            }
+            return Ok(());
+        }
+        return match part {
+            Some((k, _)) => {
+                let sim = parallel.load(k).text()?;
+                signals::interrupted()?;
+                let sim = sim.stop_when(stop);
+                let names = sim.record_names().to_vec();
+                let load_s = load.elapsed().as_secs_f64();
+                write_run(args, names, load_s, |sink, progress| sim.run_into(sink, progress))
+            }
+            None => {
+                let names = parallel.record_names().to_vec();
+                let load_s = load.elapsed().as_secs_f64();
+                write_run(args, names, load_s, |sink, progress| {
+                    parallel.run_into(&stop, sink, progress)
+                })
+            }
+        };
+    }
     let sim = master::System::load_as(&args.file, &interfaces).text()?;
     signals::interrupted()?;
     let sim = sim.initialise(&opts).text()?.stop_when(stop);
     let load_s = load.elapsed().as_secs_f64();
     let names = sim.record_names().to_vec();
+    write_run(args, names, load_s, |sink, progress| sim.run_into(sink, progress))
+}
+
+/// The rows of a run, through `run(sink, progress)`, written to `--out` as CSV of `names`
+/// (and the plot), and the run's summary printed with its load time `load_s`.
+fn write_run(
+    args: &RunArgs,
+    names: Vec<String>,
+    load_s: f64,
+    run: impl FnOnce(
+        &mut dyn FnMut(f64, &[f64]) -> Result<(), Stopped>,
+        &mut dyn FnMut(f64),
+    ) -> Result<master::RunEnd, Stopped>,
+) -> Result<(), String> {
+    let mut spread = args
+        .spread
+        .as_ref()
+        .map(|_| super::spread::spread(&args.spread_metrics, &names))
+        .transpose()?;
     let out = &args.out;
     let io = |e: std::io::Error| format!("{}: {e}", out.display());
     let mut csv = super::create_file(out)?;
@@ -175,17 +267,20 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     let mut rows_text = trace::RowWriter::new();
     let (mut rows, mut end) = (0u64, 0.0);
     let wall = Instant::now();
-    let ran = sim.run_into(
-        |t, row| {
+    let ran = run(
+        &mut |t, row| {
             rows_text.write(&mut csv, t, row).map_err(|e| Stopped::Write(io(e)))?;
             if let Some(s) = &mut sample {
+                s.push(t, row);
+            }
+            if let Some(s) = &mut spread {
                 s.push(t, row);
             }
             rows += 1;
             end = t;
             Ok(())
         },
-        |f| {
+        &mut |f| {
             let pct = (f * 100.0) as u32;
             if show && pct >= shown + 5 {
                 shown = pct;
@@ -216,6 +311,9 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     if let (Some(png), Some(sample)) = (&args.plot, sample) {
         let title = format!("inchworm run {}", args.file.display());
         super::write_png(png, |p| plot::trace_png(&title, &sample.finish(), p))?;
+    }
+    if let (Some(dir), Some(spread)) = (&args.spread, &spread) {
+        super::spread::write(dir, spread)?;
     }
     let timing = master::Timing { load_s, loop_s, simulated_s: end };
     println!("{timing}; {} variables, {rows} rows", names.len());

@@ -14,6 +14,7 @@
 //! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`);
 //! * [`plot`], [`sweep_plots`]: PNG plots.
 
+pub mod actuators;
 pub mod bridge;
 pub mod closed_loop;
 pub mod controller;

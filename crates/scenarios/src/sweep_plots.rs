@@ -1,5 +1,6 @@
 //! Summary plots of a sweep: a histogram of each metric, and each metric against each swept
-//! parameter (one point per run that has a value).
+//! parameter (one point per run that has a value); the histograms of the metrics of a
+//! system's actuators side by side (`inchworm run --spread`).
 
 use std::error::Error;
 use std::path::Path;
@@ -31,9 +32,9 @@ fn fmt(v: &f64) -> String {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
-/// A white 1000×600 picture at `path`.
-fn picture(path: &Path) -> Result<Area<'_>, Box<dyn Error + Send + Sync>> {
-    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+/// A white picture of `size` pixels at `path`.
+fn picture(path: &Path, size: (u32, u32)) -> Result<Area<'_>, Box<dyn Error + Send + Sync>> {
+    let root = BitMapBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE)?;
     Ok(root)
 }
@@ -82,6 +83,38 @@ pub fn histogram_png(
     bins: usize,
     path: &Path,
 ) -> Result<(), Box<dyn Error + Send + Sync>> {
+    let root = picture(path, (1000, 600))?;
+    histogram(&root, title, [xlabel, "runs"], values, bins)?;
+    root.present()?;
+    Ok(())
+}
+
+/// One histogram a panel, three panels a row: each panel's (title, x label, values) in
+/// `bins` equal bins, counted in `what` (the y label).
+pub fn histograms_png(
+    panels: &[(String, String, Vec<f64>)],
+    what: &str,
+    bins: usize,
+    path: &Path,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
+    let cols = panels.len().clamp(1, 3);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let root = picture(path, (600 * cols as u32, 450 * rows as u32))?;
+    for ((title, xlabel, values), area) in panels.iter().zip(root.split_evenly((rows, cols))) {
+        histogram(&area, title, [xlabel, what], values, bins)?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// A histogram of `values` on `area`, the axes' descriptions `desc`.
+fn histogram(
+    area: &Area<'_>,
+    title: &str,
+    desc: [&str; 2],
+    values: &[f64],
+    bins: usize,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
     let (lo, hi) = range(values);
     let bins = bins.max(1);
     let width = (hi - lo) / bins as f64;
@@ -91,14 +124,12 @@ pub fn histogram_png(
         counts[b] += 1;
     }
     let top = counts.iter().copied().max().unwrap_or(1).max(1);
-    let root = picture(path)?;
     let y = 0u32..top + top / 10 + 1;
-    let mut chart = chart(&root, title, 60, lo..hi, y, [xlabel, "runs"], &|c: &u32| c.to_string())?;
+    let mut chart = chart(area, title, 60, lo..hi, y, desc, &|c: &u32| c.to_string())?;
     chart.draw_series(counts.iter().enumerate().map(|(i, &c)| {
         let x0 = lo + i as f64 * width;
         Rectangle::new([(x0, 0), (x0 + width, c)], BLUE.mix(0.6).filled())
     }))?;
-    root.present()?;
     Ok(())
 }
 
@@ -114,7 +145,7 @@ pub fn scatter_png(
     let ys: Vec<f64> = points.iter().map(|p| p.1).collect();
     let (x0, x1) = range(&xs);
     let (y0, y1) = range(&ys);
-    let root = picture(path)?;
+    let root = picture(path, (1000, 600))?;
     let mut chart = chart(&root, title, 90, x0..x1, y0..y1, [xlabel, ylabel], &fmt)?;
     chart.draw_series(points.iter().map(|&p| Circle::new(p, 3, BLUE.mix(0.6).filled())))?;
     root.present()?;

@@ -6,12 +6,14 @@
 mod batches;
 mod checkpoint;
 mod component;
+mod parallel;
 mod parameters;
+pub mod partition;
 mod simulation;
 mod system;
 mod timing;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use crate::fmu::{FmuState, VarType};
@@ -22,6 +24,7 @@ use crate::trace::Trace;
 use crate::{Error, StopFlag};
 use batches::Batches;
 use component::Component;
+pub use parallel::Parallel;
 pub use parameters::set_param;
 pub use timing::{run_timed, Timing};
 
@@ -104,6 +107,9 @@ pub struct System {
     connector_types: BTreeMap<End, String>,
     stop_time: Option<f64>,
     step_size: Option<f64>,
+    /// The SSD's components that other parts run ([`System::load_part`]): their
+    /// parameters are those parts' to set. Empty for a whole system.
+    elsewhere: BTreeSet<String>,
 }
 
 /// An initialized system stepping on a fixed communication grid `k h` (phase 3 of [`run`]).

@@ -1,6 +1,8 @@
 //! Values given as text (`--param`, an SSD's bindings, a parameter set) checked against
 //! their variables' types and set in initialization mode.
 
+use std::collections::BTreeSet;
+
 use super::component::{resolve, Component};
 use super::{Options, Port, System};
 use crate::archive::cut;
@@ -99,7 +101,8 @@ impl System {
     /// carries its SSP type, checked against the variable's.
     pub(super) fn set_parameters(&mut self, opts: &Options, stop: f64) -> Result<(), Error> {
         let first = crate::ssp::first_bindings_typed(self.archive.as_ref())?;
-        set_parameters(&mut self.components, self.archive.as_ref(), first, opts, stop)
+        let (components, archive) = (&mut self.components, self.archive.as_ref());
+        set_parameters(components, archive, &self.elsewhere, first, opts, stop)
     }
 }
 
@@ -107,10 +110,12 @@ impl System {
 /// the parameter set of `opts`, then its `params`, each value over the ones before. A
 /// value from the SSP (a first binding or the set) comes with the SSP type it is given,
 /// which must be its variable's ([`check_binding_type`]); a `--param` has no type of its
-/// own and is read as the variable's.
+/// own and is read as the variable's. The values of the components of `elsewhere` (run
+/// by other parts of the system) are left to those parts.
 fn set_parameters(
     components: &mut [Component],
     archive: Option<&Archive>,
+    elsewhere: &BTreeSet<String>,
     first: Vec<(String, TypedValue)>,
     opts: &Options,
     stop: f64,
@@ -126,6 +131,7 @@ fn set_parameters(
         values.extend(a.parameter_set_typed(set_name)?.into_iter().map(typed));
     }
     values.extend(opts.params.iter().map(|(n, v)| (n.clone(), None, v.clone())));
+    values.retain(|(n, _, _)| !super::partition::is_elsewhere(elsewhere, n));
     for (name, kind, text) in &values {
         let p = resolve(components, archive.is_some(), name)
             .map_err(|e| e.context(format!("parameter `{name}`")))?;

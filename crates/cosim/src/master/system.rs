@@ -1,7 +1,7 @@
 //! Phases 1 and 2 of a run: a system loaded (its components instantiated, its connectors
 //! and connections read), then wired and initialised into a [`Simulation`].
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use super::batches::Batches;
@@ -44,6 +44,34 @@ impl System {
 
     /// [`System::load`], with the components of `interfaces` run as Model Exchange.
     pub fn load_as(path: &Path, interfaces: &Interfaces) -> Result<System, Error> {
+        System::load_selected(path, None, interfaces, None)
+    }
+
+    /// One part of the SSP `path`, unpacked as `archive` ([`partition::Split`]): every
+    /// component but those of `elsewhere`, which other parts run, and the connections
+    /// among its own; it records `records` (by default). Every name, source and
+    /// `--interface` is checked against the whole SSD, as a whole run checks them, so a
+    /// part refuses what the whole run refuses. The parts of one split share `archive`'s
+    /// unpacked folder (a clone each).
+    ///
+    /// [`partition::Split`]: super::partition::Split
+    pub fn load_part(
+        path: &Path,
+        archive: Archive,
+        interfaces: &Interfaces,
+        elsewhere: &BTreeSet<String>,
+        records: &[String],
+    ) -> Result<System, Error> {
+        System::load_selected(path, Some(archive), interfaces, Some((elsewhere, records)))
+    }
+
+    /// `path` (unpacked as `archive`, if given), whole or the part `part`.
+    fn load_selected(
+        path: &Path,
+        archive: Option<Archive>,
+        interfaces: &Interfaces,
+        part: Option<(&BTreeSet<String>, &[String])>,
+    ) -> Result<System, Error> {
         let tolerance = interfaces.tolerance;
         let is_ssp = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ssp"));
         if !is_ssp {
@@ -71,11 +99,15 @@ impl System {
                 connector_types: BTreeMap::new(),
                 stop_time: None,
                 step_size,
+                elsewhere: BTreeSet::new(),
             });
         }
         // The tolerance before the archive is unpacked, the names once its SSD is read.
         interfaces.tolerance.check()?;
-        let a = Archive::open(path)?;
+        let mut a = match archive {
+            Some(a) => a,
+            None => Archive::open(path)?,
+        };
         let here = |e: Error| e.context(path.display().to_string());
         let names: Vec<String> = a.system.components.iter().map(|c| c.name.clone()).collect();
         interfaces.check(&names).map_err(here)?;
@@ -89,6 +121,18 @@ impl System {
                 ))));
             }
             sources.push(crate::archive::source_path(&a.dir, &c.name, &c.source).map_err(here)?);
+        }
+        if let Some((elsewhere, _)) = part {
+            let kept = |c: &&crate::ssp::Component| !elsewhere.contains(&c.name);
+            sources = a
+                .system
+                .components
+                .iter()
+                .zip(sources)
+                .filter(|(c, _)| kept(c))
+                .map(|(_, s)| s)
+                .collect();
+            super::partition::keep_part(&mut a.system, elsewhere);
         }
         let named: Vec<(&str, &Path)> = a
             .system
@@ -132,9 +176,14 @@ impl System {
                 .map(|(n, _)| n.clone())
                 .collect()
         };
+        let outputs = match part {
+            Some((_, records)) => records.to_vec(),
+            None => a.default_outputs(kind("output"))?,
+        };
         Ok(System {
             inputs: kind("input"),
-            outputs: a.default_outputs(kind("output"))?,
+            outputs,
+            elsewhere: part.map(|(e, _)| e.clone()).unwrap_or_default(),
             connections: a.system.connections.clone(),
             connector_types: a.system.connector_types.clone(),
             stop_time: a.system.stop_time,
@@ -407,7 +456,7 @@ const MAX_STEPS: f64 = 9_007_199_254_740_992.0;
 /// `stop / h` as a whole number of steps, or why not. A last step shorter than `h` would
 /// be refused by FMUs with a fixed communication step, and only at the end of the run:
 /// such a stop time is refused before the first step.
-fn step_count(stop: f64, h: f64) -> Result<u64, Error> {
+pub(super) fn step_count(stop: f64, h: f64) -> Result<u64, Error> {
     let steps = stop / h;
     if steps > MAX_STEPS {
         return Err(Error::Config(format!(

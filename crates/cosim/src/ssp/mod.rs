@@ -19,12 +19,14 @@ use crate::Error;
 pub use parameters::*;
 pub use structure::*;
 
-/// An SSP archive unpacked into a temporary directory (removed on drop).
+/// An SSP archive unpacked into a temporary directory (removed when the last clone is
+/// dropped: the parts of a system split over threads share one unpacked folder).
+#[derive(Clone)]
 pub struct Archive {
     pub dir: PathBuf,
     pub system: System,
-    /// Owns `dir`: removes it when the archive is dropped.
-    _unpacked: crate::archive::Unpacked,
+    /// Owns `dir`: removes it when the last clone is dropped.
+    _unpacked: std::sync::Arc<crate::archive::Unpacked>,
 }
 
 impl Archive {
@@ -36,7 +38,7 @@ impl Archive {
             .and_then(|mut f| f.read_to_string(&mut ssd))
             .map_err(|source| Error::NoSsd { path: path.to_path_buf(), source })?;
         let system = parse_ssd(&ssd).map_err(|e| e.context(path.display().to_string()))?;
-        Ok(Archive { dir, system, _unpacked: unpacked })
+        Ok(Archive { dir, system, _unpacked: std::sync::Arc::new(unpacked) })
     }
 
     /// The parameter set `name` as `component.variable` → value text: the SSD's

@@ -280,7 +280,7 @@ mod tests {
 </ssd:Elements></ssd:System></ssd:SystemStructureDescription>"#,
         )
         .unwrap();
-        let a = Archive { dir, system: System::default(), _unpacked: unpacked };
+        let a = Archive { dir, system: System::default(), _unpacked: unpacked.into() };
         let pairs =
             |m: BTreeMap<String, String>| -> Vec<(String, String)> { m.into_iter().collect() };
         let kv = |v: &[(&str, &str)]| -> Vec<(String, String)> {

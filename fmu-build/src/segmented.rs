@@ -1,0 +1,339 @@
+//! `fmu-build segmented --rings R [--no-centre] [--seed S] --out FILE.ssp`: the SSP of a
+//! hexagonal segmented mirror, generated from the FMUs' variable tables like the shipped
+//! systems (docs/segmented.md). Each segment is one mount of `ssp::mount` (three
+//! reference → controller → plant chains and the mount kinematics), its components
+//! prefixed `seg{k}_`; every plant's first (and only) binding, `default`, holds its
+//! actuator's draw of the brake disturbance `F_d0`, the transducer ratio `T_em` (the
+//! scale factor) and the environment stiffness `k_e`, seeded. Segments share no
+//! connection, so each is an independent subsystem that `inchworm run --jobs` steps on a
+//! thread of its own.
+//!
+//! A subcommand of fmu-build, not of `inchworm`: the SSD is written from the typed
+//! variable tables of `inchworm-fmu-models` by the same code as the shipped systems, and
+//! the `inchworm` command is a master that knows no model's names.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use inchworm_cosim::sweep::plan::{self, SplitMix64};
+use inchworm_fmi_export::Value;
+use inchworm_fmu_models::PlantFmu;
+use inchworm_plant::PlantParams;
+
+use crate::ssp::{self, binding, SystemSpec};
+
+pub const COMMAND: &str = "segmented";
+
+/// The most rings: 16 rings with the centre are 817 segments, an ELT-class primary.
+pub const MAX_RINGS: u32 = 16;
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mirror {
+    pub rings: u32,
+    /// Whether the central segment is there (none: a secondary's shadow or a Cassegrain
+    /// hole, as JWST's 18 = 2 rings without it).
+    pub centre: bool,
+    pub seed: u64,
+}
+
+impl Mirror {
+    /// 3R(R+1) + 1 segments with the centre, 3R(R+1) without: the count of
+    /// python/inchworm_segments and hcipy, in their order (the centre, then ring by ring).
+    pub fn segments(&self) -> usize {
+        let r = self.rings as usize;
+        3 * r * (r + 1) + usize::from(self.centre)
+    }
+}
+
+/// One actuator's draw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Draw {
+    /// Brake disturbance force in DRIVE (N).
+    pub f_d0: f64,
+    /// Electromechanical transformer ratio (N/V): the scale factor's spread.
+    pub t_em: f64,
+    /// Environment stiffness on the runner (N/m).
+    pub k_e: f64,
+}
+
+/// The spreads, seeded (docs/segmented.md §2). The paper's two devices (docs/model.md
+/// §2.8) bound the first; the others are design decisions, the paper publishing none:
+/// * `F_d0` uniform between fia6's 105 N and fia20's 175 N: brake disturbances of about
+///   3 µm to 5 µm, the range the paper reports for its two devices;
+/// * `T_em` normal about fia20's 8.8 N/V, standard deviation [`T_EM_SIGMA`] (5 %), cut at
+///   [`T_EM_CUT`] σ (redrawn beyond): a production lot of the 20 µm device, whose scale
+///   factor (µm a full step) follows `T_em` and the controller's estimator tracks;
+/// * `k_e` log-uniform over a factor 2 each side of fia20's 2·10^4 N/m (10^4 to
+///   4·10^4 N/m): the stiffness of what the runner pushes against, mount to mount.
+///
+/// The draws take splitmix64 with the sweep plan's own logarithm, cosine and exponential
+/// (`inchworm_cosim::sweep::plan`), so a seed gives the same bits on every machine.
+pub const F_D0_RANGE: (f64, f64) = (105.0, 175.0);
+pub const T_EM_SIGMA: f64 = 0.05;
+pub const T_EM_CUT: f64 = 3.0;
+pub const K_E_RANGE: (f64, f64) = (1.0e4, 4.0e4);
+
+/// `n` actuators' draws from `seed`, actuator by actuator (segment 0's a, b, c, then
+/// segment 1's, …): a mirror's first segments are the same whatever its ring count.
+pub fn draws(seed: u64, n: usize) -> Vec<Draw> {
+    let nominal = PlantParams::fia20();
+    let mut rng = SplitMix64::new(seed);
+    let k_e_decades = plan::ln(K_E_RANGE.1 / K_E_RANGE.0);
+    (0..n)
+        .map(|_| {
+            let f_d0 = F_D0_RANGE.0 + (F_D0_RANGE.1 - F_D0_RANGE.0) * rng.uniform();
+            let t_em = loop {
+                let z = rng.normal();
+                if z.abs() <= T_EM_CUT {
+                    break nominal.t_em * (1.0 + T_EM_SIGMA * z);
+                }
+            };
+            let k_e = K_E_RANGE.0 * plan::exp(k_e_decades * rng.uniform());
+            Draw { f_d0, t_em, k_e }
+        })
+        .collect()
+}
+
+/// The mirror's system: one mount a segment, each plant bound to its draw.
+pub fn system(m: &Mirror) -> SystemSpec {
+    let n = m.segments();
+    let all = draws(m.seed, 3 * n);
+    let mut components = Vec::new();
+    let mut connections = Vec::new();
+    for (k, d) in all.chunks(3).enumerate() {
+        let plant = |d: &Draw| {
+            let named =
+                |v: inchworm_fmi_export::Var<PlantFmu>, x| (v.name().to_string(), Value::Real(x));
+            vec![binding(
+                "default",
+                vec![
+                    named(PlantFmu::F_D0, d.f_d0),
+                    named(PlantFmu::T_EM, d.t_em),
+                    named(PlantFmu::K_E, d.k_e),
+                ],
+            )]
+        };
+        let (c, l) = ssp::mount(&format!("seg{k}_"), [plant(&d[0]), plant(&d[1]), plant(&d[2])]);
+        components.extend(c);
+        connections.extend(l);
+    }
+    let centre = if m.centre { "with" } else { "without" };
+    SystemSpec {
+        name: "SegmentedMirror",
+        description: format!(
+            "Hexagonal segmented mirror, {} ring(s) {centre} the centre: {n} segments, each an InchwormMount on three InchwormReference, InchwormController, InchwormPlant chains; each plant's {}, {}, {} drawn with seed {} (fmu-build segmented)",
+            m.rings,
+            PlantFmu::F_D0.name(),
+            PlantFmu::T_EM.name(),
+            PlantFmu::K_E.name(),
+            m.seed
+        ),
+        components,
+        connectors: vec![],
+        connections,
+        stop_time: 10.0,
+    }
+}
+
+const USAGE: &str = "fmu-build segmented --rings R [--no-centre] [--seed S] --out FILE.ssp";
+
+/// The options, or why not.
+pub fn parse(args: &[String]) -> Result<(Mirror, PathBuf), String> {
+    let mut m = Mirror { rings: 0, centre: true, seed: 1 };
+    let mut out = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = |what: &str| it.next().ok_or(format!("{a} needs {what} ({USAGE})"));
+        match a.as_str() {
+            "--rings" => {
+                let v = value("a ring count")?;
+                m.rings = v
+                    .parse()
+                    .ok()
+                    .filter(|r| (1..=MAX_RINGS).contains(r))
+                    .ok_or(format!("--rings {v}: a whole number from 1 to {MAX_RINGS}"))?;
+            }
+            "--seed" => {
+                let v = value("a seed")?;
+                m.seed = v.parse().map_err(|_| format!("--seed {v}: a whole number >= 0"))?;
+            }
+            "--no-centre" => m.centre = false,
+            "--out" => out = Some(PathBuf::from(value("a file")?)),
+            other => return Err(format!("unknown argument `{other}` ({USAGE})")),
+        }
+    }
+    if m.rings == 0 {
+        return Err(format!("give --rings ({USAGE})"));
+    }
+    let out = out.ok_or(format!("give --out ({USAGE})"))?;
+    Ok((m, out))
+}
+
+/// The subcommand: writes the SSP with `write(spec, out)` and says what it wrote.
+pub fn main(
+    args: &[String],
+    write: impl FnOnce(&SystemSpec, &Path) -> Result<(), String>,
+) -> ExitCode {
+    let (m, out) = match parse(args) {
+        Ok(x) => x,
+        Err(e) => {
+            eprintln!("fmu-build segmented: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let spec = system(&m);
+    match write(&spec, &out) {
+        Ok(()) => {
+            println!(
+                "fmu-build segmented: wrote {} ({} segments, {} actuators, {} components, seed {})",
+                out.display(),
+                m.segments(),
+                3 * m.segments(),
+                spec.components.len(),
+                m.seed
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("fmu-build segmented: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ring_counts_with_and_without_the_centre() {
+        let count = |rings, centre| Mirror { rings, centre, seed: 1 }.segments();
+        assert_eq!([count(1, true), count(2, true), count(3, true)], [7, 19, 37]);
+        assert_eq!([count(2, false), count(16, true)], [18, 817]);
+    }
+
+    #[test]
+    fn draws_are_seeded_within_their_ranges_and_spread() {
+        let d = draws(7, 3000);
+        assert_eq!(d, draws(7, 3000));
+        assert_ne!(d[0], draws(8, 1)[0]);
+        // A mirror's first actuators are the same whatever its size.
+        assert_eq!(&d[..21], &draws(7, 21)[..]);
+        let nominal = PlantParams::fia20().t_em;
+        let mean = |f: &dyn Fn(&Draw) -> f64| d.iter().map(f).sum::<f64>() / d.len() as f64;
+        for x in &d {
+            assert!((F_D0_RANGE.0..=F_D0_RANGE.1).contains(&x.f_d0));
+            assert!((x.t_em / nominal - 1.0).abs() <= T_EM_CUT * T_EM_SIGMA + 1e-12);
+            assert!((K_E_RANGE.0..=K_E_RANGE.1).contains(&x.k_e));
+        }
+        // Uniform mean 140 N (sd of the mean 0.37 N), normal mean 8.8 (sd of the mean
+        // 0.008), log-uniform geometric mean 2e4 (log sd of the mean 0.007).
+        assert!((mean(&|x| x.f_d0) - 140.0).abs() < 2.0);
+        assert!((mean(&|x| x.t_em) - nominal).abs() < 0.04);
+        let sd = (mean(&|x| (x.t_em - nominal).powi(2))).sqrt() / nominal;
+        assert!((sd - T_EM_SIGMA).abs() < 0.004, "{sd}");
+        assert!((mean(&|x| x.k_e.ln()) - 2.0e4_f64.ln()).abs() < 0.03);
+    }
+
+    #[test]
+    fn each_segment_is_a_mount_whose_plants_hold_their_draws() {
+        let m = Mirror { rings: 1, centre: false, seed: 3 };
+        let spec = system(&m);
+        assert_eq!(spec.components.len(), 6 * 10);
+        let d = draws(3, 18);
+        let plant = spec.components.iter().find(|c| c.name == "seg5_plant_c").unwrap();
+        assert_eq!(plant.bindings.len(), 1);
+        assert_eq!(plant.bindings[0].set, "default");
+        let values = &plant.bindings[0].values;
+        assert_eq!(values[0], (PlantFmu::F_D0.name().to_string(), Value::Real(d[17].f_d0)));
+        assert_eq!(values[1], (PlantFmu::T_EM.name().to_string(), Value::Real(d[17].t_em)));
+        assert_eq!(values[2], (PlantFmu::K_E.name().to_string(), Value::Real(d[17].k_e)));
+        // Segments share no connection: every one stays within its own prefix.
+        for (a, _, b, _) in &spec.connections {
+            let seg =
+                |e: &Option<String>| e.as_ref().unwrap().split('_').next().unwrap().to_string();
+            assert_eq!(seg(a), seg(b));
+        }
+        let ssd = spec.system_description();
+        assert!(ssd.contains("resources/seg0_plant_a.default.ssv"));
+        assert!(ssd.contains(r#"<ssd:Component name="seg5_mount""#));
+    }
+
+    #[test]
+    fn options_are_checked() {
+        let p = |v: &[&str]| parse(&v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        let (m, out) = p(&["--rings", "3", "--seed", "9", "--out", "m.ssp"]).unwrap();
+        assert_eq!((m, out), (Mirror { rings: 3, centre: true, seed: 9 }, "m.ssp".into()));
+        assert!(!p(&["--rings", "2", "--no-centre", "--out", "a.ssp"]).unwrap().0.centre);
+        assert!(p(&["--rings", "17", "--out", "a.ssp"]).unwrap_err().contains("1 to 16"));
+        assert!(p(&["--rings", "0", "--out", "a.ssp"]).is_err());
+        assert!(p(&["--out", "a.ssp"]).unwrap_err().contains("--rings"));
+        assert!(p(&["--rings", "1"]).unwrap_err().contains("--out"));
+        assert!(p(&["--rings", "1", "--out", "a", "--fast"]).unwrap_err().contains("--fast"));
+    }
+
+    /// Every row of the SSP `path` run to `stop` s, as the CSV bytes `inchworm run` writes:
+    /// on this thread as one system (`jobs` 1), or split into `jobs` parts on threads.
+    fn trace(path: &Path, stop: f64, jobs: usize) -> (Vec<u8>, Vec<String>) {
+        use inchworm_cosim::master::{Coupling, Interfaces, Options, Parallel, System};
+        use inchworm_cosim::{trace, Error, StopFlag};
+        let opts = Options {
+            stop_time: Some(stop),
+            step_size: None,
+            coupling: Coupling::Jacobi,
+            params: vec![],
+            parameter_set: None,
+            input: None,
+            outputs: vec![],
+        };
+        let mut csv = Vec::new();
+        let mut sink = |t: f64, row: &[f64]| -> Result<(), Error> {
+            trace::write_row(&mut csv, t, row).map_err(|e| Error::Config(e.to_string()))
+        };
+        let names = if jobs == 1 {
+            let sim = System::load(path).unwrap().initialise(&opts).unwrap();
+            let names = sim.record_names().to_vec();
+            sim.run_into(&mut sink, |_| {}).unwrap();
+            names
+        } else {
+            let parallel = Parallel::new(path, &Interfaces::default(), &opts, jobs).unwrap();
+            assert_eq!(parallel.split().parts.len(), jobs);
+            let names = parallel.record_names().to_vec();
+            parallel.run_into(&StopFlag::new(), &mut sink, |_| {}).unwrap();
+            names
+        };
+        (csv, names)
+    }
+
+    #[test]
+    fn the_seven_segment_mirror_runs_to_the_same_bytes_on_one_thread_and_two() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mirror.ssp");
+        let spec = system(&Mirror { rings: 1, centre: true, seed: 1 });
+        crate::write_system(&crate::workspace_root(), &spec, &[], &path)
+            .unwrap_or_else(|e| panic!("{e}: run `cargo run --release -p fmu-build` first"));
+        let (one, names) = trace(&path, 1.0, 1);
+        let (two, names_two) = trace(&path, 1.0, 2);
+        assert_eq!(names, names_two);
+        assert_eq!(one.len(), two.len());
+        assert!(one == two, "the rows of --jobs 2 differ from those of one thread");
+        // 501 rows; every segment's mount has reached the 30 µm piston within 1 µm, each
+        // on its own actuators' draws (no two segments the same trajectory).
+        let text = String::from_utf8(one).unwrap();
+        let rows: Vec<Vec<f64>> =
+            text.lines().map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+        assert_eq!(rows.len(), 501);
+        let piston = |k: usize| {
+            let name = format!("seg{k}_mount.{}", inchworm_fmu_models::MountFmu::PISTON.name());
+            let i = names.iter().position(|n| *n == name).unwrap() + 1;
+            rows.iter().map(|r| r[i]).collect::<Vec<f64>>()
+        };
+        let pistons: Vec<Vec<f64>> = (0..7).map(piston).collect();
+        for (k, p) in pistons.iter().enumerate() {
+            let end = p[500];
+            assert!((end - ssp::MIRROR_PISTON).abs() < 1e-6, "segment {k}: piston {end} m at 1 s");
+            assert!(pistons[..k].iter().all(|q| q != p), "segment {k} moves as an earlier one");
+        }
+    }
+}
