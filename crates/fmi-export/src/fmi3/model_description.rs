@@ -111,8 +111,12 @@ pub fn model_description<M: Model>() -> String {
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
     let derivatives = vrs(&|v| state_of::<M>(v).is_some());
-    // A clocked variable is computed at its clock's ticks, not in initialization.
-    let initial_unknowns = vrs(&|v| is_initial_unknown::<M>(v) && v.clocks.is_none());
+    // A clocked variable is computed at its clock's ticks, not in initialization; an output
+    // clock (an output of initial "calculated" by default) is an initial unknown.
+    let initial_unknowns = vrs(&|v| {
+        (is_initial_unknown::<M>(v) && v.clocks.is_none())
+            || (v.kind == Kind::Clock && v.causality == Causality::Output)
+    });
     let indicators = M::model_exchange().map_or(&[][..], |me| me.event_indicators);
     for (tag, list) in [
         ("Output", &outputs[..]),
