@@ -478,6 +478,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
         self.time = s.time;
         self.start_time = s.start_time;
         self.stop_time = s.stop_time;
+        // A state holds no clock activations: an event resumes with none, and a scheduler
+        // activates again from the restored time on.
+        self.active_clocks.clear();
+        self.last_activation = match self.interface {
+            Interface::ScheduledExecution => Some(self.time),
+            _ => None,
+        };
     }
 }
 

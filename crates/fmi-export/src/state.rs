@@ -77,13 +77,8 @@ pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E | EM | CTM | CAM;
 /// initialization); nominals are constants of the table.
 pub const TIMED: u16 = EM | CTM;
 pub const EVENT_MODE: u16 = EM;
-/// Event mode is entered from continuous-time mode (Model Exchange) or from step mode
-/// (Co-Simulation with `eventModeUsed`).
-pub const ENTER_EVENT: u16 = EM | CTM | SC;
-/// Clocks (FMI 3.0 section 2.2.8): input clocks are activated in event mode and by
-/// `fmi3ActivateModelPartition`; output clocks are read in event mode and, in Scheduled
+/// Clocks (FMI 3.0 section 2.2.8): output clocks are read in event mode and, in Scheduled
 /// Execution, after the FMU's `clockUpdate`; intervals are known once initializing.
-pub const CLOCK_ACTIVATION: u16 = CAM;
 pub const CLOCK_READABLE: u16 = EM | CAM;
 pub const INTERVALS: u16 = IM | SC | EM | CTM | CAM | T;
 pub const CONTINUOUS_TIME: u16 = CTM;

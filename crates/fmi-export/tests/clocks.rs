@@ -426,3 +426,29 @@ fn descriptions_declare_clocks_in_fmi3_only() {
     assert!(!two.contains("<Clock") && !two.contains("clocks="), "{two}");
     assert!(two.contains(r#"name="u" valueReference="1""#));
 }
+
+/// A Scheduled Execution state restores at its time: activations resume from there (the
+/// same tick again replays it, an earlier one is refused), bit for bit.
+#[test]
+fn a_restored_scheduled_state_resumes_at_its_time() {
+    let i = Inst::new(Kind::Se(None, None, None, std::ptr::null_mut()));
+    for (k, u) in [0.5, 1.25, 2.0].into_iter().enumerate() {
+        assert_eq!((i.set_u(u), i.activate(TICK, k as f64 * PERIOD)), (fmi3OK, fmi3OK));
+    }
+    let mut state = std::ptr::null_mut();
+    assert_eq!(unsafe { fmi3GetFMUState::<M>(i.c, &mut state) }, fmi3OK);
+    assert_eq!(
+        (i.set_u(3.0), i.activate(TICK, 0.3), i.activate(TICK, 0.4)),
+        (fmi3OK, fmi3OK, fmi3OK)
+    );
+    let ahead = i.real(SUM);
+    assert_eq!(unsafe { fmi3SetFMUState::<M>(i.c, state) }, fmi3OK);
+    assert_eq!(i.real(SUM), 3.75);
+    assert_eq!(i.activate(TICK, 0.1), fmi3Error, "before the restored time");
+    assert_eq!(
+        (i.set_u(3.0), i.activate(TICK, 0.3), i.activate(TICK, 0.4)),
+        (fmi3OK, fmi3OK, fmi3OK)
+    );
+    assert_eq!(i.real(SUM).to_bits(), ahead.to_bits());
+    assert_eq!(unsafe { fmi3FreeFMUState::<M>(i.c, &mut state) }, fmi3OK);
+}

@@ -132,6 +132,9 @@ pub unsafe fn set_clock<S: Standard, M: Model>(
     (vr, n): (*const u32, usize),
     values: *const u8,
 ) -> Status {
+    if !has_clocks::<M>() {
+        return super::values::no_variables_of::<S, M>(c, func, LIVE, "Clock", (vr, n), false);
+    }
     with_instance::<S, M>(c, func, LIVE, |inst| {
         if !has_event_mode(inst) {
             let why = no_event_mode::<M>(inst.interface);
@@ -176,6 +179,9 @@ pub unsafe fn get_clock<S: Standard, M: Model>(
     (vr, n): (*const u32, usize),
     values: *mut bool,
 ) -> Status {
+    if !has_clocks::<M>() {
+        return super::values::no_variables_of::<S, M>(c, func, LIVE, "Clock", (vr, n), false);
+    }
     with_instance::<S, M>(c, func, LIVE, |inst| {
         if inst.state as u16 & CLOCK_READABLE == 0 {
             let state = S::state_name(inst.state);
@@ -215,7 +221,7 @@ pub unsafe fn get_interval<S: Standard, M: Model>(
     (intervals, qualifiers): (*mut f64, *mut i32),
     changed: i32,
 ) -> Status {
-    with_instance::<S, M>(c, func, LIVE & !(State::Instantiated as u16), |inst| {
+    with_instance::<S, M>(c, func, INTERVALS, |inst| {
         let (Some(vrs), Some(iv), Some(q)) =
             (slice(vr, n), slice_mut(intervals, n), slice_mut(qualifiers, n))
         else {
@@ -239,7 +245,7 @@ pub unsafe fn get_shift<S: Standard, M: Model>(
     (vr, n): (*const u32, usize),
     shifts: *mut f64,
 ) -> Status {
-    with_instance::<S, M>(c, func, LIVE & !(State::Instantiated as u16), |inst| {
+    with_instance::<S, M>(c, func, INTERVALS, |inst| {
         let (Some(vrs), Some(out)) = (slice(vr, n), slice_mut(shifts, n)) else {
             return inst.refuse(func, format_args!("valueReferences or shifts is NULL"));
         };

@@ -28,6 +28,12 @@
 //! is an instant: the same instants, inputs and samples as Co-Simulation, so a master that
 //! hands the plant's encoder to the controller at each event closes the same loop as a
 //! Jacobi master at 2 ms. Between events the outputs hold.
+//!
+//! In FMI 3.0 the sample instants are the ticks of the input clock `sample_clock`, and a
+//! tick's activation (event mode's `fmi3UpdateDiscreteStates`, Scheduled Execution's
+//! `fmi3ActivateModelPartition`) runs the event at its time, as above; between ticks a
+//! step of an instance with event mode changes nothing. The output clock `gait_step` ticks
+//! at the samples that end a gait step and update the estimator. docs/model.md §5, Clocks.
 
 use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 // The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0) are
