@@ -122,6 +122,10 @@ fn connector(out: &mut String, indent: &str, name: &str, kind: &str, ty: Kind, u
         },
         Kind::Integer => "<ssc:Integer/>".to_string(),
         Kind::Boolean => "<ssc:Boolean/>".to_string(),
+        // SSP 1.0 has no clock type: a system connects the FMUs' values, never their clocks.
+        Kind::Clock => {
+            panic!("{name}: a clock cannot be an SSP connector (SSP 1.0 has no clock type)")
+        }
     };
     let _ = writeln!(
         out,

@@ -117,6 +117,8 @@ pub struct Controller {
     /// minus the latest estimate and minus the map's prediction, both from before the
     /// update.
     bd_residuals: Option<(f64, f64, f64)>,
+    /// The last tick ended a gait step and updated the estimator with its measurements.
+    estimated: bool,
 }
 
 /// The plan of a move `d` with the disturbance the map predicts for each of its steps
@@ -159,6 +161,7 @@ impl Controller {
             fraction_left: None,
             plan: None,
             iterations: 0,
+            estimated: false,
             analog: Analog::new(params.disturbance_start / params.analog_params.gain),
             bdmap: params.disturbance_map.then(|| {
                 DisturbanceMap::new(
@@ -202,6 +205,13 @@ impl Controller {
         self.iterations
     }
 
+    /// Whether the last tick ended a gait step and updated the estimator (the scale-factor
+    /// weights and the disturbance estimate) with the step's measurements. Not part of the
+    /// saved state: a restored controller says false until its next tick.
+    pub fn estimated(&self) -> bool {
+        self.estimated
+    }
+
     /// The weights and disturbance the waveform generator uses, per the flags.
     fn estimates(&self) -> ([f64; 10], f64) {
         let theta = if self.params.use_scale_factor_estimate {
@@ -218,6 +228,7 @@ impl Controller {
     pub fn tick(&mut self, encoder_counts: i64, reference: f64) -> Sample {
         let n = self.timing.samples;
         let y_now = encoder_counts as f64 * self.params.q_enc;
+        self.estimated = false;
         let mut iterated = false;
         let mut no_root = false;
         if self.bdmap.is_some() {
@@ -262,6 +273,7 @@ impl Controller {
                         m.update(t_step, raw.ext_cmd, raw.bd);
                     }
                     self.estimator.update(&self.basis, t_step, raw.ext_cmd, raw.ext_moved, raw.bd);
+                    self.estimated = true;
                 }
                 y_measured = raw.s[6];
             }

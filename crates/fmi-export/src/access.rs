@@ -18,9 +18,23 @@ use crate::Model;
 /// initialization they are the start values or the model at rest); a non-finite Real is
 /// refused by the layer when read.
 pub enum Access<M: 'static> {
-    Real { get: fn(&M) -> f64, set: Option<fn(&mut M, f64)> },
-    Integer { get: fn(&M) -> i32, set: Option<fn(&mut M, i32)> },
-    Boolean { get: fn(&M) -> bool, set: Option<fn(&mut M, bool)> },
+    Real {
+        get: fn(&M) -> f64,
+        set: Option<fn(&mut M, f64)>,
+    },
+    Integer {
+        get: fn(&M) -> i32,
+        set: Option<fn(&mut M, i32)>,
+    },
+    Boolean {
+        get: fn(&M) -> bool,
+        set: Option<fn(&mut M, bool)>,
+    },
+    /// A clock: the layer activates an input clock (`ticked` is `None`); the model ticks
+    /// an output clock, read with `ticked`.
+    Clock {
+        ticked: Option<fn(&M) -> bool>,
+    },
 }
 
 impl<M> Clone for Access<M> {
@@ -100,6 +114,7 @@ impl<M> Row<M> {
             Access::Real { get, .. } => Value::Real(get(model)),
             Access::Integer { get, .. } => Value::Integer(get(model)),
             Access::Boolean { get, .. } => Value::Boolean(get(model)),
+            Access::Clock { ticked } => Value::Boolean(ticked.is_some_and(|f| f(model))),
         }
     }
 
@@ -151,6 +166,18 @@ impl Variable {
     pub const fn boolean_out<M>(self, get: fn(&M) -> bool) -> Row<M> {
         self.with_access(Access::Boolean { get, set: None })
     }
+    /// An input clock: the layer keeps its activations and hands its ticks to
+    /// [`Model::activate_clock`].
+    pub const fn clock_in<M>(self) -> Row<M> {
+        assert!(matches!(self.causality, Causality::Input), "clock_in is for an input clock");
+        self.with_access(Access::Clock { ticked: None })
+    }
+    /// An output clock, ticked by the model: `ticked` reads whether it ticked since it was
+    /// last cleared ([`Model::clear_output_clocks`]).
+    pub const fn clock_out<M>(self, ticked: fn(&M) -> bool) -> Row<M> {
+        assert!(matches!(self.causality, Causality::Output), "clock_out is for an output clock");
+        self.with_access(Access::Clock { ticked: Some(ticked) })
+    }
 
     /// The row; the table is a `static`, so a row whose accessor's type is not the
     /// variable's, or an input or parameter without a setter, fails the build.
@@ -160,6 +187,7 @@ impl Variable {
             (Kind::Real, Access::Real { .. })
                 | (Kind::Integer, Access::Integer { .. })
                 | (Kind::Boolean, Access::Boolean { .. })
+                | (Kind::Clock, Access::Clock { .. })
         );
         assert!(kind_matches, "a row's accessor must be of its variable's type");
         let settable = matches!(
@@ -168,7 +196,8 @@ impl Variable {
                 | Access::Integer { set: Some(_), .. }
                 | Access::Boolean { set: Some(_), .. }
         );
-        let needs_setter = matches!(self.causality, Causality::Input | Causality::Parameter);
+        let needs_setter = matches!(self.causality, Causality::Input | Causality::Parameter)
+            && !matches!(self.kind, Kind::Clock);
         assert!(settable == needs_setter, "inputs and parameters have a setter, nothing else");
         Row { var: self, access }
     }

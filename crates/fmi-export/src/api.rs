@@ -17,7 +17,7 @@ use crate::entry::{
     self, Array, Booleans, EventSink, Integers, Reals, AFTER_STEP, GETTABLE, LIVE, SETTABLE,
 };
 use crate::ffi::*;
-use crate::instance::{Interface, Line, Standard, State};
+use crate::instance::{Interface, Line, Modes, Standard, State};
 use crate::{EventUpdate, Kind};
 
 /// `fmi2EventInfo`, which only Model Exchange uses: the ABI crate's, which the importer shares.
@@ -39,12 +39,13 @@ impl EventSink for *mut fmi2EventInfo {
     }
 }
 
-/// The interface `fmuType` asks for.
-fn interface(ty: fmi2Type) -> (Interface, Option<&'static str>) {
+/// The interface `fmuType` asks for; FMI 2.0 has no event mode or scheduler.
+fn interface(ty: fmi2Type) -> (Interface, Modes, Option<&'static str>) {
+    let none = Modes::default();
     match ty {
-        fmi2CoSimulation => (Interface::CoSimulation, None),
-        fmi2ModelExchange => (Interface::ModelExchange, None),
-        _ => (Interface::CoSimulation, Some(BAD_TYPE)),
+        fmi2CoSimulation => (Interface::CoSimulation, none, None),
+        fmi2ModelExchange => (Interface::ModelExchange, none, None),
+        _ => (Interface::CoSimulation, none, Some(BAD_TYPE)),
     }
 }
 
@@ -62,6 +63,7 @@ impl Standard for Fmi2 {
             Kind::Real => "Real",
             Kind::Integer => "Integer",
             Kind::Boolean => "Boolean",
+            Kind::Clock => "Clock",
         }
     }
     fn has_logger(cb: &Self::Callbacks) -> bool {

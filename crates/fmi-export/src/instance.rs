@@ -37,20 +37,49 @@ pub use crate::state::State;
 pub enum Interface {
     CoSimulation,
     ModelExchange,
+    /// FMI 3.0 Scheduled Execution: the importer's scheduler activates the model
+    /// partitions (one per input clock) with `fmi3ActivateModelPartition`.
+    ScheduledExecution,
+}
+
+/// How a Co-Simulation or Scheduled Execution instance was asked to run, beyond its
+/// interface (FMI 3.0's instantiation arguments; FMI 2.0 has none of them).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Modes {
+    /// `eventModeUsed`: steps end at input-clock ticks and the importer handles them in
+    /// event mode.
+    pub event_mode: bool,
+    /// `earlyReturnAllowed`: a step that would pass a tick returns early at it.
+    pub early_return: bool,
+    /// Scheduled Execution's callbacks.
+    pub scheduler: Option<Scheduler>,
+}
+
+/// The callbacks of a Scheduled Execution instance (FMI 3.0 section 5.2.1): the
+/// environment they are called with, `clockUpdate` (an output clock ticked) and the
+/// preemption lock the FMU takes around what its partitions share with the importer.
+#[derive(Clone, Copy, Debug)]
+pub struct Scheduler {
+    pub env: *mut std::ffi::c_void,
+    pub clock_update: Option<unsafe extern "C" fn(*mut std::ffi::c_void)>,
+    pub lock: Option<unsafe extern "C" fn()>,
+    pub unlock: Option<unsafe extern "C" fn()>,
 }
 
 impl Interface {
     /// The states an instance of this interface can be in, so that a saved state of the
     /// other interface is refused rather than restored into a state machine without it.
     pub fn states(self) -> u16 {
+        let stepping = State::StepComplete as u16
+            | State::StepInProgress as u16
+            | State::StepFailed as u16
+            | State::StepCanceled as u16;
+        let (events, continuous) = (State::EventMode as u16, State::ContinuousTimeMode as u16);
+        let activating = State::ClockActivationMode as u16;
         let only_other = match self {
-            Interface::CoSimulation => State::EventMode as u16 | State::ContinuousTimeMode as u16,
-            Interface::ModelExchange => {
-                State::StepComplete as u16
-                    | State::StepInProgress as u16
-                    | State::StepFailed as u16
-                    | State::StepCanceled as u16
-            }
+            Interface::CoSimulation => continuous | activating,
+            Interface::ModelExchange => stepping | activating,
+            Interface::ScheduledExecution => stepping | events | continuous,
         };
         crate::state::ALL_STATES & !only_other
     }
@@ -59,6 +88,7 @@ impl Interface {
         match self {
             Interface::CoSimulation => "Co-Simulation",
             Interface::ModelExchange => "Model Exchange",
+            Interface::ScheduledExecution => "Scheduled Execution",
         }
     }
 }
@@ -238,6 +268,14 @@ pub struct Instance<S: Standard, M: Model> {
     /// How often each input with a declared range was clamped into it (its warnings
     /// are bounded by these counts, `entry`).
     pub clamps: Vec<Clamps>,
+    /// `eventModeUsed`, `earlyReturnAllowed` and the scheduler's callbacks.
+    pub modes: Modes,
+    /// The input clocks activated in the current event (value references), cleared on
+    /// leaving event mode.
+    pub active_clocks: Vec<u32>,
+    /// Scheduled Execution: the last partition's activation time, which no later one may
+    /// precede.
+    pub last_activation: Option<f64>,
 }
 
 /// The clamps of one input into its declared range since instantiation or reset.
@@ -266,7 +304,7 @@ pub struct Indexed {
 }
 
 /// Every state of the core, for tables over them.
-const STATES: [State; 11] = [
+const STATES: [State; 12] = [
     State::Instantiated,
     State::InitializationMode,
     State::StepComplete,
@@ -278,6 +316,7 @@ const STATES: [State; 11] = [
     State::Fatal,
     State::EventMode,
     State::ContinuousTimeMode,
+    State::ClockActivationMode,
 ];
 
 /// The states in which a master may set `v`, one bit each as [`State`] codes them
@@ -337,14 +376,15 @@ impl<S: Standard, M: Model> Instance<S, M> {
     pub fn new(
         name: CString,
         callbacks: S::Callbacks,
-        interface: Interface,
+        (interface, modes): (Interface, Modes),
         logging_on: bool,
     ) -> Self {
         let vars = M::table();
-        let entries = match S::ARRAYS {
+        let mut entries = match S::ARRAYS {
             true => arrays::fmi3_entries(vars).unwrap_or_else(|_| arrays::scalar_entries(vars)),
             false => arrays::scalar_entries(vars),
         };
+        entries.retain(|e| S::CLOCKS || vars[e.first].var.kind != Kind::Clock);
         let index = Index::new(entries.iter().map(|e| {
             let head = &vars[e.first].var;
             let (first, len) = (e.first as u32, e.len as u32);
@@ -371,6 +411,12 @@ impl<S: Standard, M: Model> Instance<S, M> {
                 .filter(|v| v.min.is_some() || v.max.is_some())
                 .map(|v| Clamps { vr: v.vr, count: 0, logged: 0, summarized: 0 })
                 .collect(),
+            modes,
+            // Allocated once, so an activation in the loop allocates nothing.
+            active_clocks: Vec::with_capacity(
+                vars.iter().filter(|r| r.var.kind == Kind::Clock).count(),
+            ),
+            last_activation: None,
         }
     }
 
@@ -432,6 +478,13 @@ impl<S: Standard, M: Model> Instance<S, M> {
         self.time = s.time;
         self.start_time = s.start_time;
         self.stop_time = s.stop_time;
+        // A state holds no clock activations: an event resumes with none, and a scheduler
+        // activates again from the restored time on.
+        self.active_clocks.clear();
+        self.last_activation = match self.interface {
+            Interface::ScheduledExecution => Some(self.time),
+            _ => None,
+        };
     }
 }
 

@@ -31,9 +31,10 @@ pub mod testing;
 pub use access::{parameter_values, row_named, row_of, start_value, Access, Row, Value, Var};
 pub use entry::same_time;
 pub use inchworm_state_bytes::{Reader, Writer};
-pub use instance::{Clip, Facts, Interface, LogCategory, Standard, State};
+pub use instance::{Clip, Facts, Interface, LogCategory, Modes, Scheduler, Standard, State};
 pub use table::{
-    Admission, Causality, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable, Wording,
+    Admission, Causality, ClockKind, Initial, Kind, ModelInfo, Start, Unit, Variability, Variable,
+    Wording,
 };
 
 /// Something a step has to tell the master.
@@ -190,6 +191,29 @@ pub trait Model: Clone + Send + 'static {
         _log: &mut StepLog,
     ) -> Result<EventUpdate, String> {
         Err("this model has no Model Exchange interface".into())
+    }
+
+    /// A tick of the input clock `clock` (a [`Kind::Clock`] row declared with
+    /// [`Variable::periodic_clock`]) at `t`: the model partition of that clock. The layer
+    /// runs it when the importer activates the clock (FMI 3.0 Co-Simulation or Model
+    /// Exchange in event mode, at `fmi3UpdateDiscreteStates`; Scheduled Execution, at
+    /// `fmi3ActivateModelPartition`) and has checked that `t` is a tick of it. An output
+    /// clock the partition ticks reads true through its row until
+    /// [`Model::clear_output_clocks`]. An `Err` moves the instance to Error.
+    fn activate_clock(&mut self, _clock: u32, _t: f64, _log: &mut StepLog) -> Result<(), String> {
+        Err("this model has no clocks".into())
+    }
+
+    /// Deactivates every output clock: on leaving event mode, before a model partition
+    /// runs, and once a Scheduled Execution importer has read it.
+    fn clear_output_clocks(&mut self) {}
+
+    /// A communication step of an instance whose clocked partitions run at their clocks'
+    /// activations (FMI 3.0 Co-Simulation with `eventModeUsed`): what the model computes
+    /// between ticks. The layer ends such a step at the next tick at the latest. The
+    /// default is [`Model::do_step`]: a model without clocked partitions steps alike.
+    fn step_between_ticks(&mut self, t: f64, h: f64, log: &mut StepLog) -> Result<(), String> {
+        self.do_step(t, h, log)
     }
 
     /// `out[i] = Σ_j ∂unknowns[i]/∂knowns[j] · seed[j]` at the current state, for a model

@@ -5,7 +5,9 @@ use std::collections::HashMap;
 use std::fmt::Write;
 use std::sync::{Mutex, OnceLock, PoisonError};
 
+use crate::api::Fmi2;
 use crate::instance::LogCategory;
+use crate::standards::Facts;
 use crate::table::{Causality, Initial, Kind, Start, Variability, Variable};
 use crate::Model;
 
@@ -71,6 +73,7 @@ fn type_name(k: Kind) -> &'static str {
         Kind::Real => "Real",
         Kind::Integer => "Integer",
         Kind::Boolean => "Boolean",
+        Kind::Clock => "Clock",
     }
 }
 
@@ -188,7 +191,10 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
     );
     shared_head::<M>(w, "fmi2");
     let _ = writeln!(w, "  <ModelVariables>");
-    for (i, v) in M::variables().enumerate() {
+    // FMI 2.0 has no clocks: its variables are the table's but the clock rows.
+    let vars: Vec<&Variable> =
+        M::variables().filter(|v| Fmi2::CLOCKS || v.kind != Kind::Clock).collect();
+    for (i, v) in vars.iter().enumerate() {
         let _ = writeln!(w, "    <!-- index {} -->", i + 1);
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
         let _ = writeln!(
@@ -202,7 +208,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
         );
         let mut attrs = unit_and_range(v);
         if let Some(state) = state_of::<M>(v) {
-            let index = M::variables().position(|s| s.vr == state).map_or(0, |i| i + 1);
+            let index = vars.iter().position(|s| s.vr == state).map_or(0, |i| i + 1);
             let _ = write!(attrs, " derivative=\"{index}\"");
         }
         let _ = writeln!(w, "      <{}{attrs}{}/>", type_name(v.kind), start_attr(v.start));
@@ -211,7 +217,7 @@ fn xml_with_guid<M: Model>(guid: &str) -> String {
     let _ = writeln!(w, "  </ModelVariables>");
     let _ = writeln!(w, "  <ModelStructure>");
     let indices = |pred: &dyn Fn(&Variable) -> bool| -> Vec<usize> {
-        M::variables().enumerate().filter(|(_, v)| pred(v)).map(|(i, _)| i + 1).collect()
+        vars.iter().enumerate().filter(|(_, v)| pred(v)).map(|(i, _)| i + 1).collect()
     };
     let outputs = indices(&|v| v.causality == Causality::Output);
     let derivatives = indices(&|v| state_of::<M>(v).is_some());

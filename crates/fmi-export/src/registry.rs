@@ -17,11 +17,42 @@
 use std::any::TypeId;
 use std::cell::Cell;
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard, Once};
 
-/// Live instances: address → the type they were created as.
-static LIVE: Mutex<BTreeMap<usize, TypeId>> = Mutex::new(BTreeMap::new());
+/// Live instances: address → the type they were created as and the instance's [`Guard`].
+static LIVE: Mutex<BTreeMap<usize, (TypeId, &'static Guard)>> = Mutex::new(BTreeMap::new());
+
+/// What the calls into one instance share across threads, allocated beside the instance
+/// (not in it: a running call holds the instance exclusively, and another thread's call
+/// must not touch that memory): whether a call runs, and how many calls were refused
+/// because one did.
+#[derive(Debug, Default)]
+pub struct Guard {
+    busy: AtomicBool,
+    refused: AtomicU32,
+}
+
+impl Guard {
+    /// Takes the instance for one call, or counts a refusal if another call has it.
+    pub fn enter(&self) -> bool {
+        let free = self.busy.compare_exchange(false, true, Ordering::Acquire, Ordering::Relaxed);
+        if free.is_err() {
+            self.refused.fetch_add(1, Ordering::Relaxed);
+        }
+        free.is_ok()
+    }
+
+    /// Hands the instance back.
+    pub fn leave(&self) {
+        self.busy.store(false, Ordering::Release);
+    }
+
+    /// The calls refused since the last time this was asked.
+    pub fn take_refused(&self) -> u32 {
+        self.refused.swap(0, Ordering::Relaxed)
+    }
+}
 
 /// Advanced by every free, after the instance left [`LIVE`]: a thread's cache of live
 /// instances is good only for the epoch it was filled in.
@@ -31,11 +62,14 @@ static EPOCH: AtomicU64 = AtomicU64::new(0);
 /// per component, and a system rarely has more than a few components of one FMU.
 const CACHED: usize = 4;
 
+/// An instance found live: its address, type and guard.
+type Cached = (usize, TypeId, &'static Guard);
+
 /// A thread's cache of instances found live: valid while `epoch` is [`EPOCH`].
 struct Recent {
     epoch: Cell<u64>,
-    /// The last instances found live, newest first.
-    slots: [Cell<Option<(usize, TypeId)>>; CACHED],
+    /// The last instances found live, newest first, with their guards.
+    slots: [Cell<Option<Cached>>; CACHED],
 }
 
 thread_local! {
@@ -44,7 +78,7 @@ thread_local! {
     };
 }
 
-fn live() -> MutexGuard<'static, BTreeMap<usize, TypeId>> {
+fn live() -> MutexGuard<'static, BTreeMap<usize, (TypeId, &'static Guard)>> {
     // The map is consistent after every operation on it, so a panic elsewhere while the
     // lock was held (there is none in this module) leaves nothing half done.
     LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -54,7 +88,8 @@ fn live() -> MutexGuard<'static, BTreeMap<usize, TypeId>> {
 pub(crate) fn register<T: 'static>(ptr: *mut T) {
     static PINNED: Once = Once::new();
     PINNED.call_once(pin_library);
-    live().insert(ptr as usize, TypeId::of::<T>());
+    let guard: &'static Guard = Box::leak(Box::default());
+    live().insert(ptr as usize, (TypeId::of::<T>(), guard));
 }
 
 /// Keeps this library loaded until the process ends, once it has made an instance. The
@@ -98,43 +133,58 @@ fn pin_library() {
 /// through `ptr`.
 #[inline]
 pub fn is_live<T: 'static>(ptr: *const T) -> bool {
+    guard_of(ptr).is_some()
+}
+
+/// The guard of `ptr` if it is a live instance of `T` created by this library. Reads
+/// nothing through `ptr`.
+#[inline]
+pub fn guard_of<T: 'static>(ptr: *const T) -> Option<&'static Guard> {
     let key = (ptr as usize, TypeId::of::<T>());
     // Acquire: a free that happened before this call (the only way a master can use a
     // pointer after freeing it) is seen, so a stale cache is not trusted.
     let epoch = EPOCH.load(Ordering::Acquire);
     RECENT.with(|recent| {
         let current = recent.epoch.get() == epoch;
-        if current && recent.slots.iter().any(|s| s.get() == Some(key)) {
-            return true;
-        }
-        let found = live().get(&key.0) == Some(&key.1);
-        if found {
-            if !current {
-                recent.slots.iter().for_each(|s| s.set(None));
-                recent.epoch.set(epoch);
-            }
-            // Newest first: the others move one slot down, the oldest drops out.
-            let mut carry = Some(key);
-            for s in &recent.slots {
-                carry = s.replace(carry);
+        if current {
+            let hit = recent.slots.iter().find_map(|s| s.get().filter(|e| (e.0, e.1) == key));
+            if let Some(entry) = hit {
+                return Some(entry.2);
             }
         }
-        found
+        let guard = live().get(&key.0).filter(|e| e.0 == key.1).map(|e| e.1)?;
+        if !current {
+            recent.slots.iter().for_each(|s| s.set(None));
+            recent.epoch.set(epoch);
+        }
+        // Newest first: the others move one slot down, the oldest drops out.
+        let mut carry = Some((key.0, key.1, guard));
+        for s in &recent.slots {
+            carry = s.replace(carry);
+        }
+        Some(guard)
     })
 }
 
-/// Removes `ptr` if it is a live instance of `T`, and says whether it was: only then may
-/// the caller free it. A second free of the same pointer finds nothing.
+/// Removes `ptr` if it is a live instance of `T` and no call runs on it, and says whether
+/// it was removed: only then may the caller free it. A second free of the same pointer
+/// finds nothing; a free while another thread's call runs is refused (and counted as that
+/// call's refusal). The guard stays allocated, taken for good: a thread that found the
+/// instance live just before the free finds it busy and touches nothing (a few bytes per
+/// instance ever made).
 pub(crate) fn unregister<T: 'static>(ptr: *const T) -> bool {
     let mut map = live();
-    let ours = map.get(&(ptr as usize)) == Some(&TypeId::of::<T>());
-    if ours {
-        map.remove(&(ptr as usize));
-        // Release, with the lock still held: a thread that sees the new epoch also sees
-        // the instance gone from the map.
-        EPOCH.fetch_add(1, Ordering::Release);
+    let Some(&(_, guard)) = map.get(&(ptr as usize)).filter(|e| e.0 == TypeId::of::<T>()) else {
+        return false;
+    };
+    if !guard.enter() {
+        return false;
     }
-    ours
+    map.remove(&(ptr as usize));
+    // Release, with the lock still held: a thread that sees the new epoch also sees
+    // the instance gone from the map.
+    EPOCH.fetch_add(1, Ordering::Release);
+    true
 }
 
 /// How many instances of this library are live (for tests of leaks and double frees).

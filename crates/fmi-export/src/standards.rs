@@ -38,6 +38,9 @@ facts! {
     /// (section 2.2.3) leaves Error only by `fmi3SetFMUState`, `fmi3Reset` or freeing, so
     /// there is no state in Error worth saving. The one rule in which they differ here.
     GET_STATE_IN_ERROR: bool = true, false;
+    /// FMI 3.0 has clocks (section 2.2.8); FMI 2.0 FMUs built from a table with clock
+    /// rows leave them, and the clocked variables' `clocks`, out.
+    CLOCKS: bool = false, true;
     /// FMI 3.0 declares a marked run of scalars as one array variable (crate::arrays).
     ARRAYS: bool = false, true;
     /// The independent variable `time` FMI 3.0 requires, owned by the layer.

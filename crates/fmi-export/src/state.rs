@@ -24,6 +24,9 @@ pub enum State {
     Fatal = 1 << 8,
     EventMode = 1 << 9,
     ContinuousTimeMode = 1 << 10,
+    /// FMI 3.0 Scheduled Execution (section 5.2): initialized, the scheduler activates
+    /// model partitions.
+    ClockActivationMode = 1 << 11,
 }
 
 impl State {
@@ -41,6 +44,7 @@ impl State {
             State::Fatal => "Fatal",
             State::EventMode => "EventMode",
             State::ContinuousTimeMode => "ContinuousTimeMode",
+            State::ClockActivationMode => "ClockActivationMode",
         }
     }
 }
@@ -55,23 +59,28 @@ const T: u16 = State::Terminated as u16;
 const E: u16 = State::Error as u16;
 const EM: u16 = State::EventMode as u16;
 const CTM: u16 = State::ContinuousTimeMode as u16;
+const CAM: u16 = State::ClockActivationMode as u16;
 
 /// The allowed-state masks, named for the calls that use them.
 pub const INSTANTIATED: u16 = I;
 pub const INITIALIZATION: u16 = IM;
 pub const STEPPING: u16 = SC;
 pub const STEP_ENDED: u16 = SC | SF | SCA;
-pub const TERMINABLE: u16 = STEP_ENDED | EM | CTM;
-pub const LIVE: u16 = I | IM | SC | SIP | SF | SCA | T | E | EM | CTM;
-pub const GETTABLE: u16 = IM | SC | SF | SCA | T | E | EM | CTM;
-pub const SETTABLE: u16 = I | IM | SC | EM | CTM;
-pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E | EM | CTM;
+pub const TERMINABLE: u16 = STEP_ENDED | EM | CTM | CAM;
+pub const LIVE: u16 = I | IM | SC | SIP | SF | SCA | T | E | EM | CTM | CAM;
+pub const GETTABLE: u16 = IM | SC | SF | SCA | T | E | EM | CTM | CAM;
+pub const SETTABLE: u16 = I | IM | SC | EM | CTM | CAM;
+pub const STATE_CALLS: u16 = I | IM | SC | SF | SCA | T | E | EM | CTM | CAM;
 /// Model Exchange (FMI 2.0 section 3.2.3, FMI 3.0 section 3.2): time moves in both
 /// modes; the integrator sets states only between events; states, derivatives and
 /// indicators are readable once initialized (the model is built at exit from
 /// initialization); nominals are constants of the table.
 pub const TIMED: u16 = EM | CTM;
 pub const EVENT_MODE: u16 = EM;
+/// Clocks (FMI 3.0 section 2.2.8): output clocks are read in event mode and, in Scheduled
+/// Execution, after the FMU's `clockUpdate`; intervals are known once initializing.
+pub const CLOCK_READABLE: u16 = EM | CAM;
+pub const INTERVALS: u16 = IM | SC | EM | CTM | CAM | T;
 pub const CONTINUOUS_TIME: u16 = CTM;
 pub const ME_READABLE: u16 = EM | CTM | T | E;
 pub const NOMINALS: u16 = I | IM | EM | CTM | T | E;

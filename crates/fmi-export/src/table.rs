@@ -9,6 +9,20 @@ pub enum Kind {
     Real,
     Integer,
     Boolean,
+    /// An FMI 3.0 clock (section 2.2.8): its [`Variable::clock`] says which; FMI 2.0 has
+    /// no clocks and leaves these rows out ([`crate::Facts::CLOCKS`]).
+    Clock,
+}
+
+/// What kind of clock a [`Kind::Clock`] row is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ClockKind {
+    /// An input clock that ticks at `t0 + n × interval` (start time t0, n = 0, 1, …):
+    /// time-based, `intervalVariability="constant"`, the importer activates it at each
+    /// tick.
+    Periodic { interval: f64 },
+    /// An output clock the model ticks (`intervalVariability="triggered"`).
+    Triggered,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -68,6 +82,11 @@ pub struct Variable {
     /// description of the whole, which FMI 3.0 declares as one array variable `name`
     /// (see [`crate::arrays`]); FMI 2.0 keeps the scalars.
     pub array: Option<&'static str>,
+    /// On a [`Kind::Clock`] row: which clock.
+    pub clock: Option<ClockKind>,
+    /// The value reference of the clock this variable is clocked by (FMI 3.0's `clocks`
+    /// attribute); FMI 2.0 leaves it out.
+    pub clocks: Option<u32>,
 }
 
 /// Words the layer puts into the messages about a variable, so that they speak the
@@ -108,6 +127,8 @@ impl Variable {
             description,
             wording: Wording::PLAIN,
             array: None,
+            clock: None,
+            clocks: None,
         }
     }
 
@@ -216,6 +237,34 @@ impl Variable {
     ) -> Self {
         let role = (Causality::Local, Variability::Continuous, Some(Initial::Calculated));
         Variable::new(name, vr, Kind::Real, role, Start::None, unit, description)
+    }
+
+    /// An input clock ticking every `interval` seconds from the start time.
+    pub const fn periodic_clock(
+        name: &'static str,
+        vr: u32,
+        interval: f64,
+        description: &'static str,
+    ) -> Self {
+        let role = (Causality::Input, Variability::Discrete, None);
+        let mut v = Variable::new(name, vr, Kind::Clock, role, Start::None, None, description);
+        v.clock = Some(ClockKind::Periodic { interval });
+        v
+    }
+
+    /// An output clock the model ticks.
+    pub const fn output_clock(name: &'static str, vr: u32, description: &'static str) -> Self {
+        let role = (Causality::Output, Variability::Discrete, None);
+        let mut v = Variable::new(name, vr, Kind::Clock, role, Start::None, None, description);
+        v.clock = Some(ClockKind::Triggered);
+        v
+    }
+
+    /// Clocked by the clock with value reference `clock` (FMI 3.0; FMI 2.0 has no clocks,
+    /// and the variable is as it was).
+    pub const fn clocked_by(mut self, clock: u32) -> Self {
+        self.clocks = Some(clock);
+        self
     }
 
     /// Piecewise constant: changes only at communication points.

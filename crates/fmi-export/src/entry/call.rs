@@ -20,26 +20,51 @@ pub unsafe fn with_instance<S: Standard, M: Model>(
     body: impl FnOnce(&mut Instance<S, M>) -> Status,
 ) -> Status {
     let c = c as *mut Instance<S, M>;
-    if c.is_null() || !registry::is_live(c) {
+    let Some(guard) = (!c.is_null()).then(|| registry::guard_of(c)).flatten() else {
+        return ERROR;
+    };
+    // One call at a time: a call from another thread while this one runs is refused
+    // (Scheduled Execution's tasks may run on several threads), counted, and logged by
+    // the running call.
+    if !guard.enter() {
         return ERROR;
     }
-    let inst = &mut *c;
-    if inst.state as u16 & allowed == 0 {
+    let status = run::<S, M>(&mut *c, func, allowed, body, guard);
+    guard.leave();
+    status
+}
+
+/// [`with_instance`] once the call holds the instance.
+fn run<S: Standard, M: Model>(
+    inst: &mut Instance<S, M>,
+    func: &str,
+    allowed: u16,
+    body: impl FnOnce(&mut Instance<S, M>) -> Status,
+    guard: &registry::Guard,
+) -> Status {
+    let status = if inst.state as u16 & allowed == 0 {
         let state = S::state_name(inst.state);
         let why = format_args!("illegal call sequence: not allowed in state {state}");
-        return inst.refuse(func, why);
-    }
-    inst.log(OK, LogCategory::All, format_args!("{func}"));
-    match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
-        Ok(status) => status,
-        Err(panic) => {
-            inst.state = State::Fatal;
-            let what = panic_text(panic.as_ref());
-            let why = format_args!("{func}: internal error, instance unusable: {what}");
-            inst.log(FATAL, LogCategory::StatusError, why);
-            FATAL
+        inst.refuse(func, why)
+    } else {
+        inst.log(OK, LogCategory::All, format_args!("{func}"));
+        match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
+            Ok(status) => status,
+            Err(panic) => {
+                inst.state = State::Fatal;
+                let what = panic_text(panic.as_ref());
+                let why = format_args!("{func}: internal error, instance unusable: {what}");
+                inst.log(FATAL, LogCategory::StatusError, why);
+                FATAL
+            }
         }
+    };
+    let n = guard.take_refused();
+    if n > 0 {
+        let why = format_args!("{n} call(s) from another thread refused (fmi3Error) while this instance ran {func}: an instance takes one call at a time");
+        inst.log(ERROR, LogCategory::StatusError, why);
     }
+    status
 }
 
 pub(super) unsafe fn slice<'a, T>(ptr: *const T, n: usize) -> Option<&'a [T]> {

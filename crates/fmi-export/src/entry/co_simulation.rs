@@ -4,6 +4,7 @@
 use std::ffi::c_void;
 
 use super::call::with_instance;
+use super::clocks::next_tick;
 use crate::instance::*;
 use crate::state::*;
 use crate::{Message, Model, StepLog};
@@ -37,16 +38,25 @@ pub struct StepOutputs {
     pub last_successful_time: *mut f64,
 }
 
+/// How a step ended, beyond its time: at a clock tick (`eventHandlingNeeded`), early at
+/// one (`earlyReturn`), with the model failed (`terminateSimulation`).
+#[derive(Clone, Copy, Default)]
+struct Ending {
+    event: bool,
+    early: bool,
+    terminate: bool,
+}
+
 impl StepOutputs {
-    /// The FMU has no event mode and never returns early, so those two are always false;
-    /// `lastSuccessfulTime` is the FMU time; `terminateSimulation` is true only when the
-    /// model failed (the instance is then in Error). A NULL one is skipped: the call has
-    /// already been refused for it.
-    unsafe fn report(&self, terminate: bool, time: f64) {
+    /// `lastSuccessfulTime` is the FMU time; `eventHandlingNeeded` and `earlyReturn` are
+    /// true only for an instance with `eventModeUsed` at a tick; `terminateSimulation` only
+    /// when the model failed (the instance is then in Error). A NULL one is skipped: the
+    /// call has already been refused for it.
+    unsafe fn report(&self, e: Ending, time: f64) {
         for (p, v) in [
-            (self.event_handling_needed, false),
-            (self.early_return, false),
-            (self.terminate_simulation, terminate),
+            (self.event_handling_needed, e.event),
+            (self.early_return, e.early),
+            (self.terminate_simulation, e.terminate),
         ] {
             if !p.is_null() {
                 *p = v;
@@ -75,7 +85,7 @@ pub unsafe fn do_step<S: Standard, M: Model>(
 ) -> Status {
     with_instance::<S, M>(c, func, STEPPING, |inst| {
         if let Some(o) = &outputs {
-            o.report(false, inst.time);
+            o.report(Ending::default(), inst.time);
             if o.any_null() {
                 return inst.refuse(func, format_args!("eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime is NULL"));
             }
@@ -98,14 +108,36 @@ pub unsafe fn do_step<S: Standard, M: Model>(
         if let Err(why) = inst.model.check_step(t, h) {
             return inst.refuse(func, format_args!("{why}"));
         }
-        let result = inst.with_step_log(|model, log| model.do_step(t, h, log));
+        // With event mode a step ends at the next clock tick at the latest: there, or early
+        // at it when the importer allows, or it is refused.
+        let tick = match inst.modes.event_mode {
+            true => next_tick::<M>(inst.start_time, t),
+            false => None,
+        };
+        let (end, ending) = match tick {
+            Some(tick) if same_time(tick, t + h) => {
+                (t + h, Ending { event: true, ..Ending::default() })
+            }
+            Some(tick) if tick < t + h && inst.modes.early_return => {
+                (tick, Ending { event: true, early: true, terminate: false })
+            }
+            Some(tick) if tick < t + h => {
+                let end = t + h;
+                return inst.refuse(func, format_args!("the step to {end} s passes the clock tick at {tick} s: with eventModeUsed and without earlyReturnAllowed a step ends at the next tick at the latest (fmi3GetIntervalDecimal)"));
+            }
+            _ => (t + h, Ending::default()),
+        };
+        let result = match inst.modes.event_mode {
+            true => inst.with_step_log(|model, log| model.step_between_ticks(t, end - t, log)),
+            false => inst.with_step_log(|model, log| model.do_step(t, h, log)),
+        };
         match result {
             Ok(()) => {
                 // The master's clock is the reference: following it keeps t and the FMU
                 // time equal however the master accumulates it.
-                inst.time = t + h;
+                inst.time = end;
                 if let Some(o) = &outputs {
-                    o.report(false, inst.time);
+                    o.report(ending, inst.time);
                 }
                 let status = inst.report_step_log(func);
                 inst.last_step_status = status;
@@ -115,7 +147,7 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                 inst.state = State::Error;
                 inst.last_step_status = ERROR;
                 if let Some(o) = &outputs {
-                    o.report(true, inst.time);
+                    o.report(Ending { terminate: true, ..Ending::default() }, inst.time);
                 }
                 inst.refuse(func, format_args!("{why}"))
             }

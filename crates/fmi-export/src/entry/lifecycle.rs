@@ -26,7 +26,7 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
     callbacks: Option<S::Callbacks>,
     name: *const c_char,
     token: *const c_char,
-    (interface, refusal): (Interface, Option<&str>),
+    (interface, modes, refusal): (Interface, Modes, Option<&str>),
     logging_on: bool,
 ) -> *mut c_void {
     let result = catch_unwind(AssertUnwindSafe(|| {
@@ -44,6 +44,9 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
         if interface == Interface::ModelExchange && M::model_exchange().is_none() {
             return fail(format_args!("not supported: this FMU implements Co-Simulation only"));
         }
+        if let Some(why) = super::clocks::refusal::<M>(interface, &modes) {
+            return fail(format_args!("{why}"));
+        }
         let (arg, guid) = (S::TOKEN_ARG, model_description::guid::<M>());
         if token.is_null() {
             return fail(format_args!("{arg} is NULL"));
@@ -54,24 +57,16 @@ pub unsafe fn instantiate<S: Standard, M: Model>(
             return fail(format_args!("{arg} \"{given}\" does not match this FMU's \"{guid}\" (modelDescription.xml from another build?)"));
         }
         let name = CStr::from_ptr(name).to_owned();
-        let inst = Box::into_raw(Box::new(Instance::<S, M>::new(name, cb, interface, logging_on)));
+        let inst = Box::into_raw(Box::new(Instance::<S, M>::new(
+            name,
+            cb,
+            (interface, modes),
+            logging_on,
+        )));
         registry::register(inst);
         inst as *mut c_void
     }));
     result.unwrap_or(std::ptr::null_mut())
-}
-
-/// An instantiation function of an interface this FMU does not implement.
-pub unsafe fn refuse_instantiation<S: Standard>(
-    func: &str,
-    callbacks: S::Callbacks,
-    name: *const c_char,
-    why: &str,
-) -> *mut c_void {
-    let _ = catch_unwind(AssertUnwindSafe(|| {
-        log_early::<S>(&callbacks, name, func, format_args!("not supported: {why}"))
-    }));
-    std::ptr::null_mut()
 }
 
 /// Frees the instance, after the totals of its inputs' clamps if no Terminate or Reset
@@ -186,14 +181,18 @@ pub unsafe fn enter_initialization<S: Standard, M: Model>(
 }
 
 /// Without event mode, FMI 3.0 Co-Simulation goes straight to Step Mode, which is the
-/// core's StepComplete; Model Exchange of both standards to EventMode.
+/// core's StepComplete; with it (`eventModeUsed`), and Model Exchange of both standards, to
+/// EventMode (the start time is a tick of every periodic clock); Scheduled Execution to
+/// ClockActivationMode.
 pub unsafe fn exit_initialization<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
     with_instance::<S, M>(c, func, INITIALIZATION, |inst| {
         match inst.model.exit_initialization(inst.start_time) {
             Ok(()) => {
                 inst.state = match inst.interface {
+                    Interface::CoSimulation if inst.modes.event_mode => State::EventMode,
                     Interface::CoSimulation => State::StepComplete,
                     Interface::ModelExchange => State::EventMode,
+                    Interface::ScheduledExecution => State::ClockActivationMode,
                 };
                 OK
             }
@@ -222,6 +221,8 @@ pub unsafe fn reset<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status
         inst.state = State::Instantiated;
         (inst.time, inst.start_time, inst.stop_time) = (0.0, 0.0, None);
         inst.last_step_status = OK;
+        inst.active_clocks.clear();
+        inst.last_activation = None;
         for c in inst.clamps.iter_mut() {
             (c.count, c.logged, c.summarized) = (0, 0, 0);
         }

@@ -21,6 +21,7 @@
 #![allow(clippy::missing_safety_doc, clippy::too_many_arguments)]
 
 mod call;
+mod clocks;
 mod co_simulation;
 mod fmu_state;
 mod lifecycle;
@@ -30,13 +31,17 @@ mod values;
 pub use crate::instance::{Standard, Status};
 pub use crate::state::*;
 pub use call::{unsupported, with_instance};
+pub use clocks::{
+    activate_model_partition, constant_intervals, enter_step_mode, get_clock, get_interval,
+    get_shift, has_clocks, refusal, set_clock,
+};
 pub use co_simulation::{do_step, same_time, status_query, StepOutputs};
 pub use fmu_state::{
     deserialize, free_fmu_state, get_fmu_state, serialize, serialized_size, set_fmu_state,
 };
 pub use lifecycle::{
-    enter_initialization, exit_initialization, free_instance, instantiate, refuse_instantiation,
-    reset, set_debug_logging, setup_experiment, terminate,
+    enter_initialization, exit_initialization, free_instance, instantiate, reset,
+    set_debug_logging, setup_experiment, terminate,
 };
 pub use model_exchange::{
     completed_integrator_step, directional_derivative, enter_continuous_time_mode,

@@ -4,6 +4,7 @@
 use std::ffi::c_void;
 
 use super::call::{slice, slice_mut, with_instance};
+use super::clocks::{has_event_mode, leave_event, next_tick, no_event_mode, run_activated};
 use super::co_simulation::same_time;
 use super::values::read_row;
 use crate::instance::*;
@@ -186,8 +187,34 @@ pub unsafe fn set_continuous_states<S: Standard, M: Model>(
     })
 }
 
+/// Runs `body` on an instance with event mode (Model Exchange, or Co-Simulation with
+/// `eventModeUsed`) in one of the states `allowed` for its interface.
+unsafe fn with_events<S: Standard, M: Model>(
+    c: *mut c_void,
+    func: &str,
+    (me, cs): (u16, u16),
+    body: impl FnOnce(&mut Instance<S, M>) -> Status,
+) -> Status {
+    with_instance::<S, M>(c, func, LIVE, |inst| {
+        if !has_event_mode(inst) {
+            let why = no_event_mode::<M>(inst.interface);
+            return inst.refuse(func, format_args!("not supported: {why}"));
+        }
+        let allowed = if inst.interface == Interface::ModelExchange { me } else { cs };
+        if inst.state as u16 & allowed == 0 {
+            let state = S::state_name(inst.state);
+            let why = format_args!("illegal call sequence: not allowed in state {state}");
+            return inst.refuse(func, why);
+        }
+        body(inst)
+    })
+}
+
+/// Model Exchange enters event mode from continuous-time mode, Co-Simulation with event
+/// mode from step mode (after a step that ended at a tick, or on the importer's own
+/// account); both are allowed in event mode too.
 pub unsafe fn enter_event_mode<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
-    with_me::<S, M>(c, func, TIMED, |inst| {
+    with_events::<S, M>(c, func, (TIMED, STEPPING | EVENT_MODE), |inst| {
         inst.state = State::EventMode;
         OK
     })
@@ -198,6 +225,7 @@ pub unsafe fn enter_continuous_time_mode<S: Standard, M: Model>(
     func: &str,
 ) -> Status {
     with_me::<S, M>(c, func, EVENT_MODE, |inst| {
+        leave_event(inst);
         inst.state = State::ContinuousTimeMode;
         OK
     })
@@ -231,14 +259,16 @@ pub trait EventSink {
     unsafe fn write(&self, u: &EventUpdate, terminate: bool);
 }
 
-/// One pass of the event iteration at the instance's time. The model reaches its fixed
-/// point in one update, so the master is never asked for another.
+/// One pass of the event iteration at the instance's time: the partitions of the input
+/// clocks activated since the last pass (once per activation), then Model Exchange's
+/// update. The model reaches its fixed point in one update, so the master is never asked
+/// for another. A Co-Simulation instance's next event is its clocks' next tick.
 pub unsafe fn update_discrete_states<S: Standard, M: Model>(
     c: *mut c_void,
     func: &str,
     out: impl EventSink,
 ) -> Status {
-    with_me::<S, M>(c, func, EVENT_MODE, |inst| {
+    with_events::<S, M>(c, func, (EVENT_MODE, EVENT_MODE), |inst| {
         if out.any_null() {
             return inst.refuse(func, format_args!("an argument for the event's outcome is NULL"));
         }
@@ -253,7 +283,18 @@ pub unsafe fn update_discrete_states<S: Standard, M: Model>(
                 format_args!("an event update at {t} s is past the stop time {stop} set in {at}"),
             );
         }
-        match inst.with_step_log(|model, log| model.update_discrete_states(t, log)) {
+        let (me, next) =
+            (inst.interface == Interface::ModelExchange, next_tick::<M>(inst.start_time, t));
+        let updated = run_activated(inst, |model, log, active| {
+            for &clock in active {
+                model.activate_clock(clock, t, log)?;
+            }
+            match me {
+                true => model.update_discrete_states(t, log),
+                false => Ok(EventUpdate { states_changed: false, next_event_time: next }),
+            }
+        });
+        match updated {
             Ok(update) => {
                 out.write(&update, false);
                 inst.report_step_log(func)

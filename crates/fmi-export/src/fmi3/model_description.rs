@@ -8,11 +8,12 @@ use std::fmt::Write;
 use super::api::type_name;
 use super::TIME_VR;
 use crate::arrays;
+use crate::entry::has_clocks;
 use crate::model_description::{
     causality, common_flags, directional, escape, guid, initial, is_initial_unknown, prolog,
     shared_head, start_attr, start_text, state_of, unit_and_range, variability,
 };
-use crate::table::{Causality, Variable};
+use crate::table::{Causality, ClockKind, Kind, Variability, Variable};
 use crate::Model;
 
 /// The complete FMI 3.0 `modelDescription.xml`.
@@ -43,10 +44,20 @@ pub fn model_description<M: Model>() -> String {
     }
     let _ = writeln!(
         w,
-        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="{}" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="false" providesEvaluateDiscreteStates="false"/>"#,
+        r#"  <CoSimulation modelIdentifier="{}" needsExecutionTool="false" canBeInstantiatedOnlyOncePerProcess="false" canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="{}" providesAdjointDerivatives="false" providesPerElementDependencies="false" canHandleVariableCommunicationStepSize="true" maxOutputDerivativeOrder="0" providesIntermediateUpdate="false" mightReturnEarlyFromDoStep="false" canReturnEarlyAfterIntermediateUpdate="false" hasEventMode="{}" providesEvaluateDiscreteStates="false"/>"#,
         escape(info.model_identifier),
-        directional::<M>()
+        directional::<M>(),
+        has_clocks::<M>()
     );
+    // A model with clocks runs its input clocks' partitions under a scheduler too.
+    if has_clocks::<M>() {
+        let _ = writeln!(
+            w,
+            r#"  <ScheduledExecution modelIdentifier="{}" {} providesAdjointDerivatives="false" providesPerElementDependencies="false"/>"#,
+            escape(info.model_identifier),
+            common_flags::<M>("FMUState", "providesDirectionalDerivatives")
+        );
+    }
     shared_head::<M>(w, "fmi3");
     let _ = writeln!(w, "  <ModelVariables>");
     let _ = writeln!(
@@ -60,7 +71,8 @@ pub fn model_description<M: Model>() -> String {
     for e in &entries {
         let v = &vars[e.first].var;
         let init = v.initial.map(|i| format!(" initial=\"{}\"", initial(i))).unwrap_or_default();
-        let mut attrs = unit_and_range(v);
+        let mut attrs = clock_attrs(v);
+        attrs += &unit_and_range(v);
         if let Some(state) = state_of::<M>(v) {
             let _ = write!(attrs, " derivative=\"{state}\"");
         }
@@ -87,7 +99,8 @@ pub fn model_description<M: Model>() -> String {
             v.vr,
             escape(description),
             causality(v.causality),
-            variability(v.variability),
+            // A clocked variable changes only at its clock's ticks.
+            variability(if v.clocks.is_some() { Variability::Discrete } else { v.variability }),
         );
     }
     let _ = writeln!(w, "  </ModelVariables>");
@@ -98,7 +111,12 @@ pub fn model_description<M: Model>() -> String {
     };
     let outputs = vrs(&|v| v.causality == Causality::Output);
     let derivatives = vrs(&|v| state_of::<M>(v).is_some());
-    let initial_unknowns = vrs(&is_initial_unknown::<M>);
+    // A clocked variable is computed at its clock's ticks, not in initialization; an output
+    // clock (an output of initial "calculated" by default) is an initial unknown.
+    let initial_unknowns = vrs(&|v| {
+        (is_initial_unknown::<M>(v) && v.clocks.is_none())
+            || (v.kind == Kind::Clock && v.causality == Causality::Output)
+    });
     let indicators = M::model_exchange().map_or(&[][..], |me| me.event_indicators);
     for (tag, list) in [
         ("Output", &outputs[..]),
@@ -113,4 +131,18 @@ pub fn model_description<M: Model>() -> String {
     let _ = writeln!(w, "  </ModelStructure>");
     let _ = writeln!(w, "</fmiModelDescription>");
     x
+}
+
+/// A clock's attributes (`intervalVariability`, and a periodic input clock's
+/// `intervalDecimal` and its `priority` under a scheduler, the highest: it is the model's
+/// one partition), or a clocked variable's `clocks`.
+fn clock_attrs(v: &Variable) -> String {
+    match (v.kind, v.clock) {
+        (Kind::Clock, Some(ClockKind::Periodic { interval })) => format!(
+            r#" intervalVariability="constant" intervalDecimal="{}" priority="0""#,
+            crate::model_description::real(interval)
+        ),
+        (Kind::Clock, _) => r#" intervalVariability="triggered""#.to_string(),
+        _ => v.clocks.map(|c| format!(" clocks=\"{c}\"")).unwrap_or_default(),
+    }
 }

@@ -165,6 +165,8 @@ masters! {
             let ty = match interface {
                 Interface::CoSimulation => fmi2CoSimulation,
                 Interface::ModelExchange => fmi2ModelExchange,
+                // FMI 2.0 has no Scheduled Execution.
+                Interface::ScheduledExecution => return (std::ptr::null_mut(), f),
             };
             let c = api::fmi2Instantiate::<M>(name.as_ptr(), ty, token.as_ptr(), std::ptr::null(), &*f, fmi2False, b2(on));
             (c, f)
@@ -246,6 +248,7 @@ masters! {
             let c = match interface {
                 Interface::CoSimulation => api3::fmi3InstantiateCoSimulation::<M>(name.as_ptr(), token.as_ptr(), res, false, on, false, false, required, 0, env, logger, None),
                 Interface::ModelExchange => api3::fmi3InstantiateModelExchange::<M>(name.as_ptr(), token.as_ptr(), res, false, on, env, logger),
+                Interface::ScheduledExecution => api3::fmi3InstantiateScheduledExecution::<M>(name.as_ptr(), token.as_ptr(), res, false, on, env, logger, None, None, None),
             };
             (c, ())
         }

@@ -28,6 +28,12 @@
 //! is an instant: the same instants, inputs and samples as Co-Simulation, so a master that
 //! hands the plant's encoder to the controller at each event closes the same loop as a
 //! Jacobi master at 2 ms. Between events the outputs hold.
+//!
+//! In FMI 3.0 the sample instants are the ticks of the input clock `sample_clock`, and a
+//! tick's activation (event mode's `fmi3UpdateDiscreteStates`, Scheduled Execution's
+//! `fmi3ActivateModelPartition`) runs the event at its time, as above; between ticks a
+//! step of an instance with event mode changes nothing. The output clock `gait_step` ticks
+//! at the samples that end a gait step and update the estimator. docs/model.md §5, Clocks.
 
 use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 // The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0) are
@@ -46,6 +52,9 @@ pub struct ControllerFmu {
     controller: Option<Controller>,
     last: Option<Sample>,
     clock: Clock,
+    /// The output clock `gait_step`: a sample of the current activation ended a gait step
+    /// and updated the estimator. Not saved with the state (it lasts one event).
+    gait_ticked: bool,
 }
 
 /// Where the controller is on its sample grid `s_n = origin + n × SAMPLE_PERIOD`.
@@ -132,9 +141,23 @@ impl ControllerFmu {
                     s.disturbance_estimate * 1e6
                 ));
             }
+            self.gait_ticked |= c.estimated();
             self.last = Some(s);
         }
         Ok(())
+    }
+
+    /// What an event at `t` runs: every write at an instant `<= t` not yet made, then the
+    /// latch at `t` if `t` is an instant. Returns the instant of the next event: the write
+    /// at s_(ticks+1) when inputs are latched, else the latch at s_ticks.
+    fn event(&mut self, t: f64, log: &mut StepLog) -> Result<f64, String> {
+        self.advance(t, t, log)?;
+        let origin = self.clock.origin.unwrap_or(t);
+        let instant = |n: u64| origin + n as f64 * SAMPLE_PERIOD;
+        if self.clock.latch.is_none() && same_time(instant(self.clock.ticks), t) {
+            self.clock.latch = Some((self.encoder_counts, self.reference));
+        }
+        Ok(instant(self.clock.ticks + u64::from(self.clock.latch.is_some())))
     }
 
     /// `read` of the outputs now: the last sample written, read where it lies (a master
@@ -186,6 +209,7 @@ impl Model for ControllerFmu {
             controller: None,
             last: None,
             clock: Clock::default(),
+            gait_ticked: false,
         }
     }
 
@@ -222,15 +246,29 @@ impl Model for ControllerFmu {
     }
 
     fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
-        self.advance(t, t, log)?;
-        let origin = self.clock.origin.unwrap_or(t);
-        let instant = |n: u64| origin + n as f64 * SAMPLE_PERIOD;
-        if self.clock.latch.is_none() && same_time(instant(self.clock.ticks), t) {
-            self.clock.latch = Some((self.encoder_counts, self.reference));
-        }
-        // The write at s_(ticks+1) when inputs are latched, else the latch at s_ticks.
-        let next = instant(self.clock.ticks + u64::from(self.clock.latch.is_some()));
+        let next = self.event(t, log)?;
         Ok(EventUpdate { states_changed: false, next_event_time: Some(next) })
+    }
+
+    /// A tick of `sample_clock` (the only input clock) is the event at its time: the
+    /// write of the sample from the inputs latched at the tick before, then the latch of
+    /// the inputs set for this tick. So the activations at every tick run the instants,
+    /// inputs and samples of 2 ms steps, bit for bit.
+    fn activate_clock(&mut self, clock: u32, t: f64, log: &mut StepLog) -> Result<(), String> {
+        debug_assert_eq!(clock, table::SAMPLE_CLOCK_VR, "the layer activates input clocks only");
+        self.event(t, log).map(|_| ())
+    }
+
+    fn clear_output_clocks(&mut self) {
+        self.gait_ticked = false;
+    }
+
+    /// Between ticks the outputs hold: the samples run at the clock's activations.
+    fn step_between_ticks(&mut self, _t: f64, _h: f64, _log: &mut StepLog) -> Result<(), String> {
+        match self.controller {
+            Some(_) => Ok(()),
+            None => Err("the controller is not initialized".into()),
+        }
     }
 
     fn save_state(&self, w: &mut Writer) {
