@@ -12,5 +12,5 @@ pub mod reference;
 
 pub use controller::ControllerFmu;
 pub use mount::MountFmu;
-pub use plant::PlantFmu;
+pub use plant::{Formulation, PlantFmu, PlantFullFmu, PlantModel};
 pub use reference::ReferenceFmu;
