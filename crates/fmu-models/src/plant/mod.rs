@@ -22,7 +22,9 @@ pub use reduced::PlantFmu;
 /// The rows both FMUs have, with the rows of a formulation's continuous states and of
 /// their derivatives in between. Value references: inputs 1.., outputs 10.., parameters
 /// 100.. (arrays contiguous), the model's continuous states 200.., their derivatives
-/// 220.. (the order of `inchworm_plant::continuous`), the event indicators 240..
+/// 220.. (the order of `inchworm_plant::continuous`), the event indicators 240.. The names
+/// the rows use (`Variable`, `Kind`, `M`, `V`, the board's constants) resolve where it is
+/// invoked.
 macro_rules! plant_table {
     ($model:ty; states { $($sid:ident: $srow:expr),* $(,)? } derivatives { $($did:ident: $drow:expr),* $(,)? }) => {
         #[rustfmt::skip]
