@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A parameter is one row of its model's variable table: everything else comes from the
 # table. This adds one row to the plant's table in a scratch copy of the tracked files,
-# and nothing else, then checks that the new parameter is in both model descriptions,
+# and nothing else, then checks that the new parameter is in the plant FMUs' model descriptions,
 # in the SSP parameter sets, settable with `inchworm run --param` and sweepable with
 # `inchworm sweep`, and that it reaches the physics.
 #
@@ -18,14 +18,14 @@ scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
 
 git ls-files -z | xargs -0 cp --parents -t "$scratch"
-table=crates/fmu-models/src/plant.rs
+table=crates/fmu-models/src/plant/mod.rs
 python3 - "$scratch/$table" <<'EOF'
 import sys
 path = sys.argv[1]
 text = open(path).read()
-anchor = "    NOISE_SEED: "
+anchor = "        NOISE_SEED: "
 row = (
-    '    ONE_ROW_STIFFNESS: Variable::parameter("one_row_stiffness", 133, 2.0e4, Some("N/m"), '
+    '        ONE_ROW_STIFFNESS: Variable::parameter("one_row_stiffness", 133, 2.0e4, Some("N/m"), '
     '"The environment stiffness k_e under a second name (scripts/one-row.sh)")'
     ".with_range(0.0, 1e9).real(|m| m.params.k_e, |m, x| m.params.k_e = x),\n"
 )
@@ -44,7 +44,7 @@ fail() {
     echo "one-row: $*" >&2
     exit 1
 }
-for md in modelDescription/InchwormPlant.xml modelDescription/fmi3/InchwormPlant.xml; do
+for md in modelDescription/{,fmi3/}InchwormPlant{,Full}.xml; do
     [ -f "$md" ] || fail "no $md in the scratch build"
     grep -q 'name="one_row_stiffness"' "$md" || fail "$md does not declare one_row_stiffness"
 done

@@ -11,7 +11,8 @@ tests/python/test_reference_results.py simulates every FMU of both standards wit
 independent check trace of tests/data within 1 count.
 
 The experiments:
-- InchwormPlant: the check trace's DAC volts (tests/data), 1 s, encoder, mode, runner.
+- InchwormPlant and InchwormPlantFull (the same Co-Simulation): the check trace's DAC volts
+  (tests/data), 1 s, encoder, mode, runner.
 - InchwormController: the Fig. 5 loop's encoder counts (the full-control loop of both
   FMUs in FMPy's FMI 2.0 API, as tests/python/test_closed_loop.py runs it) and the 100 µm
   reference, 2 s; the DAC volts and the disturbance estimate out.
@@ -33,11 +34,12 @@ H = 0.002
 
 OUTPUTS = {
     "InchwormPlant": ["encoder_counts", "mode", "runner_position"],
+    "InchwormPlantFull": ["encoder_counts", "mode", "runner_position"],
     "InchwormController": ["dac_earth", "dac_nonearth", "dac_extension", "disturbance_estimate"],
     "InchwormReference": ["reference"],
     "InchwormMount": ["piston", "tip", "tilt"],
 }
-STOP = {"InchwormPlant": 1.0, "InchwormController": 2.0, "InchwormReference": 1.0, "InchwormMount": 1.0}
+STOP = {"InchwormPlant": 1.0, "InchwormPlantFull": 1.0, "InchwormController": 2.0, "InchwormReference": 1.0, "InchwormMount": 1.0}
 
 
 def fmt(x):
@@ -107,6 +109,7 @@ def simulate(fmu, model_dir, name):
 def record(dist):
     inputs = {
         "InchwormPlant": plant_input(),
+        "InchwormPlantFull": plant_input(),
         "InchwormController": controller_input(int(round(STOP["InchwormController"] / H))),
         "InchwormMount": mount_input(),
     }

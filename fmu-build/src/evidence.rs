@@ -28,7 +28,7 @@ fn figures(identifier: &str) -> &'static [(&'static str, &'static str)] {
         "Figs. 6-7: the reference staircase, prefilter on (inchworm scenario staircase)",
     );
     match identifier {
-        "InchwormPlant" => &[
+        "InchwormPlant" | "InchwormPlantFull" => &[
             FIG5,
             (
                 "stall.png",
@@ -206,7 +206,13 @@ mod tests {
     #[test]
     fn every_model_has_figures_that_exist_and_the_documentation_links_them() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        for id in ["InchwormPlant", "InchwormController", "InchwormReference", "InchwormMount"] {
+        for id in [
+            "InchwormPlant",
+            "InchwormPlantFull",
+            "InchwormController",
+            "InchwormReference",
+            "InchwormMount",
+        ] {
             assert!(!figures(id).is_empty(), "{id}");
             let files = [file(&format!("{id}_ref.csv"), "result")];
             let docs =

@@ -88,14 +88,16 @@ fn fmu<M: Model>(standard: Standard, package: &'static str, lib_stem: &'static s
 }
 
 fn fmus() -> Vec<Fmu> {
-    use inchworm_fmu_models::{ControllerFmu, MountFmu, PlantFmu, ReferenceFmu};
+    use inchworm_fmu_models::{ControllerFmu, MountFmu, PlantFmu, PlantFullFmu, ReferenceFmu};
     use Standard::{Fmi2, Fmi3};
     vec![
         fmu::<PlantFmu>(Fmi2, "inchworm-plant-fmu", "inchworm_plant_fmu"),
+        fmu::<PlantFullFmu>(Fmi2, "inchworm-plant-full-fmu", "inchworm_plant_full_fmu"),
         fmu::<ControllerFmu>(Fmi2, "inchworm-controller-fmu", "inchworm_controller_fmu"),
         fmu::<ReferenceFmu>(Fmi2, "inchworm-reference-fmu", "inchworm_reference_fmu"),
         fmu::<MountFmu>(Fmi2, "inchworm-mount-fmu", "inchworm_mount_fmu"),
         fmu::<PlantFmu>(Fmi3, "inchworm-plant-fmu3", "inchworm_plant_fmu3"),
+        fmu::<PlantFullFmu>(Fmi3, "inchworm-plant-full-fmu3", "inchworm_plant_full_fmu3"),
         fmu::<ControllerFmu>(Fmi3, "inchworm-controller-fmu3", "inchworm_controller_fmu3"),
     ]
 }

@@ -35,8 +35,9 @@ def test_only_fmi2_symbols_and_only_the_c_runtime(name, tmp_path):
 # glibc 2.17 symbol versions (cargo-zigbuild), so it loads on RHEL 7/8, Ubuntu 20.04,
 # Debian 11 and everything newer, not only on the glibc of the machine that built it.
 GLIBC_FLOOR = (2, 17)
-ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormController", "InchwormReference", "InchwormMount")] + [
-    ("fmi3", n) for n in ("InchwormPlant", "InchwormController")]
+ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController", "InchwormReference",
+                              "InchwormMount")] + [
+    ("fmi3", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController")]
 
 
 def glibc_versions(path):

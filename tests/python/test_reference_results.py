@@ -19,8 +19,9 @@ sys.path.insert(0, str(ROOT / "scripts"))
 import reference_results  # noqa: E402
 
 LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
-ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormController", "InchwormReference", "InchwormMount")] + [
-    ("fmi3", n) for n in ("InchwormPlant", "InchwormController")]
+ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController", "InchwormReference",
+                              "InchwormMount")] + [
+    ("fmi3", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController")]
 TREE = DIST / "cross-check"
 
 

@@ -175,6 +175,17 @@ pub trait Model: Clone + Send + 'static {
         None
     }
 
+    /// Called after a successful [`Model::exit_initialization`] of a Model Exchange
+    /// instance, for a model whose Model Exchange formulation is not its Co-Simulation one
+    /// to build it; an `Err` fails the exit as one of `exit_initialization` does.
+    fn enter_model_exchange(&mut self) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// The master's time in Model Exchange (`SetTime`, checked by the layer), for a model
+    /// whose outputs, rates or indicators depend on time as well as on its states.
+    fn set_time(&mut self, _t: f64) {}
+
     /// Sets the continuous states, in the order of [`ModelExchange::states`], from the
     /// master's integrator (finite, checked by the layer).
     fn set_continuous_states(&mut self, _x: &[f64]) -> Result<(), String> {

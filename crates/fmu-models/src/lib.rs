@@ -2,8 +2,9 @@
 //! [`inchworm_fmi_export::Model`] implementation mapping value references onto the plain
 //! Rust plant or controller (or, for the reference, a small table of its own). The C
 //! entry points are exported by the cdylib crates `inchworm-plant-fmu`,
-//! `inchworm-controller-fmu`, `inchworm-reference-fmu` and `inchworm-mount-fmu` (one `export_fmi2!` line each),
-//! so this crate links into tools such as `fmu-build` without clashing `fmi2*` symbols.
+//! `inchworm-plant-full-fmu`, `inchworm-controller-fmu`, `inchworm-reference-fmu` and
+//! `inchworm-mount-fmu` (one `export_fmi2!` line each) and their FMI 3.0 counterparts, so
+//! this crate links into tools such as `fmu-build` without clashing `fmi2*` symbols.
 
 mod controller;
 pub mod mount;
@@ -12,5 +13,5 @@ pub mod reference;
 
 pub use controller::ControllerFmu;
 pub use mount::MountFmu;
-pub use plant::PlantFmu;
+pub use plant::{Formulation, PlantFmu, PlantFullFmu, PlantModel};
 pub use reference::ReferenceFmu;

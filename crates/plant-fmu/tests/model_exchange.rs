@@ -1,71 +1,75 @@
-//! The plant's Model Exchange interface through the FMI entry points of both standards:
+//! The plant's Model Exchange interfaces through the FMI entry points of both standards, for
+//! both formulations (`InchwormPlant`'s reduced one of 11 states, `InchwormPlantFull`'s 17):
 //! the exact directional derivatives against central differences of
-//! `GetDerivatives`/`GetContinuousStateDerivatives`, for every state and DAC input, and a
-//! brake switch as a state event.
+//! `GetDerivatives`/`GetContinuousStateDerivatives`, for every state and DAC input; a brake
+//! switch as a state event; the event budget; and, for the reduced formulation, the time
+//! the master sets moving the fast part, and a serialized state continuing bit for bit.
 
 use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::entry::Array;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
-use inchworm_fmi_export::Var;
-use inchworm_fmu_models::PlantFmu;
+use inchworm_fmi_export::Model;
+use inchworm_fmu_models::{PlantFmu, PlantFullFmu};
 
-const N: usize = 17;
-const DAC: [Var<PlantFmu>; 3] =
-    [PlantFmu::DAC_EXTENSION, PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH];
+const DAC: [u32; 3] = [3, 1, 2]; // extension, earth, non-earth
+const MODE: u32 = 17;
+const EXTENSION: u32 = 13;
+const RUNNER_POSITION: u32 = 12;
+const VOLTAGE_EARTH: u32 = 14;
+const VOLTAGE_NONEARTH: u32 = 15;
 
-/// The continuous states in the order of `inchworm_plant::continuous`, with their
-/// derivatives.
-const STATES: [(Var<PlantFmu>, Var<PlantFmu>); N] = [
-    (PlantFmu::NODE1_DISPLACEMENT, PlantFmu::DER_NODE1_DISPLACEMENT),
-    (PlantFmu::NODE1_VELOCITY, PlantFmu::DER_NODE1_VELOCITY),
-    (PlantFmu::NODE2_DISPLACEMENT, PlantFmu::DER_NODE2_DISPLACEMENT),
-    (PlantFmu::NODE2_VELOCITY, PlantFmu::DER_NODE2_VELOCITY),
-    (PlantFmu::EXTENSION, PlantFmu::DER_EXTENSION),
-    (PlantFmu::NODE3_VELOCITY, PlantFmu::DER_NODE3_VELOCITY),
-    (PlantFmu::RUNNER_POSITION, PlantFmu::DER_RUNNER_POSITION),
-    (PlantFmu::RUNNER_VELOCITY, PlantFmu::DER_RUNNER_VELOCITY),
-    (PlantFmu::BESSEL_EXTENSION, PlantFmu::DER_BESSEL_EXTENSION),
-    (PlantFmu::BESSEL_EXTENSION_RATE, PlantFmu::DER_BESSEL_EXTENSION_RATE),
-    (PlantFmu::VOLTAGE_EXTENSION, PlantFmu::DER_VOLTAGE_EXTENSION),
-    (PlantFmu::BESSEL_EARTH, PlantFmu::DER_BESSEL_EARTH),
-    (PlantFmu::BESSEL_EARTH_RATE, PlantFmu::DER_BESSEL_EARTH_RATE),
-    (PlantFmu::VOLTAGE_EARTH, PlantFmu::DER_VOLTAGE_EARTH),
-    (PlantFmu::BESSEL_NONEARTH, PlantFmu::DER_BESSEL_NONEARTH),
-    (PlantFmu::BESSEL_NONEARTH_RATE, PlantFmu::DER_BESSEL_NONEARTH_RATE),
-    (PlantFmu::VOLTAGE_NONEARTH, PlantFmu::DER_VOLTAGE_NONEARTH),
-];
-
-/// The value references of the continuous states.
-fn states() -> Vec<u32> {
-    STATES.iter().map(|(x, _)| x.vr()).collect()
+/// The value references of the continuous states and of their derivatives, as declared.
+fn states<M: Model>() -> (Vec<u32>, Vec<u32>) {
+    let me = M::model_exchange().expect("the plant has Model Exchange");
+    (me.states.iter().map(|s| s.value).collect(), me.states.iter().map(|s| s.derivative).collect())
 }
 
-/// A state in HOLD with every mode of the stack and both chains moving.
-fn moving() -> [f64; N] {
-    [
-        1e-7, 0.02, 3e-7, -0.01, 6e-6, 0.05, 0.0, 0.0, 4.0, 900.0, 35.0, 2.0, 300.0, 25.0, 1.0,
-        -50.0, 12.0,
-    ]
+/// The index of the state held in `vr`.
+fn index<M: Model>(vr: u32) -> usize {
+    states::<M>().0.iter().position(|&s| s == vr).expect("a continuous state")
 }
 
-fn fd_check<S: Master>() {
-    let h = Harness::<PlantFmu, S>::init_me("jacobian");
-    assert_eq!(h.set_reals(&DAC.map(Var::vr), &[6.0, 3.0, 2.0]), 0);
+/// A state in HOLD with every mode of the stack and all three channels moving (the stack's
+/// nodes only where the formulation has them), and each state's scale.
+fn moving<M: Model>() -> (Vec<f64>, Vec<f64>) {
+    let of = |vr: u32| match vr {
+        200 => (1e-7, 1e-5),
+        201 => (0.02, 1e-2),
+        202 => (3e-7, 1e-5),
+        203 => (-0.01, 1e-2),
+        EXTENSION => (6e-6, 1e-5),
+        204 => (0.05, 1e-2),
+        RUNNER_POSITION | 212 => (0.0, 1e-5),
+        205 | 213 => (0.0, 1e-2),
+        206 => (4.0, 1.0),
+        207 => (900.0, 1e3),
+        16 => (35.0, 1.0),
+        208 => (2.0, 1.0),
+        209 => (300.0, 1e3),
+        VOLTAGE_EARTH => (25.0, 1.0),
+        210 => (1.0, 1.0),
+        211 => (-50.0, 1e3),
+        VOLTAGE_NONEARTH => (12.0, 1.0),
+        _ => panic!("no test value for state {vr}"),
+    };
+    states::<M>().0.into_iter().map(of).unzip()
+}
+
+fn fd_check<M: Model, S: Master>() {
+    let h = Harness::<M, S>::init_me("jacobian");
+    assert_eq!(h.set_reals(&DAC, &[6.0, 3.0, 2.0]), 0);
     assert_eq!(h.update().0, 0);
     assert_eq!(h.enter_continuous_time_mode(), 0);
-    let x0 = moving();
+    let ((x0, kind), (vrs, der)) = (moving::<M>(), states::<M>());
+    let n = x0.len();
     assert_eq!(h.set_states(&x0), 0, "{:?}", h.logged());
-    let der: Vec<u32> = STATES.iter().map(|(_, d)| d.vr()).collect();
-    let f = |x: &[f64; N]| {
+    let f = |x: &[f64]| {
         assert_eq!(h.set_states(x), 0);
-        let (s, d) = h.array(Array::Derivatives, N);
+        let (s, d) = h.array(Array::Derivatives, n);
         assert_eq!(s, 0);
         d
     };
-    let kind = [
-        1e-5, 1e-2, 1e-5, 1e-2, 1e-5, 1e-2, 1e-5, 1e-2, 1.0, 1e3, 1.0, 1.0, 1e3, 1.0, 1.0, 1e3, 1.0,
-    ];
     let mut worst: f64 = 0.0;
     let mut compare = |column: &[f64], fd: &[f64]| {
         let amax = column.iter().chain(fd).fold(0.0f64, |m, v| m.max(v.abs()));
@@ -73,31 +77,31 @@ fn fd_check<S: Master>() {
             worst = worst.max((j - d).abs() / j.abs().max(1e-6 * amax).max(f64::MIN_POSITIVE));
         }
     };
-    for (c, vr) in states().into_iter().enumerate() {
-        let mut seed = [0.0; N];
+    for (c, &vr) in vrs.iter().enumerate() {
+        let mut seed = vec![0.0; n];
         seed[c] = 1.0;
         assert_eq!(h.set_states(&x0), 0);
-        let (s, column) = h.directional(&der, &states(), &seed);
+        let (s, column) = h.directional(&der, &vrs, &seed);
         assert_eq!(s, 0, "{:?}", h.logged());
         let eps = 1e-6 * (x0[c].abs() + kind[c]);
-        let (mut hi, mut lo) = (x0, x0);
+        let (mut hi, mut lo) = (x0.clone(), x0.clone());
         hi[c] += eps;
         lo[c] -= eps;
         let (fh, fl) = (f(&hi), f(&lo));
         let fd: Vec<f64> = fh.iter().zip(&fl).map(|(a, b)| (a - b) / (2.0 * eps)).collect();
         compare(&column, &fd);
         // The states' own sensitivities are the identity.
-        let (_, own) = h.directional(&[vr], &states(), &seed);
+        let (_, own) = h.directional(&[vr], &vrs, &seed);
         assert_eq!(own, [1.0]);
     }
     assert_eq!(h.set_states(&x0), 0);
-    for vr in DAC.map(Var::vr) {
+    for vr in DAC {
         let (s, column) = h.directional(&der, &[vr], &[1.0]);
         assert_eq!(s, 0);
         let base = h.real(vr).1;
         let at = |v: f64| {
             assert_eq!(h.set_real(vr, v), 0, "a continuous input between events");
-            h.array(Array::Derivatives, N).1
+            h.array(Array::Derivatives, n).1
         };
         let (fh, fl) = (at(base + 1e-3), at(base - 1e-3));
         assert_eq!(h.set_real(vr, base), 0);
@@ -105,12 +109,13 @@ fn fd_check<S: Master>() {
         compare(&column, &fd);
     }
     eprintln!(
-        "{}: directional derivatives against central differences, worst relative error {worst:.2e}",
+        "{} {}: directional derivatives against central differences, worst relative error {worst:.2e}",
+        M::info().model_identifier,
         S::VERSION
     );
     assert!(worst < 1e-6, "{worst}");
     assert_eq!(
-        h.directional(&[der[0]], &[PlantFmu::M_P.vr()], &[1.0]).0,
+        h.directional(&[der[0]], &[100], &[1.0]).0,
         3,
         "no derivative with respect to a parameter"
     );
@@ -118,22 +123,25 @@ fn fd_check<S: Master>() {
 
 #[test]
 fn directional_derivatives_match_finite_differences_fmi2() {
-    fd_check::<Fmi2>();
+    fd_check::<PlantFmu, Fmi2>();
+    fd_check::<PlantFullFmu, Fmi2>();
 }
 
 #[test]
 fn directional_derivatives_match_finite_differences_fmi3() {
-    fd_check::<Fmi3>();
+    fd_check::<PlantFmu, Fmi3>();
+    fd_check::<PlantFullFmu, Fmi3>();
 }
 
 /// The earth amplifier set above V_th in HOLD: its indicator is positive, and the event
 /// update opens the earth brake (FREE with the non-earth brake open) and says so.
-fn brake_switch<S: Master>() {
-    let h = Harness::<PlantFmu, S>::init_me("switch");
+fn brake_switch<M: Model, S: Master>() {
+    let h = Harness::<M, S>::init_me("switch");
     assert_eq!(h.update().0, 0);
     assert_eq!(h.enter_continuous_time_mode(), 0);
-    let mut x = [0.0; N];
-    x[13] = 55.0; // voltage_earth, STATES[13]
+    let (x, _) = states::<M>();
+    let mut x = vec![0.0; x.len()];
+    x[index::<M>(VOLTAGE_EARTH)] = 55.0;
     assert_eq!(h.set_states(&x), 0);
     let (s, z) = h.array(Array::EventIndicators, 5);
     assert_eq!((s, z[0]), (0, 5.0), "earth volts − V_th");
@@ -145,13 +153,15 @@ fn brake_switch<S: Master>() {
         "FREE is a warning: {:?}",
         h.logged()
     );
-    assert_eq!(h.integer(PlantFmu::MODE.vr()), (0, 4));
+    assert_eq!(h.integer(MODE), (0, 4));
 }
 
 #[test]
 fn a_brake_switch_is_a_state_event() {
-    brake_switch::<Fmi2>();
-    brake_switch::<Fmi3>();
+    brake_switch::<PlantFmu, Fmi2>();
+    brake_switch::<PlantFmu, Fmi3>();
+    brake_switch::<PlantFullFmu, Fmi2>();
+    brake_switch::<PlantFullFmu, Fmi3>();
 }
 
 /// A master chattering at the non-earth threshold: the non-earth volts set alternately just
@@ -159,20 +169,22 @@ fn a_brake_switch_is_a_state_event() {
 /// 20 000 updates of a 2 ms window succeed (the first window's include the one at exit
 /// from initialization), the next window starts afresh, and one update too many fails with
 /// the reason, asks the master to terminate and leaves the instance in the Error state.
-fn chattering<S: Master>() {
-    let h = Harness::<PlantFmu, S>::init_me("chatter");
+fn chattering<M: Model, S: Master>() {
+    let h = Harness::<M, S>::init_me("chatter");
     assert_eq!(h.update().0, 0);
-    let mut x = [0.0; N];
+    let (x, _) = states::<M>();
+    let mut x = vec![0.0; x.len()];
+    let nonearth = index::<M>(VOLTAGE_NONEARTH);
     let mut k = 0u32;
     let mut chatter = |t: f64| {
         assert_eq!(h.enter_continuous_time_mode(), 0);
         assert_eq!(h.set_time(t), 0);
         k += 1;
-        x[16] = if k % 2 == 1 { 50.0 + 1e-6 } else { 50.0 - 1e-6 }; // voltage_nonearth
+        x[nonearth] = if k % 2 == 1 { 50.0 + 1e-6 } else { 50.0 - 1e-6 };
         assert_eq!(h.set_states(&x), 0);
         assert_eq!(h.enter_event_mode(), 0);
         let (s, _, term) = h.update();
-        (s, term, h.integer(PlantFmu::MODE.vr()).1, k % 2 == 1)
+        (s, term, h.integer(MODE).1, k % 2 == 1)
     };
     for i in 0..19_999 {
         let (s, term, mode, above) = chatter(1e-3 + f64::from(i) * 1e-8);
@@ -199,6 +211,101 @@ fn chattering<S: Master>() {
 
 #[test]
 fn chattering_beyond_the_event_budget_is_an_error_that_terminates() {
-    chattering::<Fmi2>();
-    chattering::<Fmi3>();
+    chattering::<PlantFmu, Fmi2>();
+    chattering::<PlantFmu, Fmi3>();
+    chattering::<PlantFullFmu, Fmi2>();
+    chattering::<PlantFullFmu, Fmi3>();
+}
+
+/// The reduced formulation at rest with the extension DAC stepped to 6 V: the update splits
+/// anew (the held volts are part of the slow state), so the stack is off its new slow
+/// manifold and rings in the fast part. With the states held, the time the master sets
+/// moves the physical extension (the surge modes' ring, tens of kHz, damped in a few ms),
+/// and the same time gives the same bits again; the full formulation's extension is a
+/// state and does not move with time alone.
+fn set_time_moves_the_fast_part<S: Master>() {
+    let h = Harness::<PlantFmu, S>::init_me("set time");
+    assert_eq!(h.set_real(DAC[0], 6.0), 0);
+    assert_eq!(h.update().0, 0);
+    assert_eq!(h.enter_continuous_time_mode(), 0);
+    let (s, x) = h.array(Array::States, 11);
+    assert_eq!(s, 0);
+    let at = |t: f64| {
+        assert_eq!(h.set_time(t), 0);
+        assert_eq!(h.set_states(&x), 0);
+        h.real(EXTENSION).1
+    };
+    let (e0, e1, e2) = (at(0.0), at(10e-6), at(0.0));
+    assert_eq!(e0.to_bits(), e2.to_bits());
+    assert!((e1 - e0).abs() > 1e-12, "extension {e0} at 0, {e1} at 10 µs");
+    let late = at(0.05);
+    assert!(
+        (late - e0).abs() > 1e-12 && (at(0.06) - late).abs() < 1e-6 * (late - e0).abs(),
+        "the ring dies out"
+    );
+
+    let full = Harness::<PlantFullFmu, S>::init_me("set time, full");
+    assert_eq!(full.set_real(DAC[0], 6.0), 0);
+    assert_eq!(full.update().0, 0);
+    assert_eq!(full.enter_continuous_time_mode(), 0);
+    let before = full.real(EXTENSION).1;
+    assert_eq!(full.set_time(10e-6), 0);
+    assert_eq!(full.real(EXTENSION).1.to_bits(), before.to_bits());
+}
+
+#[test]
+fn the_time_a_master_sets_moves_the_reduced_formulations_fast_part() {
+    set_time_moves_the_fast_part::<Fmi2>();
+    set_time_moves_the_fast_part::<Fmi3>();
+}
+
+/// Integrates the reduced formulation with explicit Euler steps of 1 µs from `t` for `n`
+/// steps (the runner and channels are slow: 475 Hz at most), with an event update at the
+/// end; returns the states, the derivatives and the runner position.
+fn euler<S: Master>(h: &Harness<PlantFmu, S>, t: f64, n: u32) -> (Vec<f64>, Vec<f64>, f64) {
+    let dt = 1e-6;
+    assert_eq!(h.enter_continuous_time_mode(), 0);
+    let mut x = h.array(Array::States, 11).1;
+    for k in 0..n {
+        assert_eq!(h.set_time(t + f64::from(k) * dt), 0);
+        assert_eq!(h.set_states(&x), 0);
+        let d = h.array(Array::Derivatives, 11).1;
+        x.iter_mut().zip(&d).for_each(|(x, d)| *x += dt * d);
+    }
+    assert_eq!(h.set_time(t + f64::from(n) * dt), 0);
+    assert_eq!(h.set_states(&x), 0);
+    assert_eq!(h.enter_event_mode(), 0);
+    assert!(h.update().0 <= 1);
+    (h.array(Array::States, 11).1, h.array(Array::Derivatives, 11).1, h.real(RUNNER_POSITION).1)
+}
+
+/// A Model Exchange state serialized in DRIVE, while the fast part rings, and restored into
+/// a fresh instance continues bit for bit: the slow state, the fast part and the time of its
+/// split are in it.
+fn serialized_state_continues<S: Master>() {
+    let h = Harness::<PlantFmu, S>::init_me("serialize");
+    // Earth brake open, non-earth closed (DRIVE), the extension stepped: the stack rings.
+    assert_eq!(h.set_reals(&DAC, &[5.0, 10.0, 10.0]), 0);
+    assert_eq!(h.update().0, 0);
+    euler(&h, 0.0, 1500);
+    assert_eq!(h.integer(MODE), (0, 3), "DRIVE: {:?}", h.logged());
+    assert_eq!(h.set_real(DAC[0], 8.0), 0);
+    assert_eq!(h.update().0, 0);
+    let blob = h.serialize();
+    let ahead = euler(&h, 1.5e-3, 300);
+
+    let g = Harness::<PlantFmu, S>::init_me("restored");
+    assert_eq!(g.update().0, 0);
+    assert_eq!(g.deserialize(&blob), 0, "{:?}", g.logged());
+    let again = euler(&g, 1.5e-3, 300);
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!((bits(&again.0), bits(&again.1)), (bits(&ahead.0), bits(&ahead.1)));
+    assert_eq!(again.2.to_bits(), ahead.2.to_bits());
+    assert!(ahead.2 > 1e-7, "the runner moved: {}", ahead.2);
+}
+
+#[test]
+fn a_serialized_model_exchange_state_continues_bit_for_bit() {
+    serialized_state_continues::<Fmi2>();
+    serialized_state_continues::<Fmi3>();
 }

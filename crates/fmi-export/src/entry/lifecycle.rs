@@ -186,7 +186,9 @@ pub unsafe fn enter_initialization<S: Standard, M: Model>(
 /// ClockActivationMode.
 pub unsafe fn exit_initialization<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
     with_instance::<S, M>(c, func, INITIALIZATION, |inst| {
-        match inst.model.exit_initialization(inst.start_time) {
+        let me = inst.interface == Interface::ModelExchange;
+        let exit = inst.model.exit_initialization(inst.start_time);
+        match exit.and_then(|()| if me { inst.model.enter_model_exchange() } else { Ok(()) }) {
             Ok(()) => {
                 inst.state = match inst.interface {
                     Interface::CoSimulation if inst.modes.event_mode => State::EventMode,

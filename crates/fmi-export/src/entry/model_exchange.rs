@@ -154,6 +154,7 @@ pub unsafe fn set_time<S: Standard, M: Model>(c: *mut c_void, func: &str, t: f64
             return inst.refuse(func, format_args!("{why}"));
         }
         inst.time = t;
+        inst.model.set_time(t);
         OK
     })
 }

@@ -310,6 +310,42 @@ impl Reduced {
         report.states_changed = before.iter().zip(&after).any(|(a, b)| a.to_bits() != b.to_bits());
         report
     }
+
+    /// Appends the dynamic state: the slow state, the fast part and the time of its split,
+    /// then the plant's own bytes ([`Plant::save_state`]), so that a restored formulation
+    /// continues bit for bit.
+    pub fn save_state(&self, out: &mut Vec<u8>) {
+        let mut w = inchworm_state_bytes::Writer(out);
+        for &k in &SLOW {
+            w.f64(self.s[k]);
+        }
+        for v in self.fast.iter() {
+            w.f64(*v);
+        }
+        w.f64(self.since);
+        self.plant.save_state(out);
+    }
+
+    /// Restores what [`Reduced::save_state`] wrote into a formulation of the same
+    /// parameters; on error it is unchanged.
+    pub fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        const HEAD: usize = 8 * (SLOW.len() + 6 + 1);
+        let (head, plant) = bytes.split_at_checked(HEAD).ok_or("reduced plant state truncated")?;
+        let mut r = inchworm_state_bytes::Reader::new(head, "reduced plant state");
+        let mut next = self.clone();
+        for &k in &SLOW {
+            next.s[k] = r.f64()?;
+        }
+        for v in next.fast.iter_mut() {
+            *v = r.f64()?;
+        }
+        next.since = r.f64()?;
+        r.finish()?;
+        next.plant.load_state(plant)?;
+        next.at = None;
+        *self = next;
+        Ok(())
+    }
 }
 
 /// The derivatives and indicators of the reduced plant at rest (docs/model.md §2.7) with
