@@ -1,4 +1,5 @@
-"""Run an `inchworm sweep` plan on a dask.distributed cluster.
+"""Run an `inchworm sweep` plan on a dask.distributed cluster (and, in `system`, one system
+split by subsystem across the cluster's workers).
 
 The plan is data (`inchworm sweep SYSTEM --plan-only` writes it: `run,sample,<parameter>,…`).
 Each dask task takes a slice of its rows, writes them as a small plan file on the worker
@@ -21,7 +22,12 @@ from typing import Iterable, Sequence
 
 import pandas as pd
 
-__all__ = ["read_plan", "run_rows", "run_plan", "write_results"]
+from .system import join_parts, run_part, run_system, show_split
+
+__all__ = [
+    "read_plan", "run_rows", "run_plan", "write_results",
+    "show_split", "run_part", "join_parts", "run_system",
+]
 
 
 def read_plan(path: str | os.PathLike) -> tuple[str, list[str]]:

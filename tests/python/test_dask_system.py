@@ -1,0 +1,58 @@
+"""python/inchworm_dask.system: one SSP system split by subsystem across dask workers gives
+the one-process run's CSV byte for byte; parts that do not fit together are refused."""
+import os
+import pathlib
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+# This tree's package, whatever version the venv holds.
+sys.path.insert(0, str(ROOT / "python" / "inchworm_dask"))
+from inchworm_dask import system  # noqa: E402
+
+# INCHWORM_BIN: the binary to test, if not this tree's target/release/inchworm.
+EXE = pathlib.Path(os.environ.get("INCHWORM_BIN", ROOT / "target" / "release" / "inchworm"))
+
+PART1 = "time,a.x,a.y\n0,1,2\n0.002,1.5,2.5\n"
+PART2 = "time,b.x\n0,3\n0.002,3.5\n"
+SPLIT = [(1, "a.x"), (2, "b.x"), (1, "a.y")]
+
+
+def test_join_takes_each_column_from_its_part_in_the_split_order():
+    assert system.join_parts(SPLIT, [PART1, PART2]) == (
+        "time,a.x,b.x,a.y\n0,1,3,2\n0.002,1.5,3.5,2.5\n")
+
+
+def test_join_keeps_the_values_text_exactly():
+    p1 = "time,a.x\n0,0.1000000000000000055511151231257827\n"
+    p2 = "time,b.x\n0,-0\n"
+    joined = system.join_parts([(1, "a.x"), (2, "b.x")], [p1, p2])
+    assert joined == "time,a.x,b.x\n0,0.1000000000000000055511151231257827,-0\n"
+
+
+@pytest.mark.parametrize("parts, split, why", [
+    ([PART1, "time,b.x\n0,3\n"], SPLIT, "rows"),
+    ([PART1, "time,b.x\n0,3\n0.004,3.5\n"], SPLIT, "time column"),
+    ([PART1, "t,b.x\n0,3\n0.002,3.5\n"], SPLIT, "rows of t"),
+    ([PART1, PART2], [(1, "a.x"), (2, "c.x")], "not in part 2"),
+    ([PART1, PART2], [(3, "a.x")], "part 3 of 2"),
+    ([PART1, "time,b.x\n0,3,4\n0.002,3.5\n"], SPLIT, "field count"),
+    ([PART1, ""], SPLIT, "empty"),
+])
+def test_join_refuses_parts_that_do_not_fit(parts, split, why):
+    with pytest.raises(ValueError, match=why):
+        system.join_parts(split, parts)
+
+
+@pytest.mark.parametrize("parts", [0, 257, 1.5, "2"])
+def test_a_split_outside_the_binarys_range_is_refused_before_running(parts):
+    with pytest.raises(ValueError, match="parts"):
+        system.show_split("/nonexistent/inchworm", "x.ssp", parts)
+
+
+def test_a_failing_binary_raises_with_its_message(tmp_path):
+    assert EXE.exists(), "build the CLI first: cargo build --release"
+    with pytest.raises(RuntimeError, match="exited with"):
+        system.run_part(str(EXE), str(tmp_path / "missing.ssp"), 1, 2)
