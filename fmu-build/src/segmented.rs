@@ -287,9 +287,9 @@ mod tests {
             input: None,
             outputs: vec![],
         };
-        let mut csv = Vec::new();
+        let (mut csv, mut rows) = (Vec::new(), trace::RowWriter::new());
         let mut sink = |t: f64, row: &[f64]| -> Result<(), Error> {
-            trace::write_row(&mut csv, t, row).map_err(|e| Error::Config(e.to_string()))
+            rows.write(&mut csv, t, row).map_err(|e| Error::Config(e.to_string()))
         };
         let names = if jobs == 1 {
             let sim = System::load(path).unwrap().initialise(&opts).unwrap();

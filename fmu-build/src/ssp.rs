@@ -419,10 +419,7 @@ pub fn open_system() -> SystemSpec {
     }
 }
 
-/// The mirror mount's command: piston from t = 0, then a tip on top of it.
-pub const MIRROR_PISTON: f64 = 30e-6;
-pub const MIRROR_TIP: f64 = 4e-6;
-pub const MIRROR_TIP_TIME: f64 = 4.0;
+pub use inchworm_fmu_models::mount::{MIRROR_PISTON, MIRROR_TIP, MIRROR_TIP_TIME};
 pub const MIRROR_CHAINS: [&str; 3] = ["a", "b", "c"];
 
 /// One mount: three reference → controller → plant chains, 120° apart on a 50 mm

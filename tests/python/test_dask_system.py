@@ -56,3 +56,48 @@ def test_a_failing_binary_raises_with_its_message(tmp_path):
     assert EXE.exists(), "build the CLI first: cargo build --release"
     with pytest.raises(RuntimeError, match="exited with"):
         system.run_part(str(EXE), str(tmp_path / "missing.ssp"), 1, 2)
+
+
+FMU_BUILD = ROOT / "target" / "release" / "fmu-build"
+
+
+@pytest.fixture(scope="module")
+def mirror7(tmp_path_factory):
+    """The seven-segment mirror (`fmu-build segmented --rings 1`): seven independent
+    subsystems."""
+    assert FMU_BUILD.exists(), "build fmu-build first: cargo run --release -p fmu-build"
+    assert (ROOT / "dist" / "InchwormPlant.fmu").exists(), "build dist/ first: fmu-build"
+    d = tmp_path_factory.mktemp("mirror7")
+    ssp = d / "mirror7.ssp"
+    p = subprocess.run([str(FMU_BUILD), "segmented", "--rings", "1", "--seed", "3",
+                        "--out", str(ssp)], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    return d, ssp
+
+
+ARGS = ["--stop-time", "0.3"]
+
+
+def test_two_dask_workers_give_the_one_process_run_byte_for_byte(mirror7):
+    from distributed import Client, LocalCluster
+
+    d, ssp = mirror7
+    one = d / "one.csv"
+    p = subprocess.run([str(EXE), "run", str(ssp), "--out", str(one), *ARGS],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    split = system.show_split(str(EXE), str(ssp), 2, ARGS)
+    # Both parts record columns, and each part's are whole segments.
+    assert {k for k, _ in split} == {1, 2}
+    owner = {}
+    for k, name in split:
+        segment = name.split("_", 1)[0]
+        assert owner.setdefault(segment, k) == k, f"{segment} split across parts"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        text = system.run_system(ssp, 2, client=client, inchworm=str(EXE), args=ARGS,
+                                 out=d / "dask.csv")
+    expected = one.read_bytes()
+    assert (d / "dask.csv").read_bytes() == expected
+    assert text.encode() == expected
+    assert expected.count(b"\n") == 152  # the header and t = 0 to 0.3 s every 2 ms

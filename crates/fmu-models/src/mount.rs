@@ -21,6 +21,13 @@ use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, Row, StepLog, Unit, Va
 pub const RADIUS: f64 = 0.05;
 pub const ANGLE_A_DEG: f64 = 90.0;
 
+/// The mirror mount's command, which `fmu-build` writes into `MirrorMount.ssp` and the
+/// segmented mirrors (each reference's default binding) and `inchworm scenario mirror`
+/// measures against: piston from t = 0, the tip on top of it from [`MIRROR_TIP_TIME`].
+pub const MIRROR_PISTON: f64 = 30e-6;
+pub const MIRROR_TIP: f64 = 4e-6;
+pub const MIRROR_TIP_TIME: f64 = 4.0;
+
 const M: Option<&str> = Some("m");
 const RAD: Option<&str> = Some("rad");
 

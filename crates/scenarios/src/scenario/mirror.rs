@@ -4,12 +4,7 @@
 use super::*;
 use crate::holding::{HoldingRms, Settle};
 
-/// The mirror mount's command, as `fmu-build` writes it into `MirrorMount.ssp` (each
-/// reference's default binding): piston from t = 0, the tip on top of it from
-/// [`MIRROR_TIP_TIME`].
-pub const MIRROR_PISTON: f64 = 30e-6;
-pub const MIRROR_TIP: f64 = 4e-6;
-pub const MIRROR_TIP_TIME: f64 = 4.0;
+pub use inchworm_fmu_models::mount::{MIRROR_PISTON, MIRROR_TIP, MIRROR_TIP_TIME};
 /// The mirror run: 10 s, regulation from 8 s.
 pub const MIRROR_DURATION: f64 = 10.0;
 pub const MIRROR_REGULATION: f64 = 8.0;
