@@ -18,7 +18,7 @@ scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
 
 git ls-files -z | xargs -0 cp --parents -t "$scratch"
-table=crates/fmu-models/src/plant/mod.rs
+table=crates/fmu-models/src/plant/table.rs
 python3 - "$scratch/$table" <<'EOF'
 import sys
 path = sys.argv[1]

@@ -1,163 +1,24 @@
 //! The `InchwormPlant` and `InchwormPlantFull` FMUs: the plant of docs/model.md §2 behind the
-//! Co-Simulation and Model Exchange interfaces of docs/model.md §5. Both share this file's
-//! variable rows, Co-Simulation (the exact solver, bit for bit the same) and the mapping of
-//! value references onto `inchworm_plant`; they differ in the formulation a Model Exchange
-//! master integrates ([`Formulation`]): `InchwormPlant` the reduced one of 11 states
-//! (docs/model.md §5.1, [`reduced`]), `InchwormPlantFull` the model's 17 ([`full`]). All FMI
-//! behaviour lives in `inchworm-fmi-export`.
+//! Co-Simulation and Model Exchange interfaces of docs/model.md §5. Both share the variable
+//! rows of [`table`], this file's Co-Simulation (the exact solver, bit for bit the same)
+//! and the mapping of value references onto `inchworm_plant`; they differ in the
+//! formulation a Model Exchange master integrates ([`Formulation`]): `InchwormPlant` the
+//! reduced one of 11 states (docs/model.md §5.1, [`reduced`]), `InchwormPlantFull` the
+//! model's 17 ([`full`]). All FMI behaviour lives in `inchworm-fmi-export`.
 
 mod full;
 mod reduced;
+mod table;
 
 use inchworm_fmi_export::{
-    ContinuousState, EventUpdate, Model, ModelExchange, ModelInfo, Reader, Row, StepLog, Unit,
-    Writer,
+    EventUpdate, Model, ModelExchange, ModelInfo, Reader, Row, StepLog, Writer,
 };
 use inchworm_plant::continuous::{EventBudget, EventReport, Jacobian};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
 pub use full::PlantFullFmu;
 pub use reduced::PlantFmu;
-
-/// The rows both FMUs have, with the rows of a formulation's continuous states and of
-/// their derivatives in between. Value references: inputs 1.., outputs 10.., parameters
-/// 100.. (arrays contiguous), the model's continuous states 200.., their derivatives
-/// 220.. (the order of `inchworm_plant::continuous`), the event indicators 240.. The names
-/// the rows use (`Variable`, `Kind`, `M`, `V`, the board's constants) resolve where it is
-/// invoked.
-macro_rules! plant_table {
-    ($model:ty; states { $($sid:ident: $srow:expr),* $(,)? } derivatives { $($did:ident: $drow:expr),* $(,)? }) => {
-        #[rustfmt::skip]
-        inchworm_fmi_export::table!($model, TABLE;
-        DAC_EARTH: Variable::input("dac_earth", 1, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.earth, |m, x| m.dac.earth = x),
-        DAC_NONEARTH: Variable::input("dac_nonearth", 2, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.nonearth, |m, x| m.dac.nonearth = x),
-        DAC_EXTENSION: Variable::input("dac_extension", 3, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.extension, |m, x| m.dac.extension = x),
-        ENCODER_COUNTS: Variable::output("encoder_counts", 10, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero").integer_out(|m| m.outputs().encoder_counts.clamp(i32::MIN as i64, i32::MAX as i64) as i32),
-        ENCODER_POSITION: Variable::output("encoder_position", 11, Kind::Real, M, "encoder_counts * q_enc").real_out(|m| m.outputs().encoder_position),
-        RUNNER_POSITION: Variable::output("runner_position", 12, Kind::Real, M, "True runner position x4 - L_r").real_out(|m| m.state(6)),
-        EXTENSION: Variable::output("extension", 13, Kind::Real, M, "Extension stack elongation x3 - L_p").real_out(|m| m.state(4)),
-        VOLTAGE_EARTH: Variable::output("voltage_earth", 14, Kind::Real, V, "Earth-brake PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(13)),
-        VOLTAGE_NONEARTH: Variable::output("voltage_nonearth", 15, Kind::Real, V, "Non-earth-brake PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(16)),
-        VOLTAGE_EXTENSION: Variable::output("voltage_extension", 16, Kind::Real, V, "Extension PZT voltage after Bessel filter and amplifier").real_out(|m| m.state(10)),
-        MODE: Variable::output("mode", 17, Kind::Integer, None, "1 HOLD, 2 LOCKED, 3 DRIVE, 4 FREE").integer_out(|m| m.outputs().mode as i32),
-        EARTH_CLOSED: Variable::output("earth_closed", 18, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)").boolean_out(|m| m.outputs().earth_closed),
-        NONEARTH_CLOSED: Variable::output("nonearth_closed", 19, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)").boolean_out(|m| m.outputs().nonearth_closed),
-        SLIP_EVENTS: Variable::output("slip_events", 20, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)").integer_out(|m| m.outputs().slip_events.min(i32::MAX as u32) as i32),
-        M_P: Variable::parameter("m_p", 100, 0.025, Some("kg"), "Extension PZT mass").with_range(1e-4, 10.0).real(|m| m.params.m_p, |m, x| m.params.m_p = x),
-        K_P: Variable::parameter("k_p", 101, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness").with_range(1e5, 1e10).real(|m| m.params.k_p, |m, x| m.params.k_p = x),
-        C_P: Variable::parameter("c_p", 102, 15.0, Some("N.s/m"), "Extension PZT damping").with_range(0.0, 1e5).real(|m| m.params.c_p, |m, x| m.params.c_p = x),
-        M_B: Variable::parameter("m_b", 103, 0.040, Some("kg"), "Non-earth brake mass on node 3").with_range(1e-4, 10.0).real(|m| m.params.m_b, |m, x| m.params.m_b = x),
-        K_F: Variable::parameter("k_f", 104, 5.0e6, Some("N/m"), "Flexure stiffness").with_range(1000.0, 1e10).real(|m| m.params.k_f, |m, x| m.params.k_f = x),
-        C_F: Variable::parameter("c_f", 105, 20.0, Some("N.s/m"), "Flexure damping").with_range(0.0, 1e5).real(|m| m.params.c_f, |m, x| m.params.c_f = x),
-        M_R: Variable::parameter("m_r", 106, 0.150, Some("kg"), "Runner mass").with_range(1e-4, 100.0).real(|m| m.params.m_r, |m, x| m.params.m_r = x),
-        K_E: Variable::parameter("k_e", 107, 2.0e4, Some("N/m"), "Environment stiffness on the runner").with_range(0.0, 1e9).real(|m| m.params.k_e, |m, x| m.params.k_e = x),
-        C_E: Variable::parameter("c_e", 108, 10.0, Some("N.s/m"), "Environment damping on the runner").with_range(0.0, 1e5).real(|m| m.params.c_e, |m, x| m.params.c_e = x),
-        L_P: Variable::parameter("L_p", 109, 0.036, M, "Extension PZT rest length").with_range(1e-4, 1.0).real(|m| m.params.l_p, |m, x| m.params.l_p = x),
-        L_R: Variable::parameter("L_r", 110, 0.0, M, "Runner rest position").with_range(-1.0, 1.0).real(|m| m.params.l_r, |m, x| m.params.l_r = x),
-        T_EM: Variable::parameter("T_em", 111, 8.8, Some("N/V"), "Electromechanical transformer ratio").with_range(0.001, 1000.0).real(|m| m.params.t_em, |m, x| m.params.t_em = x),
-        C: Variable::parameter("C", 112, 4.0e-6, Some("F"), "PZT capacitance").with_range(1e-10, 0.01).real(|m| m.params.c, |m, x| m.params.c = x),
-        PLAY_RADIUS_1: Variable::parameter("play_radius[1]", 113, 15.0, V, "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)").with_range(0.1, 1000.0).array("Slip radii of the five hysteresis elements' stop operators (strictly increasing)").real(|m| m.params.play_radius[0], |m, x| m.params.play_radius[0] = x),
-        PLAY_RADIUS_2: Variable::parameter("play_radius[2]", 114, 30.0, V, "Hysteresis element 2: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[1], |m, x| m.params.play_radius[1] = x),
-        PLAY_RADIUS_3: Variable::parameter("play_radius[3]", 115, 45.0, V, "Hysteresis element 3: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[2], |m, x| m.params.play_radius[2] = x),
-        PLAY_RADIUS_4: Variable::parameter("play_radius[4]", 116, 60.0, V, "Hysteresis element 4: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[3], |m, x| m.params.play_radius[3] = x),
-        PLAY_RADIUS_5: Variable::parameter("play_radius[5]", 117, 75.0, V, "Hysteresis element 5: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[4], |m, x| m.params.play_radius[4] = x),
-        PLAY_WEIGHT_1: Variable::parameter("play_weight[1]", 118, 0.08, None, "Hysteresis element 1: weight (capacitance C / weight)").with_range(0.0, 10.0).array("Weights of the five hysteresis elements (capacitance C / weight)").real(|m| m.params.play_weight[0], |m, x| m.params.play_weight[0] = x),
-        PLAY_WEIGHT_2: Variable::parameter("play_weight[2]", 119, 0.07, None, "Hysteresis element 2: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[1], |m, x| m.params.play_weight[1] = x),
-        PLAY_WEIGHT_3: Variable::parameter("play_weight[3]", 120, 0.06, None, "Hysteresis element 3: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[2], |m, x| m.params.play_weight[2] = x),
-        PLAY_WEIGHT_4: Variable::parameter("play_weight[4]", 121, 0.05, None, "Hysteresis element 4: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[3], |m, x| m.params.play_weight[3] = x),
-        PLAY_WEIGHT_5: Variable::parameter("play_weight[5]", 122, 0.04, None, "Hysteresis element 5: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[4], |m, x| m.params.play_weight[4] = x),
-        F_D0: Variable::parameter("F_d0", 123, 175.0, Some("N"), "Brake disturbance force in DRIVE").with_range(-1e4, 1e4).real(|m| m.params.f_d0, |m, x| m.params.f_d0 = x),
-        GAMMA: Variable::parameter("gamma", 124, 0.0, None, "Growth of the brake disturbance with environment load").with_range(0.0, 100.0).real(|m| m.params.gamma, |m, x| m.params.gamma = x),
-        V_TH: Variable::parameter("V_th", 125, 50.0, V, "Brake threshold voltage").with_range(0.001, 1e4).real(|m| m.params.v_th, |m, x| m.params.v_th = x),
-        F_BESSEL: Variable::parameter("f_bessel", 126, 300.0, Some("Hz"), "Bessel filter -3 dB frequency").with_range(1.0, 1e6).real(|m| m.params.f_bessel, |m, x| m.params.f_bessel = x),
-        AMP_GAIN: Variable::parameter("amp_gain", 127, 10.0, None, "PZT amplifier gain").with_range(0.001, 1000.0).real(|m| m.params.amp_gain, |m, x| m.params.amp_gain = x),
-        F_AMP: Variable::parameter("f_amp", 128, 475.0, Some("Hz"), "PZT amplifier roll-off frequency").with_range(1.0, 1e6).real(|m| m.params.f_amp, |m, x| m.params.f_amp = x),
-        Q_ENC: Variable::parameter("q_enc", 129, ENCODER_RESOLUTION, M, "Encoder resolution per count").with_range(1e-12, 0.001).real(|m| m.params.q_enc, |m, x| m.params.q_enc = x),
-        REL_TOL: Variable::parameter("rel_tol", 130, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6).real(|m| m.params.rel_tol, |m, x| m.params.rel_tol = x),
-        ENCODER_NOISE: Variable::parameter("encoder_noise", 131, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001).real(|m| m.params.encoder_noise, |m, x| m.params.encoder_noise = x),
-        NOISE_SEED: Variable::integer_parameter("noise_seed", 132, 1, None, "Seed of the encoder noise generator").integer(|m| m.params.noise_seed as i32, |m, x| m.params.noise_seed = x as u32 as u64),
-        NODE1_DISPLACEMENT: Variable::local("node1_displacement", 200, Some("m"), "Node 1 displacement from rest, x1 - L_p/3 (a continuous state of the model's formulation)").real_out(|m| m.state(0)),
-        NODE1_VELOCITY: Variable::local("node1_velocity", 201, Some("m/s"), "Node 1 velocity v1 (a continuous state of the model's formulation)").real_out(|m| m.state(1)),
-        NODE2_DISPLACEMENT: Variable::local("node2_displacement", 202, Some("m"), "Node 2 displacement from rest, x2 - 2 L_p/3 (a continuous state of the model's formulation)").real_out(|m| m.state(2)),
-        NODE2_VELOCITY: Variable::local("node2_velocity", 203, Some("m/s"), "Node 2 velocity v2 (a continuous state of the model's formulation)").real_out(|m| m.state(3)),
-        NODE3_VELOCITY: Variable::local("node3_velocity", 204, Some("m/s"), "Node 3 (non-earth brake) velocity v3 (a continuous state of the model's formulation)").real_out(|m| m.state(5)),
-        RUNNER_VELOCITY: Variable::local("runner_velocity", 205, Some("m/s"), "Runner velocity v4 (a continuous state of the model's formulation)").real_out(|m| m.state(7)),
-        BESSEL_EXTENSION: Variable::local("bessel_extension", 206, Some("V"), "Extension channel: Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(8)),
-        BESSEL_EXTENSION_RATE: Variable::local("bessel_extension_rate", 207, Some("V/s"), "Extension channel: rate of the Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(9)),
-        BESSEL_EARTH: Variable::local("bessel_earth", 208, Some("V"), "Earth channel: Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(11)),
-        BESSEL_EARTH_RATE: Variable::local("bessel_earth_rate", 209, Some("V/s"), "Earth channel: rate of the Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(12)),
-        BESSEL_NONEARTH: Variable::local("bessel_nonearth", 210, Some("V"), "Non-earth channel: Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(14)),
-        BESSEL_NONEARTH_RATE: Variable::local("bessel_nonearth_rate", 211, Some("V/s"), "Non-earth channel: rate of the Bessel filter output (a continuous state of both formulations)").real_out(|m| m.state(15)),
-            $($sid: $srow,)*
-            $($did: $drow,)*
-        DER_BESSEL_EXTENSION: Variable::local("der(bessel_extension)", 228, Some("V/s"), "Rate of bessel_extension").real_out(|m| m.me_rate(8)),
-        DER_BESSEL_EXTENSION_RATE: Variable::local("der(bessel_extension_rate)", 229, Some("V/s2"), "Rate of bessel_extension_rate").real_out(|m| m.me_rate(9)),
-        DER_VOLTAGE_EXTENSION: Variable::local("der(voltage_extension)", 230, Some("V/s"), "Rate of voltage_extension").real_out(|m| m.me_rate(10)),
-        DER_BESSEL_EARTH: Variable::local("der(bessel_earth)", 231, Some("V/s"), "Rate of bessel_earth").real_out(|m| m.me_rate(11)),
-        DER_BESSEL_EARTH_RATE: Variable::local("der(bessel_earth_rate)", 232, Some("V/s2"), "Rate of bessel_earth_rate").real_out(|m| m.me_rate(12)),
-        DER_VOLTAGE_EARTH: Variable::local("der(voltage_earth)", 233, Some("V/s"), "Rate of voltage_earth").real_out(|m| m.me_rate(13)),
-        DER_BESSEL_NONEARTH: Variable::local("der(bessel_nonearth)", 234, Some("V/s"), "Rate of bessel_nonearth").real_out(|m| m.me_rate(14)),
-        DER_BESSEL_NONEARTH_RATE: Variable::local("der(bessel_nonearth_rate)", 235, Some("V/s2"), "Rate of bessel_nonearth_rate").real_out(|m| m.me_rate(15)),
-        DER_VOLTAGE_NONEARTH: Variable::local("der(voltage_nonearth)", 236, Some("V/s"), "Rate of voltage_nonearth").real_out(|m| m.me_rate(16)),
-        EARTH_SWITCH: Variable::local("earth_switch", 240, Some("V"), "voltage_earth - V_th: the earth brake switches where it changes sign").real_out(|m| m.indicator(0)),
-        NONEARTH_SWITCH: Variable::local("nonearth_switch", 241, Some("V"), "voltage_nonearth - V_th: the non-earth brake switches where it changes sign").real_out(|m| m.indicator(1)),
-        SLIP_ONSET_UP: Variable::local("slip_onset_up", 242, Some("V"), "xi - the next slip onset above: an element starts to slip upward where it reaches 0").real_out(|m| m.indicator(2)),
-        SLIP_ONSET_DOWN: Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0").real_out(|m| m.indicator(3)),
-        SLIP_END: Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0").real_out(|m| m.indicator(4)),
-        );
-    };
-}
-use plant_table;
-
-const V: Option<&str> = Some("V");
-const M: Option<&str> = Some("m");
-
-static UNITS: [Unit; 14] = [
-    Unit { name: "s", kg: 0, m: 0, s: 1, a: 0 },
-    Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },
-    Unit { name: "V", kg: 1, m: 2, s: -3, a: -1 },
-    Unit { name: "kg", kg: 1, m: 0, s: 0, a: 0 },
-    Unit { name: "N", kg: 1, m: 1, s: -2, a: 0 },
-    Unit { name: "N/m", kg: 1, m: 0, s: -2, a: 0 },
-    Unit { name: "N.s/m", kg: 1, m: 0, s: -1, a: 0 },
-    Unit { name: "N/V", kg: 0, m: -1, s: 1, a: 1 },
-    Unit { name: "F", kg: -1, m: -2, s: 4, a: 2 },
-    Unit { name: "Hz", kg: 0, m: 0, s: -1, a: 0 },
-    Unit { name: "m/s", kg: 0, m: 1, s: -1, a: 0 },
-    Unit { name: "m/s2", kg: 0, m: 1, s: -2, a: 0 },
-    Unit { name: "V/s", kg: 1, m: 2, s: -4, a: -1 },
-    Unit { name: "V/s2", kg: 1, m: 2, s: -5, a: -1 },
-];
-
-/// Everything of the FMUs' descriptions but their names and Model Exchange.
-const INFO: ModelInfo = ModelInfo {
-    model_name: "InchwormPlant",
-    model_identifier: "InchwormPlant",
-    description: "JPL flight inchworm actuator: driver-board analog chain, three-element PZT with passive Maxwell-slip hysteresis, brakes with events at V_th, flexure, runner, brake disturbance, 1.2 nm encoder",
-    version: env!("CARGO_PKG_VERSION"),
-    default_start_time: 0.0,
-    default_stop_time: 1.0,
-    default_step_size: 0.002,
-    default_tolerance: 1e-8,
-    units: &UNITS,
-    log_events: "Model events: brake switches, mode changes, slips",
-    documentation_html: include_str!("../plant.html"),
-};
-
-/// The channels' continuous states, the last nine of both formulations: the extension, earth
-/// and non-earth channels, each its Bessel output, its rate and the amplifier volts (value
-/// references of the states; of their derivatives, 220 + the model's index).
-const CHANNELS: [ContinuousState; 9] = [
-    ContinuousState { value: 206, derivative: 228, nominal: 10.0 },
-    ContinuousState { value: 207, derivative: 229, nominal: 10000.0 },
-    ContinuousState { value: 16, derivative: 230, nominal: 100.0 },
-    ContinuousState { value: 208, derivative: 231, nominal: 10.0 },
-    ContinuousState { value: 209, derivative: 232, nominal: 10000.0 },
-    ContinuousState { value: 14, derivative: 233, nominal: 100.0 },
-    ContinuousState { value: 210, derivative: 234, nominal: 10.0 },
-    ContinuousState { value: 211, derivative: 235, nominal: 10000.0 },
-    ContinuousState { value: 15, derivative: 236, nominal: 100.0 },
-];
+use table::{plant_table, CHANNELS, INFO, M, V};
 
 /// The plant as a Model Exchange master integrates it: the formulation's continuous states,
 /// their rates and the events, over the [`Plant`] that holds the physical state. Its
