@@ -265,10 +265,8 @@ fn straddling_steps_follow_the_latch_and_write_rule() {
 
 const PROFILE_FIG5: i32 = 1;
 /// The controller's DAC outputs and the plant's inputs they drive.
-const DAC: [Var<ControllerFmu>; 3] =
-    [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION];
-const PLANT_DAC: [Var<PlantFmu>; 3] =
-    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
+const DAC: [Var<ControllerFmu>; 3] = ControllerFmu::DAC_OUTPUTS;
+const PLANT_DAC: [Var<PlantFmu>; 3] = PlantFmu::DAC_INPUTS;
 
 /// Per 2 ms instant: reference, encoder position, the DAC sample the plant receives.
 type Row = (f64, f64, [f64; 3]);

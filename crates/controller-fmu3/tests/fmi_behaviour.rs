@@ -33,9 +33,7 @@ fn outputs_equal_the_fmi2_fmu_bit_for_bit() {
             (0, 0)
         );
         assert_eq!((two.step(k as f64 * H, H), three.step(k as f64 * H, H)), (0, 0));
-        for var in
-            [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION]
-        {
+        for var in ControllerFmu::DAC_OUTPUTS {
             let (vr, name) = (var.vr(), var.name());
             assert_eq!(
                 three.real(vr).1.to_bits(),

@@ -12,20 +12,10 @@ use inchworm_fmi_export::fmi3::testing::log_callback;
 use inchworm_fmi_export::fmi3::TIME_VR;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{Harness, Log};
-use inchworm_fmi_export::Var;
 use inchworm_fmu_models::PlantFmu;
 use inchworm_plant_fmu3 as fmu;
 
 const H: f64 = 0.002;
-/// Every Real output of the plant.
-const REAL_OUTPUTS: [Var<PlantFmu>; 6] = [
-    PlantFmu::ENCODER_POSITION,
-    PlantFmu::RUNNER_POSITION,
-    PlantFmu::EXTENSION,
-    PlantFmu::VOLTAGE_EARTH,
-    PlantFmu::VOLTAGE_NONEARTH,
-    PlantFmu::VOLTAGE_EXTENSION,
-];
 
 /// An instance behind the exported `fmi3*` symbols.
 struct Exported {
@@ -155,7 +145,7 @@ fn the_passive_check_trace_through_fmi3_equals_fmi2_bit_for_bit() {
             two.integer(PlantFmu::MODE.vr()),
             "mode at sample {k}"
         );
-        for var in REAL_OUTPUTS {
+        for var in PlantFmu::REAL_OUTPUTS {
             assert_eq!(
                 three.real(var.vr()).1.to_bits(),
                 two.real(var.vr()).1.to_bits(),

@@ -14,23 +14,12 @@ use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 mod counting_alloc;
 use counting_alloc::allocations;
 
-const PLANT_DAC: [Var<PlantFmu>; 3] =
-    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
-/// The plant's Real outputs.
-const OUTPUTS: [Var<PlantFmu>; 6] = [
-    PlantFmu::ENCODER_POSITION,
-    PlantFmu::RUNNER_POSITION,
-    PlantFmu::EXTENSION,
-    PlantFmu::VOLTAGE_EARTH,
-    PlantFmu::VOLTAGE_NONEARTH,
-    PlantFmu::VOLTAGE_EXTENSION,
-];
 const H: f64 = 0.002;
 
 /// Forward gaits, sample by sample: the allocations counted in each kind of call.
 fn plant<S: Master>() -> [u64; 3] {
     let h = Harness::<PlantFmu, S>::init("alloc");
-    let (dac, outputs) = (PLANT_DAC.map(Var::vr), OUTPUTS.map(Var::vr));
+    let (dac, outputs) = (PlantFmu::DAC_INPUTS.map(Var::vr), PlantFmu::REAL_OUTPUTS.map(Var::vr));
     let (counts, k_p) = (PlantFmu::ENCODER_COUNTS.vr(), PlantFmu::K_P.vr());
     let mut counted = [0u64; 3];
     for k in 0..2000usize {
@@ -67,13 +56,8 @@ fn plant<S: Master>() -> [u64; 3] {
     counted
 }
 
-const DAC: [Var<ControllerFmu>; 3] =
-    [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION];
-const CODES: [Var<ControllerFmu>; 3] = [
-    ControllerFmu::DAC_EARTH_CODE,
-    ControllerFmu::DAC_NONEARTH_CODE,
-    ControllerFmu::DAC_EXTENSION_CODE,
-];
+const DAC: [Var<ControllerFmu>; 3] = ControllerFmu::DAC_OUTPUTS;
+const CODES: [Var<ControllerFmu>; 3] = ControllerFmu::DAC_CODES;
 
 /// A synthetic encoder moving 2 nm per powered extension sample: the allocations counted
 /// in each kind of call.

@@ -12,17 +12,6 @@ use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S
 use crate::Error;
 use inchworm_cosim::fmu::{CsFmu, FmuError, VarType};
 
-/// The DAC inputs (V), in the order of [`Dac`]'s fields.
-const INPUTS: [Var<PlantFmu>; 3] =
-    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
-const REAL_OUTPUTS: [Var<PlantFmu>; 6] = [
-    PlantFmu::ENCODER_POSITION,
-    PlantFmu::RUNNER_POSITION,
-    PlantFmu::EXTENSION,
-    PlantFmu::VOLTAGE_EARTH,
-    PlantFmu::VOLTAGE_NONEARTH,
-    PlantFmu::VOLTAGE_EXTENSION,
-];
 const INTEGER_OUTPUTS: [Var<PlantFmu>; 3] =
     [PlantFmu::ENCODER_COUNTS, PlantFmu::MODE, PlantFmu::SLIP_EVENTS];
 const BOOLEAN_OUTPUTS: [Var<PlantFmu>; 2] = [PlantFmu::EARTH_CLOSED, PlantFmu::NONEARTH_CLOSED];
@@ -57,8 +46,8 @@ impl Plant {
         let vrs_of = |vars: &[Var<PlantFmu>], ty| {
             fmu.vrs_of(&vars.iter().map(|v| v.name()).collect::<Vec<_>>(), ty)
         };
-        let inputs = vrs_of(&INPUTS, VarType::Real)?;
-        let reals = vrs_of(&REAL_OUTPUTS, VarType::Real)?;
+        let inputs = vrs_of(&PlantFmu::DAC_INPUTS, VarType::Real)?;
+        let reals = vrs_of(&PlantFmu::REAL_OUTPUTS, VarType::Real)?;
         let integers = vrs_of(&INTEGER_OUTPUTS, VarType::Integer)?;
         let booleans = vrs_of(&BOOLEAN_OUTPUTS, VarType::Boolean)?;
         fmu.enter_initialization(None, 0.0, None)?;

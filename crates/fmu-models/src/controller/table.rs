@@ -3,7 +3,7 @@
 
 use inchworm_board::ENCODER_RESOLUTION;
 use inchworm_controller::{CALIBRATED_DISTURBANCE, CALIBRATED_WEIGHTS, SAMPLE_PERIOD};
-use inchworm_fmi_export::{Kind, ModelInfo, Unit, Variable};
+use inchworm_fmi_export::{Kind, ModelInfo, Unit, Var, Variable};
 
 use super::ControllerFmu;
 
@@ -90,6 +90,16 @@ inchworm_fmi_export::table!(ControllerFmu, pub(super) TABLE;
     SAMPLE_CLOCK: Variable::periodic_clock("sample_clock", SAMPLE_CLOCK_VR, SAMPLE_PERIOD, "The 2 ms sample: at each tick the controller writes the DAC sample of the inputs latched at the tick before and latches encoder_counts and reference (FMI 3.0)").clock_in(),
     GAIT_STEP: Variable::output_clock("gait_step", GAIT_CLOCK_VR, "Ticks at the sample that ends a gait step and updates the estimator: scale_weights and disturbance_estimate change only then (FMI 3.0)").clock_out(|m| m.gait_ticked),
 );
+
+impl ControllerFmu {
+    /// The DAC outputs (V), earth brake, non-earth brake, extension: the plant's
+    /// `PlantFmu::DAC_INPUTS`.
+    pub const DAC_OUTPUTS: [Var<ControllerFmu>; 3] =
+        [Self::DAC_EARTH, Self::DAC_NONEARTH, Self::DAC_EXTENSION];
+    /// The DAC codes of the same three channels.
+    pub const DAC_CODES: [Var<ControllerFmu>; 3] =
+        [Self::DAC_EARTH_CODE, Self::DAC_NONEARTH_CODE, Self::DAC_EXTENSION_CODE];
+}
 
 pub(super) static UNITS: [Unit; 3] = [
     Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 },

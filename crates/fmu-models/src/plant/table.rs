@@ -90,6 +90,21 @@ macro_rules! plant_table {
         SLIP_ONSET_DOWN: Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0").real_out(|m| m.indicator(3)),
         SLIP_END: Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0").real_out(|m| m.indicator(4)),
         );
+
+        impl $model {
+            /// The DAC inputs (V), in the order of the plant's `Dac` fields.
+            pub const DAC_INPUTS: [inchworm_fmi_export::Var<$model>; 3] =
+                [Self::DAC_EARTH, Self::DAC_NONEARTH, Self::DAC_EXTENSION];
+            /// Every Real output.
+            pub const REAL_OUTPUTS: [inchworm_fmi_export::Var<$model>; 6] = [
+                Self::ENCODER_POSITION,
+                Self::RUNNER_POSITION,
+                Self::EXTENSION,
+                Self::VOLTAGE_EARTH,
+                Self::VOLTAGE_NONEARTH,
+                Self::VOLTAGE_EXTENSION,
+            ];
+        }
     };
 }
 pub(super) use plant_table;
