@@ -9,6 +9,7 @@ import copy
 import zipfile
 from xml.etree import ElementTree
 
+import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi1 import FMICallException
@@ -84,7 +85,7 @@ def test_scheduled_execution_driver_gives_the_plain_dac_codes(controller, encode
     assert schedule.preemption == ["lock", "unlock"] * (drv.SAMPLES + 1)
 
 
-def test_simulate_fmu_with_event_mode_is_refused_with_the_reason():
+def test_simulate_fmu_with_event_mode_is_refused_with_the_reason(encoder, plain_run):
     """FMPy 0.3.32's `simulateCS` (fmpy/simulation.py) with use_event_mode: after
     fmi3ExitInitializationMode it calls fmi3UpdateDiscreteStates until no update is needed
     and fmi3EnterStepMode; at each step that ends with eventHandlingNeeded it calls
@@ -101,10 +102,14 @@ def test_simulate_fmu_with_event_mode_is_refused_with_the_reason():
     assert error.startswith(f"InchwormController: {NOT_ACTIVATED}"), error
     assert "instantiates without eventModeUsed" in error
 
-    # The fallback the message names: without event mode each step runs its tick.
-    result = simulate_fmu(str(FMU), start_values={"reference": drv.REFERENCE}, output=drv.CODES)
-    assert len(result) == drv.SAMPLES + 1
-    assert len(set(result["dac_extension_code"])) > 1, "the controller stepped"
+    # The way on the message names: without event mode each fmi3DoStep runs its tick, and
+    # simulate_fmu fed the same encoder gives the drivers' DAC codes at all 501 instants.
+    signals = np.array([(k * drv.H, counts) for k, counts in enumerate(encoder)],
+                       dtype=[("time", np.float64), ("encoder_counts", np.int32)])
+    result = simulate_fmu(str(FMU), input=signals, output=drv.CODES, stop_time=drv.STOP_TIME,
+                          output_interval=drv.H, start_values={"reference": drv.REFERENCE})
+    codes = [tuple(int(c) for c in row) for row in zip(*(result[n] for n in drv.CODES))]
+    assert codes == plain_run.codes
 
 
 def test_fmusim_event_mode_loop_is_refused_and_the_event_stays_open(controller):
