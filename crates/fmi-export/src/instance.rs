@@ -273,6 +273,9 @@ pub struct Instance<S: Standard, M: Model> {
     /// The input clocks activated in the current event (value references), cleared on
     /// leaving event mode.
     pub active_clocks: Vec<u32>,
+    /// The input clocks whose partitions ran in the current event (value references),
+    /// cleared on leaving event mode: the event at a tick is left only once its clocks ran.
+    pub ran_clocks: Vec<u32>,
     /// Scheduled Execution: the last partition's activation time, which no later one may
     /// precede.
     pub last_activation: Option<f64>,
@@ -416,6 +419,9 @@ impl<S: Standard, M: Model> Instance<S, M> {
             active_clocks: Vec::with_capacity(
                 vars.iter().filter(|r| r.var.kind == Kind::Clock).count(),
             ),
+            ran_clocks: Vec::with_capacity(
+                vars.iter().filter(|r| r.var.kind == Kind::Clock).count(),
+            ),
             last_activation: None,
         }
     }
@@ -481,6 +487,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
         // A state holds no clock activations: an event resumes with none, and a scheduler
         // activates again from the restored time on.
         self.active_clocks.clear();
+        self.ran_clocks.clear();
         self.last_activation = match self.interface {
             Interface::ScheduledExecution => Some(self.time),
             _ => None,

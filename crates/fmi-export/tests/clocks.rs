@@ -108,6 +108,14 @@ impl Inst {
         };
         (s, e.then_some(t))
     }
+    /// The tick at the instance's time: `tick` activated and the update that runs it.
+    fn run_tick(&self) {
+        assert_eq!(self.set_clock(TICK, true), fmi3OK, "{:?}", self.logged());
+        assert_eq!(self.update().0, fmi3OK, "{:?}", self.logged());
+    }
+    fn enter_step_mode(&self) -> fmi3Status {
+        unsafe { fmi3EnterStepMode::<M>(self.c) }
+    }
     fn set_u(&self, u: f64) -> fmi3Status {
         unsafe { fmi3SetFloat64::<M>(self.c, &U, 1, &u, 1) }
     }
@@ -169,7 +177,8 @@ fn event_mode_runs_each_tick_once_at_the_update() {
 #[test]
 fn a_step_ends_at_the_next_tick_at_the_latest() {
     let i = Inst::new(Kind::Cs(true, false));
-    assert_eq!(unsafe { fmi3EnterStepMode::<M>(i.c) }, fmi3OK);
+    i.run_tick();
+    assert_eq!(i.enter_step_mode(), fmi3OK);
     assert_eq!(i.step(0.0, 0.05), (fmi3OK, [false, false, false], 0.05));
     assert_eq!(i.step(0.05, 0.1).0, fmi3Error);
     assert!(
@@ -178,7 +187,8 @@ fn a_step_ends_at_the_next_tick_at_the_latest() {
     assert_eq!(i.step(0.05, 0.05), (fmi3OK, [true, false, false], 0.1));
 
     let e = Inst::new(Kind::Cs(true, true));
-    assert_eq!(unsafe { fmi3EnterStepMode::<M>(e.c) }, fmi3OK);
+    e.run_tick();
+    assert_eq!(e.enter_step_mode(), fmi3OK);
     assert_eq!(e.step(0.0, 0.25), (fmi3OK, [true, true, false], 0.1), "early at the tick");
     assert_eq!(e.step(0.1, 0.25), (fmi3OK, [true, true, false], 0.2), "from where it ended");
 }
@@ -202,7 +212,8 @@ fn event_mode_call_order_is_checked() {
     );
     assert!(i.saw(&["tick = 2 refused: a clock is 0 (inactive) or 1 (active)"]));
     assert_eq!(i.clock(TICK), (fmi3OK, false), "nothing activated by a refused call");
-    assert_eq!(unsafe { fmi3EnterStepMode::<M>(i.c) }, fmi3OK);
+    i.run_tick();
+    assert_eq!(i.enter_step_mode(), fmi3OK);
     assert_eq!(i.update().0, fmi3Error, "fmi3UpdateDiscreteStates outside event mode");
     assert!(
         i.saw(&["fmi3UpdateDiscreteStates: illegal call sequence: not allowed in state StepMode"])
@@ -222,6 +233,42 @@ fn event_mode_call_order_is_checked() {
     assert_eq!(plain.real(SUM), 0.0);
     assert_eq!(unsafe { fmi3EnterEventMode::<M>(plain.c) }, fmi3Error);
     assert!(plain.saw(&["fmi3EnterEventMode: not supported: this Co-Simulation instance was instantiated without eventModeUsed"]));
+}
+
+/// The event at a tick is left only once the tick ran: `fmi3EnterStepMode` is refused,
+/// the instance staying in the event, when the importer entered it at a tick without
+/// activating `tick` (the loops of FMPy's `simulate_fmu(use_event_mode=True)` and fmusim's
+/// `--event-mode-used`) or activated it without the update that runs it. An event at a
+/// time that is no tick (an input event) is left without one.
+#[test]
+fn an_event_at_a_tick_is_left_only_once_the_tick_ran() {
+    let why = "tick ticks at 0 s and was not activated in this event: the importer activates a time-based input clock at each of its ticks (fmi3SetClock, then fmi3UpdateDiscreteStates) before it leaves the event";
+    let i = Inst::new(Kind::Cs(true, false));
+    assert_eq!(i.set_u(2.0), fmi3OK);
+    assert_eq!(i.update().0, fmi3OK, "an update without clocks");
+    assert_eq!(i.enter_step_mode(), fmi3Error);
+    assert!(i.saw(&["fmi3EnterStepMode: ", why, "instantiates without eventModeUsed"]));
+    assert_eq!(i.real(SUM), 0.0, "the tick did not run");
+    assert_eq!(i.set_clock(TICK, true), fmi3OK, "still in the event");
+    assert_eq!(i.enter_step_mode(), fmi3Error, "activated, but not run by an update");
+    i.run_tick();
+    assert_eq!(i.real(SUM), 2.0);
+    assert_eq!(i.enter_step_mode(), fmi3OK, "the tick ran");
+
+    // The next tick: the event the step's eventHandlingNeeded asked for.
+    assert_eq!(i.step(0.0, PERIOD), (fmi3OK, [true, false, false], PERIOD));
+    assert_eq!(unsafe { fmi3EnterEventMode::<M>(i.c) }, fmi3OK);
+    assert_eq!(i.update().0, fmi3OK);
+    assert_eq!(i.enter_step_mode(), fmi3Error);
+    assert!(i.saw(&["fmi3EnterStepMode: tick ticks at 0.1 s and was not activated"]));
+    i.run_tick();
+    assert_eq!((i.enter_step_mode(), i.real(SUM)), (fmi3OK, 4.0));
+
+    // An event between ticks needs no activation.
+    assert_eq!(i.step(PERIOD, 0.05), (fmi3OK, [false, false, false], PERIOD + 0.05));
+    assert_eq!(unsafe { fmi3EnterEventMode::<M>(i.c) }, fmi3OK);
+    assert_eq!(i.update().0, fmi3OK);
+    assert_eq!(i.enter_step_mode(), fmi3OK);
 }
 
 /// A failing partition moves the instance to Error with `terminateSimulation`, as a

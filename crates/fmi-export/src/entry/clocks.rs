@@ -269,8 +269,8 @@ pub unsafe fn constant_intervals<S: Standard, M: Model>(c: *mut c_void, func: &s
     super::call::unsupported::<S, M>(c, func, LIVE, why)
 }
 
-/// `fmi3EnterStepMode`: a Co-Simulation instance with event mode leaves it; the clocks
-/// of the event are deactivated.
+/// `fmi3EnterStepMode`: a Co-Simulation instance with event mode leaves it once every
+/// input clock ticking now has run its partition; the clocks of the event are deactivated.
 pub unsafe fn enter_step_mode<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
     with_instance::<S, M>(c, func, LIVE, |inst| {
         if inst.interface != Interface::CoSimulation || !inst.modes.event_mode {
@@ -285,26 +285,55 @@ pub unsafe fn enter_step_mode<S: Standard, M: Model>(c: *mut c_void, func: &str)
             let why = format_args!("illegal call sequence: not allowed in state {state}");
             return inst.refuse(func, why);
         }
+        if let Some(why) = skipped_tick(inst) {
+            return inst.refuse(func, format_args!("{why}"));
+        }
         leave_event(inst);
         inst.state = State::StepComplete;
         OK
     })
 }
 
+/// Why leaving the current event would skip a tick: an input clock ticks at the
+/// instance's time and its partition has not run in this event. A time-based clock is the
+/// importer's to activate at every tick (FMI 3.0 section 2.2.8.2, "the importer must
+/// activate the Clock"), and with `eventModeUsed` the model computes its clocked variables
+/// only at the activations (`step_between_ticks`), so an event left without one would
+/// hold them silently; an importer that activates no clocks instantiates without
+/// `eventModeUsed`, and the model's `do_step` runs the ticks inside the step.
+fn skipped_tick<S: Standard, M: Model>(inst: &Instance<S, M>) -> Option<String> {
+    let (start, t) = (inst.start_time, inst.time);
+    let (v, _) = clocks::<M>()
+        .filter(|r| r.var.causality == Causality::Input)
+        .filter_map(|r| interval(&r.var).map(|dt| (&r.var, dt)))
+        .find(|&(v, dt)| is_tick(start, dt, t) && !inst.ran_clocks.contains(&v.vr))?;
+    Some(format!(
+        "{name} ticks at {t} s and was not activated in this event: the importer activates a time-based input clock at each of its ticks (fmi3SetClock, then fmi3UpdateDiscreteStates) before it leaves the event (FMI 3.0 section 2.2.8.2); an importer that does not activate clocks instantiates without eventModeUsed, and each fmi3DoStep then runs the ticks it passes",
+        name = v.name
+    ))
+}
+
 /// Deactivates the event's clocks, input and output.
 pub(crate) fn leave_event<S: Standard, M: Model>(inst: &mut Instance<S, M>) {
     inst.active_clocks.clear();
+    inst.ran_clocks.clear();
     inst.model.clear_output_clocks();
 }
 
 /// `f` with the model, the step log and the input clocks activated since the last event
-/// update, which it runs (once per activation: the list is empty afterwards).
+/// update, which it runs (once per activation: the list is empty afterwards) and which
+/// count as run in this event.
 pub(crate) fn run_activated<S: Standard, M: Model, T>(
     inst: &mut Instance<S, M>,
     f: impl FnOnce(&mut M, &mut crate::StepLog, &[u32]) -> T,
 ) -> T {
     let mut active = std::mem::take(&mut inst.active_clocks);
     let result = inst.with_step_log(|model, log| f(model, log, &active));
+    for &clock in &active {
+        if !inst.ran_clocks.contains(&clock) {
+            inst.ran_clocks.push(clock);
+        }
+    }
     // The list's capacity is kept, so an activation allocates nothing.
     active.clear();
     inst.active_clocks = active;

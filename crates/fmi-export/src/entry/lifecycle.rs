@@ -224,6 +224,7 @@ pub unsafe fn reset<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status
         (inst.time, inst.start_time, inst.stop_time) = (0.0, 0.0, None);
         inst.last_step_status = OK;
         inst.active_clocks.clear();
+        inst.ran_clocks.clear();
         inst.last_activation = None;
         for c in inst.clamps.iter_mut() {
             (c.count, c.logged, c.summarized) = (0, 0, 0);
