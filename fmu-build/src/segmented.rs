@@ -85,8 +85,9 @@ impl Control {
     }
 }
 
-/// The deadband of [`Control::Deadband`]: 5 nm, about 4 encoder counts of 1.2 nm. Within
-/// it a segment's piston error costs under 1e-7 of dark-zone contrast (docs/segments.md).
+/// The deadband of [`Control::Deadband`]: 5 nm, about 4 encoder counts of 1.2 nm, wider
+/// than the count or two a parked runner's reading moves, so the gait halts once there and
+/// stays halted (docs/segments.md has what it leaves the coronagraph).
 pub const DEADBAND: f64 = 5e-9;
 
 /// The co-phasing errors (docs/segmented.md §5): piston uniform within ±[`PISTON_ERROR`],
