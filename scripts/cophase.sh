@@ -17,8 +17,9 @@ PUPIL=${PUPIL:-64} FRAME_MS=${FRAME_MS:-50} WORKERS=${WORKERS:-2} OUT=${OUT:-out
 PY=.venv/bin/python
 [ -x "$PY" ] || { echo "cophase.sh: no $PY: run bash scripts/setup.sh first" >&2; exit 2; }
 
-cargo build --release -q -p fmu-build -p inchworm
-[ -f dist/InchwormMount.fmu ] || cargo run --release -q -p fmu-build
+# dist/'s FMUs from this tree (the mount's offsets are what --cophase binds), and the master.
+cargo run --release -q -p fmu-build
+cargo build --release -q -p inchworm
 
 segments=$((3 * RINGS * (RINGS + 1) + 1))
 # What --poses reads: every mount's pose and every controller's DAC outputs.
