@@ -11,6 +11,7 @@ use inchworm_cosim::limits;
 use inchworm_cosim::master::{self, Coupling, Options};
 use inchworm_cosim::trace::{self, Decimated};
 use inchworm_scenarios::plot;
+use inchworm_scenarios::poses::Poses;
 
 use super::signals;
 use super::Text;
@@ -76,6 +77,12 @@ pub struct RunArgs {
     /// settle:1e-6, rms:6:10 and disturbance.
     #[arg(long = "spread-metric", value_name = "METRIC", requires = "spread")]
     pub spread_metrics: Vec<String>,
+    /// Also write every mirror mount's pose as the poses CSV of python/inchworm_segments
+    /// (docs/segments.md): `{prefix}piston_m`, `{prefix}tip_rad`, `{prefix}tilt_rad` of each
+    /// `{prefix}mount`, then `parked`, 1 where every controller `{prefix}controller…`
+    /// recorded with its DAC outputs holds its runner.
+    #[arg(long, value_name = "FILE")]
+    pub poses: Option<PathBuf>,
 }
 
 impl RunArgs {
@@ -257,6 +264,15 @@ fn write_run(
         .as_ref()
         .map(|_| super::spread::spread(&args.spread_metrics, &names))
         .transpose()?;
+    let mut poses = match &args.poses {
+        Some(path) => {
+            let p = Poses::new(&names).map_err(|e| e.to_string())?;
+            let mut w = super::create_file(path)?;
+            p.write_header(&mut w).map_err(|e| format!("{}: {e}", path.display()))?;
+            Some((p, w, path))
+        }
+        None => None,
+    };
     let out = &args.out;
     let io = |e: std::io::Error| format!("{}: {e}", out.display());
     let mut csv = super::create_file(out)?;
@@ -275,6 +291,10 @@ fn write_run(
             }
             if let Some(s) = &mut spread {
                 s.push(t, row);
+            }
+            if let Some((p, w, path)) = &mut poses {
+                p.write_row(w, t, row)
+                    .map_err(|e| Stopped::Write(format!("{}: {e}", path.display())))?;
             }
             rows += 1;
             end = t;
@@ -306,6 +326,10 @@ fn write_run(
         }
     };
     flushed?;
+    if let Some((p, mut w, path)) = poses {
+        w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote {} ({} mounts)", path.display(), p.mounts());
+    }
     let loop_s = wall.elapsed().as_secs_f64();
     println!("wrote {}", out.display());
     if let (Some(png), Some(sample)) = (&args.plot, sample) {

@@ -7,7 +7,9 @@
 //! * `tip = 2 / (3 R) Σ z_i sin φ_i` (rad, rotation about x),
 //! * `tilt = 2 / (3 R) Σ z_i cos φ_i` (rad, rotation about y),
 //!
-//! exact for three points 120° apart. The outputs are a sample and hold: after
+//! exact for three points 120° apart, plus the optic's pose with the three runners at zero
+//! (`piston_offset`, `tip_offset`, `tilt_offset`: where the optic sits before any actuator
+//! has moved, such as a segment's initial error; zero by default). The outputs are a sample and hold: after
 //! `fmi2DoStep(t, h)` they are the pose of the positions that held during the step (set
 //! before it), and before the first step that of the positions at initialization. So
 //! every master shows the same pose at a communication point whether it transfers the
@@ -41,6 +43,9 @@ inchworm_fmi_export::table!(MountFmu, TABLE;
     TILT: Variable::output("tilt", 12, Kind::Real, RAD, "Tilt of the optic: rotation about y, dz/dx").real_out(|m| m.held[2]),
     RADIUS: Variable::parameter("radius", 100, RADIUS, M, "Radius of the circle of the three actuators").with_range(1e-4, 10.0).real(|m| m.radius, |m, x| m.radius = x),
     ANGLE_A: Variable::parameter("angle_a", 101, ANGLE_A_DEG, Some("deg"), "Angle of actuator a from the x axis").real(|m| m.angle_a, |m, x| m.angle_a = x),
+    PISTON_OFFSET: Variable::parameter("piston_offset", 102, 0.0, M, "Piston of the optic with the three runners at zero (its initial error)").with_range(-1.0, 1.0).real(|m| m.offset[0], |m, x| m.offset[0] = x),
+    TIP_OFFSET: Variable::parameter("tip_offset", 103, 0.0, RAD, "Tip of the optic with the three runners at zero").with_range(-1.0, 1.0).real(|m| m.offset[1], |m, x| m.offset[1] = x),
+    TILT_OFFSET: Variable::parameter("tilt_offset", 104, 0.0, RAD, "Tilt of the optic with the three runners at zero").with_range(-1.0, 1.0).real(|m| m.offset[2], |m, x| m.offset[2] = x),
 );
 
 static UNITS: [Unit; 3] = [
@@ -95,8 +100,18 @@ pub struct MountFmu {
     z: [f64; 3],
     /// Piston, tip and tilt latched at the last step (or initialization).
     held: [f64; 3],
+    /// The optic's piston, tip and tilt with the runners at zero.
+    offset: [f64; 3],
     radius: f64,
     angle_a: f64,
+}
+
+impl MountFmu {
+    /// The optic's pose of the runner positions: the offset plus their kinematics.
+    fn pose(&self) -> [f64; 3] {
+        let p = pose(self.z, self.radius, self.angle_a);
+        std::array::from_fn(|i| self.offset[i] + p[i])
+    }
 }
 
 impl Model for MountFmu {
@@ -109,19 +124,25 @@ impl Model for MountFmu {
     }
 
     fn new() -> Self {
-        MountFmu { z: [0.0; 3], held: [0.0; 3], radius: RADIUS, angle_a: ANGLE_A_DEG }
+        MountFmu {
+            z: [0.0; 3],
+            held: [0.0; 3],
+            offset: [0.0; 3],
+            radius: RADIUS,
+            angle_a: ANGLE_A_DEG,
+        }
     }
 
     fn exit_initialization(&mut self, _start_time: f64) -> Result<(), String> {
         if !(1e-4..=10.0).contains(&self.radius) {
             return Err(format!("invalid parameter radius: {} m (1e-4 to 10 m)", self.radius));
         }
-        self.held = pose(self.z, self.radius, self.angle_a);
+        self.held = self.pose();
         Ok(())
     }
 
     fn do_step(&mut self, _t: f64, _h: f64, _log: &mut StepLog) -> Result<(), String> {
-        self.held = pose(self.z, self.radius, self.angle_a);
+        self.held = self.pose();
         Ok(())
     }
 

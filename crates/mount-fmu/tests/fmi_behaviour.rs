@@ -60,6 +60,28 @@ fn piston_tip_and_tilt_of_three_positions() {
 }
 
 #[test]
+fn the_offset_is_the_pose_with_the_runners_at_zero() {
+    let h = H::new("offset");
+    assert_eq!((h.setup(), h.enter()), (fmi2OK, fmi2OK));
+    let offset = [-7.5e-6, 3e-6, -4.25e-6];
+    let offsets = [MountFmu::PISTON_OFFSET, MountFmu::TIP_OFFSET, MountFmu::TILT_OFFSET];
+    let outputs = [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT];
+    for (var, x) in offsets.iter().zip(offset) {
+        assert_eq!(h.set_real(var.vr(), x), fmi2OK);
+    }
+    assert_eq!(h.exit(), fmi2OK);
+    // Before any step, the runners at zero: the pose is the offset, exactly.
+    assert_eq!(outputs.map(|v| h.real(v.vr()).1), offset);
+    // The runners' kinematics add to it: the positions that undo the offset bring the
+    // optic to zero (within rounding).
+    let z = actuator_positions(-offset[0], -offset[1], -offset[2], RADIUS, ANGLE_A_DEG);
+    set_positions(&h, 0, z);
+    for v in outputs {
+        assert!(h.real(v.vr()).1.abs() < 1e-18, "{}: {}", v.name(), h.real(v.vr()).1);
+    }
+}
+
+#[test]
 fn actuator_positions_invert_the_pose() {
     for (p, tip, tilt) in [(30e-6, 4e-6, 0.0), (-5e-6, -2e-6, 7e-6), (0.0, 0.0, 1e-6)] {
         let z = actuator_positions(p, tip, tilt, RADIUS, ANGLE_A_DEG);

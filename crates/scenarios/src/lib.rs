@@ -12,6 +12,8 @@
 //! * [`plant`]: the `InchwormPlant` FMU's interface (docs/model.md §5) and an open-loop gait run through it;
 //! * [`controller`]: the `InchwormController` FMU's parameters from the controller crate's;
 //! * [`bridge`]: the FMUs behind the HIL bridge (`inchworm-bridge`);
+//! * [`poses`]: every mirror mount's pose of a run and whether all its actuators are held,
+//!   as the poses CSV of python/inchworm_segments;
 //! * [`plot`], [`sweep_plots`]: PNG plots.
 
 pub mod actuators;
@@ -23,6 +25,7 @@ pub mod holding;
 pub mod metrics;
 pub mod plant;
 pub mod plot;
+pub mod poses;
 pub mod scenario;
 pub mod sweep_plots;
 

@@ -36,6 +36,9 @@ def parse_args(argv):
                    help="with --synthetic: leave the central segment out (with --poses the count of segments says)")
     p.add_argument("--seed", type=int, default=2026, help="the synthetic run's seed")
     p.add_argument("--out", default="out/segments", help="folder for the CSVs and PNGs")
+    p.add_argument("--regulation-from", type=float, metavar="SECONDS", default=None,
+                   help="also the regulation's numbers: every sample from this time on, its parked samples, and "
+                        "the frames that start then or later")
     p.add_argument("--frame-ms", type=float, default=50.0, help="frame exposure, ms (a whole number of 2 ms samples)")
     p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                    help="local processes for the frames (1: serial; the numbers are the same bit for bit)")
@@ -82,6 +85,8 @@ def prepare(args):
         import numpy as np
 
         parked = np.zeros(len(t), dtype=bool)
+    if args.regulation_from is not None and not 0 <= args.regulation_from <= t[-1]:
+        raise InputError(f"--regulation-from {args.regulation_from:g}: accepted 0 to the run's last time, {t[-1]:g} s")
     if len(t) < frame_samples:
         raise InputError(f"{len(t)} samples: accepted at least one frame ({frame_samples} samples of --frame-ms {args.frame_ms:g})")
     return tel, t, poses, parked, frame_samples
@@ -106,7 +111,7 @@ def run(args):
     else:
         result = F.run(tel, t, poses, parked, frame_samples)
     elapsed = time.time() - start
-    numbers = figures.summary(result)
+    numbers = figures.summary(result, args.regulation_from)
     figures.timeseries(out / "segments-timeseries.png", out / "segments-samples.csv", out / "segments-frames.csv", result)
     figures.strip(out / "segments-strip.png", out / "segments-strip.csv", result, optics)
     figures.piston_map(out / "segments-piston-map.png", out / "segments-piston-map.csv", result, optics)

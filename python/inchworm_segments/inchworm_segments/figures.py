@@ -22,11 +22,13 @@ def _mean(x):
     return float(np.mean(x)) if x.size else None
 
 
-def summary(result):
-    """The run's numbers: name → value (None where a window is empty, e.g. no parked sample)."""
+def summary(result, regulation_from_s=None):
+    """The run's numbers: name → value (None where a window is empty, e.g. no parked sample).
+    With `regulation_from_s`, also the regulation's: every sample from that time on, its
+    parked samples, and the frames that start at it or later."""
     r = result
     fp = r.frame_parked()
-    return {
+    numbers = {
         "segments": r.poses.shape[1],
         "samples": len(r.t_s),
         "frames": r.frame_count,
@@ -44,6 +46,22 @@ def summary(result):
         "contrast_mean_parked_frames": _mean(r.frame_contrast[fp]),
         "contrast_last_frame": float(r.frame_contrast[-1]),
     }
+    if regulation_from_s is not None:
+        reg = r.t_s >= regulation_from_s - 1e-9
+        reg_frames = r.frame_start_s() >= regulation_from_s - 1e-9
+        cophasing = r.cophasing_rms_m[reg]
+        numbers.update({
+            "regulation_from_s": float(regulation_from_s),
+            "regulation_samples": int(reg.sum()),
+            "regulation_parked_samples": int((reg & r.parked).sum()),
+            "regulation_frames": int(reg_frames.sum()),
+            "cophasing_rms_regulation_nm": None if not reg.any() else _rms(cophasing) * 1e9,
+            "cophasing_rms_regulation_parked_nm":
+                None if not (reg & r.parked).any() else _rms(r.cophasing_rms_m[reg & r.parked]) * 1e9,
+            "strehl_mean_regulation": _mean(r.strehl[reg]),
+            "contrast_mean_regulation_frames": _mean(r.frame_contrast[reg_frames]),
+        })
+    return numbers
 
 
 def write_summary_csv(path, numbers):
