@@ -61,15 +61,16 @@ def test_a_failing_binary_raises_with_its_message(tmp_path):
 FMU_BUILD = ROOT / "target" / "release" / "fmu-build"
 
 
-@pytest.fixture(scope="module")
-def mirror7(tmp_path_factory):
-    """The seven-segment mirror (`fmu-build segmented --rings 1`): seven independent
-    subsystems."""
+@pytest.fixture(scope="module", params=[1, 3], ids=["7 segments", "37 segments"])
+def mirror(request, tmp_path_factory):
+    """The seven- and 37-segment mirrors (`fmu-build segmented --rings 1`, `--rings 3`):
+    seven and 37 independent subsystems."""
     assert FMU_BUILD.exists(), "build fmu-build first: cargo run --release -p fmu-build"
     assert (ROOT / "dist" / "InchwormPlant.fmu").exists(), "build dist/ first: fmu-build"
-    d = tmp_path_factory.mktemp("mirror7")
-    ssp = d / "mirror7.ssp"
-    p = subprocess.run([str(FMU_BUILD), "segmented", "--rings", "1", "--seed", "3",
+    rings = request.param
+    d = tmp_path_factory.mktemp(f"mirror{rings}")
+    ssp = d / "mirror.ssp"
+    p = subprocess.run([str(FMU_BUILD), "segmented", "--rings", str(rings), "--seed", "3",
                         "--out", str(ssp)], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 0, p.stderr
     return d, ssp
@@ -78,10 +79,10 @@ def mirror7(tmp_path_factory):
 ARGS = ["--stop-time", "0.3"]
 
 
-def test_two_dask_workers_give_the_one_process_run_byte_for_byte(mirror7):
+def test_two_dask_workers_give_the_one_process_run_byte_for_byte(mirror):
     from distributed import Client, LocalCluster
 
-    d, ssp = mirror7
+    d, ssp = mirror
     one = d / "one.csv"
     p = subprocess.run([str(EXE), "run", str(ssp), "--out", str(one), *ARGS],
                        capture_output=True, text=True)
