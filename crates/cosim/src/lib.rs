@@ -63,6 +63,7 @@
 
 pub mod archive;
 mod error;
+pub mod float_text;
 pub mod input;
 pub mod limits;
 pub mod master;

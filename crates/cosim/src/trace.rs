@@ -2,6 +2,8 @@
 //! directly. Both write the same type under the same qualified names, so a test compares
 //! them column by column and a CSV or a plot reads either.
 
+use crate::float_text;
+
 /// One row per communication point, t = 0 first (the state after initialization).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trace {
@@ -50,16 +52,19 @@ pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Re
 }
 
 /// The CSV rows of [`Trace::write_csv`], one after another, for a writer that streams
-/// them. Each value is its `{}` text (the shortest that reads back as the same `f64`); a
-/// value with the bits of its column's value in the row before takes that row's text
-/// instead of being formatted again. A closed loop's slow columns (a DAC between gaits, a
-/// mode, a held reference) change in a few rows in a hundred, and formatting a float costs
-/// more than a step of the loop, so a long run's CSV costs a fraction and no byte changes.
+/// them. Each value is its `{}` text (the shortest that reads back as the same `f64`),
+/// written by [`float_text::push`]; a value with the bits of its column's value in the row
+/// before takes that row's text instead of being formatted again. A closed loop's slow
+/// columns (a DAC between gaits, a mode, a held reference) change in a few rows in a
+/// hundred, so a long run's CSV costs a fraction and no byte changes. A row goes to the
+/// writer in one call.
 #[derive(Debug, Default)]
 pub struct RowWriter {
     /// Per column: the bits of its last value and that value's text (empty before the
     /// first row).
-    last: Vec<(u64, String)>,
+    last: Vec<(u64, Vec<u8>)>,
+    /// The row being written, handed to the writer in one call.
+    line: Vec<u8>,
 }
 
 impl RowWriter {
@@ -74,20 +79,23 @@ impl RowWriter {
         t: f64,
         row: &[f64],
     ) -> std::io::Result<()> {
-        use std::fmt::Write;
         if self.last.len() != row.len() {
-            self.last = vec![(0, String::new()); row.len()];
+            self.last = vec![(0, Vec::new()); row.len()];
         }
-        write!(w, "{t}")?;
+        let line = &mut self.line;
+        line.clear();
+        float_text::push(line, t);
         for (x, (bits, text)) in row.iter().zip(&mut self.last) {
             if text.is_empty() || *bits != x.to_bits() {
                 text.clear();
-                write!(text, ",{x}").expect("a String takes any text");
+                text.push(b',');
+                float_text::push(text, *x);
                 *bits = x.to_bits();
             }
-            w.write_all(text.as_bytes())?;
+            line.extend_from_slice(text);
         }
-        writeln!(w)
+        line.push(b'\n');
+        w.write_all(line)
     }
 }
 

@@ -99,11 +99,18 @@ pub struct EventReport {
 
 impl Plant {
     pub fn continuous_states(&self) -> [f64; N_STATES] {
-        SLOTS.map(|s| match s {
+        std::array::from_fn(|k| self.continuous_state(k))
+    }
+
+    /// Continuous state `k` of [`Plant::continuous_states`] alone, for a getter of one
+    /// variable. Panics for `k >= N_STATES`.
+    #[inline]
+    pub fn continuous_state(&self, k: usize) -> f64 {
+        match SLOTS[k] {
             Slot::Z(i) => self.state.z[i],
             Slot::Earth(i) => self.state.earth[i],
             Slot::Nonearth(i) => self.state.nonearth[i],
-        })
+        }
     }
 
     /// Sets the continuous states (the integrator's); the discrete state stays.

@@ -362,6 +362,8 @@ impl<const D: usize> ScanBound<D> {
             return None;
         }
         let settle_abs = settle.abs();
+        // Transposed once, not per row: the same entries, so the same products.
+        let settle_t = settle.transpose();
         let mut functionals = Vec::with_capacity(rows.len());
         for rows in rows {
             let mut lo = SVector::<f64, D>::repeat(f64::INFINITY);
@@ -370,7 +372,7 @@ impl<const D: usize> ScanBound<D> {
             let mut alpha = SVector::<f64, D>::zeros();
             for BoundRow { row: r, magnitude } in rows {
                 // (r P̂) as a column.
-                let t = settle.transpose() * r;
+                let t = settle_t * r;
                 for i in 0..D {
                     if !(t[i].is_finite() && r[i].is_finite()) {
                         return None;
@@ -447,9 +449,10 @@ impl<const D: usize> Propagators<D> {
         let scan_points = 1 << (LEVELS - 1 - scan_level);
         let mut scan = Vec::with_capacity(scan_points * watched.len());
         let mut rows: Vec<SVector<f64, D>> = watched.clone();
+        let step_t = step.transpose();
         for _ in 0..scan_points {
             for r in rows.iter_mut() {
-                *r = step.transpose() * *r;
+                *r = step_t * *r;
                 scan.push(*r);
             }
         }

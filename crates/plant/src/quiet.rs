@@ -49,32 +49,41 @@ struct Body {
     chain: ScanBound<4>,
 }
 
+/// A factor of [`compose`]: `mᵀ` and `|m|ᵀ` of a product `m`, formed once for every row
+/// composed through it (the same entries, so the same products).
+struct Factor<const D: usize> {
+    t: SMatrix<f64, D, D>,
+    abs_t: SMatrix<f64, D, D>,
+}
+
+impl<const D: usize> Factor<D> {
+    fn of(m: &SMatrix<f64, D, D>) -> Self {
+        Factor { t: m.transpose(), abs_t: m.abs().transpose() }
+    }
+}
+
 /// `c` seen through the products `pre` (applied in order) as a bound row.
-fn compose<const D: usize>(c: &SVector<f64, D>, pre: &[SMatrix<f64, D, D>]) -> BoundRow<D> {
+fn compose<const D: usize>(c: &SVector<f64, D>, pre: &[Factor<D>]) -> BoundRow<D> {
     if pre.is_empty() {
         return BoundRow { row: *c, magnitude: None };
     }
     let (mut row, mut magnitude) = (*c, c.abs());
     for m in pre.iter().rev() {
-        row = m.transpose() * row;
-        magnitude = m.abs().transpose() * magnitude;
+        row = m.t * row;
+        magnitude = m.abs_t * magnitude;
     }
     BoundRow { row, magnitude: Some(magnitude) }
 }
 
 /// The matrices `Propagators::advance` applies over `ticks`, in its order.
-fn advance_factors<const D: usize>(
-    t: &Propagators<D>,
-    mut ticks: u64,
-    out: &mut Vec<SMatrix<f64, D, D>>,
-) {
+fn advance_factors<const D: usize>(t: &Propagators<D>, mut ticks: u64, out: &mut Vec<Factor<D>>) {
     let top = 1u64 << (LEVELS - 1);
     while ticks >= 2 * top {
-        out.push(t.phi[LEVELS - 1]);
+        out.push(Factor::of(&t.phi[LEVELS - 1]));
         ticks -= top;
     }
     while ticks != 0 {
-        out.push(t.phi[ticks.trailing_zeros() as usize]);
+        out.push(Factor::of(&t.phi[ticks.trailing_zeros() as usize]));
         ticks &= ticks - 1;
     }
 }
@@ -100,7 +109,7 @@ fn step_rows<const D: usize>(
         advance_factors(t, ticks, &mut pre);
     }
     if let Some(r) = remainder {
-        pre.push(*r);
+        pre.push(Factor::of(r));
         rows.push(compose(&t.watched[o], &pre));
     }
     rows

@@ -83,7 +83,7 @@ impl Formulation for Plant {
     fn set_time(&mut self, _t: f64) {}
 
     fn continuous_state(&self, i: usize) -> f64 {
-        self.continuous_states()[i]
+        Plant::continuous_state(self, i)
     }
 
     fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), String> {

@@ -122,7 +122,7 @@ impl<F: Formulation> PlantModel<F> {
 
     /// The model's continuous state `k` (at rest before initialization).
     fn state(&self, k: usize) -> f64 {
-        self.physical().map_or(0.0, |p| p.continuous_states()[k])
+        self.physical().map_or(0.0, |p| p.continuous_state(k))
     }
 
     /// The formulation's continuous state that stands for the model's state `k`: under
