@@ -118,7 +118,7 @@ fn events(enc: &[i32]) -> Run {
     let e = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
     let interval = fmu.intervals(&[5]).unwrap()[0];
     assert_eq!(interval.value, 0.002);
-    assert_ne!(interval.qualifier, IntervalQualifier::NotYetKnown);
+    assert_eq!(interval.qualifier, IntervalQualifier::Unchanged, "a constant clock's");
     let mut run = Run::default();
     for (k, &counts) in enc.iter().enumerate() {
         fmu.set_integer(&[e], &[counts]).unwrap();
