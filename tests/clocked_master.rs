@@ -188,3 +188,41 @@ fn clocks_asked_of_fmus_without_them_are_refused_with_the_reason() {
     let e = error(&open, &both);
     assert!(e.contains("`controller` is asked to run both as Co-Simulation with event mode (cs-events) and as Scheduled Execution (se)"), "{e}");
 }
+
+/// `inchworm run --interface controller=cs-events|se`: the CSV written is plain
+/// Co-Simulation's; an interface without a component, or an unknown one, is refused.
+#[test]
+fn inchworm_run_takes_the_clocked_interfaces() {
+    let dir = std::env::temp_dir().join(format!("inchworm-clocked-{}-cli", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("reference.csv");
+    std::fs::write(&input, "time,reference\n0,1e-4\n").unwrap();
+    let ssp = dist("fmi3/InchwormSystemOpen.ssp");
+    let run = |interface: Option<&str>, out: &str| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_inchworm"));
+        cmd.arg("run").arg(&ssp).args(["--stop-time", "0.4", "--step-size", "0.001"]);
+        cmd.arg("--input").arg(&input).arg("--out").arg(dir.join(out));
+        if let Some(i) = interface {
+            cmd.args(["--interface", i]);
+        }
+        cmd.output().unwrap()
+    };
+    let plain = run(None, "plain.csv");
+    assert!(plain.status.success(), "{}", String::from_utf8_lossy(&plain.stderr));
+    let plain = std::fs::read(dir.join("plain.csv")).unwrap();
+    for (interface, out) in [("controller=cs-events", "events.csv"), ("controller=se", "se.csv")] {
+        let o = run(Some(interface), out);
+        assert!(o.status.success(), "{interface}: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(std::fs::read(dir.join(out)).unwrap() == plain, "{interface}: the CSV differs");
+    }
+    let refused = |interface: &str| {
+        let o = run(Some(interface), "refused.csv");
+        assert!(!o.status.success(), "{interface} ran");
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let e = refused("se");
+    assert!(e.contains("--interface se: name the component to run as `se`: COMPONENT=se"), "{e}");
+    let e = refused("controller=clocked");
+    assert!(e.contains("`clocked` is not an interface (me, cs, cs-events or se)"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
