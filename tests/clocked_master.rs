@@ -1,8 +1,8 @@
 //! The master's FMI 3.0 clocks on every shipped system: the controller run with event mode
 //! (`--interface controller=cs-events`) or in Scheduled Execution (`controller=se`) writes
 //! the CSV of today's plain Co-Simulation byte for byte, at master steps of 2, 1 and
-//! 0.1 ms (Jacobi): the sample clock's ticks, not the master step, decide when the
-//! controller samples. The systems are `InchwormSystem.ssp` (Fig. 5 with full control and
+//! 0.1 ms (Jacobi; the open system at 3 and 4 ms too, ticks inside the steps): the sample
+//! clock's ticks, not the master step, decide when the controller samples. The systems are `InchwormSystem.ssp` (Fig. 5 with full control and
 //! feedback only, the staircase with the prefilter), `MirrorMount.ssp` (three controllers),
 //! `fmi3/InchwormSystemOpen.ssp` (Fig. 5 on the system input) and
 //! `fmi3/InchwormSystemMixed.ssp`. Those that ship the FMI 2.0 controller, which has no
@@ -81,12 +81,23 @@ fn clocked(components: &[&str], se: bool) -> Interfaces {
 /// of `plain_ssp`'s plain run at every step of [`STEPS`], and the output clock `gait_step`
 /// ticks alike in both clocked runs.
 fn check(what: &str, plain_ssp: &Path, clocked_ssp: &Path, controllers: &[&str], opts: &Options) {
-    for h in STEPS {
-        let o = Options { stop_time: Some(STOP), step_size: Some(h), ..opts.clone() };
+    check_at(what, (plain_ssp, clocked_ssp), controllers, opts, (&STEPS, STOP));
+}
+
+/// [`check`] at the master steps `steps`, to `stop`.
+fn check_at(
+    what: &str,
+    (plain_ssp, clocked_ssp): (&Path, &Path),
+    controllers: &[&str],
+    opts: &Options,
+    (steps, stop): (&[f64], f64),
+) {
+    for &h in steps {
+        let o = Options { stop_time: Some(stop), step_size: Some(h), ..opts.clone() };
         let (plain, none) = run(plain_ssp, &Interfaces::default(), &o);
         assert!(none.is_empty());
         let lines = plain.iter().filter(|&&b| b == b'\n').count();
-        assert_eq!(lines as f64, (STOP / h).round() + 2.0, "{what} at {h} s: the rows");
+        assert_eq!(lines as f64, (stop / h).round() + 2.0, "{what} at {h} s: the rows");
         let (events, event_ticks) = run(clocked_ssp, &clocked(controllers, false), &o);
         let (se, se_ticks) = run(clocked_ssp, &clocked(controllers, true), &o);
         assert!(events == plain, "{what} at {h} s: event mode differs from plain Co-Simulation");
@@ -132,7 +143,11 @@ fn fig5_on_the_open_fmi3_system() {
     let s = by_name("fig5").unwrap();
     for v in &s.variants {
         let Drive::Controller(p) = &v.drive else { unreachable!() };
-        check(&format!("open, {}", v.name), &ssp, &ssp, &["controller"], &s.options(&v.plant, p));
+        let (what, opts) = (format!("open, {}", v.name), s.options(&v.plant, p));
+        check(&what, &ssp, &ssp, &["controller"], &opts);
+        // Steps that are not divisors of the 2 ms sample: ticks inside the steps (at
+        // 4 ms, one a step; at 3 ms, every other step), the same bytes again.
+        check_at(&what, (&ssp, &ssp), &["controller"], &opts, (&[0.004, 0.003], 0.6));
     }
 }
 
