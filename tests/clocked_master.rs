@@ -241,3 +241,33 @@ fn inchworm_run_takes_the_clocked_interfaces() {
     assert!(e.contains("`clocked` is not an interface (me, cs, cs-events or se)"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A sweep's reset (`fmi3Reset`, then the same initialization) puts a clocked component
+/// back at its first tick: the second run's rows are the first's, bit for bit, in both
+/// clocked interfaces; a checkpoint of a clocked run is refused with the reason.
+#[test]
+fn a_reset_repeats_a_clocked_run_and_a_checkpoint_is_refused() {
+    let ssp = dist("fmi3/InchwormSystemOpen.ssp");
+    let s = by_name("fig5").unwrap();
+    let Drive::Controller(p) = &s.variants[0].drive else { unreachable!() };
+    let opts = Options { stop_time: Some(0.5), ..s.options(&s.variants[0].plant, p) };
+    for se in [false, true] {
+        let mut sim = System::load_as(&ssp, &clocked(&["controller"], se))
+            .unwrap()
+            .initialise(&opts)
+            .unwrap();
+        let rows = |sim: &mut inchworm_cosim::Simulation| -> Vec<u64> {
+            let mut bits: Vec<u64> = sim.sample().unwrap().iter().map(|v| v.to_bits()).collect();
+            for _ in 0..sim.n_steps() {
+                sim.step().unwrap();
+                bits.extend(sim.sample().unwrap().iter().map(|v| v.to_bits()));
+            }
+            bits
+        };
+        let first = rows(&mut sim);
+        let e = sim.checkpoint().err().unwrap().to_string();
+        assert!(e.contains("component controller: runs its clocks with event mode or in Scheduled Execution: a checkpoint of it is not taken"), "{e}");
+        sim.reset(&opts).unwrap();
+        assert_eq!(rows(&mut sim), first, "se {se}: the run after the reset");
+    }
+}
