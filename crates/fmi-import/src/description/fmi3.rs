@@ -8,7 +8,10 @@
 //! types (Float32, the other integer widths, Enumeration, Binary, Clock), other arrays and
 //! the independent variable are not added to
 //! [`ModelDescription::variables`](super::ModelDescription): the master's scalar calls
-//! cannot address them, so asking for one is "unknown variable".
+//! cannot address them, so asking for one is "unknown variable". A `<Clock>` is read into
+//! [`ModelDescription::clocks`](super::ModelDescription) instead (its interval's
+//! variability, `intervalDecimal`, `shiftDecimal`, `priority`), and every variable keeps
+//! its `clocks` attribute.
 
 use super::text::{attr, cut, is_boolean, is_double, Attrs};
 use super::{ArrayElement, Causality, Clock, Doc, Element, IntervalVariability, Standard, VarType};
