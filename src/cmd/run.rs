@@ -41,9 +41,12 @@ pub struct RunArgs {
     /// Integrate this component's Model Exchange interface in the master instead of
     /// stepping its Co-Simulation: COMPONENT=me (`fmu=me` for a single FMU), or `me` for
     /// every component whose FMU offers it; COMPONENT=cs keeps a component's
-    /// Co-Simulation (under `me` too); repeatable. A name the run does not have is refused.
-    /// A component whose FMU has only Model Exchange is integrated either way.
-    #[arg(long = "interface", value_name = "COMPONENT=me|cs")]
+    /// Co-Simulation (under `me` too); COMPONENT=cs-events runs an FMI 3.0 component's
+    /// Co-Simulation with event mode, stepped from clock tick to clock tick, and
+    /// COMPONENT=se in Scheduled Execution, its partitions activated at their ticks;
+    /// repeatable. A name the run does not have is refused. A component whose FMU has only
+    /// Model Exchange is integrated either way.
+    #[arg(long = "interface", value_name = "COMPONENT=me|cs|cs-events|se")]
     pub interface: Vec<String>,
     /// Relative tolerance of the Model Exchange integrator (1e-14 to 0.5).
     #[arg(long, default_value_t = inchworm_cosim::model_exchange::Tolerance::default().rtol)]
@@ -106,6 +109,7 @@ impl RunArgs {
     /// option's name. The names are checked against the run's components when it loads.
     pub fn interfaces(&self) -> Result<master::Interfaces, String> {
         let (mut model_exchange, mut co_simulation) = (Vec::new(), Vec::new());
+        let (mut event_mode, mut scheduled_execution) = (Vec::new(), Vec::new());
         let mut all_cs = false;
         for a in &self.interface {
             let (component, kind) = match a.split_once('=') {
@@ -116,10 +120,19 @@ impl RunArgs {
                 (Some(c), "me") => model_exchange.push(c.to_owned()),
                 (None, "me") => model_exchange.push("*".to_owned()),
                 (Some(c), "cs") => co_simulation.push(c.to_owned()),
+                (Some(c), "cs-events") => event_mode.push(c.to_owned()),
+                (Some(c), "se") => scheduled_execution.push(c.to_owned()),
+                (None, k @ ("cs-events" | "se")) => {
+                    return Err(format!(
+                        "--interface {a}: name the component to run as `{k}`: COMPONENT={k}"
+                    ))
+                }
                 // Every component's Co-Simulation: the default, unless `me` says otherwise.
                 (None, "cs") => all_cs = true,
                 (_, k) => {
-                    return Err(format!("--interface {a}: `{k}` is not an interface (me or cs)"))
+                    return Err(format!(
+                        "--interface {a}: `{k}` is not an interface (me, cs, cs-events or se)"
+                    ))
                 }
             }
         }
@@ -133,7 +146,13 @@ impl RunArgs {
             rtol: option("--me-rtol", limits::RTOL, self.me_rtol)?,
             atol: option("--me-atol", limits::ATOL, self.me_atol)?,
         };
-        Ok(master::Interfaces { model_exchange, co_simulation, tolerance })
+        Ok(master::Interfaces {
+            model_exchange,
+            co_simulation,
+            event_mode,
+            scheduled_execution,
+            tolerance,
+        })
     }
 }
 

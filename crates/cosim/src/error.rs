@@ -102,13 +102,23 @@ pub enum Error {
     /// An interface was asked of a component the run does not have.
     #[error(
         "--interface {name}={interface}: no component named `{name}` to run as {}: {}",
-        if *interface == "me" { "Model Exchange" } else { "Co-Simulation" },
+        interface_name(interface),
         known(components)
     )]
     NoSuchComponent { name: String, interface: &'static str, components: Vec<String> },
     /// The run's [`StopFlag`] was set; it stopped between two steps.
     #[error("stopped before the stop time")]
     Stopped,
+}
+
+/// The interface an `--interface` value names, spelled out.
+pub(crate) fn interface_name(value: &str) -> &'static str {
+    match value {
+        "me" => "Model Exchange",
+        "cs-events" => "Co-Simulation with event mode",
+        "se" => "Scheduled Execution",
+        _ => "Co-Simulation",
+    }
 }
 
 /// Why a cap of [`Error::TooLarge`] is what it is.

@@ -287,7 +287,8 @@ fn a_failing_partition_ends_in_error() {
 }
 
 /// Intervals: the input clock's is the constant of the description, with the qualifier
-/// "changed" (known and valid); the output clock has none; setting them is refused.
+/// `fmi3IntervalUnchanged`, the only one FMI 3.0 allows for a constant clock, at every
+/// call; the output clock has none; setting them is refused.
 #[test]
 fn intervals_and_shifts_are_the_description_s() {
     let i = Inst::new(Kind::Cs(true, false));
@@ -297,7 +298,13 @@ fn intervals_and_shifts_are_the_description_s() {
             fmi3GetIntervalDecimal::<M>(i.c, &TICK, 1, iv.as_mut_ptr(), q.as_mut_ptr()),
             fmi3OK
         );
-        assert_eq!((iv[0], q[0]), (PERIOD, fmi3IntervalChanged));
+        assert_eq!((iv[0], q[0]), (PERIOD, fmi3IntervalUnchanged));
+        (iv[0], q[0]) = (f64::NAN, -1);
+        assert_eq!(
+            fmi3GetIntervalDecimal::<M>(i.c, &TICK, 1, iv.as_mut_ptr(), q.as_mut_ptr()),
+            fmi3OK
+        );
+        assert_eq!((iv[0], q[0]), (PERIOD, fmi3IntervalUnchanged), "the second call alike");
         assert_eq!(fmi3GetShiftDecimal::<M>(i.c, &TICK, 1, shift.as_mut_ptr()), fmi3OK);
         assert_eq!(shift[0], 0.0);
         assert_eq!(

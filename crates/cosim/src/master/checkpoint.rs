@@ -13,8 +13,16 @@ impl Checkpoint {
 impl Simulation {
     /// Saves the current communication point. An FMU that cannot save its state (it does
     /// not declare `canGetAndSetFMUstate`) fails the call with its component's name, and
-    /// the states already taken from the others are freed.
+    /// the states already taken from the others are freed. A component whose clocks the
+    /// master ticks (event mode, Scheduled Execution) is refused: its FMU state does not
+    /// hold the mode of its interface's state machine the master's schedule relies on.
     pub fn checkpoint(&mut self) -> Result<Checkpoint, Error> {
+        if let Some(c) = self.components.iter().find(|c| c.fmu.clocked()) {
+            return Err(Error::Config(format!(
+                "component {}: runs its clocks with event mode or in Scheduled Execution: a checkpoint of it is not taken",
+                c.name
+            )));
+        }
         let mut states = Vec::with_capacity(self.components.len());
         for i in 0..self.components.len() {
             match self.components[i].fmu.get_state() {

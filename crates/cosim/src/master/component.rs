@@ -1,11 +1,14 @@
-//! A component and its FMU: run by its own Co-Simulation or integrated by the master as
-//! Model Exchange, as [`Interfaces`] asks; a component's variable found by name.
+//! A component and its FMU: run by its own Co-Simulation (with event mode and clocks, or
+//! without), integrated by the master as Model Exchange, or activated in Scheduled
+//! Execution, as [`Interfaces`] asks; a component's variable found by name.
 
 use std::path::Path;
 
+use super::clocks::Clocked;
 use super::{Interfaces, Port};
 use crate::archive::cut;
-use crate::fmu::{CsFmu, Instance, Loaded, ModelDescription};
+use crate::error::interface_name;
+use crate::fmu::{CsFmu, Instance, Interface, Loaded, ModelDescription, SeFmu};
 use crate::limits;
 use crate::model_exchange::{MeRun, Tolerance};
 use crate::{Error, StopFlag};
@@ -15,12 +18,15 @@ pub(super) struct Component {
     pub(super) fmu: Fmu,
 }
 
-/// A component's FMU: stepped by its own Co-Simulation, or integrated by the master
-/// (Model Exchange). Everything else (variables, initialization, FMU state, reset) is the
-/// same calls either way, through `Deref`.
+/// A component's FMU: stepped by its own Co-Simulation, stepped from clock tick to clock
+/// tick with event mode, integrated by the master (Model Exchange), or its model
+/// partitions activated at their ticks (Scheduled Execution). Everything else (variables,
+/// initialization, FMU state, reset) is the same calls either way, through `Deref`.
 pub(super) enum Fmu {
     Cs(CsFmu),
     Me(MeRun),
+    Events(Clocked<CsFmu>),
+    Se(Clocked<SeFmu>),
 }
 
 impl std::ops::Deref for Fmu {
@@ -29,6 +35,8 @@ impl std::ops::Deref for Fmu {
         match self {
             Fmu::Cs(f) => f,
             Fmu::Me(m) => &m.fmu,
+            Fmu::Events(c) => &c.fmu,
+            Fmu::Se(c) => &c.fmu,
         }
     }
 }
@@ -38,17 +46,28 @@ impl std::ops::DerefMut for Fmu {
         match self {
             Fmu::Cs(f) => f,
             Fmu::Me(m) => &mut m.fmu,
+            Fmu::Events(c) => &mut c.fmu,
+            Fmu::Se(c) => &mut c.fmu,
         }
     }
 }
 
 impl Fmu {
-    /// One communication step from `t` to `t + h`.
+    /// One communication step from `t` to `t + h` of a component without clocks (the
+    /// clocked ones are stepped by the scheduler, `clocks`).
     pub(super) fn advance(&mut self, t: f64, h: f64) -> Result<(), Error> {
         match self {
             Fmu::Cs(f) => Ok(f.do_step(h)?),
             Fmu::Me(m) => m.advance(t, h),
+            Fmu::Events(_) | Fmu::Se(_) => Err(Error::Config(
+                "a clocked component is stepped by the master's clock scheduler".into(),
+            )),
         }
+    }
+
+    /// The clocks of a component run with event mode or in Scheduled Execution.
+    pub(super) fn clocked(&self) -> bool {
+        matches!(self, Fmu::Events(_) | Fmu::Se(_))
     }
 
     /// Another instance under `name`, of the same interface, from the folder this one was
@@ -59,23 +78,30 @@ impl Fmu {
             Fmu::Me(m) => {
                 Fmu::Me(MeRun::new(m.fmu.instantiate_again(name, false)?, name, tolerance)?)
             }
+            Fmu::Events(c) => Fmu::Events(Clocked::new(c.fmu.instantiate_again(name, false)?)),
+            Fmu::Se(c) => Fmu::Se(Clocked::new(c.fmu.instantiate_again(name, false)?)),
         })
     }
 
-    /// Loads `source` as component `name`, in the interface [`Want::is_me`] picks from
+    /// Loads `source` as component `name`, in the interface [`Want::interface`] picks from
     /// its description, once the description (read from the archive before unpacking it)
-    /// is within [`limits`]: an FMU declaring more than the master allocates for is
-    /// refused before a file of it is written. The FMU's errors come as [`Error::Fmu`].
+    /// is within [`limits`]: an FMU declaring more than the master allocates for, or not
+    /// offering the interface asked (Scheduled Execution or event mode of an FMI 2.0 FMU),
+    /// is refused before a file of it is written. The FMU's errors come as [`Error::Fmu`].
     pub(super) fn open(
         source: &Path,
         name: &str,
         want: Want,
         tolerance: Tolerance,
     ) -> Result<Fmu, Error> {
-        let vet = |md: &ModelDescription, me: bool| limits::check_description(name, md, me);
-        Ok(match Loaded::load_vetted(source, name, false, |md| want.is_me(md), vet)? {
+        let vet = |md: &ModelDescription, i: Interface| {
+            limits::check_description(name, md, i == Interface::ModelExchange)
+        };
+        Ok(match Loaded::load_picked(source, name, false, |md| want.interface(md), vet)? {
             Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)?),
+            Loaded::Cs(fmu) if fmu.event_mode_used() => Fmu::Events(Clocked::new(fmu)),
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
+            Loaded::Se(fmu) => Fmu::Se(Clocked::new(fmu)),
         })
     }
 
@@ -97,36 +123,51 @@ pub(super) enum Want {
     Me,
     /// Model Exchange where offered: `*`.
     MeIfOffered,
+    /// FMI 3.0 Co-Simulation with event mode: `cs-events`.
+    CsEvents,
+    /// FMI 3.0 Scheduled Execution: `se`.
+    Se,
 }
 
 impl Want {
-    /// Whether a component asking for this runs as Model Exchange, by what its FMU's
-    /// `description` offers: named, always (an FMU without Model Exchange is then
-    /// refused); `*`, where offered; else only an FMU without Co-Simulation.
-    pub(super) fn is_me(self, description: &ModelDescription) -> bool {
-        match self {
+    /// The interface a component asking for this runs, by what its FMU's `description`
+    /// offers: Model Exchange named, always (an FMU without it is then refused); `*`, where
+    /// offered; plain Co-Simulation unless the FMU has none; event mode and Scheduled
+    /// Execution as named (refused where not offered).
+    pub(super) fn interface(self, description: &ModelDescription) -> Interface {
+        let me = match self {
+            Want::CsEvents => return Interface::CoSimulationEventMode,
+            Want::Se => return Interface::ScheduledExecution,
             Want::Me => true,
             Want::MeIfOffered => description.model_exchange.is_some(),
             Want::Cs => description.co_simulation.is_none(),
+        };
+        if me {
+            Interface::ModelExchange
+        } else {
+            Interface::CoSimulation
         }
     }
 }
 
 impl Interfaces {
-    /// Every name one of `components` (`*` too, for Model Exchange), none asked both
+    /// Every name one of `components` (`*` too, for Model Exchange), none asked two
     /// interfaces, the tolerance within its ranges: before anything is loaded.
     pub(super) fn check(&self, components: &[String]) -> Result<(), Error> {
         self.tolerance.check()?;
-        let asked = self
+        let asked: Vec<(&String, &'static str)> = self
             .model_exchange
             .iter()
             .map(|n| (n, "me"))
-            .chain(self.co_simulation.iter().map(|n| (n, "cs")));
-        for (n, interface) in asked {
+            .chain(self.co_simulation.iter().map(|n| (n, "cs")))
+            .chain(self.event_mode.iter().map(|n| (n, "cs-events")))
+            .chain(self.scheduled_execution.iter().map(|n| (n, "se")))
+            .collect();
+        for &(n, interface) in &asked {
             if n.is_empty() {
                 return Err(Error::Config(format!(
                     "--interface ={interface}: name a component to run as {}",
-                    if interface == "me" { "Model Exchange" } else { "Co-Simulation" }
+                    interface_name(interface)
                 )));
             }
             if !(components.contains(n) || interface == "me" && n == "*") {
@@ -136,18 +177,26 @@ impl Interfaces {
                     components: components.to_vec(),
                 });
             }
-            if interface == "me" && self.co_simulation.contains(n) {
+            if let Some(&(_, other)) = asked.iter().find(|(m, i)| *m == n && *i != interface) {
                 return Err(Error::Config(format!(
-                    "--interface: `{}` is asked to run both as Model Exchange (me) and as Co-Simulation (cs)",
-                    cut(n, 200)
+                    "--interface: `{}` is asked to run both as {} ({interface}) and as {} ({other})",
+                    cut(n, 200),
+                    interface_name(interface),
+                    interface_name(other),
                 )));
             }
         }
         Ok(())
     }
 
-    pub(super) fn wants_me(&self, component: &str) -> Want {
-        if self.co_simulation.iter().any(|n| n == component) {
+    /// The interface asked of `component`.
+    pub(super) fn wants(&self, component: &str) -> Want {
+        let named = |list: &[String]| list.iter().any(|n| n == component);
+        if named(&self.event_mode) {
+            Want::CsEvents
+        } else if named(&self.scheduled_execution) {
+            Want::Se
+        } else if self.co_simulation.iter().any(|n| n == component) {
             Want::Cs
         } else if self.model_exchange.iter().any(|n| n == component) {
             Want::Me

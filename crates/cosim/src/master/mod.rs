@@ -5,6 +5,7 @@
 
 mod batches;
 mod checkpoint;
+mod clocks;
 mod component;
 mod parallel;
 mod parameters;
@@ -87,6 +88,12 @@ pub struct Interfaces {
     pub model_exchange: Vec<String>,
     /// Component names to run as Co-Simulation even under `*` (`--interface NAME=cs`).
     pub co_simulation: Vec<String>,
+    /// Component names to run as FMI 3.0 Co-Simulation with event mode, stepped from
+    /// clock tick to clock tick (`--interface NAME=cs-events`).
+    pub event_mode: Vec<String>,
+    /// Component names to run in FMI 3.0 Scheduled Execution, their model partitions
+    /// activated at their clocks' ticks (`--interface NAME=se`).
+    pub scheduled_execution: Vec<String>,
     /// Within [`limits::RTOL`] and [`limits::ATOL`].
     ///
     /// [`limits::RTOL`]: crate::limits::RTOL
@@ -120,6 +127,10 @@ pub struct Simulation {
     source_batches: Batches,
     destinations: Vec<(Port, Feed)>,
     destination_batches: Batches,
+    /// The clocked inputs of the clocked components, set at their ticks.
+    ticked: clocks::TickInputs,
+    /// Whether a component runs with event mode or in Scheduled Execution.
+    clocked: bool,
     /// The values about to be written to `destinations`.
     values: Vec<f64>,
     /// Where each value of a row comes from, in the order of `record_names`.

@@ -2,7 +2,7 @@
 //! inputs, sampling rows, and reset in place for the next run of a sweep.
 
 use super::component::Fmu;
-use super::{Column, Coupling, Feed, InputTable, Options, RunEnd, Simulation};
+use super::{Column, Coupling, Feed, InputTable, Options, Port, RunEnd, Simulation};
 use crate::fmu::VarType;
 use crate::model_exchange::MeStats;
 use crate::{Error, StopFlag};
@@ -23,38 +23,44 @@ impl Simulation {
     }
 
     /// Sets the inputs of component `only` (every component if `None`) from the latest
-    /// outputs and the system inputs at the current time.
+    /// outputs and the system inputs at the current time (the clocked inputs of clocked
+    /// components wait for their ticks: `clocks`).
     fn feed(&mut self, only: Option<usize>) -> Result<(), Error> {
         let t = self.time();
         for i in 0..self.destinations.len() {
             let (dst, feed) = self.destinations[i];
             if only.is_none_or(|c| c == dst.component) {
-                let v = match feed {
-                    Feed::Latest(j) => self.latest[j],
-                    Feed::SystemInput(j) => {
-                        let row = &mut self.input_rows[j];
-                        let v = system_input(&self.input_columns, self.input.as_ref(), j, t, row);
-                        // A CSV value for an Integer input: out of 32 bits, the cast
-                        // would saturate silently.
-                        let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
-                        if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
-                            let name = match (self.input_columns[j], &self.input) {
-                                (Some(c), Some(table)) => table.names[c].as_str(),
-                                _ => "?",
-                            };
-                            return Err(Error::Config(format!(
-                                "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
-                                i32::MIN,
-                                i32::MAX
-                            )));
-                        }
-                        v
-                    }
-                };
-                self.values[i] = v;
+                self.values[i] = self.input_value(dst, feed, t)?;
             }
         }
         self.destination_batches.write(&mut self.components, &self.values, only)
+    }
+
+    /// The value input `dst` gets from `feed` at `t`: the latest read of an output, or a
+    /// system input at `t`.
+    pub(super) fn input_value(&mut self, dst: Port, feed: Feed, t: f64) -> Result<f64, Error> {
+        Ok(match feed {
+            Feed::Latest(j) => self.latest[j],
+            Feed::SystemInput(j) => {
+                let row = &mut self.input_rows[j];
+                let v = system_input(&self.input_columns, self.input.as_ref(), j, t, row);
+                // A CSV value for an Integer input: out of 32 bits, the cast would
+                // saturate silently.
+                let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
+                if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
+                    let name = match (self.input_columns[j], &self.input) {
+                        (Some(c), Some(table)) => table.names[c].as_str(),
+                        _ => "?",
+                    };
+                    return Err(Error::Config(format!(
+                        "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
+                        i32::MIN,
+                        i32::MAX
+                    )));
+                }
+                v
+            }
+        })
     }
 
     /// The recorded variables now, in the order of [`Simulation::record_names`].
@@ -79,25 +85,49 @@ impl Simulation {
         Ok(&self.row)
     }
 
-    /// One communication step from `k h` to `(k + 1) h`.
+    /// One communication step from `k h` to `(k + 1) h`. The clocked components run
+    /// their ticks' events as `clocks` says: those within the step as they step, those at
+    /// its end after every component's step and read (Jacobi) or after their own
+    /// (Gauss–Seidel), those at the start time at the start of the first step.
     pub fn step(&mut self) -> Result<(), Error> {
         let h = self.h;
+        let t = self.time();
+        let end = (self.k + 1) as f64 * h;
+        let start = self.k == 0 && self.clocked;
         match self.coupling {
             Coupling::GaussSeidel => {
-                let t = self.time();
                 for ci in 0..self.components.len() {
                     self.feed(Some(ci))?;
-                    self.components[ci].fmu.advance(t, h)?;
+                    if self.components[ci].fmu.clocked() {
+                        if start {
+                            self.start_events(Some(ci))?;
+                        }
+                        self.advance_clocked(ci, t, end)?;
+                    } else {
+                        self.components[ci].fmu.advance(t, h)?;
+                    }
                     self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
+                    if self.clocked {
+                        self.end_events(Some(ci), end)?;
+                    }
                 }
             }
             Coupling::Jacobi => {
                 self.feed(None)?;
-                let t = self.time();
-                for c in self.components.iter_mut() {
-                    c.fmu.advance(t, h)?;
+                if start {
+                    self.start_events(None)?;
+                }
+                for ci in 0..self.components.len() {
+                    if self.components[ci].fmu.clocked() {
+                        self.advance_clocked(ci, t, end)?;
+                    } else {
+                        self.components[ci].fmu.advance(t, h)?;
+                    }
                 }
                 self.source_batches.read(&mut self.components, &mut self.latest, None)?;
+                if self.clocked {
+                    self.end_events(None, end)?;
+                }
             }
         }
         self.k += 1;
@@ -110,7 +140,7 @@ impl Simulation {
             .iter()
             .filter_map(|c| match &c.fmu {
                 Fmu::Me(m) => Some((c.name.clone(), m.stats())),
-                Fmu::Cs(_) => None,
+                _ => None,
             })
             .collect()
     }

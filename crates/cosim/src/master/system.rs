@@ -77,7 +77,7 @@ impl System {
         if !is_ssp {
             // A single FMU is one component, named `fmu`: checked before it is opened.
             interfaces.check(&["fmu".to_string()])?;
-            let fmu = Fmu::open(path, "fmu", interfaces.wants_me("fmu"), tolerance)?;
+            let fmu = Fmu::open(path, "fmu", interfaces.wants("fmu"), tolerance)?;
             let step_size = fmu.default_step_size();
             let inputs = fmu.names_with_causality("input");
             let outputs = fmu.names_with_causality("output");
@@ -151,12 +151,12 @@ impl System {
             // An FMU that several components use is unpacked once and instantiated from
             // that folder again, unless each of its instances needs a library of its own.
             // The earlier instance serves if it runs the interface this one is to run.
-            let me = interfaces.wants_me(&c.name);
+            let me = interfaces.wants(&c.name);
             let earlier = sources[..i].iter().position(|s| s == source);
             let fmu = match earlier.map(|e| &components[e].fmu) {
                 Some(first)
                     if first.can_instantiate_again()
-                        && first.is_model_exchange() == me.is_me(first.description()) =>
+                        && first.interface() == me.interface(first.description()) =>
                 {
                     first.again(&c.name, tolerance).map_err(component)?
                 }
@@ -397,7 +397,10 @@ impl System {
             };
             feeds[dst.component].push((*dst, feed));
         }
-        let destinations: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
+        // The clocked inputs of clocked components are set at their ticks, apart.
+        let all: Vec<(Port, Feed)> = feeds.into_iter().flatten().collect();
+        let (ticked, destinations): (Vec<_>, Vec<_>) =
+            all.into_iter().partition(|(dst, _)| super::clocks::at_ticks(&self.components, dst));
         // A recorded port that feeds an input is read by every step already: the row
         // takes that read (nothing sets a component's inputs between its read and the
         // row), and only the other ports cost a call of their own.
@@ -426,6 +429,12 @@ impl System {
                 &destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
             )?,
             values: vec![0.0; destinations.len()],
+            ticked: super::clocks::TickInputs {
+                batches: Batches::new(&ticked.iter().map(|(p, _)| *p).collect::<Vec<_>>())?,
+                values: vec![0.0; ticked.len()],
+                destinations: ticked,
+            },
+            clocked: self.components.iter().any(|c| c.fmu.clocked()),
             port_values: vec![0.0; record_ports.len()],
             row: vec![0.0; record.len()],
             destinations,
@@ -444,6 +453,7 @@ impl System {
             // The rest of the system (connectors, connections, defaults), for a reset.
             loaded: Some(self),
         };
+        sim.schedule_clocks(0.0)?;
         sim.source_batches.read(&mut sim.components, &mut sim.latest, None)?;
         Ok(sim)
     }

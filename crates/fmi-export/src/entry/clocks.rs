@@ -212,14 +212,16 @@ pub unsafe fn get_clock<S: Standard, M: Model>(
 }
 
 /// `fmi3GetIntervalDecimal`: an input clock's interval (a constant of the description,
-/// `intervalVariability="constant"`), with the qualifier `changed` (the standard's
-/// "the interval is known and valid"). An output clock has no interval.
+/// `intervalVariability="constant"`), with the qualifier `unchanged`: FMI 3.0 allows no
+/// other for a constant clock (its table of clock types and qualifiers: the importer knows
+/// the interval from the description, and neither side can change it; `fmi3IntervalChanged`
+/// with a constant clock is listed as not allowed). An output clock has no interval.
 pub unsafe fn get_interval<S: Standard, M: Model>(
     c: *mut c_void,
     func: &str,
     (vr, n): (*const u32, usize),
     (intervals, qualifiers): (*mut f64, *mut i32),
-    changed: i32,
+    unchanged: i32,
 ) -> Status {
     with_instance::<S, M>(c, func, INTERVALS, |inst| {
         let (Some(vrs), Some(iv), Some(q)) =
@@ -230,7 +232,7 @@ pub unsafe fn get_interval<S: Standard, M: Model>(
         };
         for (i, &r) in vrs.iter().enumerate() {
             match input_clock::<M>(r) {
-                Ok((_, dt)) => (iv[i], q[i]) = (dt, changed),
+                Ok((_, dt)) => (iv[i], q[i]) = (dt, unchanged),
                 Err(why) => return inst.refuse(func, format_args!("{why}")),
             }
         }

@@ -7,9 +7,9 @@
 //! The reading is split by what it reads: [`ModelDescription`] and its parts are
 //! `model`'s; `reader` is the walk over the events both standards share (attribute,
 //! number and enumeration parsing, `start` values, duplicate names, the end-of-file check:
-//! a truncated file is refused); `elements` reads the root, `<CoSimulation>` and
-//! `<ModelExchange>` (the `modelIdentifier` must be a plain file name: it names the library
-//! to load), `<DefaultExperiment>` and the continuous states of `<ModelStructure>`; `fmi2`
+//! a truncated file is refused); `elements` reads the root, `<CoSimulation>`,
+//! `<ModelExchange>` and `<ScheduledExecution>` (the `modelIdentifier` must be a plain file
+//! name: it names the library to load), `<DefaultExperiment>` and the continuous states of `<ModelStructure>`; `fmi2`
 //! and `fmi3` only say how each standard spells a variable. The text helpers (positions,
 //! attribute lookup, value checks, clipping untrusted text) are in `text`; the size cap is
 //! defined with the archive's other caps.
@@ -26,7 +26,8 @@ pub(crate) mod text;
 
 pub use crate::archive::{ENV_DESCRIPTION, MAX_DESCRIPTION_BYTES};
 pub use model::{
-    ArrayElement, Causality, CoSimulation, ContinuousState, DefaultExperiment, Initial,
-    ModelDescription, ModelExchange, VarType, Variability, Variable, MAX_ARRAY_ELEMENTS,
+    ArrayElement, Causality, Clock, CoSimulation, ContinuousState, DefaultExperiment, Initial,
+    IntervalVariability, ModelDescription, ModelExchange, ScheduledExecution, VarType, Variability,
+    Variable, MAX_ARRAY_ELEMENTS,
 };
 pub(crate) use reader::{Doc, Element, Standard};
