@@ -227,3 +227,45 @@ pub type fmi3GetDirectionalDerivativeTYPE = unsafe extern "C" fn(
     *mut fmi3Float64,
     usize,
 ) -> fmi3Status;
+
+// Clocks, event mode in Co-Simulation, and Scheduled Execution.
+pub type fmi3InstantiateScheduledExecutionTYPE = unsafe extern "C" fn(
+    fmi3String,
+    fmi3String,
+    fmi3String,
+    fmi3Boolean,
+    fmi3Boolean,
+    fmi3InstanceEnvironment,
+    fmi3LogMessageCallback,
+    fmi3ClockUpdateCallback,
+    fmi3LockPreemptionCallback,
+    fmi3UnlockPreemptionCallback,
+) -> fmi3Instance;
+pub type fmi3EnterStepModeTYPE = fmi3InstanceOnlyTYPE;
+pub type fmi3SetClockTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *const fmi3Clock,
+) -> fmi3Status;
+pub type fmi3GetClockTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *mut fmi3Clock,
+) -> fmi3Status;
+pub type fmi3GetIntervalDecimalTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *mut fmi3Float64,
+    *mut fmi3IntervalQualifier,
+) -> fmi3Status;
+pub type fmi3GetShiftDecimalTYPE = unsafe extern "C" fn(
+    fmi3Instance,
+    *const fmi3ValueReference,
+    usize,
+    *mut fmi3Float64,
+) -> fmi3Status;
+pub type fmi3ActivateModelPartitionTYPE =
+    unsafe extern "C" fn(fmi3Instance, fmi3ValueReference, fmi3Float64) -> fmi3Status;

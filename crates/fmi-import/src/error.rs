@@ -190,6 +190,10 @@ pub enum FmuError {
         "{model}: the FMU has no Model Exchange interface (modelDescription.xml lacks <ModelExchange>)"
     )]
     NotModelExchange { model: String },
+    /// The FMU does not offer the FMI 3.0 interface asked for (Co-Simulation with event
+    /// mode, Scheduled Execution); an FMI 2.0 FMU offers neither, nor clocks.
+    #[error("{model}: the FMU (fmiVersion {fmi_version}) does not offer {}: its modelDescription.xml lacks {}{}", interface_name(*interface), interface.declared_by(), if fmi_version.starts_with("3.") { "" } else { " (FMI 2.0 has no clocks, event mode in Co-Simulation nor Scheduled Execution)" })]
+    NotOffered { model: String, interface: crate::Interface, fmi_version: String },
     /// No variable of that name in `modelDescription.xml`.
     #[error("{model}: no variable named `{name}` in modelDescription.xml")]
     UnknownVariable { model: String, name: String },
@@ -233,6 +237,15 @@ pub enum FmuError {
         why: &'static str,
         last_time: f64,
     },
+}
+
+fn interface_name(i: crate::Interface) -> &'static str {
+    match i {
+        crate::Interface::CoSimulation => "Co-Simulation",
+        crate::Interface::CoSimulationEventMode => "Co-Simulation with event mode",
+        crate::Interface::ModelExchange => "Model Exchange",
+        crate::Interface::ScheduledExecution => "Scheduled Execution",
+    }
 }
 
 /// The Fatal status and the standard's name of the standard of `function`.

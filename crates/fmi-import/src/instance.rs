@@ -28,6 +28,57 @@ pub struct Var {
     pub ty: VarType,
 }
 
+/// The interface an instance is made for. FMI 3.0 adds Co-Simulation with event mode
+/// (`eventModeUsed`: steps end at clock ticks, events and clocks are handled in event
+/// mode) and Scheduled Execution (the importer activates the model partitions of the
+/// input clocks); FMI 2.0 has neither, nor clocks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Interface {
+    CoSimulation,
+    CoSimulationEventMode,
+    ModelExchange,
+    ScheduledExecution,
+}
+
+impl Interface {
+    /// The element of `modelDescription.xml` (and attribute) that offers it.
+    pub fn declared_by(self) -> &'static str {
+        match self {
+            Interface::CoSimulation => "<CoSimulation>",
+            Interface::CoSimulationEventMode => "<CoSimulation hasEventMode=\"true\">",
+            Interface::ModelExchange => "<ModelExchange>",
+            Interface::ScheduledExecution => "<ScheduledExecution>",
+        }
+    }
+
+    /// An error that says why, if `md` does not offer it.
+    pub(crate) fn check_offered(self, md: &ModelDescription) -> Result<(), FmuError> {
+        if self.offered_by(md) {
+            return Ok(());
+        }
+        let model = md.model_name.clone();
+        Err(match self {
+            Interface::CoSimulation => FmuError::NotCoSimulation { model },
+            Interface::ModelExchange => FmuError::NotModelExchange { model },
+            interface => {
+                FmuError::NotOffered { model, interface, fmi_version: md.fmi_version.clone() }
+            }
+        })
+    }
+
+    /// Whether `md` offers it (event mode and Scheduled Execution only in FMI 3.0).
+    pub fn offered_by(self, md: &ModelDescription) -> bool {
+        match self {
+            Interface::CoSimulation => md.co_simulation.is_some(),
+            Interface::CoSimulationEventMode => {
+                md.is_fmi3() && md.co_simulation.as_ref().is_some_and(|cs| cs.has_event_mode)
+            }
+            Interface::ModelExchange => md.model_exchange.is_some(),
+            Interface::ScheduledExecution => md.is_fmi3() && md.scheduled_execution.is_some(),
+        }
+    }
+}
+
 /// The owner tag of the next instance: an [`crate::FmuState`] names the instance it was
 /// taken from by it.
 static NEXT_OWNER: AtomicU64 = AtomicU64::new(1);
@@ -37,6 +88,7 @@ static NEXT_OWNER: AtomicU64 = AtomicU64::new(1);
 /// their interface's calls; the methods here are reached through either.
 pub struct Instance {
     pub(crate) cx: Calls,
+    pub(crate) interface: Interface,
     // Dropped by hand: after a Fatal it is leaked, as neither standard allows freeing.
     pub(crate) backend: ManuallyDrop<Box<dyn Backend>>,
     pub(crate) description: ModelDescription,
@@ -94,14 +146,13 @@ pub(crate) fn importing(path: &Path) -> impl Fn(ImportError) -> FmuError + Copy 
 
 impl Instance {
     /// Unpacks `path`, loads its library (`binaries/<platform>/` of FMI 2.0 or FMI 3.0, by
-    /// the description's `fmiVersion`) and instantiates it under `instance_name`, for Model
-    /// Exchange if `model_exchange` says so of its description, else for Co-Simulation.
-    /// `logging_on` is the FMI `loggingOn` flag (debug messages); warnings and errors
-    /// reach the logger either way.
+    /// the description's `fmiVersion`) and instantiates it under `instance_name` for the
+    /// interface `pick` chooses from its description. `logging_on` is the FMI `loggingOn`
+    /// flag (debug messages); warnings and errors reach the logger either way.
     pub(crate) fn load(
         path: &Path,
         instance_name: &str,
-        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> bool),
+        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> Interface),
     ) -> Result<Self, FmuError> {
         if !path.is_file() {
             return Err(FmuError::Missing(path.to_path_buf()));
@@ -116,17 +167,27 @@ impl Instance {
     /// own (a copy unpacked apart, as `load` makes).
     pub fn can_instantiate_again(&self) -> bool {
         let md = &self.description;
-        let once = if self.is_model_exchange() {
-            md.model_exchange.as_ref().map(|me| me.can_be_instantiated_only_once_per_process)
-        } else {
-            md.co_simulation.as_ref().map(|cs| cs.can_be_instantiated_only_once_per_process)
+        let once = match self.interface {
+            Interface::ModelExchange => {
+                md.model_exchange.as_ref().map(|me| me.can_be_instantiated_only_once_per_process)
+            }
+            Interface::ScheduledExecution => md
+                .scheduled_execution
+                .as_ref()
+                .map(|se| se.can_be_instantiated_only_once_per_process),
+            _ => md.co_simulation.as_ref().map(|cs| cs.can_be_instantiated_only_once_per_process),
         };
         once == Some(false)
     }
 
     /// Whether the instance was made for Model Exchange (it is then an [`crate::MeFmu`]'s).
     pub fn is_model_exchange(&self) -> bool {
-        self.backend.me().is_some()
+        self.interface == Interface::ModelExchange
+    }
+
+    /// The interface the instance was made for.
+    pub fn interface(&self) -> Interface {
+        self.interface
     }
 
     /// Another instance of the same FMU under `instance_name`, from the folder this one
@@ -142,22 +203,22 @@ impl Instance {
                 source: ImportError::OncePerProcess { model: self.cx.model.clone() },
             });
         }
-        let me = self.is_model_exchange();
+        let interface = self.interface;
         Self::from_unpacked(
             self.unpacked.dir(),
             Arc::clone(&self.unpacked),
             instance_name,
-            (logging_on, |_| me),
+            (logging_on, |_| interface),
         )
     }
 
-    /// An instance for Model Exchange if `model_exchange` says so of the FMU's
-    /// description, else for Co-Simulation; an interface the FMU lacks is refused.
+    /// An instance for the interface `pick` chooses from the FMU's description; an
+    /// interface the FMU lacks is refused.
     pub(crate) fn from_unpacked(
         path: &Path,
         unpacked: Arc<Unpacked>,
         instance_name: &str,
-        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> bool),
+        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> Interface),
     ) -> Result<Self, FmuError> {
         let import = importing(path);
         let description = ModelDescription::parse(&unpacked.model_description).map_err(import)?;
@@ -177,30 +238,30 @@ impl Instance {
         unpacked: Arc<Unpacked>,
         description: ModelDescription,
         instance_name: &str,
-        (logging_on, model_exchange): (bool, impl FnOnce(&ModelDescription) -> bool),
+        (logging_on, pick): (bool, impl FnOnce(&ModelDescription) -> Interface),
     ) -> Result<Self, FmuError> {
         let import = importing(path);
         let model = description.model_name.clone();
-        let model_exchange = model_exchange(&description);
-        let identifier = match (&description.co_simulation, &description.model_exchange) {
-            (_, Some(me)) if model_exchange => &me.model_identifier,
-            (Some(cs), _) if !model_exchange => &cs.model_identifier,
-            _ if model_exchange => return Err(FmuError::NotModelExchange { model }),
-            _ => return Err(FmuError::NotCoSimulation { model }),
-        };
+        let interface = pick(&description);
+        interface.check_offered(&description)?;
+        let identifier = match interface {
+            Interface::ModelExchange => {
+                description.model_exchange.as_ref().map(|m| &m.model_identifier)
+            }
+            Interface::ScheduledExecution => {
+                description.scheduled_execution.as_ref().map(|s| &s.model_identifier)
+            }
+            _ => description.co_simulation.as_ref().map(|c| &c.model_identifier),
+        }
+        .expect("offered_by checked the element");
         let fmi3 = description.is_fmi3();
         let platform = if fmi3 { fmi3_platform() } else { fmi2_platform() };
         let library =
             binary::library_path_for(platform, unpacked.dir(), identifier).map_err(import)?;
         let binary = Binary::load(unpacked.dir(), &library).map_err(import)?;
         let resources = unpacked.dir().join("resources");
-        let setup = Setup {
-            md: &description,
-            resources: &resources,
-            instance_name,
-            logging_on,
-            model_exchange,
-        };
+        let setup =
+            Setup { md: &description, resources: &resources, instance_name, logging_on, interface };
         let backend: Box<dyn Backend> = if fmi3 {
             Box::new(Fmi3Backend::instantiate(binary, &setup).map_err(import)?)
         } else {
@@ -210,6 +271,7 @@ impl Instance {
             description.variables.iter().filter_map(|v| v.element.map(|e| (v.vr, e))).collect();
         Ok(Instance {
             cx: Calls::new(model, instance_name.to_owned(), fmi3),
+            interface,
             backend: ManuallyDrop::new(backend),
             description,
             lowest_handle: elements.keys().copied().min().unwrap_or(u32::MAX),

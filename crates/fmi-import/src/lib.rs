@@ -24,13 +24,19 @@
 //! The interface is in the type: an instance is owned by a [`CsFmu`] (Co-Simulation:
 //! `do_step`, the communication time kept as `start + k · h` so it never drifts from the
 //! FMU's own clock) or by an [`MeFmu`] (Model Exchange: continuous states, derivatives,
-//! event indicators, event mode), and [`Loaded`] is either, picked from the description. Warning lets the call succeed (with a warning logged); Discard, Error, Fatal and
+//! event indicators, event mode) or, in FMI 3.0, by an [`SeFmu`] (Scheduled Execution:
+//! `fmi3ActivateModelPartition`, the `clockUpdate` and preemption callbacks), and
+//! [`Loaded`] is one of them, picked from the description. A [`CsFmu`] made with event mode
+//! steps to clock ticks and handles them in event mode; both it and an [`SeFmu`] set and
+//! read clocks and their intervals ([`ModelDescription::clocks`] has the declarations).
+//! Warning lets the call succeed (with a warning logged); Discard, Error, Fatal and
 //! (FMI 2.0) Pending are errors; after Fatal every further call is refused, as both
 //! standards demand.
 
 pub mod archive;
 mod backend;
 mod binary;
+mod clocks;
 mod co_simulation;
 pub mod description;
 mod error;
@@ -40,17 +46,21 @@ mod instance;
 mod loaded;
 mod logger;
 mod model_exchange;
+mod scheduled_execution;
 mod values;
 
+pub use backend::clocks::{Activation, Interval, IntervalQualifier, StepEnd};
 pub use backend::me::EventUpdate;
 pub use binary::{fmi2_platform, fmi3_platform};
 pub use co_simulation::CsFmu;
 pub use description::{
-    ArrayElement, Causality, CoSimulation, ContinuousState, DefaultExperiment, Initial,
-    ModelDescription, ModelExchange, VarType, Variability, Variable,
+    ArrayElement, Causality, Clock, CoSimulation, ContinuousState, DefaultExperiment, Initial,
+    IntervalVariability, ModelDescription, ModelExchange, ScheduledExecution, VarType, Variability,
+    Variable,
 };
 pub use error::{FmuError, ImportError, LoadError, Status};
 pub use fmu_state::FmuState;
-pub use instance::{Instance, Var};
+pub use instance::{Instance, Interface, Var};
 pub use loaded::Loaded;
 pub use model_exchange::MeFmu;
+pub use scheduled_execution::SeFmu;

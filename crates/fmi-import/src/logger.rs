@@ -11,10 +11,18 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use crate::ffi::{fmi2ComponentEnvironment, fmi2Status, fmi2String};
 
-/// What `componentEnvironment` points to: owned by the `CsFmu`, alive until after
-/// `fmi2FreeInstance`.
+/// What `componentEnvironment` (FMI 3.0 `instanceEnvironment`) points to: owned by the
+/// backend, alive until after the instance is freed. It also counts the FMI 3.0
+/// `clockUpdate` calls of a Scheduled Execution instance (`backend::clocks`).
 pub(crate) struct LogEnv {
     pub instance: String,
+    pub clock_updates: std::sync::atomic::AtomicU64,
+}
+
+impl LogEnv {
+    pub fn new(instance: &str) -> LogEnv {
+        LogEnv { instance: instance.to_owned(), clock_updates: Default::default() }
+    }
 }
 
 extern "C" {

@@ -52,7 +52,11 @@ impl MeFmu {
     /// Model Exchange under `instance_name` (as [`crate::CsFmu::load`] does for
     /// Co-Simulation).
     pub fn load(path: &Path, instance_name: &str, logging_on: bool) -> Result<Self, FmuError> {
-        Ok(Self::wrap(Instance::load(path, instance_name, (logging_on, |_| true))?))
+        Ok(Self::wrap(Instance::load(
+            path,
+            instance_name,
+            (logging_on, |_| crate::Interface::ModelExchange),
+        )?))
     }
 
     /// Another Model Exchange instance from the folder this one was unpacked in.

@@ -76,6 +76,12 @@ impl Fmu {
         Ok(match Loaded::load_vetted(source, name, false, |md| want.is_me(md), vet)? {
             Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)?),
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
+            // `load_vetted` picks Co-Simulation or Model Exchange only.
+            Loaded::Se(_) => {
+                return Err(Error::Config(format!(
+                    "{name}: Scheduled Execution is not run by this master"
+                )))
+            }
         })
     }
 

@@ -6,11 +6,13 @@ use std::ffi::CString;
 use std::os::raw::c_char;
 use std::path::Path;
 
+use super::clocks::StepEnd;
 use super::state::{StateCalls, States};
 use super::{Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
 use crate::ffi::*;
 use crate::logger::{self, LogEnv};
+use crate::FmuError;
 use crate::{ImportError, Status};
 
 /// The FMI 2.0 functions this layer calls; all of the CS API's required ones are resolved
@@ -65,7 +67,8 @@ impl Fmi2Backend {
     /// Resolves the `fmi2*` functions of `binary`, checks its platform and version and
     /// instantiates it for Co-Simulation.
     pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi2Backend, ImportError> {
-        let Setup { md, resources, instance_name, logging_on, model_exchange } = *setup;
+        let Setup { md, resources, instance_name, logging_on, .. } = *setup;
+        let model_exchange = setup.model_exchange();
         // SAFETY: each type is the FMI 2.0 signature of the function named.
         let (api, instantiate, types_platform, get_version, common, mut me) = unsafe {
             let instantiate: fmi2InstantiateTYPE =
@@ -108,7 +111,7 @@ impl Fmi2Backend {
         let c_guid = CString::new(md.guid.as_str()).map_err(|_| nul("the guid"))?;
         let c_resources =
             CString::new(file_uri(resources)).map_err(|_| nul("the resource location"))?;
-        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
+        let env = Box::new(LogEnv::new(instance_name));
         let callbacks = Box::new(fmi2CallbackFunctions {
             logger: Some(logger::inchworm_fmi_import_logger),
             allocateMemory: Some(libc::calloc),
@@ -189,10 +192,17 @@ impl Backend for Fmi2Backend {
         cx.call("fmi2EnterInitializationMode", || status(unsafe { enter(c) }))
     }
 
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
+    fn do_step(
+        &mut self,
+        cx: &mut Calls,
+        t: f64,
+        h: f64,
+        no_prior: bool,
+    ) -> Result<StepEnd, FmuError> {
         let c = self.instance.ptr();
         let f = self.api.do_step.ok_or_else(|| cx.other_interface("fmi2DoStep", true))?;
-        cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))
+        cx.call("fmi2DoStep", || status(unsafe { f(c, t, h, fmi2Boolean::from(no_prior)) }))?;
+        Ok(StepEnd { last_successful_time: t + h, ..StepEnd::default() })
     }
 
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done {
@@ -263,6 +273,10 @@ impl Backend for Fmi2Backend {
 
     fn me(&self) -> Option<&super::me::Me> {
         self.me.as_ref()
+    }
+
+    fn clocks(&self) -> Option<(&super::clocks::Clocks, &LogEnv)> {
+        None
     }
 
     fn instance(&self) -> &Instance {

@@ -1,9 +1,9 @@
-//! FMI 3.0 Co-Simulation, natively: the `fmi3*` functions with their own signatures
-//! (`nValues` passed, `fmi3Boolean` a C `bool`), `fmi3Status`, `fmi3InstantiateCoSimulation`
-//! with a plain-function logger, and `fmi3DoStep`'s event and early-return outputs.
-//! Instantiated without event mode and without early return, so `earlyReturn` and
-//! `eventHandlingNeeded` should stay false; if the FMU sets one (or
-//! `terminateSimulation`), the step is an error that says which.
+//! FMI 3.0, natively: the `fmi3*` functions with their own signatures (`nValues` passed,
+//! `fmi3Boolean` a C `bool`), `fmi3Status`, the instantiation of each interface with a
+//! plain-function logger, and `fmi3DoStep`'s event and early-return outputs. Instantiated
+//! without early return, so `earlyReturn` should stay false, and `eventHandlingNeeded`
+//! too unless the instance was made with event mode (its master then handles the event);
+//! otherwise, and on `terminateSimulation`, the step is an error that says which.
 
 use std::ffi::CString;
 use std::os::raw::c_char;
@@ -11,11 +11,12 @@ use std::os::raw::c_void;
 
 use inchworm_fmi_abi::fmi3::*;
 
+use super::clocks::{self, Clocks, StepEnd};
 use super::state::{StateCalls, States};
 use super::{Backend, Calls, Common, Done, Experiment, Instance, Setup};
 use crate::binary::Binary;
 use crate::logger::LogEnv;
-use crate::{FmuError, ImportError, Status};
+use crate::{FmuError, ImportError, Interface, Status};
 
 /// The FMI 3.0 functions this layer calls.
 struct Api {
@@ -39,11 +40,13 @@ pub(crate) struct Fmi3Backend {
     api: Api,
     states: States<fmi3Byte>,
     me: Option<super::me::Me>,
+    /// With event mode or for Scheduled Execution.
+    clocks: Option<Clocks>,
     /// The bytes `fmi3GetBoolean` writes, kept from call to call so that a master's steady
     /// loop allocates nothing.
     booleans: Vec<u8>,
     // What the FMU may hold pointers to until fmi3FreeInstance; dropped after it.
-    _env: Box<LogEnv>,
+    env: Box<LogEnv>,
     _strings: [CString; 3],
 }
 
@@ -51,6 +54,7 @@ pub(crate) struct Fmi3Backend {
 enum Instantiate {
     Cs(fmi3InstantiateCoSimulationTYPE),
     Me(fmi3InstantiateModelExchangeTYPE),
+    Se(fmi3InstantiateScheduledExecutionTYPE),
 }
 
 fn status(raw: fmi3Status) -> Status {
@@ -72,13 +76,24 @@ impl Fmi3Backend {
     /// Resolves the `fmi3*` functions of `binary`, checks its version and instantiates it
     /// for Co-Simulation.
     pub fn instantiate(binary: Binary, setup: &Setup<'_>) -> Result<Fmi3Backend, ImportError> {
-        let Setup { md, resources, instance_name, logging_on, model_exchange } = *setup;
+        let Setup { md, resources, instance_name, logging_on, interface } = *setup;
+        let model_exchange = setup.model_exchange();
+        let event_mode = interface == Interface::CoSimulationEventMode;
+        let scheduled = interface == Interface::ScheduledExecution;
         // SAFETY: each type is the FMI 3.0 signature of the function named.
-        let (api, instantiate, get_version, common, mut me) = unsafe {
-            let instantiate = if model_exchange {
-                Instantiate::Me(binary.required(super::FMI3_NAMES.instantiate_me)?)
-            } else {
-                Instantiate::Cs(binary.required(super::FMI3_NAMES.instantiate)?)
+        let (api, instantiate, get_version, common, mut me, mut clocks) = unsafe {
+            let instantiate = match interface {
+                Interface::ModelExchange => {
+                    Instantiate::Me(binary.required(super::FMI3_NAMES.instantiate_me)?)
+                }
+                Interface::ScheduledExecution => {
+                    Instantiate::Se(binary.required("fmi3InstantiateScheduledExecution")?)
+                }
+                _ => Instantiate::Cs(binary.required(super::FMI3_NAMES.instantiate)?),
+            };
+            let clocks = match event_mode || scheduled {
+                true => Some(Clocks::resolve(&binary, scheduled)?),
+                false => None,
             };
             let me = super::me::Me::for_setup(&binary, setup, status)?;
             let common = Common::<fmi3Byte>::resolve(&binary, &super::FMI3_NAMES, status, setup)?;
@@ -93,10 +108,13 @@ impl Fmi3Backend {
                 set_int32: binary.required("fmi3SetInt32")?,
                 set_boolean: binary.required("fmi3SetBoolean")?,
                 set_string: binary.required("fmi3SetString")?,
-                do_step: if model_exchange { None } else { Some(binary.required("fmi3DoStep")?) },
+                do_step: match model_exchange || scheduled {
+                    true => None,
+                    false => Some(binary.required("fmi3DoStep")?),
+                },
             };
             let get_version: fmi3GetVersionTYPE = binary.required("fmi3GetVersion")?;
-            (api, instantiate, get_version, common, me)
+            (api, instantiate, get_version, common, me, clocks)
         };
         // SAFETY: returns a static NUL-terminated string.
         let version = Binary::check_version("fmi3GetVersion", unsafe { get_version() }, "3.")?;
@@ -107,7 +125,7 @@ impl Fmi3Backend {
         // FMI 3.0 resourcePath: a native path ending in a separator (not a URI).
         let resources = format!("{}{}", resources.display(), std::path::MAIN_SEPARATOR);
         let c_resources = CString::new(resources).map_err(|_| nul("the resource path"))?;
-        let env = Box::new(LogEnv { instance: instance_name.to_owned() });
+        let env = Box::new(LogEnv::new(instance_name));
         // SAFETY: the FMI 3.0 signature; every pointer passed lives in the backend, which
         // frees the instance before dropping them.
         let environment = &*env as *const LogEnv as *mut c_void;
@@ -120,8 +138,8 @@ impl Fmi3Backend {
                     resource,
                     fmi3False, // visible
                     logging_on,
-                    fmi3False, // eventModeUsed
-                    fmi3False, // earlyReturnAllowed
+                    event_mode, // eventModeUsed
+                    fmi3False,  // earlyReturnAllowed
                     std::ptr::null(),
                     0,
                     environment,
@@ -140,18 +158,36 @@ impl Fmi3Backend {
                     Some(log_message),
                 )
             },
+            Instantiate::Se(instantiate) => unsafe {
+                instantiate(
+                    name,
+                    token,
+                    resource,
+                    fmi3False,
+                    logging_on,
+                    environment,
+                    Some(log_message),
+                    Some(clocks::clock_update),
+                    Some(clocks::lock_preemption),
+                    Some(clocks::unlock_preemption),
+                )
+            },
         };
         let (instance, states) = common.finish(instance, (binary, version), status, setup)?;
         if let Some(me) = me.as_mut() {
             me.bind(instance.ptr());
         }
+        if let Some(c) = clocks.as_mut() {
+            c.bind(instance.ptr());
+        }
         Ok(Fmi3Backend {
             instance,
             states,
             me,
+            clocks,
             api,
             booleans: Vec::new(),
-            _env: env,
+            env,
             _strings: [c_name, c_token, c_resources],
         })
     }
@@ -176,22 +212,46 @@ impl Backend for Fmi3Backend {
         })
     }
 
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done {
+    fn do_step(
+        &mut self,
+        cx: &mut Calls,
+        t: f64,
+        h: f64,
+        no_prior: bool,
+    ) -> Result<StepEnd, FmuError> {
         const F: &str = "fmi3DoStep";
         let i = self.instance.ptr();
-        let f = self.api.do_step.ok_or_else(|| cx.other_interface(F, true))?;
-        let (mut event, mut end, mut early, mut last) = (false, false, false, t);
-        cx.call(F, || {
-            status(unsafe { f(i, t, h, no_prior, &mut event, &mut end, &mut early, &mut last) })
+        let f = self.api.do_step.ok_or_else(|| match self.clocks.is_some() {
+            true => FmuError::Unsupported {
+                model: cx.model.clone(),
+                function: F,
+                why: "the instance was made for Scheduled Execution: its partitions are activated (fmi3ActivateModelPartition)".into(),
+            },
+            false => cx.other_interface(F, true),
         })?;
+        // Read as bytes: a value other than 0 or 1 must not make an invalid bool.
+        let mut flags = [0u8; 3];
+        let mut last = t;
+        cx.call(F, || {
+            let p = flags.as_mut_ptr().cast::<bool>();
+            // SAFETY: three distinct one-byte slots.
+            status(unsafe { f(i, t, h, no_prior, p, p.add(1), p.add(2), &mut last) })
+        })?;
+        let [event, end, early] = flags.map(|b| b != 0);
+        let event_mode = self.clocks.is_some();
         let why = if end {
             "the FMU asked to terminate the simulation (terminateSimulation)"
         } else if early {
             "the FMU returned early (earlyReturn), though instantiated without early return"
-        } else if event {
-            "the FMU needs event handling (eventHandlingNeeded), which this master does not do"
+        } else if event && !event_mode {
+            "the FMU needs event handling (eventHandlingNeeded), though instantiated without event mode"
         } else {
-            return Ok(());
+            return Ok(StepEnd {
+                event_handling_needed: event,
+                terminate: false,
+                early_return: false,
+                last_successful_time: last,
+            });
         };
         Err(FmuError::StepEnded {
             model: cx.model.clone(),
@@ -264,6 +324,10 @@ impl Backend for Fmi3Backend {
 
     fn me(&self) -> Option<&super::me::Me> {
         self.me.as_ref()
+    }
+
+    fn clocks(&self) -> Option<(&Clocks, &LogEnv)> {
+        self.clocks.as_ref().map(|c| (c, &*self.env))
     }
 
     fn instance(&self) -> &Instance {

@@ -188,7 +188,7 @@ impl Me {
         status: fn(c_int) -> Status,
     ) -> Result<Option<Me>, ImportError> {
         match &setup.md.model_exchange {
-            Some(m) if setup.model_exchange => {
+            Some(m) if setup.model_exchange() => {
                 let fmi3 = setup.md.is_fmi3();
                 Ok(Some(Me::resolve(binary, fmi3, status, m.provides_directional_derivative)?))
             }

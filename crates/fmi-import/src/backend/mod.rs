@@ -7,6 +7,7 @@
 //! logged and passed, Discard/Error/Fatal/Pending an error naming the real function and
 //! the time), the communication grid `start + k · h`, and the argument conversions.
 
+pub(crate) mod clocks;
 pub(crate) mod fmi2;
 pub(crate) mod fmi3;
 pub(crate) mod me;
@@ -25,8 +26,13 @@ pub(crate) struct Setup<'a> {
     pub resources: &'a std::path::Path,
     pub instance_name: &'a str,
     pub logging_on: bool,
-    /// Co-Simulation (false) or Model Exchange (true).
-    pub model_exchange: bool,
+    pub interface: crate::Interface,
+}
+
+impl Setup<'_> {
+    pub fn model_exchange(&self) -> bool {
+        self.interface == crate::Interface::ModelExchange
+    }
 }
 
 /// The experiment a backend enters initialization with.
@@ -51,7 +57,13 @@ pub(crate) trait Backend {
     /// Everything up to and including entering Initialization Mode.
     fn enter_initialization(&mut self, cx: &mut Calls, e: Experiment) -> Done;
     /// One step from `t`; `no_prior`: no state of an earlier time will be restored.
-    fn do_step(&mut self, cx: &mut Calls, t: f64, h: f64, no_prior: bool) -> Done;
+    fn do_step(
+        &mut self,
+        cx: &mut Calls,
+        t: f64,
+        h: f64,
+        no_prior: bool,
+    ) -> Result<clocks::StepEnd, FmuError>;
     fn get_f64(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [f64]) -> Done;
     fn set_f64(&mut self, cx: &mut Calls, vrs: &[u32], values: &[f64]) -> Done;
     fn get_i32(&mut self, cx: &mut Calls, vrs: &[u32], out: &mut [i32]) -> Done;
@@ -65,6 +77,9 @@ pub(crate) trait Backend {
     fn states(&self) -> &dyn state::StateCalls;
     /// The Model Exchange calls, if instantiated for Model Exchange.
     fn me(&self) -> Option<&me::Me>;
+    /// The FMI 3.0 clock calls and the environment their callbacks count on, if
+    /// instantiated with event mode or for Scheduled Execution.
+    fn clocks(&self) -> Option<(&clocks::Clocks, &crate::logger::LogEnv)>;
     /// The instance: its instance-only calls; freed when the backend is dropped.
     fn instance(&self) -> &Instance;
 }
@@ -373,9 +388,12 @@ impl<B: Copy + 'static> Common<B> {
         status: fn(std::os::raw::c_int) -> Status,
         setup: &Setup<'_>,
     ) -> Result<Self, crate::ImportError> {
-        let capabilities = if setup.model_exchange {
+        let capabilities = if setup.model_exchange() {
             let me = setup.md.model_exchange.as_ref().expect("checked by MeFmu::load");
             (me.can_get_and_set_fmu_state, me.can_serialize_fmu_state)
+        } else if setup.interface == crate::Interface::ScheduledExecution {
+            let se = setup.md.scheduled_execution.as_ref().expect("checked by SeFmu::load");
+            (se.can_get_and_set_fmu_state, se.can_serialize_fmu_state)
         } else {
             let cs = setup.md.co_simulation.as_ref().expect("checked by CsFmu::load");
             (cs.can_get_and_set_fmu_state, cs.can_serialize_fmu_state)
@@ -401,10 +419,10 @@ impl<B: Copy + 'static> Common<B> {
         if ptr.is_null() {
             let names = self.names;
             return Err(crate::ImportError::Instantiate {
-                function: if setup.model_exchange {
-                    names.instantiate_me
-                } else {
-                    names.instantiate
+                function: match setup.interface {
+                    crate::Interface::ModelExchange => names.instantiate_me,
+                    crate::Interface::ScheduledExecution => "fmi3InstantiateScheduledExecution",
+                    _ => names.instantiate,
                 },
                 instance: setup.instance_name.to_owned(),
             });

@@ -6,7 +6,7 @@
 use super::text::{attr, cut, line_column, plain_file_name, Attrs};
 use super::{
     fmi2, fmi3, CoSimulation, ContinuousState, DefaultExperiment, Doc, Element, ModelExchange,
-    Standard,
+    ScheduledExecution, Standard,
 };
 use crate::ImportError;
 
@@ -115,6 +115,7 @@ impl Doc<'_> {
         match (depth, name) {
             (1, "CoSimulation") => self.co_simulation(a, pos),
             (1, "ModelExchange") => self.model_exchange(a, pos),
+            (1, "ScheduledExecution") => self.scheduled_execution(a, pos),
             (3, "Unknown")
                 if self.stack[1] == "ModelStructure" && self.stack[2] == "Derivatives" =>
             {
@@ -233,6 +234,26 @@ impl Doc<'_> {
             can_handle_variable_communication_step_size: flag(
                 "canHandleVariableCommunicationStepSize",
             )?,
+            can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
+            can_get_and_set_fmu_state: flag(get_set)?,
+            can_serialize_fmu_state: flag(serialize)?,
+            has_event_mode: flag("hasEventMode")?,
+        });
+        Ok(())
+    }
+
+    /// FMI 3.0 `<ScheduledExecution>`.
+    pub(super) fn scheduled_execution(&mut self, a: &Attrs, pos: usize) -> Result<(), ImportError> {
+        const TAG: &str = "ScheduledExecution";
+        if self.md.scheduled_execution.is_some() {
+            return Err(self.error(pos, "a second <ScheduledExecution>"));
+        }
+        let model_identifier = self.model_identifier(a, TAG, pos)?;
+        let (get_set, serialize) = self.state_flags;
+        let flag = |k| self.boolean(a, TAG, k, pos);
+        self.md.scheduled_execution = Some(ScheduledExecution {
+            model_identifier,
+            needs_execution_tool: flag("needsExecutionTool")?,
             can_be_instantiated_only_once_per_process: flag("canBeInstantiatedOnlyOncePerProcess")?,
             can_get_and_set_fmu_state: flag(get_set)?,
             can_serialize_fmu_state: flag(serialize)?,

@@ -32,6 +32,7 @@ impl Standard for Fmi2 {
                     description: attr(a, "description").map(str::to_owned),
                     declared_type: None,
                     element: None,
+                    clocks: Vec::new(),
                 };
                 self.current = Some((var, false, pos));
             }

@@ -10,8 +10,8 @@
 //! [`ModelDescription::variables`](super::ModelDescription): the master's scalar calls
 //! cannot address them, so asking for one is "unknown variable".
 
-use super::text::{attr, is_boolean, is_double};
-use super::{ArrayElement, Causality, Doc, Element, Standard, VarType};
+use super::text::{attr, cut, is_boolean, is_double, Attrs};
+use super::{ArrayElement, Causality, Clock, Doc, Element, IntervalVariability, Standard, VarType};
 use super::{Variability, Variable, MAX_ARRAY_ELEMENTS};
 use crate::ImportError;
 
@@ -84,6 +84,25 @@ impl Standard for Fmi3 {
         if let Some(of) = doc.number::<u32>(a, &tag, "derivative", "a value reference", pos)? {
             doc.derivative_of.insert(vr, of);
         }
+        let clocks = match attr(a, "clocks") {
+            None => Vec::new(),
+            Some(list) => list
+                .split_ascii_whitespace()
+                .map(|c| c.parse::<u32>())
+                .collect::<Result<Vec<u32>, _>>()
+                .map_err(|_| {
+                    doc.error(
+                        pos,
+                        format!(
+                            "<{tag}> clocks=\"{}\" is not a list of value references",
+                            cut(list, 100)
+                        ),
+                    )
+                })?,
+        };
+        if name == "Clock" {
+            doc.md.clocks.push(clock(doc, a, (&tag, var_name.clone(), vr, causality), pos)?);
+        }
         let ty = match name {
             "Float64" => Some(VarType::Real),
             "Int32" => Some(VarType::Integer),
@@ -102,6 +121,7 @@ impl Standard for Fmi3 {
             description: attr(a, "description").map(str::to_owned),
             declared_type: attr(a, "declaredType").map(str::to_owned),
             element: None,
+            clocks,
         });
         if var.is_none() {
             doc.claim_name(&var_name, pos)?;
@@ -147,4 +167,43 @@ impl Standard for Fmi3 {
             _ => Ok(()),
         }
     }
+}
+
+/// A `<Clock>` element: its interval's variability (required), `intervalDecimal`,
+/// `shiftDecimal` and `priority`, each checked as a number.
+fn clock(
+    doc: &Doc<'_>,
+    a: &Attrs,
+    (tag, name, vr, causality): (&str, String, u32, Causality),
+    pos: usize,
+) -> Result<Clock, ImportError> {
+    let iv = doc.required(a, tag, "intervalVariability", pos)?;
+    let interval_variability = IntervalVariability::parse(iv.trim()).ok_or_else(|| {
+        doc.error(
+            pos,
+            format!(
+                "<{tag}> intervalVariability=\"{}\" is not one of {}",
+                cut(iv, 100),
+                IntervalVariability::ALL.trim_end()
+            ),
+        )
+    })?;
+    let interval_decimal = doc.number::<f64>(a, tag, "intervalDecimal", "a number", pos)?;
+    if interval_decimal.is_some_and(|i| !(i.is_finite() && i > 0.0)) {
+        return Err(doc.error(pos, format!("<{tag}> intervalDecimal must be a positive number")));
+    }
+    let shift_decimal = doc.number::<f64>(a, tag, "shiftDecimal", "a number", pos)?.unwrap_or(0.0);
+    if !(shift_decimal.is_finite() && shift_decimal >= 0.0) {
+        return Err(doc.error(pos, format!("<{tag}> shiftDecimal must be a number >= 0")));
+    }
+    let priority = doc.number::<u32>(a, tag, "priority", "an unsigned 32-bit integer", pos)?;
+    Ok(Clock {
+        name,
+        vr,
+        causality,
+        interval_variability,
+        interval_decimal,
+        shift_decimal,
+        priority,
+    })
 }

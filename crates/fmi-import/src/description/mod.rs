@@ -26,7 +26,8 @@ pub(crate) mod text;
 
 pub use crate::archive::{ENV_DESCRIPTION, MAX_DESCRIPTION_BYTES};
 pub use model::{
-    ArrayElement, Causality, CoSimulation, ContinuousState, DefaultExperiment, Initial,
-    ModelDescription, ModelExchange, VarType, Variability, Variable, MAX_ARRAY_ELEMENTS,
+    ArrayElement, Causality, Clock, CoSimulation, ContinuousState, DefaultExperiment, Initial,
+    IntervalVariability, ModelDescription, ModelExchange, ScheduledExecution, VarType, Variability,
+    Variable, MAX_ARRAY_ELEMENTS,
 };
 pub(crate) use reader::{Doc, Element, Standard};

@@ -105,6 +105,9 @@ pub struct Variable {
     /// FMU's value references, which [`crate::CsFmu`] turns into the array's value
     /// reference and the element's position in it.
     pub element: Option<ArrayElement>,
+    /// FMI 3.0 `clocks`: the value references of the clocks the variable is clocked by
+    /// (empty for a variable of continuous time or without clocks).
+    pub clocks: Vec<u32>,
 }
 
 /// Where an element of an FMI 3.0 array is: the array's value reference, the element's
@@ -130,6 +133,61 @@ pub struct CoSimulation {
     pub can_be_instantiated_only_once_per_process: bool,
     pub can_get_and_set_fmu_state: bool,
     pub can_serialize_fmu_state: bool,
+    /// FMI 3.0 `hasEventMode`: the FMU can be instantiated with `eventModeUsed` (its steps
+    /// then end at clock ticks and events are handled in event mode).
+    pub has_event_mode: bool,
+}
+
+/// FMI 3.0 `<ScheduledExecution>`: the identifier of the binary and the flags a master
+/// uses.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ScheduledExecution {
+    pub model_identifier: String,
+    pub needs_execution_tool: bool,
+    pub can_be_instantiated_only_once_per_process: bool,
+    pub can_get_and_set_fmu_state: bool,
+    pub can_serialize_fmu_state: bool,
+}
+
+fmi_enum!(
+    /// FMI 3.0 `intervalVariability` of a `<Clock>`.
+    IntervalVariability {
+        Constant = "constant",
+        Fixed = "fixed",
+        Tunable = "tunable",
+        Changing = "changing",
+        Countdown = "countdown",
+        Triggered = "triggered",
+    } default Triggered
+);
+
+/// One FMI 3.0 `<Clock>` variable.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clock {
+    pub name: String,
+    pub vr: u32,
+    /// `input` (the importer ticks it) or `output` (the FMU does); `local` for an FMU's own.
+    pub causality: Causality,
+    pub interval_variability: IntervalVariability,
+    /// `intervalDecimal`: the interval in seconds, for a time-based clock that declares it.
+    pub interval_decimal: Option<f64>,
+    /// `shiftDecimal`: the first tick's offset from the start time (default 0).
+    pub shift_decimal: f64,
+    /// `priority`: of input clocks for Scheduled Execution, 0 the highest.
+    pub priority: Option<u32>,
+}
+
+impl Clock {
+    /// Whether the clock ticks by time on its own (periodic: `constant`, `fixed` or
+    /// `tunable`), so that a master schedules its ticks from its interval.
+    pub fn is_periodic(&self) -> bool {
+        matches!(
+            self.interval_variability,
+            IntervalVariability::Constant
+                | IntervalVariability::Fixed
+                | IntervalVariability::Tunable
+        )
+    }
 }
 
 /// `<ModelExchange>`: the identifier of the binary, the capability flags a master uses,
@@ -179,6 +237,10 @@ pub struct ModelDescription {
     pub has_model_exchange: bool,
     /// `None` if the FMU has no `<ModelExchange>`.
     pub model_exchange: Option<ModelExchange>,
+    /// FMI 3.0: `None` if the FMU has no `<ScheduledExecution>`.
+    pub scheduled_execution: Option<ScheduledExecution>,
+    /// FMI 3.0 `<Clock>` variables, in document order (FMI 2.0: none).
+    pub clocks: Vec<Clock>,
     pub default_experiment: Option<DefaultExperiment>,
     pub variables: Vec<Variable>,
     pub(super) by_name: HashMap<String, usize>,
@@ -228,6 +290,11 @@ impl ModelDescription {
     /// The variable called `name`.
     pub fn variable(&self, name: &str) -> Option<&Variable> {
         self.by_name.get(name).map(|&i| &self.variables[i])
+    }
+
+    /// The clock with value reference `vr`.
+    pub fn clock(&self, vr: u32) -> Option<&Clock> {
+        self.clocks.iter().find(|c| c.vr == vr)
     }
 
     /// Whether this is an FMI 3.0 description (else FMI 2.0).
