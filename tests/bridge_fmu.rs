@@ -293,7 +293,9 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
     let clocks = se_log
         .records
         .iter()
-        .filter(|r| matches!(r, Record::Event { text, .. } if text == "output clock gait_step ticked"))
+        .filter(
+            |r| matches!(r, Record::Event { text, .. } if text == "output clock gait_step ticked"),
+        )
         .count();
     assert!(clocks >= 3, "the gait ran: {clocks} gait steps");
     assert!(
@@ -316,8 +318,10 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
             + &String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{interface}: {text}");
         assert!(
-            text.contains(&format!("replayed {ticks} samples ({} events, 0 discontinuities)", clocks + 1))
-                && text.contains(&format!("({interface})"))
+            text.contains(&format!(
+                "replayed {ticks} samples ({} events, 0 discontinuities)",
+                clocks + 1
+            )) && text.contains(&format!("({interface})"))
                 && text.contains("no divergence"),
             "{interface}: {text}"
         );

@@ -27,10 +27,10 @@ mod real_time;
 use real_time::{turn, RealTime};
 
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
-const SECONDS: f64 = 2.0;
+const SECONDS: f64 = 4.0;
 
 fn reference(t: f64) -> f64 {
-    if t < 1.0 {
+    if t < 2.0 {
         100e-6
     } else {
         40e-6
@@ -69,9 +69,15 @@ fn lockstep(interface: Interface, log: &std::path::Path) -> (ControllerReport, &
         ticks: (SECONDS / 0.002) as u64,
         ..ControllerConfig::default()
     };
-    let report =
-        run_controller(&mut comp, &mut udp, &reference, &cfg, Some(&mut log), &AtomicBool::new(false))
-            .unwrap();
+    let report = run_controller(
+        &mut comp,
+        &mut udp,
+        &reference,
+        &cfg,
+        Some(&mut log),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
     stop.store(true, Ordering::Relaxed);
     assert_eq!(board.join().unwrap(), cfg.ticks, "one plant step per tick");
     assert!(report.fault.is_none(), "{:?}", report.fault);
@@ -87,7 +93,7 @@ fn scheduled_execution_gives_the_co_simulation_trace_and_the_masters() {
         coupling: Coupling::Jacobi,
         params: vec![],
         parameter_set: None,
-        input: Some(InputTable::steps("reference", &[(0.0, 100e-6), (1.0, 40e-6)]).unwrap()),
+        input: Some(InputTable::steps("reference", &[(0.0, 100e-6), (2.0, 40e-6)]).unwrap()),
         outputs: recorded(),
     };
     let cosim =
@@ -130,11 +136,12 @@ fn scheduled_execution_gives_the_co_simulation_trace_and_the_masters() {
         a.iter().map(|t| t - auto.first_tick).collect::<Vec<_>>()
     });
     // gait_step clocks the estimator's update: in the master's run the disturbance
-    // estimate changes at exactly the ticks where the bridge logged the clock.
+    // estimate changes at exactly the ticks (the rows' times over 2 ms) where the bridge
+    // logged the clock.
     let estimate = &cosim.disturbance_estimate;
     let changed: Vec<u32> = (1..estimate.len())
         .filter(|&k| estimate[k].to_bits() != estimate[k - 1].to_bits())
-        .map(|k| k as u32)
+        .map(|k| (cosim.time[k] / 0.002).round() as u32)
         .collect();
     let relative: Vec<u32> = ticks.iter().map(|t| t - se.first_tick).collect();
     assert_eq!(changed, relative, "gait_step ticks where the estimates change");

@@ -70,8 +70,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), String> {
         return Err(format!("{}: no controller samples", args.log.display()));
     }
     let params = inchworm_scenarios::bridge::params_from_meta(&meta);
-    let mut comp =
-        FmuController::load(&args.fmu, &params, args.interface.into()).text()?;
+    let mut comp = FmuController::load(&args.fmu, &params, args.interface.into()).text()?;
     let interface = comp.interface();
     let r = replay(&mut comp, &samples).text()?;
     drop(comp);

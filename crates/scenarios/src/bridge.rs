@@ -7,8 +7,9 @@ use std::path::Path;
 
 use inchworm_bridge::{Compensator, Mechanism, ModelError, Schedule, PERIOD};
 use inchworm_controller::volts_of_code;
+use inchworm_fmi_export::same_time;
 
-use inchworm_cosim::fmu::{CsFmu, FmuError, Instance, SeFmu, VarType};
+use inchworm_cosim::fmu::{Causality, Clock, CsFmu, FmuError, Instance, SeFmu, VarType};
 use inchworm_cosim::master::set_param;
 
 use crate::Error;
@@ -148,8 +149,18 @@ impl SeCompensator {
         )?;
         let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
         let reference = fmu.vrs_of(&["reference"], VarType::Real)?;
-        let sample_clock = fmu.var(SAMPLE_CLOCK)?.vr;
-        let gait_step = fmu.var(GAIT_STEP)?.vr;
+        let sample_clock = clock(&fmu, path, SAMPLE_CLOCK, Causality::Input)?;
+        let gait_step = clock(&fmu, path, GAIT_STEP, Causality::Output)?;
+        let interval = sample_clock.interval_decimal;
+        if interval.is_none_or(|i| !same_time(i, PERIOD.as_secs_f64())) {
+            return Err(Error::ClockInterval {
+                path: path.to_path_buf(),
+                name: SAMPLE_CLOCK,
+                interval,
+                period: PERIOD.as_secs_f64(),
+            });
+        }
+        let (sample_clock, gait_step) = (sample_clock.vr, gait_step.vr);
         Ok(SeCompensator {
             fmu,
             codes,
@@ -161,6 +172,20 @@ impl SeCompensator {
             gait_ticked: false,
         })
     }
+}
+
+/// The `<Clock>` `name` of `fmu`, which must have `causality`.
+fn clock<'a>(
+    fmu: &'a SeFmu,
+    path: &Path,
+    name: &'static str,
+    causality: Causality,
+) -> Result<&'a Clock, Error> {
+    fmu.description()
+        .clocks
+        .iter()
+        .find(|c| c.name == name && c.causality == causality)
+        .ok_or_else(|| Error::NoClock { path: path.to_path_buf(), name, causality })
 }
 
 impl Compensator for SeCompensator {
