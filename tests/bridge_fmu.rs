@@ -1,8 +1,9 @@
 //! The HIL bridge with the packaged FMUs: the controller FMU on the controller side, the
 //! plant FMU in the virtual board, over UDP loopback. In lock-step the encoder trace is the
 //! co-simulation's (the master on `InchwormSystem.ssp`, Jacobi) sample for sample; the `inchworm`
-//! binary does the same as two processes; `inchworm replay` finds no divergence in its
-//! log and finds a changed one.
+//! binary does the same as two processes, with the FMI 2.0 controller through
+//! Co-Simulation and the FMI 3.0 one through Scheduled Execution; `inchworm replay` finds
+//! no divergence in its log and finds a changed one.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
