@@ -67,8 +67,10 @@ fn main() {
             let mut udp = UdpTransport::bind("127.0.0.1:0").unwrap();
             tx.send(udp.local_addr().unwrap()).unwrap();
             let mech = FmuMechanism::load(&plant, &[]).unwrap();
-            let mut board =
-                Board::new(mech, BoardConfig { lockstep, ..BoardConfig::default() }, None).unwrap();
+            // A 25-period watchdog, as the tests take on a loaded machine: a stall of a few
+            // periods is counted in the jitter, not made a fault that ends the round.
+            let cfg = BoardConfig { lockstep, watchdog_periods: 25, ..BoardConfig::default() };
+            let mut board = Board::new(mech, cfg, None).unwrap();
             let mut lateness = Vec::new();
             run_board(&mut board, &mut udp, &s, &mut lateness).unwrap();
             (lateness, board.counters.overruns, board.counters.steps)
@@ -80,7 +82,7 @@ fn main() {
         let (addr, stop, handle) = board(false);
         let mut udp = UdpTransport::connect(addr).unwrap();
         let mut comp = FmuController::load(&ctrl, &[], interface).unwrap();
-        let cfg = ControllerConfig { ticks, ..ControllerConfig::default() };
+        let cfg = ControllerConfig { ticks, dead_after: 25, ..ControllerConfig::default() };
         let report =
             run_controller(&mut comp, &mut udp, &|_| 100e-6, &cfg, None, &AtomicBool::new(false))
                 .unwrap();

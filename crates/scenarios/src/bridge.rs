@@ -8,6 +8,7 @@ use std::path::Path;
 use inchworm_bridge::{Compensator, Mechanism, ModelError, Schedule, PERIOD};
 use inchworm_controller::volts_of_code;
 use inchworm_fmi_export::same_time;
+use inchworm_fmu_models::ControllerFmu;
 
 use inchworm_cosim::fmu::{Causality, Clock, CsFmu, FmuError, Instance, SeFmu, VarType};
 use inchworm_cosim::master::set_param;
@@ -82,14 +83,25 @@ pub struct FmuCompensator {
 impl FmuCompensator {
     pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuCompensator, Error> {
         let fmu = start(path, "controller", params)?;
-        let codes = fmu.vrs_of(
-            &["dac_earth_code", "dac_nonearth_code", "dac_extension_code"],
-            VarType::Integer,
-        )?;
-        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
-        let reference = fmu.vrs_of(&["reference"], VarType::Real)?;
+        let (codes, encoder, reference) = controller_vrs(&fmu)?;
         Ok(FmuCompensator { fmu, codes, encoder, reference })
     }
+}
+
+/// The value references of the controller FMU's DAC codes, encoder input and reference,
+/// by the names of its table's rows.
+type ControllerVrs = (Vec<u32>, Vec<u32>, Vec<u32>);
+fn controller_vrs(fmu: &Instance) -> Result<ControllerVrs, Error> {
+    let codes = [
+        ControllerFmu::DAC_EARTH_CODE,
+        ControllerFmu::DAC_NONEARTH_CODE,
+        ControllerFmu::DAC_EXTENSION_CODE,
+    ];
+    Ok((
+        fmu.vrs_of(&codes.map(|v| v.name()), VarType::Integer)?,
+        fmu.vrs_of(&[ControllerFmu::ENCODER_COUNTS.name()], VarType::Integer)?,
+        fmu.vrs_of(&[ControllerFmu::REFERENCE.name()], VarType::Real)?,
+    ))
 }
 
 /// The three DAC code outputs `vrs` of `fmu`, each checked to fit the wire's 16 bits.
@@ -134,28 +146,20 @@ pub struct SeCompensator {
     gait_ticked: bool,
 }
 
-/// The controller FMU's input clock, whose partition is one 2 ms sample.
-pub const SAMPLE_CLOCK: &str = "sample_clock";
-/// The controller FMU's output clock: a sample ended a gait step and updated the estimator.
-pub const GAIT_STEP: &str = "gait_step";
-
 impl SeCompensator {
     pub fn load(path: &Path, params: &[(String, String)]) -> Result<SeCompensator, Error> {
         let mut fmu = SeFmu::load(path, "controller", false)?;
         initialise(&mut fmu, path, params)?;
-        let codes = fmu.vrs_of(
-            &["dac_earth_code", "dac_nonearth_code", "dac_extension_code"],
-            VarType::Integer,
-        )?;
-        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
-        let reference = fmu.vrs_of(&["reference"], VarType::Real)?;
-        let sample_clock = clock(&fmu, path, SAMPLE_CLOCK, Causality::Input)?;
-        let gait_step = clock(&fmu, path, GAIT_STEP, Causality::Output)?;
+        let (codes, encoder, reference) = controller_vrs(&fmu)?;
+        // The input clock, whose partition is one 2 ms sample, and the output clock that
+        // ticks when a sample ended a gait step and updated the estimator.
+        let sample_clock = clock(&fmu, path, ControllerFmu::SAMPLE_CLOCK.name(), Causality::Input)?;
+        let gait_step = clock(&fmu, path, ControllerFmu::GAIT_STEP.name(), Causality::Output)?;
         let interval = sample_clock.interval_decimal;
         if interval.is_none_or(|i| !same_time(i, PERIOD.as_secs_f64())) {
             return Err(Error::ClockInterval {
                 path: path.to_path_buf(),
-                name: SAMPLE_CLOCK,
+                name: ControllerFmu::SAMPLE_CLOCK.name(),
                 interval,
                 period: PERIOD.as_secs_f64(),
             });
@@ -213,7 +217,7 @@ impl Compensator for SeCompensator {
     }
 
     fn ticked_clock(&mut self) -> Result<Option<&str>, ModelError> {
-        Ok(self.gait_ticked.then_some(GAIT_STEP))
+        Ok(self.gait_ticked.then_some(ControllerFmu::GAIT_STEP.name()))
     }
 }
 
