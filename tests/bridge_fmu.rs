@@ -1,8 +1,9 @@
 //! The HIL bridge with the packaged FMUs: the controller FMU on the controller side, the
 //! plant FMU in the virtual board, over UDP loopback. In lock-step the encoder trace is the
 //! co-simulation's (the master on `InchwormSystem.ssp`, Jacobi) sample for sample; the `inchworm`
-//! binary does the same as two processes; `inchworm replay` finds no divergence in its
-//! log and finds a changed one.
+//! binary does the same as two processes, with the FMI 2.0 controller through
+//! Co-Simulation and the FMI 3.0 one through Scheduled Execution; `inchworm replay` finds
+//! no divergence in its log and finds a changed one.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -16,6 +17,10 @@ use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
 use inchworm_bridge::transport::UdpTransport;
+
+#[path = "support/real_time.rs"]
+mod real_time;
+use real_time::{turn, RealTime};
 
 const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
@@ -46,40 +51,6 @@ fn reference(t: f64) -> f64 {
         100e-6
     } else {
         40e-6
-    }
-}
-
-/// SCHED_FIFO for the test's thread while it lives, so the board thread and the processes
-/// it starts inherit it and other work on the machine (a CPU-bound process on every core)
-/// cannot stall them past a watchdog, as `inchworm bridge` does for itself in real time.
-/// Without the privilege the test runs under the default scheduler.
-/// One test of this file at a time: the harness runs tests on parallel threads, and the
-/// bridge processes of one test (real-time ones, under SCHED_FIFO, and those it spawns)
-/// took the two cores from another test's board for seconds, so that board missed a
-/// controller's whole handshake ("no HELLO answer from the board within 5.0 s", seen in
-/// about one run in three with every test of the file at once; none in serial runs).
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-/// This test's turn at the machine (see [`SERIAL`]); a test that failed while holding it
-/// leaves nothing shared behind.
-fn turn() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-struct RealTime(Option<(i32, i32)>, #[allow(dead_code)] std::sync::MutexGuard<'static, ()>);
-
-impl RealTime {
-    fn enter() -> RealTime {
-        let turn = turn();
-        RealTime(inchworm_bridge::realtime::fifo_thread(50).ok(), turn)
-    }
-}
-
-impl Drop for RealTime {
-    fn drop(&mut self) {
-        if let Some(b) = self.0 {
-            inchworm_bridge::realtime::restore_scheduling(b);
-        }
     }
 }
 
@@ -240,17 +211,21 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
 fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
     let _rt = RealTime::enter();
     let seconds = 3.0;
+    let ticks = (seconds / 0.002) as usize;
     // The reference from a CSV, as an operator gives it: 100 µm, then 40 µm from 1.5 s.
     let cosim = cosimulation(&[(0.0, 100e-6), (1.5, 40e-6)], seconds);
     let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
     let addr = format!("127.0.0.1:{port}");
     let dir = scratch("processes");
+    // Two sessions, each from the plant's start: the FMI 2.0 controller (Co-Simulation),
+    // then the FMI 3.0 one, which `--interface auto` drives through Scheduled Execution.
     let board = Command::new(BIN)
         .args([
             "bridge",
             "--role",
             "board",
             "--lockstep",
+            "--fresh-plant-per-session",
             "--watchdog",
             "50",
             "--addr",
@@ -263,53 +238,95 @@ fn the_bridge_as_two_processes_gives_the_cosimulation_trace() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let csv = dir.join("encoder.csv");
     let reference = dir.join("reference.csv");
     std::fs::write(&reference, "time,reference\n0,100e-6\n1.5,40e-6\n").unwrap();
-    let out = Command::new(BIN)
-        .args([
-            "bridge",
-            "--role",
-            "controller",
-            "--lockstep",
-            "--addr",
-            &addr,
-            "--duration",
-            &seconds.to_string(),
-        ])
-        .args(["--reference", reference.to_str().unwrap()])
-        .args([
-            "--fmu",
-            fmu("InchwormController.fmu").to_str().unwrap(),
-            "--out",
-            csv.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+    let controller = |controller: &str, csv: &Path, log: &Path| {
+        let out = Command::new(BIN)
+            .args([
+                "bridge",
+                "--role",
+                "controller",
+                "--lockstep",
+                "--addr",
+                &addr,
+                "--duration",
+                &seconds.to_string(),
+            ])
+            .args(["--reference", reference.to_str().unwrap()])
+            .args(["--fmu", fmu(controller).to_str().unwrap(), "--out", csv.to_str().unwrap()])
+            .args(["--log", log.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{text}");
+        let counts: Vec<i64> = std::fs::read_to_string(csv)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        (counts, text)
+    };
+    let (cs, cs_text) =
+        controller("InchwormController.fmu", &dir.join("cs.csv"), &dir.join("cs.log"));
+    let (se, se_text) =
+        controller("fmi3/InchwormController.fmu", &dir.join("se.csv"), &dir.join("se.log"));
     // SIGTERM: the board stops at its next period and flushes its log.
     unsafe { libc::kill(board.id() as i32, libc::SIGTERM) };
     let board_out = board.wait_with_output().unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{text}");
     let board_text = String::from_utf8_lossy(&board_out.stdout).to_string()
         + &String::from_utf8_lossy(&board_out.stderr);
     assert!(board_out.status.success(), "{board_text}");
-    assert!(
-        board_text.contains(&format!("board: {} steps", (seconds / 0.002) as u64)),
-        "{board_text}"
-    );
-    let counts: Vec<i64> = std::fs::read_to_string(&csv)
-        .unwrap()
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
-        .collect();
-    assert_eq!(counts, cosim.encoder_counts);
+    assert!(board_text.contains(&format!("board: {} steps", 2 * ticks)), "{board_text}");
+    assert!(cs_text.contains("(Co-Simulation, a 2 ms step every tick)"), "{cs_text}");
+    assert!(se_text.contains("(Scheduled Execution, sample_clock every tick)"), "{se_text}");
+    assert_eq!(cs, cosim.encoder_counts, "Co-Simulation");
+    assert_eq!(se, cosim.encoder_counts, "Scheduled Execution");
     // The board's log holds one sample per step, each with the codes it applied.
     let log = read_log(&dir.join("board.log")).unwrap();
     let samples = log.records.iter().filter(|r| matches!(r, Record::Board(_))).count();
-    assert_eq!(samples as f64, seconds / 0.002);
+    assert_eq!(samples, 2 * ticks);
+
+    // The Scheduled Execution run logged every tick of gait_step (clockUpdate) as an
+    // event, and its log replays through either interface without a divergence.
+    let se_log = read_log(&dir.join("se.log")).unwrap();
+    let clocks = se_log
+        .records
+        .iter()
+        .filter(
+            |r| matches!(r, Record::Event { text, .. } if text == "output clock gait_step ticked"),
+        )
+        .count();
+    assert!(clocks >= 3, "the gait ran: {clocks} gait steps");
+    assert!(
+        se_text.contains(&format!("output clock ticks: {clocks} (each an event of the run log)")),
+        "{se_text}"
+    );
+    assert!(
+        se_log.records.iter().any(|r| matches!(r, Record::Meta(m) if m.contains("interface=se\n"))),
+        "the meta record names the interface"
+    );
+    for (controller, interface) in
+        [("fmi3/InchwormController.fmu", "se"), ("InchwormController.fmu", "cs")]
+    {
+        let out = Command::new(BIN)
+            .args(["replay", dir.join("se.log").to_str().unwrap()])
+            .args(["--fmu", fmu(controller).to_str().unwrap()])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).to_string()
+            + &String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{interface}: {text}");
+        assert!(
+            text.contains(&format!(
+                "replayed {ticks} samples ({} events, 0 discontinuities)",
+                clocks + 1
+            )) && text.contains(&format!("({interface})"))
+                && text.contains("no divergence"),
+            "{interface}: {text}"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

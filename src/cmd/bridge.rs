@@ -14,11 +14,34 @@ use inchworm_bridge::realtime::{enter_real_time, percentiles};
 use inchworm_bridge::runlog::{LogWriter, Record};
 use inchworm_bridge::transport::{open_serial, CobsTransport, Transport, UdpTransport};
 use inchworm_plant::PlantParams;
+use inchworm_scenarios::bridge::{FmuController, Interface};
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RoleArg {
     Controller,
     Board,
+}
+
+/// How the controller side drives the controller FMU (`--interface`).
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum InterfaceArg {
+    /// Scheduled Execution if the FMU offers it (FMI 3.0 `<ScheduledExecution>`), else
+    /// Co-Simulation.
+    Auto,
+    /// Scheduled Execution: each tick activates the FMU's `sample_clock` at its time.
+    Se,
+    /// Co-Simulation: each tick is a 2 ms step.
+    Cs,
+}
+
+impl From<InterfaceArg> for Interface {
+    fn from(a: InterfaceArg) -> Interface {
+        match a {
+            InterfaceArg::Auto => Interface::Auto,
+            InterfaceArg::Se => Interface::ScheduledExecution,
+            InterfaceArg::Cs => Interface::CoSimulation,
+        }
+    }
 }
 
 #[derive(Args)]
@@ -33,9 +56,14 @@ pub struct BridgeArgs {
     pub serial: Option<PathBuf>,
     #[arg(long, default_value_t = 921_600)]
     pub baud: u32,
-    /// The FMU to run (default: dist/InchwormController.fmu or dist/InchwormPlant.fmu).
+    /// The FMU to run (default: dist/InchwormPlant.fmu for the board; for the controller
+    /// dist/InchwormController.fmu, or dist/fmi3/InchwormController.fmu with --interface se).
     #[arg(long)]
     pub fmu: Option<PathBuf>,
+    /// Controller: how the controller FMU is driven: auto (Scheduled Execution when the
+    /// FMU offers it, else Co-Simulation; the default), se or cs. The codes are the same.
+    #[arg(long, value_enum)]
+    pub interface: Option<InterfaceArg>,
     /// A start value or parameter of the FMU; repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
@@ -119,11 +147,15 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
     if !board_role && (!args.allow.is_empty() || args.fresh_plant_per_session) {
         return Err("--allow and --fresh-plant-per-session are board options (--role board)".into());
     }
+    if board_role && args.interface.is_some() {
+        return Err("--interface is a controller option (--role controller)".into());
+    }
+    let interface = args.interface.unwrap_or(InterfaceArg::Auto);
     let fmu = args.fmu.clone().unwrap_or_else(|| {
-        PathBuf::from(if board_role {
-            "dist/InchwormPlant.fmu"
-        } else {
-            "dist/InchwormController.fmu"
+        PathBuf::from(match (board_role, interface) {
+            (true, _) => "dist/InchwormPlant.fmu",
+            (false, InterfaceArg::Se) => "dist/fmi3/InchwormController.fmu",
+            (false, _) => "dist/InchwormController.fmu",
         })
     });
     let mut transport: Box<dyn Transport> = match &args.serial {
@@ -227,11 +259,12 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         None => None,
     };
     let reference = |t: f64| table.as_ref().map_or(100e-6, |(tab, col)| tab.value(*col, t));
-    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&fmu, &params).text()?;
+    let mut comp = FmuController::load(&fmu, &params, interface.into()).text()?;
     if let Some(l) = log.as_mut() {
         let mut meta = format!(
-            "role=controller\nfmu={}\nlockstep={}\nduration={duration}\n",
+            "role=controller\nfmu={}\ninterface={}\nlockstep={}\nduration={duration}\n",
             fmu.display(),
+            comp.interface(),
             args.lockstep
         );
         for (n, v) in &params {
@@ -248,8 +281,12 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         ..ControllerConfig::default()
     };
     println!(
-        "controller bridge: {} → board at {} ({mode}), {duration} s",
+        "controller bridge: {} ({}) → board at {} ({mode}), {duration} s",
         fmu.display(),
+        match comp {
+            FmuController::Se(_) => "Scheduled Execution, sample_clock every tick",
+            FmuController::Cs(_) => "Co-Simulation, a 2 ms step every tick",
+        },
         args.serial.as_ref().map_or(args.addr.clone(), |p| p.display().to_string())
     );
     let wall = Instant::now();
@@ -261,6 +298,9 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
         "{} ticks in {wall:.2} s; frames {} valid, {} malformed, {} duplicate, {} stale, {} gaps ({} missing), {} retransmits, {} overruns",
         report.ticks, c.link.frames, c.link.malformed, c.link.duplicates, c.link.stale, c.link.gaps, c.link.missing, c.retransmits, c.overruns
     );
+    if report.clock_ticks > 0 {
+        println!("output clock ticks: {} (each an event of the run log)", report.clock_ticks);
+    }
     if let Some(&last) = report.encoder.last() {
         let t = report.ticks as f64 * inchworm_bridge::PERIOD.as_secs_f64();
         println!(

@@ -7,6 +7,7 @@ use clap::Args;
 
 use inchworm_bridge::replay::{controller_samples, replay};
 use inchworm_bridge::runlog::{read_log, Record};
+use inchworm_scenarios::bridge::FmuController;
 
 #[derive(Args)]
 pub struct ReplayArgs {
@@ -16,6 +17,11 @@ pub struct ReplayArgs {
     pub log: PathBuf,
     #[arg(long, default_value = "dist/InchwormController.fmu")]
     pub fmu: PathBuf,
+    /// How the controller FMU is driven, as for `inchworm bridge`: auto (Scheduled
+    /// Execution when the FMU offers it, else Co-Simulation), se or cs. Either replays a
+    /// log of either: the codes are the same.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub interface: super::bridge::InterfaceArg,
 }
 
 /// Exit status of a replay without divergence of a log that does not hold the whole run
@@ -64,11 +70,12 @@ pub fn run(args: &ReplayArgs) -> Result<(), String> {
         return Err(format!("{}: no controller samples", args.log.display()));
     }
     let params = inchworm_scenarios::bridge::params_from_meta(&meta);
-    let mut comp = inchworm_scenarios::bridge::FmuCompensator::load(&args.fmu, &params).text()?;
+    let mut comp = FmuController::load(&args.fmu, &params, args.interface.into()).text()?;
+    let interface = comp.interface();
     let r = replay(&mut comp, &samples).text()?;
     drop(comp);
     println!(
-        "replayed {} samples ({} events, {} discontinuities) with {}",
+        "replayed {} samples ({} events, {} discontinuities) with {} ({interface})",
         r.samples,
         events,
         r.discontinuities,

@@ -87,6 +87,9 @@ pub struct ControllerReport {
     /// DAC frame sent → encoder frame echoing it received (µs).
     pub round_trip_us: Vec<f64>,
     pub events: Vec<(u64, String)>,
+    /// Ticks at which an output clock of the compensator ticked
+    /// ([`Compensator::ticked_clock`]), each also an event of the run log.
+    pub clock_ticks: u64,
 }
 
 struct Link<'a> {
@@ -281,17 +284,28 @@ impl Session<'_, '_> {
         let tick = self.start_tick.wrapping_add(k as u32);
         let t = k as f64 * self.cfg.period.as_secs_f64();
         let r = reference(t);
-        let codes = comp.codes()?;
-        let first_seq =
-            self.link.send(Frame::Dac(DacSample { tick, codes })).map_err(Error::Link)?;
-        let (answer, seq) = match self.pacing {
-            Pacing::LockStep => match self.await_answer(tick, codes, first_seq)? {
-                ControlFlow::Continue((answer, seq)) => (Some(answer), seq),
-                ControlFlow::Break(f) => return Ok(ControlFlow::Break(f)),
-            },
-            Pacing::RealTime { .. } => (None, first_seq),
+        let sent = crate::tick(comp, self.counts, r, |codes| {
+            let first_seq =
+                self.link.send(Frame::Dac(DacSample { tick, codes })).map_err(Error::Link)?;
+            Ok::<_, Error>(match self.pacing {
+                Pacing::LockStep => match self.await_answer(tick, codes, first_seq)? {
+                    ControlFlow::Continue((answer, seq)) => {
+                        ControlFlow::Continue((Some(answer), seq))
+                    }
+                    ControlFlow::Break(f) => ControlFlow::Break(f),
+                },
+                Pacing::RealTime { .. } => ControlFlow::Continue((None, first_seq)),
+            })
+        })?;
+        let ((answer, seq), codes) = match sent {
+            ControlFlow::Continue(sent) => sent,
+            ControlFlow::Break(f) => return Ok(ControlFlow::Break(f)),
         };
-        comp.step(self.counts, r)?;
+        if let Some(clock) = comp.ticked_clock()? {
+            self.report.clock_ticks += 1;
+            let text = format!("output clock {clock} ticked");
+            log_record(log, Record::Event { tick, text })?;
+        }
         log_record(
             log,
             Record::Controller(ControllerSample {

@@ -24,6 +24,7 @@ pub mod replay;
 pub mod runlog;
 pub mod transport;
 
+use std::ops::ControlFlow;
 use std::time::Duration;
 
 pub use error::{Error, ModelError};
@@ -47,11 +48,68 @@ pub trait Mechanism {
 
 /// The controller as the bridge drives it.
 pub trait Compensator {
+    /// When a tick's codes are computed; [`Schedule::Ahead`] unless the compensator says
+    /// otherwise.
+    fn schedule(&self) -> Schedule {
+        Schedule::Ahead
+    }
     /// The DAC codes for the interval that starts now.
     fn codes(&mut self) -> Result<[u16; 3], ModelError>;
-    /// One tick: the encoder count that holds now and the reference; afterwards
-    /// [`codes`](Compensator::codes) gives the next interval's codes.
+    /// One tick: the encoder count that holds now and the reference. Afterwards
+    /// [`codes`](Compensator::codes) gives the next interval's codes
+    /// ([`Schedule::Ahead`]) or this one's ([`Schedule::AtTick`]).
     fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError>;
+    /// The name of an output clock that ticked in the last [`step`](Compensator::step)
+    /// (the controller FMU's `gait_step`, signalled through Scheduled Execution's
+    /// clockUpdate), if one did; the run log records it. None by default.
+    fn ticked_clock(&mut self) -> Result<Option<&str>, ModelError> {
+        Ok(None)
+    }
+}
+
+/// When a [`Compensator`] computes the codes of the interval that starts at a tick. The
+/// samples are the same either way (the codes of the interval that starts at tick k come
+/// from the count that held at tick k − 1); what differs is whether the tick's own call
+/// writes them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Schedule {
+    /// The previous tick's step wrote them (Co-Simulation: the step from t to t + h
+    /// writes the sample for [t + h, t + 2h)): the bridge sends them, then steps with the
+    /// count that holds now.
+    Ahead,
+    /// The tick's step writes them (Scheduled Execution: activating the sample partition
+    /// at t writes the sample for [t, t + h) and latches the count that holds at t): the
+    /// bridge steps with the count that holds now, then sends.
+    AtTick,
+}
+
+/// One tick of `comp` as the bridge and the replay run it: `send` gets the codes for the
+/// interval that starts now, and the step with `counts` and `reference` comes before it or
+/// after it as the compensator's [`Schedule`] says (after it only if `send` went on).
+/// Gives what `send` gave and the codes.
+pub fn tick<C, B, T, E>(
+    comp: &mut C,
+    counts: i32,
+    reference: f64,
+    send: impl FnOnce([u16; 3]) -> Result<ControlFlow<B, T>, E>,
+) -> Result<ControlFlow<B, (T, [u16; 3])>, E>
+where
+    C: Compensator + ?Sized,
+    E: From<ModelError>,
+{
+    let ahead = comp.schedule() == Schedule::Ahead;
+    if !ahead {
+        comp.step(counts, reference)?;
+    }
+    let codes = comp.codes()?;
+    let sent = match send(codes)? {
+        ControlFlow::Continue(sent) => sent,
+        ControlFlow::Break(b) => return Ok(ControlFlow::Break(b)),
+    };
+    if ahead {
+        comp.step(counts, reference)?;
+    }
+    Ok(ControlFlow::Continue((sent, codes)))
 }
 
 /// What became of the frames one side received, the same on both sides.

@@ -3,6 +3,9 @@
 //! divergence means the controller (or its parameters) is not the one that ran, or that
 //! the run itself was not deterministic.
 
+use std::convert::Infallible;
+use std::ops::ControlFlow;
+
 use crate::runlog::{ControllerSample, Record};
 use crate::{Compensator, ModelError};
 
@@ -35,14 +38,19 @@ pub fn replay<C: Compensator>(
             report.discontinuities += 1;
         }
         previous = Some(s.tick);
-        let codes = comp.codes()?;
+        let ticked = crate::tick(comp, s.counts, s.reference, |codes| {
+            Ok::<_, ModelError>(ControlFlow::<Infallible, _>::Continue(codes))
+        })?;
+        let codes = match ticked {
+            ControlFlow::Continue((codes, _)) => codes,
+            ControlFlow::Break(never) => match never {},
+        };
         if codes != s.codes {
             report.divergent += 1;
             if report.first.is_none() {
                 report.first = Some((s.tick, s.codes, codes));
             }
         }
-        comp.step(s.counts, s.reference)?;
         report.samples += 1;
     }
     Ok(report)

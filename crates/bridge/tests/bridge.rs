@@ -656,6 +656,73 @@ fn the_log_replays_without_divergence_and_a_changed_sample_is_found() {
 }
 
 #[test]
+fn a_controller_that_writes_at_its_tick_gives_the_same_trace_and_logs_its_clock() {
+    // Scheduled Execution's order (step, then send) against the co-simulation's (send,
+    // then step): the same samples reach the board, so the same trace comes back, and the
+    // output clock lands in the run log at each tick whose write ended a gait step.
+    let _slot = real_time_slot();
+    let dir = std::env::temp_dir().join(format!("iw-bridge-at-tick-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("controller.log");
+    let ticks = 1000;
+    let board = spawn_board(board_cfg(true), None);
+    let mut udp = UdpTransport::connect(board.addr).unwrap();
+    let mut log = LogWriter::create(&path).unwrap();
+    log.write(&Record::Meta("role=controller".into())).unwrap();
+    let mut ctrl = ScheduledController::new();
+    let report = run_controller(
+        &mut ctrl,
+        &mut udp,
+        &reference,
+        &lockstep(ticks),
+        Some(&mut log),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    board.finish();
+    drop(log);
+    assert!(report.fault.is_none(), "{:?}", report.fault);
+    assert_eq!(report.encoder, cosimulation(ticks as usize));
+
+    // The gait steps of the co-simulation's controller: its tick k writes the sample for
+    // tick k + 1, which the scheduled controller writes at tick k + 1.
+    let mut direct = DirectController::new();
+    let mut counts = 0;
+    let mut expected = Vec::new();
+    for (k, &next) in report.encoder.iter().enumerate() {
+        direct.step(counts, reference(k as f64 * H)).unwrap();
+        if direct.ctrl.estimated() {
+            expected.push(k as u32 + 1);
+        }
+        counts = next;
+    }
+    expected.retain(|&k| k < ticks as u32);
+    assert!(expected.len() >= 5, "the gait ran: {expected:?}");
+    assert_eq!(report.clock_ticks, expected.len() as u64);
+    let contents = read_log(&path).unwrap();
+    let clocks: Vec<u32> = contents
+        .records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Event { tick, text } if text == "output clock gait_step ticked" => Some(*tick),
+            _ => None,
+        })
+        .collect();
+    let first = report.first_tick;
+    assert_eq!(clocks, expected.iter().map(|k| first.wrapping_add(*k)).collect::<Vec<_>>());
+
+    // The log replays through either order without a divergence.
+    let samples = controller_samples(&contents.records);
+    for r in [
+        replay(&mut ScheduledController::new(), &samples).unwrap(),
+        replay(&mut DirectController::new(), &samples).unwrap(),
+    ] {
+        assert_eq!((r.samples, r.divergent, r.discontinuities), (ticks, 0, 0), "{r:?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn hello_with_another_mode_is_refused_with_the_reason() {
     let _slot = real_time_slot();
     // A real-time controller against a lock-step board.

@@ -74,6 +74,21 @@ pub enum Error {
     /// The plant FMU's `slip_events` is negative.
     #[error("the plant FMU gave {0} slip events")]
     SlipEvents(i32),
+    /// The controller FMU lacks a clock the bridge drives it by (Scheduled Execution).
+    #[error("{}: no {causality} clock `{name}` in modelDescription.xml (the bridge activates `sample_clock` and reads `gait_step`)", path.display())]
+    NoClock {
+        path: std::path::PathBuf,
+        name: &'static str,
+        causality: inchworm_cosim::fmu::Causality,
+    },
+    /// The controller FMU's sample clock does not tick at the bridge's period.
+    #[error("{}: the clock `{name}` ticks every {} s; the bridge ticks every {period} s", path.display(), interval.map_or("(no intervalDecimal)".to_string(), |i| i.to_string()))]
+    ClockInterval {
+        path: std::path::PathBuf,
+        name: &'static str,
+        interval: Option<f64>,
+        period: f64,
+    },
     /// The controller FMU's DAC code does not fit the wire's 16 bits.
     #[error("the controller FMU gave DAC code {0}, outside 0–65535")]
     DacCode(i32),

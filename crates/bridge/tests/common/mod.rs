@@ -10,7 +10,7 @@ use std::thread::JoinHandle;
 use inchworm_bridge::board::{run_board, Board, BoardConfig};
 use inchworm_bridge::faults::{FaultPlan, FaultyTransport};
 use inchworm_bridge::transport::{Transport, UdpTransport};
-use inchworm_bridge::{Compensator, Mechanism, ModelError};
+use inchworm_bridge::{Compensator, Mechanism, ModelError, Schedule};
 use inchworm_controller::{volts_of_code, Controller, Params};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
@@ -91,6 +91,48 @@ impl Compensator for DirectController {
     fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
         self.codes = self.ctrl.tick(i64::from(counts), reference).codes;
         Ok(())
+    }
+}
+
+/// The controller as Scheduled Execution runs it ([`Schedule::AtTick`]): each step
+/// writes the sample of the interval that starts now, computed from the count latched at
+/// the previous tick, then latches this tick's; before the first write the codes are the
+/// parked zeros. The output clock `gait_step` ticks at the writes that ended a gait step.
+pub struct ScheduledController {
+    pub ctrl: Controller,
+    latched: Option<(i32, f64)>,
+    codes: [u16; 3],
+    gait_step: bool,
+}
+
+impl ScheduledController {
+    pub fn new() -> ScheduledController {
+        ScheduledController {
+            ctrl: Controller::new(Params::default()).unwrap(),
+            latched: None,
+            codes: [0; 3],
+            gait_step: false,
+        }
+    }
+}
+
+impl Compensator for ScheduledController {
+    fn schedule(&self) -> Schedule {
+        Schedule::AtTick
+    }
+    fn codes(&mut self) -> Result<[u16; 3], ModelError> {
+        Ok(self.codes)
+    }
+    fn step(&mut self, counts: i32, reference: f64) -> Result<(), ModelError> {
+        self.gait_step = false;
+        if let Some((c, r)) = self.latched.replace((counts, reference)) {
+            self.codes = self.ctrl.tick(i64::from(c), r).codes;
+            self.gait_step = self.ctrl.estimated();
+        }
+        Ok(())
+    }
+    fn ticked_clock(&mut self) -> Result<Option<&str>, ModelError> {
+        Ok(self.gait_step.then_some("gait_step"))
     }
 }
 
