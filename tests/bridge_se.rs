@@ -1,7 +1,8 @@
 //! The HIL bridge driving the FMI 3.0 controller through Scheduled Execution: in lock-step,
 //! against the virtual board with the FMI 3.0 plant, the encoder trace is the one the same
 //! bridge gives through Co-Simulation and the one the master gives for the same system
-//! (`dist/fmi3/InchwormSystemOpen.ssp`, Jacobi, 2 ms), bit for bit; the output clock
+//! (`dist/fmi3/InchwormSystemOpen.ssp`, Jacobi, 2 ms), with the controller in plain
+//! Co-Simulation and in Scheduled Execution, bit for bit; the output clock
 //! `gait_step` lands in the run log. An FMU without Scheduled Execution is refused for it,
 //! with the reason.
 
@@ -111,6 +112,23 @@ fn scheduled_execution_gives_the_co_simulation_trace_and_the_masters() {
     assert_eq!(auto.encoder, se.encoder);
     let bridge: Vec<i64> = se.encoder.iter().map(|&c| i64::from(c)).collect();
     assert_eq!(bridge, cosim.encoder_counts, "the bridge against the master");
+    // The master with the controller in Scheduled Execution too (`--interface controller=se`).
+    let interfaces =
+        master::Interfaces { scheduled_execution: vec!["controller".into()], ..Default::default() };
+    let mut sim = master::System::load_as(&dist("fmi3/InchwormSystemOpen.ssp"), &interfaces)
+        .unwrap()
+        .initialise(&opts)
+        .unwrap();
+    let mut trace = inchworm::trace::Trace::new(sim.record_names().to_vec());
+    trace.push(0.0, sim.sample().unwrap());
+    for _ in 0..sim.n_steps() {
+        sim.step().unwrap();
+        let row = sim.sample().unwrap();
+        trace.push(sim.time(), row);
+    }
+    sim.terminate().unwrap();
+    let master_se = LoopView::new(&trace).unwrap();
+    assert_eq!(bridge, master_se.encoder_counts, "the bridge against the master's SE run");
 
     // gait_step: none through Co-Simulation (no clocks there), through Scheduled Execution
     // an event of the run log at each tick whose sample ended a gait step.
