@@ -7,7 +7,7 @@ use super::{Interfaces, Port};
 use crate::archive::cut;
 use crate::fmu::{CsFmu, Instance, Loaded, ModelDescription};
 use crate::limits;
-use crate::model_exchange::{MeRun, Tolerance};
+use crate::model_exchange::{Carry, MeRun, Tolerance};
 use crate::{Error, StopFlag};
 
 pub(super) struct Component {
@@ -18,6 +18,8 @@ pub(super) struct Component {
 /// A component's FMU: stepped by its own Co-Simulation, or integrated by the master
 /// (Model Exchange). Everything else (variables, initialization, FMU state, reset) is the
 /// same calls either way, through `Deref`.
+// One value per component, never moved in a loop: a box would buy nothing.
+#[allow(clippy::large_enum_variant)]
 pub(super) enum Fmu {
     Cs(CsFmu),
     Me(MeRun),
@@ -77,6 +79,22 @@ impl Fmu {
             Loaded::Me(fmu) => Fmu::Me(MeRun::new(fmu, name, tolerance)?),
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
         })
+    }
+
+    /// What the component's Model Exchange integrator carries past the current
+    /// communication point (for a checkpoint); `None` for Co-Simulation.
+    pub(super) fn carry(&self) -> Option<Carry> {
+        match self {
+            Fmu::Cs(_) => None,
+            Fmu::Me(m) => Some(m.carry()),
+        }
+    }
+
+    /// Back to the carry of a checkpoint ([`Fmu::carry`]).
+    pub(super) fn set_carry(&mut self, carry: &Option<Carry>) {
+        if let (Fmu::Me(m), Some(c)) = (self, carry) {
+            m.set_carry(c.clone());
+        }
     }
 
     /// The component's Model Exchange integration, if it has one, ends at its next step
