@@ -3,8 +3,10 @@
 //! by its own Co-Simulation (the exact solver) and with the plant's Model Exchange
 //! integrated by the master (diffsol's BDF, docs/model-exchange.md), side by side: wall
 //! and CPU times and their ratios, the largest encoder difference in counts, and what the
-//! integration cost. Then the same for SECONDS (default 10) of the Figs. 6–7 staircase
-//! (`--parameter-set staircase`).
+//! integration cost. Then the same for SECONDS (default 120) of the Figs. 6–7 staircase
+//! (`--parameter-set staircase`): its first level is Fig. 5's 100 µm, held for 100 s, so
+//! a run shorter than that repeats Fig. 5 (the same DAC codes, the same integrator
+//! steps); 120 s include the move to its second level, 60 µm.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -82,7 +84,7 @@ fn main() -> Result<(), Error> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let ssp =
         args.first().map(PathBuf::from).unwrap_or_else(|| root.join("dist/InchwormSystem.ssp"));
-    let staircase: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(10.0);
+    let staircase: f64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(120.0);
     assert!(ssp.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
     let opts = |stop: f64, set: Option<&str>| Options {
         stop_time: Some(stop),

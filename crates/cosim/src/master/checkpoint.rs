@@ -38,7 +38,8 @@ impl Simulation {
                 }
             }
         }
-        Ok(Checkpoint { states, k: self.k, latest: self.latest.clone() })
+        let carries = self.components.iter().map(|c| c.fmu.carry()).collect();
+        Ok(Checkpoint { states, carries, k: self.k, latest: self.latest.clone() })
     }
 
     /// Back to `checkpoint`, which this simulation took: every component restores its
@@ -54,10 +55,13 @@ impl Simulation {
         }
         // The restored FMUs hold the inputs of the checkpoint, not those set since.
         self.destination_batches.forget();
-        for (c, s) in self.components.iter_mut().zip(&checkpoint.states) {
+        for ((c, s), carry) in
+            self.components.iter_mut().zip(&checkpoint.states).zip(&checkpoint.carries)
+        {
             c.fmu
                 .set_state(s)
                 .map_err(|source| Error::Component { component: c.name.clone(), source })?;
+            c.fmu.set_carry(carry);
         }
         self.k = checkpoint.k;
         self.latest.clone_from(&checkpoint.latest);

@@ -10,7 +10,7 @@ use crate::archive::cut;
 use crate::error::interface_name;
 use crate::fmu::{CsFmu, Instance, Interface, Loaded, ModelDescription, SeFmu};
 use crate::limits;
-use crate::model_exchange::{MeRun, Tolerance};
+use crate::model_exchange::{Carry, MeRun, Tolerance};
 use crate::{Error, StopFlag};
 
 pub(super) struct Component {
@@ -22,6 +22,8 @@ pub(super) struct Component {
 /// tick with event mode, integrated by the master (Model Exchange), or its model
 /// partitions activated at their ticks (Scheduled Execution). Everything else (variables,
 /// initialization, FMU state, reset) is the same calls either way, through `Deref`.
+// One value per component, never moved in a loop: a box would buy nothing.
+#[allow(clippy::large_enum_variant)]
 pub(super) enum Fmu {
     Cs(CsFmu),
     Me(MeRun),
@@ -103,6 +105,22 @@ impl Fmu {
             Loaded::Cs(fmu) => Fmu::Cs(fmu),
             Loaded::Se(fmu) => Fmu::Se(Clocked::new(fmu)),
         })
+    }
+
+    /// What the component's Model Exchange integrator carries past the current
+    /// communication point (for a checkpoint); `None` for Co-Simulation.
+    pub(super) fn carry(&self) -> Option<Carry> {
+        match self {
+            Fmu::Cs(_) => None,
+            Fmu::Me(m) => Some(m.carry()),
+        }
+    }
+
+    /// Back to the carry of a checkpoint ([`Fmu::carry`]).
+    pub(super) fn set_carry(&mut self, carry: &Option<Carry>) {
+        if let (Fmu::Me(m), Some(c)) = (self, carry) {
+            m.set_carry(c.clone());
+        }
     }
 
     /// The component's Model Exchange integration, if it has one, ends at its next step

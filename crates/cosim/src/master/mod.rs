@@ -19,7 +19,7 @@ use std::path::Path;
 
 use crate::fmu::{FmuState, VarType};
 pub use crate::input::InputTable;
-use crate::model_exchange::{MeStats, Tolerance};
+use crate::model_exchange::{Carry, MeStats, Tolerance};
 use crate::ssp::{Archive, End};
 use crate::trace::Trace;
 use crate::{Error, StopFlag};
@@ -176,12 +176,15 @@ pub fn run(path: &Path, opts: &Options, progress: impl FnMut(f64)) -> Result<Tra
 /// A communication point of a running [`Simulation`] to come back to: every component's
 /// FMU state (`fmi2GetFMUstate` / `fmi3GetFMUState`, whichever standard the component is)
 /// and the master's own state there (the step counter and the outputs last read, which
-/// feed the next step). Restoring it makes the steps after it repeat bit for bit, so a
+/// feed the next step), and what a Model Exchange component's integrator carries past the
+/// point. Restoring it makes the steps after it repeat bit for bit, so a
 /// study can branch many runs from one settled transient. The FMU states live in their
 /// components: give a checkpoint back with [`Simulation::release`]; those not released
 /// are freed with the simulation.
 pub struct Checkpoint {
     states: Vec<FmuState>,
+    /// Each component's integrator carry (`None` for a Co-Simulation component).
+    carries: Vec<Option<Carry>>,
     k: u64,
     latest: Vec<f64>,
 }

@@ -1,0 +1,171 @@
+//! What the integrator's closures call: the FMU's derivatives, Jacobian-vector products
+//! (directional derivatives, or finite differences) and event indicators, each checked
+//! finite, the first error kept for after the step.
+
+use crate::fmu::{FmuError, MeFmu};
+use crate::{Error, StopFlag};
+
+use super::MeStats;
+
+/// What the integrator's closures share: the FMU, the first error it gave (the closures
+/// cannot return one; they return NaN and the error is raised after the step) and counts.
+pub(super) struct Eval<'f> {
+    pub(super) fmu: &'f mut MeFmu,
+    pub(super) error: Option<Error>,
+    pub(super) stats: MeStats,
+    pub(super) states: &'f [u32],
+    pub(super) derivatives: &'f [u32],
+    pub(super) directional: bool,
+    /// `f(x)` and the shifted state of [`Eval::finite_difference`], reused.
+    pub(super) scratch: Vec<f64>,
+    pub(super) shifted: Vec<f64>,
+    pub(super) name: &'f str,
+    pub(super) stop: Option<&'f StopFlag>,
+}
+
+impl Eval<'_> {
+    fn fail(&mut self, e: Error, out: &mut [f64]) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+        out.fill(f64::NAN);
+    }
+
+    pub(super) fn at(&mut self, t: f64, x: &[f64]) -> Result<(), FmuError> {
+        self.fmu.set_time(t)?;
+        self.fmu.set_continuous_states(x)
+    }
+
+    /// Before an evaluation: the run's stop flag (a dense Jacobian is `nx` products, and
+    /// the flag is not left waiting for them), and the integrator's time and state, which
+    /// must be finite before the FMU is handed them.
+    pub(super) fn ready(&self, t: f64, x: &[f64]) -> Result<(), Error> {
+        if let Some(flag) = self.stop {
+            flag.check()?;
+        }
+        integrator_finite(self.name, t, x)
+    }
+
+    /// `what` (a call's result, `out`) must be finite.
+    fn finite(&self, what: &str, t: f64, out: &[f64]) -> Result<(), Error> {
+        match out.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(i) => Err(Error::Integration {
+                component: self.name.to_owned(),
+                time: t,
+                message: format!("{what} {i} is {} (not finite)", out[i]),
+            }),
+        }
+    }
+
+    pub(super) fn derivatives(&mut self, t: f64, x: &[f64], dx: &mut [f64]) {
+        self.stats.derivatives += 1;
+        let r = self.ready(t, x).and_then(|()| {
+            self.at(t, x).and_then(|()| self.fmu.get_derivatives(dx)).map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("the derivative", t, dx));
+        if let Err(e) = r {
+            self.fail(e, dx);
+        }
+    }
+
+    pub(super) fn jacobian_product(&mut self, t: f64, x: &[f64], v: &[f64], out: &mut [f64]) {
+        self.stats.jacobian_products += 1;
+        let r = self.ready(t, x).and_then(|()| {
+            if self.directional {
+                self.at(t, x).and_then(|()| {
+                    self.fmu.directional_derivative(self.derivatives, self.states, v, out)
+                })
+            } else {
+                self.finite_difference(t, x, v, out)
+            }
+            .map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("the Jacobian product", t, out));
+        if let Err(e) = r {
+            self.fail(e, out);
+        }
+    }
+
+    /// `(f(x + ε v) − f(x)) / ε`, with ε scaled to `x` and `v`.
+    fn finite_difference(
+        &mut self,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), FmuError> {
+        let norm = |a: &[f64]| a.iter().map(|e| e * e).sum::<f64>().sqrt();
+        let (nx, nv) = (norm(x), norm(v));
+        if nv == 0.0 {
+            out.fill(0.0);
+            return Ok(());
+        }
+        let eps = f64::EPSILON.sqrt() * (1.0 + nx) / nv;
+        // `f(x)` and `x + ε v` in buffers kept across calls: no allocation per product.
+        let (mut f0, mut shifted) =
+            (std::mem::take(&mut self.scratch), std::mem::take(&mut self.shifted));
+        f0.resize(x.len(), 0.0);
+        shifted.clear();
+        shifted.extend(x.iter().zip(v).map(|(a, b)| a + eps * b));
+        self.at(t, x)?;
+        self.fmu.get_derivatives(&mut f0)?;
+        self.at(t, &shifted)?;
+        self.fmu.get_derivatives(out)?;
+        out.iter_mut().zip(&f0).for_each(|(o, f)| *o = (*o - f) / eps);
+        (self.scratch, self.shifted) = (f0, shifted);
+        Ok(())
+    }
+
+    pub(super) fn indicators(&mut self, t: f64, x: &[f64], z: &mut [f64]) {
+        if self.fmu.nz() == 0 {
+            // diffsol is given one constant root function for an FMU without indicators.
+            z.fill(1.0);
+            return;
+        }
+        let r = self.ready(t, x).and_then(|()| {
+            self.at(t, x).and_then(|()| self.fmu.get_event_indicators(z)).map_err(Error::from)
+        });
+        let r = r.and_then(|()| self.finite("event indicator", t, z));
+        if let Err(e) = r {
+            self.fail(e, z);
+        }
+    }
+}
+
+/// The integrator's time `t` and state `x` are finite, or an error of `component` that
+/// says they are not (the integrator's failure, not the FMU's: it is not handed them).
+pub(super) fn integrator_finite(component: &str, t: f64, x: &[f64]) -> Result<(), Error> {
+    let error =
+        |message| Err(Error::Integration { component: component.to_owned(), time: t, message });
+    if !t.is_finite() {
+        return error(format!("the integrator reached the time {t} (not finite)"));
+    }
+    match x.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => error(format!("the integrator's state {i} is {} (not finite)", x[i])),
+    }
+}
+
+/// `fmi*CompletedIntegratorStep` after an accepted step, unless the FMU said it needs none
+/// (`not_needed`): whether the FMU asks for a step event. Its asking to terminate is an
+/// error of `component` at `t`.
+pub(super) fn completed_step(
+    fmu: &mut MeFmu,
+    not_needed: bool,
+    component: &str,
+    t: f64,
+) -> Result<bool, Error> {
+    if not_needed {
+        return Ok(false);
+    }
+    let (event, terminate) = fmu.completed_integrator_step(true)?;
+    if terminate {
+        return Err(Error::Integration {
+            component: component.to_owned(),
+            time: t,
+            message: "the FMU asked to terminate the simulation (completed integrator step)".into(),
+        });
+    }
+    Ok(event)
+}

@@ -1,0 +1,20 @@
+//! The unit tests of the Model Exchange master's own pieces (the integration itself is
+//! tested through FMUs in `crates/cosim/tests/model_exchange.rs`).
+
+use super::*;
+
+#[test]
+fn stats_read_as_one_line_naming_each_count() {
+    let s = MeStats {
+        steps: 413_624,
+        derivatives: 599_342,
+        jacobian_products: 153_986,
+        state_events: 228,
+        time_events: 0,
+        step_events: 1,
+    };
+    assert_eq!(
+        s.to_string(),
+        "413624 integrator steps, 599342 derivative and 153986 Jacobian-product evaluations, 228 state, 0 time and 1 step events"
+    );
+}
