@@ -108,10 +108,11 @@ impl Fmu {
     }
 
     /// What the component's Model Exchange integrator carries past the current
-    /// communication point (for a checkpoint); `None` for Co-Simulation.
+    /// communication point (for a checkpoint); `None` for the others, which the master
+    /// steps or activates and which carry nothing of the master's.
     pub(super) fn carry(&self) -> Option<Carry> {
         match self {
-            Fmu::Cs(_) => None,
+            Fmu::Cs(_) | Fmu::Events(_) | Fmu::Se(_) => None,
             Fmu::Me(m) => Some(m.carry()),
         }
     }
