@@ -7,16 +7,14 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 
-use inchworm::bridge::{FmuCompensator, FmuMechanism};
+use inchworm::bridge::FmuCompensator;
 use inchworm::closed_loop::{recorded, LoopView};
 use inchworm::master::{self, Coupling, InputTable, Options};
-use inchworm_bridge::board::{run_board, Board, BoardConfig};
-use inchworm_bridge::controller::{run_controller, ControllerConfig};
 use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
-use inchworm_bridge::transport::UdpTransport;
+
+#[path = "support/lockstep.rs"]
+mod lockstep;
 
 #[path = "support/real_time.rs"]
 mod real_time;
@@ -66,46 +64,12 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
     let seconds = 4.0;
     let cosim = cosimulation(&[(0.0, 100e-6), (2.0, 40e-6)], seconds);
 
-    let stop = Arc::new(AtomicBool::new(false));
-    let (tx, rx) = std::sync::mpsc::channel();
-    let s = Arc::clone(&stop);
-    let board = std::thread::spawn(move || {
-        let mut udp = UdpTransport::bind("127.0.0.1:0").unwrap();
-        tx.send(udp.local_addr().unwrap()).unwrap();
-        let mech = FmuMechanism::load(&fmu("InchwormPlant.fmu"), &[]).unwrap();
-        // A generous watchdog: this test is about exactness on a machine busy with others.
-        let mut board = Board::new(
-            mech,
-            BoardConfig { lockstep: true, watchdog_periods: 50, ..BoardConfig::default() },
-            None,
-        )
-        .unwrap();
-        run_board(&mut board, &mut udp, &s, &mut Vec::new()).unwrap();
-        board.counters.clone()
-    });
-    let mut udp = UdpTransport::connect(rx.recv().unwrap()).unwrap();
     let dir = scratch("lockstep");
     let log_path = dir.join("controller.log");
-    let mut log = LogWriter::create(&log_path).unwrap();
-    log.write(&Record::Meta("role=controller\n".into())).unwrap();
     let mut comp = FmuCompensator::load(&fmu("InchwormController.fmu"), &[]).unwrap();
-    let cfg = ControllerConfig {
-        lockstep: true,
-        ticks: (seconds / 0.002) as u64,
-        ..ControllerConfig::default()
-    };
-    let report = run_controller(
-        &mut comp,
-        &mut udp,
-        &reference,
-        &cfg,
-        Some(&mut log),
-        &AtomicBool::new(false),
-    )
-    .unwrap();
-    stop.store(true, Ordering::Relaxed);
-    let board_counters = board.join().unwrap();
-    assert!(report.fault.is_none(), "{:?}", report.fault);
+    let ticks = (seconds / 0.002) as u64;
+    let (report, _) =
+        lockstep::lockstep(&fmu("InchwormPlant.fmu"), &mut comp, &reference, ticks, &log_path);
 
     let bridge: Vec<i64> = report.encoder.iter().map(|&c| i64::from(c)).collect();
     assert_eq!(bridge.len(), cosim.encoder_counts.len());
@@ -115,7 +79,6 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
         "the bridge's encoder trace leaves the co-simulation's at sample {first:?}"
     );
     assert!(cosim.settle_time(1e-6).is_some(), "the scenario moves and settles");
-    assert_eq!(board_counters.steps, cfg.ticks);
 
     // The log replays through a fresh controller FMU without a single divergent code.
     let out = Command::new(BIN)
@@ -131,16 +94,16 @@ fn lockstep_bridge_with_the_fmus_reproduces_the_cosimulation_exactly() {
         String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{text}");
     assert!(
-        text.contains(&format!("replayed {} samples", cfg.ticks)) && text.contains("no divergence"),
+        text.contains(&format!("replayed {} samples", ticks)) && text.contains("no divergence"),
         "{text}"
     );
     // Meta, the samples, the DISARM event and the end record.
     assert!(
         text.contains(&format!(
             "{} complete records ({} controller samples, 1 events); end record: completed: {} ticks, disarmed",
-            cfg.ticks + 3,
-            cfg.ticks,
-            cfg.ticks
+            ticks + 3,
+            ticks,
+            ticks
         )),
         "{text}"
     );

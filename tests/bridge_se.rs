@@ -8,20 +8,19 @@
 
 use std::path::PathBuf;
 use std::process::Command;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 
-use inchworm::bridge::{FmuController, FmuMechanism, Interface};
+use inchworm::bridge::{FmuController, Interface};
 use inchworm::closed_loop::{recorded, LoopView};
 use inchworm::master::{self, Coupling, InputTable, Options};
-use inchworm_bridge::board::{run_board, Board, BoardConfig};
-use inchworm_bridge::controller::{run_controller, ControllerConfig, ControllerReport};
-use inchworm_bridge::runlog::{read_log, LogWriter, Record};
-use inchworm_bridge::transport::UdpTransport;
+use inchworm_bridge::controller::ControllerReport;
+use inchworm_bridge::runlog::{read_log, Record};
 
 #[path = "support/dist.rs"]
 mod support;
 use support::dist;
+
+#[path = "support/lockstep.rs"]
+mod lockstep;
 
 #[path = "support/real_time.rs"]
 mod real_time;
@@ -47,41 +46,11 @@ fn scratch(name: &str) -> PathBuf {
 /// The bridge in lock-step: the FMI 3.0 plant in a virtual board on loopback, the FMI 3.0
 /// controller through `interface` here, its run log at `log`.
 fn lockstep(interface: Interface, log: &std::path::Path) -> (ControllerReport, &'static str) {
-    let stop = Arc::new(AtomicBool::new(false));
-    let (tx, rx) = std::sync::mpsc::channel();
-    let s = Arc::clone(&stop);
-    let board = std::thread::spawn(move || {
-        let mut udp = UdpTransport::bind("127.0.0.1:0").unwrap();
-        tx.send(udp.local_addr().unwrap()).unwrap();
-        let mech = FmuMechanism::load(&dist("fmi3/InchwormPlant.fmu"), &[]).unwrap();
-        // A generous watchdog: this test is about exactness on a machine busy with others.
-        let cfg = BoardConfig { lockstep: true, watchdog_periods: 50, ..BoardConfig::default() };
-        let mut board = Board::new(mech, cfg, None).unwrap();
-        run_board(&mut board, &mut udp, &s, &mut Vec::new()).unwrap();
-        board.counters.steps
-    });
-    let mut udp = UdpTransport::connect(rx.recv().unwrap()).unwrap();
-    let mut log = LogWriter::create(log).unwrap();
-    log.write(&Record::Meta("role=controller\n".into())).unwrap();
     let mut comp =
         FmuController::load(&dist("fmi3/InchwormController.fmu"), &[], interface).unwrap();
-    let cfg = ControllerConfig {
-        lockstep: true,
-        ticks: (SECONDS / 0.002) as u64,
-        ..ControllerConfig::default()
-    };
-    let report = run_controller(
-        &mut comp,
-        &mut udp,
-        &reference,
-        &cfg,
-        Some(&mut log),
-        &AtomicBool::new(false),
-    )
-    .unwrap();
-    stop.store(true, Ordering::Relaxed);
-    assert_eq!(board.join().unwrap(), cfg.ticks, "one plant step per tick");
-    assert!(report.fault.is_none(), "{:?}", report.fault);
+    let ticks = (SECONDS / 0.002) as u64;
+    let (report, _) =
+        lockstep::lockstep(&dist("fmi3/InchwormPlant.fmu"), &mut comp, &reference, ticks, log);
     (report, comp.interface())
 }
 

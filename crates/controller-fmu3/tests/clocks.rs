@@ -18,17 +18,12 @@ const H: f64 = 0.002;
 const SAMPLES: usize = 500;
 const REFERENCE: f64 = 30e-6;
 
+#[path = "../../../tests/support/check_encoder.rs"]
+mod check_encoder;
+
 /// The encoder the controller reads at instant k: the plant's after step k - 1.
 fn encoder() -> Vec<i32> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/plant-check-trace-fia20-passive.csv"
-    );
-    let text = std::fs::read_to_string(path).unwrap();
-    let after: Vec<i32> =
-        text.lines().skip(1).map(|l| l.split(',').nth(4).unwrap().parse().unwrap()).collect();
-    assert_eq!(after.len(), SAMPLES);
-    std::iter::once(0).chain(after).collect()
+    check_encoder::encoder(SAMPLES)
 }
 
 /// What a run records at each instant k = 0 … 500: the three DAC codes written there,

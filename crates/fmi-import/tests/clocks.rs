@@ -21,17 +21,12 @@ fn controller() -> std::path::PathBuf {
     dist("fmi3/InchwormController.fmu")
 }
 
+#[path = "../../../tests/support/check_encoder.rs"]
+mod check_encoder;
+
 /// The encoder the controller reads at instant k: the plant's after step k - 1.
 fn encoder() -> Vec<i32> {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../tests/data/plant-check-trace-fia20-passive.csv"
-    );
-    let text = std::fs::read_to_string(path).unwrap();
-    let after: Vec<i32> =
-        text.lines().skip(1).map(|l| l.split(',').nth(4).unwrap().parse().unwrap()).collect();
-    assert_eq!(after.len(), SAMPLES);
-    std::iter::once(0).chain(after).collect()
+    check_encoder::encoder(SAMPLES)
 }
 
 #[test]
