@@ -1,33 +1,39 @@
 //! `inchworm run --spread`: every actuator of `dist/MirrorMount.ssp` reduced to the sweep's
 //! metrics, one CSV row an actuator, with the nominal device's figures.
 
-use std::path::PathBuf;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 #[path = "support/dist.rs"]
 mod support;
 
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
 
-fn scratch() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("inchworm-spread-{}", std::process::id()));
+/// A folder of this test's own: the tests of this file run at once, in one process.
+fn scratch(test: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("inchworm-spread-{}-{test}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }
 
-#[test]
-fn the_mirror_mounts_three_actuators_settle_and_hold_as_the_nominal_loop() {
-    let dir = scratch();
-    let out = Command::new(BIN)
+/// `inchworm run SYSTEM --out DIR/run.csv --spread DIR/spread`.
+fn run_spread(system: &str, dir: &Path) -> Output {
+    Command::new(BIN)
         .arg("run")
-        .arg(support::dist("MirrorMount.ssp"))
+        .arg(support::dist(system))
         .arg("--out")
         .arg(dir.join("run.csv"))
         .arg("--spread")
         .arg(dir.join("spread"))
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn the_mirror_mounts_three_actuators_settle_and_hold_as_the_nominal_loop() {
+    let dir = scratch("mirror");
+    let out = run_spread("MirrorMount.ssp", &dir);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(stdout.contains("disturbance (um) over 3 actuators"), "{stdout}");
@@ -54,18 +60,11 @@ fn the_mirror_mounts_three_actuators_settle_and_hold_as_the_nominal_loop() {
 
 #[test]
 fn a_run_without_an_actuator_is_refused_before_it_starts() {
-    let dir = scratch();
-    let out = Command::new(BIN)
-        .arg("run")
-        .arg(support::dist("InchwormMount.fmu"))
-        .arg("--out")
-        .arg(dir.join("run.csv"))
-        .arg("--spread")
-        .arg(dir.join("spread"))
-        .output()
-        .unwrap();
+    let dir = scratch("no-actuator");
+    let out = run_spread("InchwormMount.fmu", &dir);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(stderr.contains("--spread: no actuator recorded"), "{stderr}");
     assert!(!dir.join("spread").exists() && !dir.join("run.csv").exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }
