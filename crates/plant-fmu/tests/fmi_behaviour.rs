@@ -16,8 +16,7 @@ use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_plant_fmu as fmu;
 
 /// The three DAC inputs: earth, non-earth, extension.
-const DACS: [Var<PlantFmu>; 3] =
-    [PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH, PlantFmu::DAC_EXTENSION];
+const DACS: [Var<PlantFmu>; 3] = PlantFmu::DAC_INPUTS;
 
 struct Instance {
     c: fmi2Component,

@@ -92,13 +92,8 @@ impl FmuCompensator {
 /// by the names of its table's rows.
 type ControllerVrs = (Vec<u32>, Vec<u32>, Vec<u32>);
 fn controller_vrs(fmu: &Instance) -> Result<ControllerVrs, Error> {
-    let codes = [
-        ControllerFmu::DAC_EARTH_CODE,
-        ControllerFmu::DAC_NONEARTH_CODE,
-        ControllerFmu::DAC_EXTENSION_CODE,
-    ];
     Ok((
-        fmu.vrs_of(&codes.map(|v| v.name()), VarType::Integer)?,
+        fmu.vrs_of(&ControllerFmu::DAC_CODES.map(|v| v.name()), VarType::Integer)?,
         fmu.vrs_of(&[ControllerFmu::ENCODER_COUNTS.name()], VarType::Integer)?,
         fmu.vrs_of(&[ControllerFmu::REFERENCE.name()], VarType::Real)?,
     ))

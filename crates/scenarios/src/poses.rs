@@ -48,9 +48,7 @@ impl Poses {
     pub fn new(recorded: &[String]) -> Result<Poses, Error> {
         let column = |name: &str| recorded.iter().position(|n| n == name);
         let pose = [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT].map(|v| v.name());
-        let dacs =
-            [ControllerFmu::DAC_EARTH, ControllerFmu::DAC_NONEARTH, ControllerFmu::DAC_EXTENSION]
-                .map(|v| v.name());
+        let dacs = ControllerFmu::DAC_OUTPUTS.map(|v| v.name());
         let (mut mounts, mut actuators) = (Vec::new(), Vec::new());
         let mut header = String::from("time");
         for name in recorded {
