@@ -51,8 +51,9 @@ impl Poses {
         let dacs = ControllerFmu::DAC_OUTPUTS.map(|v| v.name());
         let (mut mounts, mut actuators) = (Vec::new(), Vec::new());
         let mut header = String::from("time");
+        let (mount_suffix, dac_suffix) = (format!("mount.{}", pose[0]), format!(".{}", dacs[0]));
         for name in recorded {
-            let Some(prefix) = name.strip_suffix(&format!("mount.{}", pose[0])) else { continue };
+            let Some(prefix) = name.strip_suffix(&mount_suffix) else { continue };
             let mut columns = [0; 3];
             for (c, v) in columns.iter_mut().zip(pose) {
                 let want = format!("{prefix}mount.{v}");
@@ -64,7 +65,7 @@ impl Poses {
             let mut found = 0;
             for n in recorded {
                 let Some(component) =
-                    n.strip_suffix(&format!(".{}", dacs[0])).filter(|c| c.starts_with(&controller))
+                    n.strip_suffix(&dac_suffix).filter(|c| c.starts_with(&controller))
                 else {
                     continue;
                 };
