@@ -28,6 +28,11 @@ pub(super) struct Eval<'f> {
     /// function, cost no second `fmi*SetTime` or `fmi*SetContinuousStates`.
     pub(super) given_t: Option<u64>,
     pub(super) given_x: Vec<f64>,
+    /// The last Jacobian computed whole (column-major), which a new solver starts from
+    /// while [`Eval::reuse`] is set; and the columns of the one being computed.
+    pub(super) jacobian: &'f mut Option<Vec<f64>>,
+    pub(super) reuse: bool,
+    pub(super) columns: Vec<f64>,
 }
 
 impl Eval<'_> {
@@ -94,7 +99,40 @@ impl Eval<'_> {
         }
     }
 
+    /// `∂ẋ/∂x · v` into `out`. diffsol forms a dense Jacobian from the products with
+    /// `e_0 … e_(n−1)` in turn: those columns are kept as they come, and while
+    /// [`Eval::reuse`] is set a unit seed is answered from the last Jacobian kept instead of
+    /// the FMU.
     pub(super) fn jacobian_product(&mut self, t: f64, x: &[f64], v: &[f64], out: &mut [f64]) {
+        let unit = unit_seed(v);
+        if let (true, Some(j), Some(kept)) = (self.reuse, unit, self.jacobian.as_ref()) {
+            out.copy_from_slice(&kept[j * out.len()..(j + 1) * out.len()]);
+            return;
+        }
+        self.evaluate_product(t, x, v, out);
+        if self.error.is_some() {
+            return;
+        }
+        let n = out.len();
+        match unit {
+            // The next column in turn: kept; the last one completes a Jacobian.
+            Some(j) if j * n == self.columns.len() => {
+                self.columns.extend_from_slice(out);
+                if j + 1 == v.len() {
+                    let whole = std::mem::take(&mut self.columns);
+                    match self.jacobian.as_mut() {
+                        Some(kept) => kept.copy_from_slice(&whole),
+                        None => *self.jacobian = Some(whole.clone()),
+                    }
+                    self.columns = whole;
+                    self.columns.clear();
+                }
+            }
+            _ => self.columns.clear(),
+        }
+    }
+
+    fn evaluate_product(&mut self, t: f64, x: &[f64], v: &[f64], out: &mut [f64]) {
         self.stats.jacobian_products += 1;
         let r = self.ready(t, x).and_then(|()| {
             if self.directional {
@@ -156,6 +194,12 @@ impl Eval<'_> {
             self.fail(e, z);
         }
     }
+}
+
+/// `Some(j)` if `v` is the unit vector `e_j` (the bits of 1 at `j`, of 0 elsewhere).
+pub(super) fn unit_seed(v: &[f64]) -> Option<usize> {
+    let j = v.iter().position(|e| e.to_bits() == 1f64.to_bits())?;
+    v.iter().enumerate().all(|(i, e)| i == j || e.to_bits() == 0).then_some(j)
 }
 
 /// Every element finite: a fold without an early exit, which the compiler vectorizes.

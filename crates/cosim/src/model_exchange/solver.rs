@@ -41,6 +41,10 @@ pub struct Carry {
     /// The BDF at the communication point the last step ended at, if no event happened
     /// at its end.
     at_point: Option<Box<AtPoint>>,
+    /// The last Jacobian the integrator computed whole, column-major: a new integration's
+    /// solver starts from it (diffsol computes it anew when Newton converges slowly or
+    /// fails, and after a number of steps).
+    jacobian: Option<Vec<f64>>,
 }
 
 /// The BDF's state at a communication point, and what its equations were there.
@@ -183,6 +187,9 @@ impl MeRun {
             stop: self.stop.as_ref(),
             given_t: None,
             given_x: Vec::with_capacity(nx),
+            jacobian: &mut self.carry.jacobian,
+            reuse: false,
+            columns: Vec::with_capacity(nx * nx),
         });
         let take = |cell: &RefCell<Eval<'_>>| cell.borrow_mut().error.take();
         let (outcome, kept) = {
@@ -206,7 +213,10 @@ impl MeRun {
             if let Some(e) = take(&cell) {
                 return Err(e);
             }
+            // The solver forms its first Jacobian from the last one kept, if any.
+            cell.borrow_mut().reuse = true;
             let solver = state.and_then(|s| problem.bdf_solver::<NalgebraLU<f64>>(s));
+            cell.borrow_mut().reuse = false;
             if let Some(e) = take(&cell) {
                 return Err(e);
             }
