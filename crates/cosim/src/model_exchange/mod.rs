@@ -11,7 +11,8 @@
 //! 1. the event iteration at `t` (`fmi2NewDiscreteStates` / `fmi3UpdateDiscreteStates`
 //!    until no further pass is asked for), which also gives the next time event;
 //! 2. Continuous-Time Mode, and diffsol's BDF (variable order 1–5, Newton with the
-//!    Jacobian from the FMU's directional derivatives, finite differences if it has none)
+//!    Jacobian from the FMU's directional derivatives, finite differences if it has none,
+//!    a new solver starting from the last one computed whole)
 //!    from `t` to the next time event or `t + h`, with root finding on the event
 //!    indicators; `fmi*CompletedIntegratorStep` after each accepted step;
 //! 3. at a state event (a root), a step event or a time event before `t + h`: Event Mode,

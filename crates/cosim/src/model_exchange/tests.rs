@@ -18,3 +18,18 @@ fn stats_read_as_one_line_naming_each_count() {
         "413624 integrator steps, 599342 derivative and 153986 Jacobian-product evaluations, 228 state, 0 time and 1 step events"
     );
 }
+
+/// A seed answered from the kept Jacobian is exactly a unit vector: diffsol's columns
+/// `e_j`, and nothing near one.
+#[test]
+fn only_exact_unit_seeds_are_columns() {
+    use super::eval::unit_seed;
+    assert_eq!(unit_seed(&[0.0, 1.0, 0.0]), Some(1));
+    assert_eq!(unit_seed(&[1.0]), Some(0));
+    assert_eq!(unit_seed(&[0.0, 0.0, 0.0]), None);
+    assert_eq!(unit_seed(&[1.0, 1.0, 0.0]), None);
+    assert_eq!(unit_seed(&[0.0, 1.0 + f64::EPSILON, 0.0]), None);
+    assert_eq!(unit_seed(&[1e-300, 1.0, 0.0]), None);
+    assert_eq!(unit_seed(&[-0.0, 1.0, 0.0]), None);
+    assert_eq!(unit_seed(&[0.0, -1.0, 0.0]), None);
+}

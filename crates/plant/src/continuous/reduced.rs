@@ -23,6 +23,7 @@
 //!
 //! LOCKED has no mechanics: there `s` is the physical state and the stack stays frozen.
 
+use std::cell::Cell;
 use std::sync::Arc;
 
 use nalgebra::{Complex, SMatrix};
@@ -208,6 +209,10 @@ pub struct Reduced {
     /// time and then the states at it, and evaluates the rates and their Jacobian there, so
     /// one exponential serves them all.
     at: Option<(u64, Fast)>,
+    /// The rates of the last [`Reduced::derivatives`], with the bits of the DAC volts
+    /// they were taken for: a master reads the rates one variable at a time, each the
+    /// same vector. Every `&mut self` method forgets them.
+    rates: Cell<Option<([u64; 3], [f64; N_STATES])>>,
     /// Every configuration's split, by the plant's configuration key.
     configs: Arc<Vec<Config>>,
 }
@@ -245,6 +250,7 @@ impl Reduced {
             modal: None,
             since,
             at: None,
+            rates: Cell::new(None),
             configs: Arc::new(configs),
         };
         r.split();
@@ -269,6 +275,7 @@ impl Reduced {
     /// Splits the physical state in the current configuration: the fast part from now on,
     /// and the slow state.
     fn split(&mut self) {
+        self.rates.set(None);
         self.s = self.plant.state.z;
         self.since = self.plant.state.time;
         self.fast = Fast::zeros();
@@ -289,6 +296,7 @@ impl Reduced {
 
     /// The physical state at the plant's time from the slow state and the fast part.
     fn join(&mut self) {
+        self.rates.set(None);
         let key = self.plant.config_key();
         let z = &mut self.plant.state.z;
         match &self.configs[key].split {
@@ -357,6 +365,19 @@ impl Reduced {
 
     /// The rate of every continuous state with `dac` held, in the current configuration.
     pub fn derivatives(&self, dac: Dac) -> [f64; N_STATES] {
+        let key = [dac.extension, dac.earth, dac.nonearth].map(f64::to_bits);
+        if let Some((k, rates)) = self.rates.get() {
+            if k == key {
+                return rates;
+            }
+        }
+        let r = self.rates_now(dac);
+        self.rates.set(Some((key, r)));
+        r
+    }
+
+    /// [`Reduced::derivatives`] computed anew.
+    fn rates_now(&self, dac: Dac) -> [f64; N_STATES] {
         let (held, e, n) = self.plant.held(dac);
         let mut s = self.s;
         s[ix::UX] = held[ix::UX];
@@ -377,6 +398,7 @@ impl Reduced {
     /// ([`Plant::event_update`]), then, if it changed the physical state or the
     /// configuration, the state split anew in the configuration it leaves.
     pub fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
+        self.rates.set(None);
         let before = self.continuous_states();
         if t.to_bits() != self.plant.state.time.to_bits() {
             self.set_time(t);
@@ -424,6 +446,7 @@ impl Reduced {
         next.plant.load_state(plant)?;
         next.modal = next.modal_of_fast();
         next.at = None;
+        next.rates.set(None);
         *self = next;
         Ok(())
     }
@@ -446,6 +469,44 @@ mod tests {
     use super::*;
     use nalgebra::{Complex, DMatrix};
     use std::f64::consts::PI;
+
+    /// The rates kept between two reads are those computed anew, through every call that
+    /// changes what they depend on: the states, the time, the DAC volts, an event update
+    /// (a drive that closes the brakes and starts the runner), a restored state.
+    #[test]
+    fn kept_rates_are_the_rates_of_now() {
+        let bits = |r: [f64; N_STATES]| r.map(f64::to_bits);
+        let mut r = Reduced::new(PlantParams::fia20()).unwrap();
+        let (rest, drive) = (Dac::default(), Dac { earth: 10.0, nonearth: 0.0, extension: 5.0 });
+        r.event_update(rest, 0.0);
+        let same = |r: &Reduced, dac: Dac| {
+            let kept = r.derivatives(dac);
+            assert_eq!(bits(kept), bits(r.rates_now(dac)));
+            assert_eq!(bits(r.derivatives(dac)), bits(kept), "read twice");
+            kept
+        };
+        let at_rest = same(&r, rest);
+        let driven = same(&r, drive);
+        assert_ne!(bits(at_rest), bits(driven), "the DAC volts move the rates");
+        r.event_update(drive, 1e-3);
+        let after_event = same(&r, drive);
+        let saved = {
+            let mut out = Vec::new();
+            r.save_state(&mut out);
+            out
+        };
+        let mut x = r.continuous_states();
+        for (i, v) in x.iter_mut().enumerate() {
+            *v += 1e-6 * (i + 1) as f64;
+        }
+        r.set_continuous_states(&x);
+        let moved = same(&r, drive);
+        assert_ne!(bits(moved), bits(after_event), "the states move the rates");
+        r.set_time(2e-3);
+        same(&r, drive);
+        r.load_state(&saved).unwrap();
+        assert_eq!(bits(same(&r, drive)), bits(after_event), "restored");
+    }
 
     /// Every configuration of the nominal devices has modes, and `Re(V (e^{λ τ} ∘ V⁻¹ f))`
     /// is the matrix exponential's `e^{L τ} f` to 1e-12 of `|f|` over 1 µs to 10 ms.
