@@ -60,6 +60,35 @@ fn event_budget(h: f64) -> u32 {
 /// A scan of fewer points than this is cheaper than the bound that could skip it.
 pub(crate) const MIN_BOUND_POINTS: usize = 16;
 
+/// What the scan bound proved of a scan (`Plant::provably_clear`).
+enum Proof {
+    /// Nothing: the scan looks at every test.
+    Nothing,
+    /// No brake switches at any scan point: the scan looks at the mechanics alone.
+    Brakes,
+    /// Every scan point is clear: no scan.
+    All,
+}
+
+/// The brakes' part of `Plant::clear_on`: on intervals of the earth and the non-earth
+/// brake volts that hold every value the event loop will compare, neither brake switches.
+#[inline(always)]
+fn brakes_clear_on(watch: &Watch, earth: Option<(f64, f64)>, nonearth: Option<(f64, f64)>) -> bool {
+    let clear = |range: Option<(f64, f64)>, closed_below: bool| -> bool {
+        let Some((lo, hi)) = range else {
+            return false;
+        };
+        if closed_below {
+            hi < watch.vth
+        } else {
+            lo >= watch.vth
+        }
+    };
+    // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E stays
+    // on its side of V_th, as does V_N.
+    clear(earth, watch.earth_closed) && clear(nonearth, !watch.nonearth_closed)
+}
+
 /// The play thresholds and the sliding direction the event loop watches, a function of
 /// the hysteresis state alone.
 #[derive(Clone, Copy, Debug)]
@@ -215,11 +244,12 @@ impl Watch<'_> {
 /// `full_scan_inline` on four lanes at once (the same IEEE comparisons, products and sums,
 /// so the same decisions; `maxpd` and `f64::max` differ only on a NaN or a zero's sign, and a
 /// lane with a NaN counts as a stop). `false` means every point is clear; on `true` the
-/// caller decides the points one by one.
+/// caller decides the points one by one. Without `BRAKES` the brake volts are not looked
+/// at (a bound has proved that neither brake switches at any scan point).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 #[inline]
-unsafe fn group_may_stop(
+unsafe fn group_may_stop<const BRAKES: bool>(
     w: &Watch,
     [ve, vn, xi, rate]: [&[f64; 4]; 4],
     xi_prev: f64,
@@ -229,26 +259,31 @@ unsafe fn group_may_stop(
     use std::arch::x86_64::*;
     // SAFETY: every load is of a whole `[f64; 4]`.
     unsafe {
-        let (ve, vn) = (_mm256_loadu_pd(ve.as_ptr()), _mm256_loadu_pd(vn.as_ptr()));
         let (x, r) = (_mm256_loadu_pd(xi.as_ptr()), _mm256_loadu_pd(rate.as_ptr()));
-        let vth = _mm256_set1_pd(w.vth);
-        let nan = _mm256_or_pd(
-            _mm256_or_pd(
+        let nan =
+            _mm256_or_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(x, x), _mm256_cmp_pd::<_CMP_UNORD_Q>(r, r));
+        let brakes = if BRAKES {
+            let (ve, vn) = (_mm256_loadu_pd(ve.as_ptr()), _mm256_loadu_pd(vn.as_ptr()));
+            let vth = _mm256_set1_pd(w.vth);
+            let nan = _mm256_or_pd(
                 _mm256_cmp_pd::<_CMP_UNORD_Q>(ve, ve),
                 _mm256_cmp_pd::<_CMP_UNORD_Q>(vn, vn),
-            ),
-            _mm256_or_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(x, x), _mm256_cmp_pd::<_CMP_UNORD_Q>(r, r)),
-        );
-        // Earth closed ⇔ V_E < V_th, non-earth closed ⇔ V_N ≥ V_th: a stop is the other side.
-        let earth = if w.earth_closed {
-            _mm256_cmp_pd::<_CMP_GE_OQ>(ve, vth)
+            );
+            // Earth closed ⇔ V_E < V_th, non-earth closed ⇔ V_N ≥ V_th: a stop is the other
+            // side.
+            let earth = if w.earth_closed {
+                _mm256_cmp_pd::<_CMP_GE_OQ>(ve, vth)
+            } else {
+                _mm256_cmp_pd::<_CMP_LT_OQ>(ve, vth)
+            };
+            let nonearth = if w.nonearth_closed {
+                _mm256_cmp_pd::<_CMP_LT_OQ>(vn, vth)
+            } else {
+                _mm256_cmp_pd::<_CMP_GE_OQ>(vn, vth)
+            };
+            _mm256_or_pd(nan, _mm256_or_pd(earth, nonearth))
         } else {
-            _mm256_cmp_pd::<_CMP_LT_OQ>(ve, vth)
-        };
-        let nonearth = if w.nonearth_closed {
-            _mm256_cmp_pd::<_CMP_LT_OQ>(vn, vth)
-        } else {
-            _mm256_cmp_pd::<_CMP_GE_OQ>(vn, vth)
+            _mm256_setzero_pd()
         };
         let (up, down) = (_mm256_set1_pd(w.up), _mm256_set1_pd(w.down));
         let play = if w.direction != 0.0 {
@@ -285,7 +320,7 @@ unsafe fn group_may_stop(
             );
             _mm256_or_pd(onset, _mm256_and_pd(turn, cross))
         };
-        let any = _mm256_or_pd(_mm256_or_pd(nan, play), _mm256_or_pd(earth, nonearth));
+        let any = _mm256_or_pd(_mm256_or_pd(nan, play), brakes);
         _mm256_movemask_pd(any) != 0
     }
 }
@@ -370,6 +405,15 @@ impl Plant {
                 // Only in steps without events so far: then the tail is the same for every
                 // step of this size and its product is cached, not recomputed.
                 left = 0;
+            } else if watching && events > 0 {
+                // The tail's dyadic pieces, in a step that has had an event (so the cached
+                // tail is not tried before each): as many at once as run clear, up to the
+                // first that stops.
+                stopless = false;
+                let (consumed, event, stopped) = self.pieces(left, &mut report);
+                events += u32::from(event);
+                stops += u32::from(event || stopped);
+                left -= consumed;
             } else {
                 stopless = false;
                 let level = 63 - left.leading_zeros() as usize;
@@ -420,6 +464,71 @@ impl Plant {
     #[target_feature(enable = "avx")]
     unsafe fn piece_avx(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
         self.piece_inline::<true>(level, report)
+    }
+
+    /// The pieces of `left` ticks (below one scan interval) by its set bits from the top, as
+    /// `advance_held` would take them one `piece` at a time, up to and with the first one that
+    /// stops: the ticks consumed, whether an event was handled, and whether a piece stopped
+    /// before its end. A piece that runs clear is `piece`'s test and product, made here
+    /// without its set-up (one configuration and watch for them all: nothing changes them
+    /// until a stop); a piece that may stop goes to `piece`, which makes the same test again
+    /// from the same state, and so the same decision.
+    fn pieces(&mut self, left: u64, report: &mut StepReport) -> (u64, bool, bool) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.pieces_avx(left, report) };
+        }
+        self.pieces_inline::<false>(left, report)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn pieces_avx(&mut self, left: u64, report: &mut StepReport) -> (u64, bool, bool) {
+        self.pieces_inline::<true>(left, report)
+    }
+
+    #[inline(always)]
+    fn pieces_inline<const AVX: bool>(
+        &mut self,
+        left: u64,
+        report: &mut StepReport,
+    ) -> (u64, bool, bool) {
+        let key = self.config();
+        let (mut consumed, stop_level) = {
+            let cfg = table(&self.configs, key);
+            let chain = &*self.chain;
+            let watch = self.watch(cfg);
+            let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
+            let mut consumed = 0u64;
+            let mut stop_level = None;
+            while consumed < left {
+                let level = 63 - (left - consumed).leading_zeros() as usize;
+                // `piece_inline`'s test of the piece's end, and its test for a turn of ξ.
+                let (xi1, rate1) =
+                    (cfg.level_value::<AVX>(level, 0, &z), cfg.level_value::<AVX>(level, 1, &z));
+                let hit = watch.brakes_changed_at(
+                    chain.level_value::<AVX>(level, 0, &e),
+                    chain.level_value::<AVX>(level, 0, &n),
+                ) || watch.play_event_at(xi1, rate1);
+                if hit || (watch.direction == 0.0 && watch.rate(&z) * rate1 < 0.0) {
+                    stop_level = Some(level);
+                    break;
+                }
+                z = mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[level], &z);
+                e = mul_vec_inline::<4, AVX>(&chain.phi[level], &e);
+                n = mul_vec_inline::<4, AVX>(&chain.phi[level], &n);
+                consumed += 1 << level;
+            }
+            (self.state.z, self.state.earth, self.state.nonearth) = (z, e, n);
+            (consumed, stop_level)
+        };
+        let Some(level) = stop_level else {
+            return (consumed, false, false);
+        };
+        let (ticks, event) = self.piece_inline::<AVX>(level, report);
+        consumed += ticks;
+        (consumed, event, event || ticks < 1 << level)
     }
 
     /// `piece` with its products inlined (one CPU dispatch per piece, not per product).
@@ -578,46 +687,75 @@ impl Plant {
         let key = self.config();
         let cfg = table(&self.configs, key);
         let watch = self.watch(cfg);
+        let mut brakes = true;
         if points >= MIN_BOUND_POINTS && !self.scan_always {
-            if self.provably_clear(cfg, &watch) {
-                debug_assert_eq!(
-                    self.full_scan(cfg, &watch, points),
-                    points,
-                    "the scan bound missed an event"
-                );
-                self.scan_stats.skipped += 1;
-                return points;
+            match self.provably_clear(cfg, &watch) {
+                Proof::All => {
+                    debug_assert_eq!(
+                        self.full_scan(cfg, &watch, points, true),
+                        points,
+                        "the scan bound missed an event"
+                    );
+                    self.scan_stats.skipped += 1;
+                    return points;
+                }
+                Proof::Brakes => brakes = false,
+                Proof::Nothing => {}
             }
             self.scan_stats.scanned += 1;
         }
-        self.full_scan(cfg, &watch, points)
+        let clear = self.full_scan(cfg, &watch, points, brakes);
+        debug_assert!(
+            brakes || clear == self.full_scan(cfg, &watch, points, true),
+            "the brakes' bound missed a switch"
+        );
+        clear
     }
 
-    /// `scan` looking at every point.
-    fn full_scan(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch, points: usize) -> usize {
+    /// `scan` looking at every point; without `brakes` at the mechanics alone (a bound
+    /// has proved that neither brake switches at any scan point, so their tests would all
+    /// be false and they decide nothing).
+    fn full_scan(
+        &self,
+        cfg: &Propagators<{ linear::N }>,
+        watch: &Watch,
+        points: usize,
+        brakes: bool,
+    ) -> usize {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx") {
             // SAFETY: the CPU has AVX.
-            return unsafe { self.full_scan_avx(cfg, watch, points) };
+            return unsafe {
+                if brakes {
+                    self.full_scan_avx::<true>(cfg, watch, points)
+                } else {
+                    self.full_scan_avx::<false>(cfg, watch, points)
+                }
+            };
         }
-        self.full_scan_inline::<false>(cfg, watch, points)
+        if brakes {
+            self.full_scan_inline::<false, true>(cfg, watch, points)
+        } else {
+            self.full_scan_inline::<false, false>(cfg, watch, points)
+        }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn full_scan_avx(
+    unsafe fn full_scan_avx<const BRAKES: bool>(
         &self,
         cfg: &Propagators<{ linear::N }>,
         watch: &Watch,
         points: usize,
     ) -> usize {
-        self.full_scan_inline::<true>(cfg, watch, points)
+        self.full_scan_inline::<true, BRAKES>(cfg, watch, points)
     }
 
     /// The scan, four points' values at a time (`Propagators::scanned4`: the same bits as
-    /// one at a time), each point then decided in order as before.
+    /// one at a time), each point then decided in order as before; the brake volts only
+    /// with `BRAKES`.
     #[inline(always)]
-    fn full_scan_inline<const AVX: bool>(
+    fn full_scan_inline<const AVX: bool, const BRAKES: bool>(
         &self,
         cfg: &Propagators<{ linear::N }>,
         watch: &Watch,
@@ -629,15 +767,18 @@ impl Plant {
         let mut xi_prev = watch.xi(z);
         let mut rate_prev = watch.rate(z);
         for g in 0..points.div_ceil(4) {
-            let ve = chain.scanned4::<AVX>(g, 0, e);
-            let vn = chain.scanned4::<AVX>(g, 0, n);
+            let (ve, vn) = if BRAKES {
+                (chain.scanned4::<AVX>(g, 0, e), chain.scanned4::<AVX>(g, 0, n))
+            } else {
+                ([0.0; 4], [0.0; 4])
+            };
             let xi = cfg.scanned4::<AVX>(g, 0, z);
             let rate = cfg.scanned4::<AVX>(g, 1, z);
             #[cfg(target_arch = "x86_64")]
             if AVX && 4 * g + 4 <= points {
                 // SAFETY: `AVX` callers run with AVX.
                 let may_stop = unsafe {
-                    group_may_stop(watch, [&ve, &vn, &xi, &rate], xi_prev, rate_prev, dt)
+                    group_may_stop::<BRAKES>(watch, [&ve, &vn, &xi, &rate], xi_prev, rate_prev, dt)
                 };
                 if !may_stop {
                     (xi_prev, rate_prev) = (xi[3], rate[3]);
@@ -650,8 +791,9 @@ impl Plant {
                     break;
                 }
                 let (xi, rate) = (xi[l], rate[l]);
-                let stop = (ve[l] < watch.vth) != watch.earth_closed
-                    || (vn[l] >= watch.vth) != watch.nonearth_closed
+                let stop = (BRAKES
+                    && ((ve[l] < watch.vth) != watch.earth_closed
+                        || (vn[l] >= watch.vth) != watch.nonearth_closed))
                     || watch.play_event_at(xi, rate)
                     || (watch.direction == 0.0
                         && rate * rate_prev < 0.0
@@ -670,20 +812,24 @@ impl Plant {
     /// current state is certain to find every point clear, from the bounds of the watched
     /// functionals over all scan points (`linear::ScanBound`). The test mirrors every
     /// condition of `scan` on intervals that hold the very values `scan` would compute,
-    /// so `true` means `scan` would return all points; in doubt it says `false`.
-    fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
+    /// so `Proof::All` means `scan` would return all points, and `Proof::Brakes` that no
+    /// brake test of the scan can fire; in doubt it proves less.
+    fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> Proof {
         let chain = &self.chain;
         debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
         let brake = |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s));
-        self.clear_on(
-            watch,
-            || brake(&self.state.earth),
-            || brake(&self.state.nonearth),
-            || {
-                let s = cfg.split(&self.state.z)?;
-                Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
-            },
-        )
+        if !brakes_clear_on(watch, brake(&self.state.earth), brake(&self.state.nonearth)) {
+            return Proof::Nothing;
+        }
+        let mechanics = || {
+            let s = cfg.split(&self.state.z)?;
+            Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
+        };
+        if self.mechanics_clear_on(watch, mechanics()) {
+            Proof::All
+        } else {
+            Proof::Brakes
+        }
     }
 
     /// The decision of `provably_clear` on intervals of the brake volts of the earth and
@@ -697,22 +843,18 @@ impl Plant {
         nonearth: impl FnOnce() -> Option<(f64, f64)>,
         mechanics: impl FnOnce() -> Option<((f64, f64), (f64, f64))>,
     ) -> bool {
-        let clear = |range: Option<(f64, f64)>, closed_below: bool| -> bool {
-            let Some((lo, hi)) = range else {
-                return false;
-            };
-            if closed_below {
-                hi < watch.vth
-            } else {
-                lo >= watch.vth
-            }
-        };
-        // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
-        // stays on its side of V_th, as does V_N.
-        if !clear(earth(), watch.earth_closed) || !clear(nonearth(), !watch.nonearth_closed) {
-            return false;
-        }
-        let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics() else {
+        brakes_clear_on(watch, earth(), nonearth()) && self.mechanics_clear_on(watch, mechanics())
+    }
+
+    /// The mechanics' part of [`Self::clear_on`]: on intervals of `ξ` and of the sign of
+    /// `ξ̇`, no slip onset, no reversal of a slipping `ξ`, no turn that could reach an onset.
+    #[inline(always)]
+    fn mechanics_clear_on(
+        &self,
+        watch: &Watch,
+        mechanics: Option<((f64, f64), (f64, f64))>,
+    ) -> bool {
+        let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics else {
             return false;
         };
         if watch.direction > 0.0 {
