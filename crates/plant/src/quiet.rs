@@ -22,7 +22,7 @@ use crate::linear::{
     self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
     LEVELS,
 };
-use crate::solver::MIN_BOUND_POINTS;
+use crate::scan::MIN_BOUND_POINTS;
 use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
 
 /// Most scan segments a planned step may have: a 2 ms step has two (128 points and 3 at
