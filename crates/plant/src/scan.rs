@@ -3,7 +3,7 @@
 //! whole scan clear (or its brakes) from the state alone (`linear::ScanBound`).
 
 use crate::configs::table;
-use crate::linear::{self, ix, Chain, Propagators, TICK};
+use crate::linear::{self, ix, Chain, Propagators, BOUND_SLACK, TICK};
 use crate::solver::Watch;
 use crate::Plant;
 
@@ -265,11 +265,11 @@ impl Plant {
         if !brakes_clear_on(watch, brake(&self.state.earth), brake(&self.state.nonearth)) {
             return Proof::Nothing;
         }
-        let mechanics = || {
-            let s = cfg.split(&self.state.z)?;
-            Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
+        let Some(s) = cfg.split(&self.state.z) else {
+            return Proof::Brakes;
         };
-        if self.mechanics_clear_on(watch, mechanics()) {
+        let mechanics = || Some((cfg.range(0, &s)?, cfg.range(1, &s)?));
+        if self.mechanics_clear_on(watch, mechanics(), || cfg.turn_range(&s)) {
             Proof::All
         } else {
             Proof::Brakes
@@ -277,8 +277,10 @@ impl Plant {
     }
 
     /// The decision of `provably_clear` on intervals of the brake volts of the earth and
-    /// the non-earth chain, and of `ξ` and of the sign of `ξ̇` (`mechanics`), that hold every
-    /// value the event loop will compare: `true` means no point of them can stop it.
+    /// the non-earth chain, of `ξ` and of the sign of `ξ̇` (`mechanics`), and of the change
+    /// of the sign of `ξ̇` between the two points of a turn test (`turn`, asked for only
+    /// where the interval of `ξ̇` cannot decide), that hold every value the event loop will
+    /// compare: `true` means no point of them can stop it.
     #[inline(always)]
     pub(crate) fn clear_on(
         &self,
@@ -286,8 +288,10 @@ impl Plant {
         earth: impl FnOnce() -> Option<(f64, f64)>,
         nonearth: impl FnOnce() -> Option<(f64, f64)>,
         mechanics: impl FnOnce() -> Option<((f64, f64), (f64, f64))>,
+        turn: impl FnOnce() -> Option<(f64, f64)>,
     ) -> bool {
-        brakes_clear_on(watch, earth(), nonearth()) && self.mechanics_clear_on(watch, mechanics())
+        brakes_clear_on(watch, earth(), nonearth())
+            && self.mechanics_clear_on(watch, mechanics(), turn)
     }
 
     /// The mechanics' part of [`Self::clear_on`]: on intervals of `ξ` and of the sign of
@@ -297,6 +301,7 @@ impl Plant {
         &self,
         watch: &Watch,
         mechanics: Option<((f64, f64), (f64, f64))>,
+        turn: impl FnOnce() -> Option<(f64, f64)>,
     ) -> bool {
         let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics else {
             return false;
@@ -315,10 +320,24 @@ impl Plant {
             if gain.is_nan() || gain < 0.0 {
                 return false;
             }
-            let rate_max = rate_lo.abs().max(rate_hi.abs());
             let dt = TICK * (1u64 << self.chain.scan_level) as f64;
-            let reach = dt * (rate_max + rate_max) * watch.xi_row[ix::VX];
-            xi_hi + reach < watch.up && xi_lo - reach > watch.down
+            // `|ξ̇₀| + |ξ̇₁|` bounded by `sum`.
+            let inside = |sum: f64| {
+                let reach = dt * sum * watch.xi_row[ix::VX];
+                xi_hi + reach < watch.up && xi_lo - reach > watch.down
+            };
+            let rate_max = rate_lo.abs().max(rate_hi.abs());
+            if inside(rate_max + rate_max) {
+                return true;
+            }
+            // The turn test fires only where `ξ̇₀ ξ̇₁ < 0`, and there `|ξ̇₀| + |ξ̇₁|` is
+            // `|ξ̇₁ − ξ̇₀|` (`linear::TURN_RATE`), which the interval `turn` holds; the
+            // computed sum of the two magnitudes rounds to at most its bound times
+            // `1 + BOUND_SLACK`, and the rest is monotone as above. A NaN decides nothing.
+            let Some((lo, hi)) = turn() else {
+                return false;
+            };
+            inside(lo.abs().max(hi.abs()) * (1.0 + BOUND_SLACK))
         }
     }
 }
