@@ -273,10 +273,11 @@ impl Plant {
         z[ix::UX] = volts(dac.extension);
         e[3] = volts(dac.earth);
         n[3] = volts(dac.nonearth);
+        let watch = self.watch(cfg);
         // What `sync_hysteresis` would do; a quiet step leaves the memories as they are.
-        let rate = cfg.watched[1].dot(&z);
+        let rate = watch.rate(&z);
         let direction = crate::solver::rate_sign(rate);
-        let xi = cfg.watched[0].dot(&z);
+        let xi = watch.xi(&z);
         debug_assert!(
             !self.state.armed.keeps(xi) || self.state.hysteresis.sync_keeps(xi, direction)
         );
@@ -284,7 +285,6 @@ impl Plant {
             return None;
         }
         z[ix::C0] = self.state.armed.c0();
-        let watch = self.watch(cfg);
         let split = plan.mechanics.split_inline::<AVX>(&z);
         let ranges = [
             plan.chain.range::<AVX>(0, &plan.chain.split_inline::<AVX>(&e)),

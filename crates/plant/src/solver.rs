@@ -500,7 +500,12 @@ impl Plant {
     fn sync_hysteresis(&mut self) {
         // The rows of the current configuration, from its table if it has one (same bits).
         let (xi, rate) = match &self.configs[self.config_key()] {
-            Some(cfg) => (cfg.watched[0].dot(&self.state.z), cfg.watched[1].dot(&self.state.z)),
+            // The sparse sums of `Watch`: the dense dot products but for the sign of a zero,
+            // which neither `sync` nor the keep interval tells from the other.
+            Some(cfg) => {
+                let watch = self.watch(cfg);
+                (watch.xi(&self.state.z), watch.rate(&self.state.z))
+            }
             None => (
                 linear::xi_row(&self.params, self.state.hysteresis.sticking_weight())
                     .dot(&self.state.z),
