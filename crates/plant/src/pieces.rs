@@ -53,40 +53,50 @@ impl Plant {
         report: &mut StepReport,
     ) -> (u64, bool, bool) {
         let key = self.config();
-        let (mut consumed, stop_level) = {
-            let cfg = table(&self.configs, key);
-            let chain = &*self.chain;
-            let watch = self.watch(cfg);
-            let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
-            let mut consumed = 0u64;
-            let mut stop_level = None;
-            while consumed < left {
-                let level = 63 - (left - consumed).leading_zeros() as usize;
-                // `piece_inline`'s test of the piece's end, and its test for a turn of ξ.
-                let (xi1, rate1) =
-                    (cfg.level_value::<AVX>(level, 0, &z), cfg.level_value::<AVX>(level, 1, &z));
-                let hit = watch.brakes_changed_at(
-                    chain.level_value::<AVX>(level, 0, &e),
-                    chain.level_value::<AVX>(level, 0, &n),
-                ) || watch.play_event_at(xi1, rate1);
-                if hit || (watch.direction == 0.0 && watch.rate(&z) * rate1 < 0.0) {
-                    stop_level = Some(level);
-                    break;
+        let mut consumed = 0u64;
+        while consumed < left {
+            let stop_level = {
+                let cfg = table(&self.configs, key);
+                let chain = &*self.chain;
+                let watch = self.watch(cfg);
+                let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
+                let mut stop_level = None;
+                while consumed < left {
+                    let level = 63 - (left - consumed).leading_zeros() as usize;
+                    // `piece_inline`'s test of the piece's end, and its test for a turn of ξ.
+                    let (xi1, rate1) = (
+                        cfg.level_value::<AVX>(level, 0, &z),
+                        cfg.level_value::<AVX>(level, 1, &z),
+                    );
+                    let hit = watch.brakes_changed_at(
+                        chain.level_value::<AVX>(level, 0, &e),
+                        chain.level_value::<AVX>(level, 0, &n),
+                    ) || watch.play_event_at(xi1, rate1);
+                    if hit || (watch.direction == 0.0 && watch.rate(&z) * rate1 < 0.0) {
+                        stop_level = Some(level);
+                        break;
+                    }
+                    z = mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[level], &z);
+                    e = mul_vec_inline::<4, AVX>(&chain.phi[level], &e);
+                    n = mul_vec_inline::<4, AVX>(&chain.phi[level], &n);
+                    consumed += 1 << level;
                 }
-                z = mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[level], &z);
-                e = mul_vec_inline::<4, AVX>(&chain.phi[level], &e);
-                n = mul_vec_inline::<4, AVX>(&chain.phi[level], &n);
-                consumed += 1 << level;
+                (self.state.z, self.state.earth, self.state.nonearth) = (z, e, n);
+                stop_level
+            };
+            let Some(level) = stop_level else {
+                break;
+            };
+            // A piece that may stop: `piece` decides it. One that runs clear after all (a
+            // sign change of `ξ̇` that is no turn, or whose turn cannot reach an onset)
+            // leaves the configuration as it was, and the loop goes on.
+            let (ticks, event) = self.piece_inline::<AVX>(level, report);
+            consumed += ticks;
+            if event || ticks < 1 << level {
+                return (consumed, event, true);
             }
-            (self.state.z, self.state.earth, self.state.nonearth) = (z, e, n);
-            (consumed, stop_level)
-        };
-        let Some(level) = stop_level else {
-            return (consumed, false, false);
-        };
-        let (ticks, event) = self.piece_inline::<AVX>(level, report);
-        consumed += ticks;
-        (consumed, event, event || ticks < 1 << level)
+        }
+        (consumed, false, false)
     }
 
     /// `piece` with its products inlined (one CPU dispatch per piece, not per product).

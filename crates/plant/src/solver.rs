@@ -298,7 +298,20 @@ impl Plant {
                 // tail is not tried before each): as many at once as run clear, up to the
                 // first that stops.
                 stopless = false;
+                #[cfg(debug_assertions)]
+                let reference = self.pieces_one_by_one(left, report);
                 let (consumed, event, stopped) = self.pieces(left, &mut report);
+                #[cfg(debug_assertions)]
+                {
+                    let (plant, r, outcome) = reference;
+                    let (mut a, mut b) = (Vec::new(), Vec::new());
+                    self.save_state(&mut a);
+                    plant.save_state(&mut b);
+                    assert!(
+                        a == b && r == report && outcome == (consumed, event, stopped),
+                        "the tail's pieces in one loop and one at a time differ"
+                    );
+                }
                 events += u32::from(event);
                 stops += u32::from(event || stopped);
                 left -= consumed;
@@ -403,6 +416,27 @@ impl Plant {
         (self.state.z, self.state.earth, self.state.nonearth) =
             (mul_vec(phi, &first.0), mul_vec(chain_phi, &first.1), mul_vec(chain_phi, &first.2));
         true
+    }
+
+    /// What `pieces` does, one `piece` at a time on a clone, as the loop of `advance_held`
+    /// takes them: for the debug build's check of `pieces`.
+    #[cfg(debug_assertions)]
+    fn pieces_one_by_one(
+        &self,
+        left: u64,
+        mut report: StepReport,
+    ) -> (Plant, StepReport, (u64, bool, bool)) {
+        let mut plant = self.clone();
+        let mut consumed = 0;
+        while consumed < left {
+            let level = 63 - (left - consumed).leading_zeros() as usize;
+            let (ticks, event) = plant.piece(level, &mut report);
+            consumed += ticks;
+            if event || ticks < 1 << level {
+                return (plant, report, (consumed, event, true));
+            }
+        }
+        (plant, report, (consumed, false, false))
     }
 
     /// Propagates `2^level` ticks without looking for events (event budget exhausted).
