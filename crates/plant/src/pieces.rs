@@ -3,7 +3,7 @@
 //! interval at whose end a stop condition holds.
 
 use crate::configs::table;
-use crate::linear::{self, mul_vec_inline, Chain, Vector, TICK};
+use crate::linear::{self, mul_vec, mul_vec_inline, Chain, Vector, TICK};
 use crate::{Plant, StepReport};
 
 impl Plant {
@@ -169,5 +169,36 @@ impl Plant {
             self.handle_event(report);
         }
         (offset + (1 << r), event)
+    }
+
+    /// Propagates `2^level` ticks without looking for events (event budget exhausted).
+    pub(crate) fn blind(&mut self, level: usize) -> (u64, bool) {
+        let key = self.config();
+        let cfg = table(&self.configs, key);
+        self.state.z = mul_vec(&cfg.phi[level], &self.state.z);
+        self.state.earth = mul_vec(&self.chain.phi[level], &self.state.earth);
+        self.state.nonearth = mul_vec(&self.chain.phi[level], &self.state.nonearth);
+        (1 << level, false)
+    }
+
+    /// What `pieces` does, one `piece` at a time on a clone, as the loop of `advance_held`
+    /// takes them: for the debug build's check of `pieces`.
+    #[cfg(debug_assertions)]
+    pub(crate) fn pieces_one_by_one(
+        &self,
+        left: u64,
+        mut report: StepReport,
+    ) -> (Plant, StepReport, (u64, bool, bool)) {
+        let mut plant = self.clone();
+        let mut consumed = 0;
+        while consumed < left {
+            let level = 63 - (left - consumed).leading_zeros() as usize;
+            let (ticks, event) = plant.piece(level, &mut report);
+            consumed += ticks;
+            if event || ticks < 1 << level {
+                return (plant, report, (consumed, event, true));
+            }
+        }
+        (plant, report, (consumed, false, false))
     }
 }

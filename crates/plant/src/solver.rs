@@ -418,37 +418,6 @@ impl Plant {
         true
     }
 
-    /// What `pieces` does, one `piece` at a time on a clone, as the loop of `advance_held`
-    /// takes them: for the debug build's check of `pieces`.
-    #[cfg(debug_assertions)]
-    fn pieces_one_by_one(
-        &self,
-        left: u64,
-        mut report: StepReport,
-    ) -> (Plant, StepReport, (u64, bool, bool)) {
-        let mut plant = self.clone();
-        let mut consumed = 0;
-        while consumed < left {
-            let level = 63 - (left - consumed).leading_zeros() as usize;
-            let (ticks, event) = plant.piece(level, &mut report);
-            consumed += ticks;
-            if event || ticks < 1 << level {
-                return (plant, report, (consumed, event, true));
-            }
-        }
-        (plant, report, (consumed, false, false))
-    }
-
-    /// Propagates `2^level` ticks without looking for events (event budget exhausted).
-    fn blind(&mut self, level: usize) -> (u64, bool) {
-        let key = self.config();
-        let cfg = table(&self.configs, key);
-        self.state.z = mul_vec(&cfg.phi[level], &self.state.z);
-        self.state.earth = mul_vec(&self.chain.phi[level], &self.state.earth);
-        self.state.nonearth = mul_vec(&self.chain.phi[level], &self.state.nonearth);
-        (1 << level, false)
-    }
-
     /// Finest bisection level: event times are located to `rel_tol` seconds of simulated
     /// time (1 ns by default, docs/model.md §2.2 asks for 10 ns or better).
     pub(crate) fn resolution_level(&self) -> usize {
