@@ -1,7 +1,8 @@
 //! The JPL inchworm actuator plant (docs/model.md §2): plain Rust, no FFI, no I/O.
 //!
 //! The public types and the plant's state live here; the event-driven exact solver in
-//! `solver`, its per-configuration propagator cache in `configs`, the state bytes in
+//! `solver` (its scan in `scan`, its pieces and their bisection in `pieces`, the quiet step
+//! in `quiet`), its per-configuration propagator cache in `configs`, the state bytes in
 //! `state`, the encoder noise in `noise`; the same plant in continuous time, for a master
 //! that integrates it (Model Exchange), in `continuous`.
 
@@ -13,8 +14,10 @@ pub mod hysteresis;
 pub mod linear;
 mod noise;
 pub mod params;
+mod pieces;
 mod quiet;
 pub mod rk4;
+mod scan;
 mod solver;
 mod state;
 

@@ -268,7 +268,7 @@ const SETTLE_SQUARINGS: usize = 12;
 /// Relative slack that covers every floating-point rounding of the scan and of the bound
 /// (each is a dot product or a sum of ≤ 14 terms, error ≤ 14 u ≈ 3.1e-15 of the sum of
 /// the magnitudes; 1e-12 is 300× that).
-const BOUND_SLACK: f64 = 1e-12;
+pub(crate) const BOUND_SLACK: f64 = 1e-12;
 
 /// Rigorous bounds of the watched functionals over every scan point of a piece, without
 /// scanning: the rows `r_k = cᵀ e^{A k Δ}` (k = 0 … `scan_points`) change with `k` only on
@@ -312,6 +312,14 @@ struct FunctionalBound {
     moving: Lanes,
 }
 
+/// The functional of a configuration's bound (`Propagators::bound`) and of the quiet
+/// step's that holds the difference of the row of `ξ̇`'s sign (functional 1) between the
+/// two points of every turn test. Where `ξ̇` changes sign between two points,
+/// `|ξ̇₀| + |ξ̇₁| = |ξ̇₁ − ξ̇₀|`: the reach of a turn is bounded by the change of `ξ̇` over one
+/// scan interval, a fraction of its amplitude for a ring slower than the scan, where the
+/// bound of `|ξ̇|` alone would take it twice at its peak.
+pub(crate) const TURN_RATE: usize = 2;
+
 /// A row whose value on the state a bound must hold.
 pub(crate) struct BoundRow<const D: usize> {
     /// The value is this row of the state, in exact arithmetic.
@@ -320,6 +328,23 @@ pub(crate) struct BoundRow<const D: usize> {
     /// `|c| |M_m| ⋯ |M_1|`, which bounds the rounding of those products and of `row` itself
     /// (at most ~2(m + 1)·14 u of it, far inside `BOUND_SLACK`). `None` for a plain dot product.
     pub(crate) magnitude: Option<SVector<f64, D>>,
+}
+
+impl<const D: usize> BoundRow<D> {
+    /// `a − b` for the difference of the two values computed on rows `a` and `b`, with the
+    /// magnitudes (`None`: a plain dot product, `|row|`) of both: the difference of the two
+    /// computed values is the exact one within the rounding of each and of the subtraction
+    /// of the rows, all inside `BOUND_SLACK` of the sum of the magnitudes.
+    pub(crate) fn difference(
+        a: &SVector<f64, D>,
+        a_magnitude: Option<&SVector<f64, D>>,
+        b: &SVector<f64, D>,
+        b_magnitude: Option<&SVector<f64, D>>,
+    ) -> Self {
+        let magnitude = a_magnitude.copied().unwrap_or_else(|| a.abs())
+            + b_magnitude.copied().unwrap_or_else(|| b.abs());
+        BoundRow { row: a - b, magnitude: Some(magnitude) }
+    }
 }
 
 /// A state split against the settling matrix, ready for [`ScanBound::range`].
@@ -341,16 +366,21 @@ impl<const D: usize> ScanBound<D> {
             settle = settle * settle;
         }
         let w = watched.len();
-        let rows: Vec<Vec<BoundRow<D>>> = (0..w)
+        let row = |k: usize, o: usize| if k == 0 { watched[o] } else { scan[(k - 1) * w + o] };
+        let mut rows: Vec<Vec<BoundRow<D>>> = (0..w)
             .map(|o| {
-                (0..=scan_points)
-                    .map(|k| BoundRow {
-                        row: if k == 0 { watched[o] } else { scan[(k - 1) * w + o] },
-                        magnitude: None,
-                    })
-                    .collect()
+                (0..=scan_points).map(|k| BoundRow { row: row(k, o), magnitude: None }).collect()
             })
             .collect();
+        if w > TURN_RATE {
+            // The watched functionals of a configuration: the differences of `ξ̇`'s row
+            // between consecutive scan points too, for the turn test (`TURN_RATE`).
+            rows.push(
+                (0..scan_points)
+                    .map(|k| BoundRow::difference(&row(k + 1, 1), None, &row(k, 1), None))
+                    .collect(),
+            );
+        }
         Self::from_rows(settle, &rows)
     }
 
@@ -507,6 +537,33 @@ impl<const D: usize> Propagators<D> {
                     lo <= v && v <= hi,
                     "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]"
                 );
+            }
+        }
+        range
+    }
+
+    /// An interval that holds `|ξ̇₁| + |ξ̇₀|` as the scan computes it wherever a turn test
+    /// pairs two consecutive scan points of opposite `ξ̇` (`TURN_RATE`) in a piece starting
+    /// at the split state; `None` if this table has no such bound or it isn't finite.
+    #[inline]
+    pub fn turn_range(&self, s: &Split<D>) -> Option<(f64, f64)> {
+        let bound = self.bound.as_ref()?;
+        if bound.functionals.len() <= TURN_RATE {
+            return None;
+        }
+        let range = bound.range::<false>(TURN_RATE, s);
+        #[cfg(debug_assertions)]
+        if let Some((lo, hi)) = range {
+            let z = s.z;
+            let mut prev = self.watched[1].dot(&z);
+            for k in 1..=self.scan_points {
+                let rate = self.scanned(k, 1, &z);
+                if rate * prev < 0.0 {
+                    let sum = rate.abs() + prev.abs();
+                    let bound = lo.abs().max(hi.abs()) * (1.0 + BOUND_SLACK);
+                    assert!(sum <= bound, "turn bound: at point {k} |ξ̇₀| + |ξ̇₁| = {sum} > {bound}");
+                }
+                prev = rate;
             }
         }
         range

@@ -20,9 +20,9 @@ use crate::configs::{product, table, whole_step};
 use crate::linear::ticks_of;
 use crate::linear::{
     self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
-    LEVELS,
+    LEVELS, TURN_RATE,
 };
-use crate::solver::MIN_BOUND_POINTS;
+use crate::scan::MIN_BOUND_POINTS;
 use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
 
 /// Most scan segments a planned step may have: a 2 ms step has two (128 points and 3 at
@@ -115,6 +115,37 @@ fn step_rows<const D: usize>(
     rows
 }
 
+/// The differences of functional `o` of `t` between the two points of every turn test of a
+/// step of these segments and tail (`linear::TURN_RATE`): each segment's consecutive scan
+/// points, and the tail's start and end.
+fn step_differences<const D: usize>(
+    t: &Propagators<D>,
+    o: usize,
+    segments: &[u64],
+    remainder: Option<&SMatrix<f64, D, D>>,
+) -> Vec<BoundRow<D>> {
+    let w = t.watched.len();
+    let row = |k: usize| if k == 0 { t.watched[o] } else { t.scan[(k - 1) * w + o] };
+    let difference = |a: BoundRow<D>, b: BoundRow<D>| {
+        BoundRow::difference(&a.row, a.magnitude.as_ref(), &b.row, b.magnitude.as_ref())
+    };
+    let mut pre = Vec::new();
+    let mut rows = Vec::new();
+    for &ticks in segments {
+        let points = (ticks >> t.scan_level) as usize;
+        for k in 0..points {
+            rows.push(difference(compose(&row(k + 1), &pre), compose(&row(k), &pre)));
+        }
+        advance_factors(t, ticks, &mut pre);
+    }
+    if let Some(r) = remainder {
+        let start = compose(&t.watched[o], &pre);
+        pre.push(Factor::of(r));
+        rows.push(difference(compose(&t.watched[o], &pre), start));
+    }
+    rows
+}
+
 impl QuietPlan {
     fn new(h: f64, cfg: &Propagators<{ linear::N }>, chain: &Propagators<4>) -> QuietPlan {
         QuietPlan { h: h.to_bits(), body: Body::new(h, cfg, chain) }
@@ -142,7 +173,9 @@ impl Body {
             .count() as u64;
         let remainder = (left > 0).then(|| (product(&cfg.phi, left), product(&chain.phi, left)));
         let rows = |o| step_rows(cfg, o, &segments, remainder.as_ref().map(|r| &r.0));
-        let mechanics = ScanBound::from_rows(*cfg.bound.as_ref()?.settle(), &[rows(0), rows(1)])?;
+        let turns = step_differences(cfg, 1, &segments, remainder.as_ref().map(|r| &r.0));
+        let mechanics =
+            ScanBound::from_rows(*cfg.bound.as_ref()?.settle(), &[rows(0), rows(1), turns])?;
         let chain_rows = step_rows(chain, 0, &segments, remainder.as_ref().map(|r| &r.1));
         let whole = (whole_step(cfg, h)?, whole_step(chain, h)?);
         let chain = ScanBound::from_rows(*chain.bound.as_ref()?.settle(), &[chain_rows])?;
@@ -240,10 +273,11 @@ impl Plant {
         z[ix::UX] = volts(dac.extension);
         e[3] = volts(dac.earth);
         n[3] = volts(dac.nonearth);
+        let watch = self.watch(cfg);
         // What `sync_hysteresis` would do; a quiet step leaves the memories as they are.
-        let rate = cfg.watched[1].dot(&z);
+        let rate = watch.rate(&z);
         let direction = crate::solver::rate_sign(rate);
-        let xi = cfg.watched[0].dot(&z);
+        let xi = watch.xi(&z);
         debug_assert!(
             !self.state.armed.keeps(xi) || self.state.hysteresis.sync_keeps(xi, direction)
         );
@@ -251,7 +285,6 @@ impl Plant {
             return None;
         }
         z[ix::C0] = self.state.armed.c0();
-        let watch = self.watch(cfg);
         let split = plan.mechanics.split_inline::<AVX>(&z);
         let ranges = [
             plan.chain.range::<AVX>(0, &plan.chain.split_inline::<AVX>(&e)),
@@ -259,9 +292,15 @@ impl Plant {
             plan.mechanics.range::<AVX>(0, &split),
             plan.mechanics.range::<AVX>(1, &split),
         ];
-        // All four at once, no early exit: on a quiet step every one of them is needed.
-        let clear =
-            self.clear_on(&watch, || ranges[0], || ranges[1], || Some((ranges[2]?, ranges[3]?)));
+        // All four at once, no early exit: on a quiet step every one of them is needed; the
+        // bound of a turn's reach only where the one of `ξ̇` does not do.
+        let clear = self.clear_on(
+            &watch,
+            || ranges[0],
+            || ranges[1],
+            || Some((ranges[2]?, ranges[3]?)),
+            || plan.mechanics.range::<AVX>(TURN_RATE, &split),
+        );
         if !clear {
             return None;
         }

@@ -3,9 +3,7 @@
 
 use crate::configs::{product, table, ChainRemainder, Remainder, Whole};
 use crate::hysteresis::Hysteresis;
-use crate::linear::{
-    self, ix, mul_vec, mul_vec_inline, ticks_of, Chain, Propagators, Vector, TICK,
-};
+use crate::linear::{self, ix, mul_vec, ticks_of, Chain, Propagators, Vector, TICK};
 use crate::noise::gaussian;
 use crate::Dac;
 use crate::{Mode, Plant, StepReport};
@@ -56,9 +54,6 @@ fn event_budget(h: f64) -> u32 {
     let periods = (h / 0.002).ceil().max(1.0) as u64;
     u32::try_from(periods.saturating_mul(u64::from(EVENTS_PER_2_MS))).unwrap_or(u32::MAX)
 }
-
-/// A scan of fewer points than this is cheaper than the bound that could skip it.
-pub(crate) const MIN_BOUND_POINTS: usize = 16;
 
 /// The play thresholds and the sliding direction the event loop watches, a function of
 /// the hysteresis state alone.
@@ -123,26 +118,26 @@ pub(crate) fn rate_sign(rate: f64) -> i8 {
 
 /// What the event loop watches during one piece, frozen at its start.
 pub(crate) struct Watch<'a> {
-    vth: f64,
-    earth_closed: bool,
-    nonearth_closed: bool,
+    pub(crate) vth: f64,
+    pub(crate) earth_closed: bool,
+    pub(crate) nonearth_closed: bool,
     /// The configuration's watched rows (`linear::xi_row`, `linear::drive_rate_row`).
-    xi_row: &'a Vector,
-    rate_row: &'a Vector,
-    direction: f64,
-    up: f64,
-    down: f64,
+    pub(crate) xi_row: &'a Vector,
+    pub(crate) rate_row: &'a Vector,
+    pub(crate) direction: f64,
+    pub(crate) up: f64,
+    pub(crate) down: f64,
 }
 
 impl Watch<'_> {
     #[inline(always)]
-    fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
+    pub(crate) fn brakes_changed(&self, e: &Chain, n: &Chain) -> bool {
         self.brakes_changed_at(e[2], n[2])
     }
 
     /// From the brake volts `V_E`, `V_N`.
     #[inline(always)]
-    fn brakes_changed_at(&self, ve: f64, vn: f64) -> bool {
+    pub(crate) fn brakes_changed_at(&self, ve: f64, vn: f64) -> bool {
         (ve < self.vth) != self.earth_closed || (vn >= self.vth) != self.nonearth_closed
     }
 
@@ -153,7 +148,7 @@ impl Watch<'_> {
     /// compares equal). The state it is taken on is finite, or the step is refused whatever
     /// the decisions (a non-finite state stays non-finite).
     #[inline(always)]
-    fn xi(&self, z: &Vector) -> f64 {
+    pub(crate) fn xi(&self, z: &Vector) -> f64 {
         let r = self.xi_row;
         let v = (r[ix::Y3] * z[ix::Y3] + r[ix::VX] * z[ix::VX]) + r[ix::C0] * z[ix::C0];
         debug_assert!(v == r.dot(z) || !v.is_finite());
@@ -163,7 +158,7 @@ impl Watch<'_> {
     /// `rate_row.dot(z)` from its only non-zero entries (`V3`, `BX1`, `VX`, see
     /// `linear::drive_rate_row`), as [`Self::xi`]: `(p_V3 + p_BX1) + p_VX`.
     #[inline(always)]
-    fn rate(&self, z: &Vector) -> f64 {
+    pub(crate) fn rate(&self, z: &Vector) -> f64 {
         let r = self.rate_row;
         let v = (r[ix::V3] * z[ix::V3] + r[ix::BX1] * z[ix::BX1]) + r[ix::VX] * z[ix::VX];
         debug_assert!(v == r.dot(z) || !v.is_finite());
@@ -171,13 +166,13 @@ impl Watch<'_> {
     }
 
     #[inline(always)]
-    fn play_event(&self, z: &Vector) -> bool {
+    pub(crate) fn play_event(&self, z: &Vector) -> bool {
         self.play_event_at(self.xi(z), self.rate(z))
     }
 
     /// `rate` has the sign of `ξ̇`.
     #[inline(always)]
-    fn play_event_at(&self, xi: f64, rate: f64) -> bool {
+    pub(crate) fn play_event_at(&self, xi: f64, rate: f64) -> bool {
         if self.direction != 0.0 {
             self.direction * rate <= 0.0
                 || (self.direction > 0.0 && xi >= self.up)
@@ -190,7 +185,14 @@ impl Watch<'_> {
     /// Whether `ξ`, turning round between two points `dt` apart, may reach a threshold in
     /// between: its excursion beyond the end values is below `dt · max|ξ̇|`.
     #[inline(always)]
-    fn extremum_may_cross(&self, xi0: f64, xi1: f64, rate0: f64, rate1: f64, dt: f64) -> bool {
+    pub(crate) fn extremum_may_cross(
+        &self,
+        xi0: f64,
+        xi1: f64,
+        rate0: f64,
+        rate1: f64,
+        dt: f64,
+    ) -> bool {
         let reach = dt * (rate0.abs() + rate1.abs()) * self.xi_row[ix::VX];
         xi0.max(xi1) + reach >= self.up || xi0.min(xi1) - reach <= self.down
     }
@@ -198,7 +200,7 @@ impl Watch<'_> {
     /// Whether a sign change of `ξ̇` between two states is a turn of `ξ` and not rounding:
     /// at rest `ξ̇` is a sum of terms that cancel, and its sign is noise. A turn at the
     /// rounding level has no excursion worth a stop.
-    fn turns(&self, z0: &Vector, z1: &Vector, rate0: f64, rate1: f64) -> bool {
+    pub(crate) fn turns(&self, z0: &Vector, z1: &Vector, rate0: f64, rate1: f64) -> bool {
         let scale = |z: &Vector| {
             self.rate_row.iter().zip(z.iter()).map(|(r, x)| (r * x).abs()).sum::<f64>()
         };
@@ -206,87 +208,8 @@ impl Watch<'_> {
     }
 
     #[inline(always)]
-    fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
+    pub(crate) fn event(&self, z: &Vector, e: &Chain, n: &Chain) -> bool {
         self.brakes_changed(e, n) || self.play_event(z)
-    }
-}
-
-/// Whether any of four consecutive scan points may stop the scan: the point-by-point test of
-/// `full_scan_inline` on four lanes at once (the same IEEE comparisons, products and sums,
-/// so the same decisions; `maxpd` and `f64::max` differ only on a NaN or a zero's sign, and a
-/// lane with a NaN counts as a stop). `false` means every point is clear; on `true` the
-/// caller decides the points one by one.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-#[inline]
-unsafe fn group_may_stop(
-    w: &Watch,
-    [ve, vn, xi, rate]: [&[f64; 4]; 4],
-    xi_prev: f64,
-    rate_prev: f64,
-    dt: f64,
-) -> bool {
-    use std::arch::x86_64::*;
-    // SAFETY: every load is of a whole `[f64; 4]`.
-    unsafe {
-        let (ve, vn) = (_mm256_loadu_pd(ve.as_ptr()), _mm256_loadu_pd(vn.as_ptr()));
-        let (x, r) = (_mm256_loadu_pd(xi.as_ptr()), _mm256_loadu_pd(rate.as_ptr()));
-        let vth = _mm256_set1_pd(w.vth);
-        let nan = _mm256_or_pd(
-            _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_UNORD_Q>(ve, ve),
-                _mm256_cmp_pd::<_CMP_UNORD_Q>(vn, vn),
-            ),
-            _mm256_or_pd(_mm256_cmp_pd::<_CMP_UNORD_Q>(x, x), _mm256_cmp_pd::<_CMP_UNORD_Q>(r, r)),
-        );
-        // Earth closed ⇔ V_E < V_th, non-earth closed ⇔ V_N ≥ V_th: a stop is the other side.
-        let earth = if w.earth_closed {
-            _mm256_cmp_pd::<_CMP_GE_OQ>(ve, vth)
-        } else {
-            _mm256_cmp_pd::<_CMP_LT_OQ>(ve, vth)
-        };
-        let nonearth = if w.nonearth_closed {
-            _mm256_cmp_pd::<_CMP_LT_OQ>(vn, vth)
-        } else {
-            _mm256_cmp_pd::<_CMP_GE_OQ>(vn, vth)
-        };
-        let (up, down) = (_mm256_set1_pd(w.up), _mm256_set1_pd(w.down));
-        let play = if w.direction != 0.0 {
-            let reversal = _mm256_cmp_pd::<_CMP_LE_OQ>(
-                _mm256_mul_pd(_mm256_set1_pd(w.direction), r),
-                _mm256_setzero_pd(),
-            );
-            let onset = if w.direction > 0.0 {
-                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up)
-            } else {
-                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down)
-            };
-            _mm256_or_pd(reversal, onset)
-        } else {
-            let onset = _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_GE_OQ>(x, up),
-                _mm256_cmp_pd::<_CMP_LE_OQ>(x, down),
-            );
-            // Each point against the one before it: the previous group's last, then these.
-            let xp = _mm256_set_pd(xi[2], xi[1], xi[0], xi_prev);
-            let rp = _mm256_set_pd(rate[2], rate[1], rate[0], rate_prev);
-            let turn = _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_mul_pd(r, rp), _mm256_setzero_pd());
-            let abs = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
-            let reach = _mm256_mul_pd(
-                _mm256_mul_pd(
-                    _mm256_set1_pd(dt),
-                    _mm256_add_pd(_mm256_and_pd(rp, abs), _mm256_and_pd(r, abs)),
-                ),
-                _mm256_set1_pd(w.xi_row[ix::VX]),
-            );
-            let cross = _mm256_or_pd(
-                _mm256_cmp_pd::<_CMP_GE_OQ>(_mm256_add_pd(_mm256_max_pd(xp, x), reach), up),
-                _mm256_cmp_pd::<_CMP_LE_OQ>(_mm256_sub_pd(_mm256_min_pd(xp, x), reach), down),
-            );
-            _mm256_or_pd(onset, _mm256_and_pd(turn, cross))
-        };
-        let any = _mm256_or_pd(_mm256_or_pd(nan, play), _mm256_or_pd(earth, nonearth));
-        _mm256_movemask_pd(any) != 0
     }
 }
 
@@ -370,6 +293,28 @@ impl Plant {
                 // Only in steps without events so far: then the tail is the same for every
                 // step of this size and its product is cached, not recomputed.
                 left = 0;
+            } else if watching && events > 0 {
+                // The tail's dyadic pieces, in a step that has had an event (so the cached
+                // tail is not tried before each): as many at once as run clear, up to the
+                // first that stops.
+                stopless = false;
+                #[cfg(debug_assertions)]
+                let reference = self.pieces_one_by_one(left, report);
+                let (consumed, event, stopped) = self.pieces(left, &mut report);
+                #[cfg(debug_assertions)]
+                {
+                    let (plant, r, outcome) = reference;
+                    let (mut a, mut b) = (Vec::new(), Vec::new());
+                    self.save_state(&mut a);
+                    plant.save_state(&mut b);
+                    assert!(
+                        a == b && r == report && outcome == (consumed, event, stopped),
+                        "the tail's pieces in one loop and one at a time differ"
+                    );
+                }
+                events += u32::from(event);
+                stops += u32::from(event || stopped);
+                left -= consumed;
             } else {
                 stopless = false;
                 let level = 63 - left.leading_zeros() as usize;
@@ -403,95 +348,6 @@ impl Plant {
         self.state.time += h;
         self.sample_encoder();
         report
-    }
-
-    /// Propagates one piece of `2^level` ticks, stopping at the first event inside it.
-    /// Returns the ticks consumed and whether an event was handled.
-    fn piece(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.piece_avx(level, report) };
-        }
-        self.piece_inline::<false>(level, report)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn piece_avx(&mut self, level: usize, report: &mut StepReport) -> (u64, bool) {
-        self.piece_inline::<true>(level, report)
-    }
-
-    /// `piece` with its products inlined (one CPU dispatch per piece, not per product).
-    ///
-    /// Every instant it tests is tested on the watched functionals through that level's
-    /// propagator (`Propagators::level_value`: four dot products), and the state is
-    /// propagated only where it moves on: to the piece's end when nothing stops it, and in
-    /// the bisection to each candidate found clear, then over the last resolution interval.
-    #[inline(always)]
-    fn piece_inline<const AVX: bool>(
-        &mut self,
-        level: usize,
-        report: &mut StepReport,
-    ) -> (u64, bool) {
-        let key = self.config();
-        let cfg = table(&self.configs, key);
-        let chain = &*self.chain;
-        let (z0, e0, n0) = (self.state.z, self.state.earth, self.state.nonearth);
-        let watch = self.watch(cfg);
-        let (xi1, rate1) =
-            (cfg.level_value::<AVX>(level, 0, &z0), cfg.level_value::<AVX>(level, 1, &z0));
-        let hit = watch.brakes_changed_at(
-            chain.level_value::<AVX>(level, 0, &e0),
-            chain.level_value::<AVX>(level, 0, &n0),
-        ) || watch.play_event_at(xi1, rate1);
-        let propagate = |z: &Vector, e: &Chain, n: &Chain, l: usize| {
-            (
-                mul_vec_inline::<{ linear::N }, AVX>(&cfg.phi[l], z),
-                mul_vec_inline::<4, AVX>(&chain.phi[l], e),
-                mul_vec_inline::<4, AVX>(&chain.phi[l], n),
-            )
-        };
-        // With no play sliding, ξ may cross a threshold and come back inside the piece:
-        // stop at its extremum (ξ̇ = 0) too, when the excursion could reach a threshold.
-        let rate0 = watch.rate(&z0);
-        let mut end = None;
-        let mut extremum = false;
-        if !hit && watch.direction == 0.0 && rate0 * rate1 < 0.0 {
-            let (z1, e1, n1) = propagate(&z0, &e0, &n0, level);
-            if watch.turns(&z0, &z1, rate0, rate1) {
-                let dt = TICK * (1u64 << level) as f64;
-                extremum = watch.extremum_may_cross(watch.xi(&z0), xi1, rate0, rate1, dt);
-            }
-            end = Some((z1, e1, n1));
-        }
-        if !hit && !extremum {
-            (self.state.z, self.state.earth, self.state.nonearth) =
-                end.unwrap_or_else(|| propagate(&z0, &e0, &n0, level));
-            return (1 << level, false);
-        }
-        let (mut z, mut e, mut n) = (z0, e0, n0);
-        let mut offset = 0u64;
-        for l in (self.resolution_level()..level).rev() {
-            let (xi, rate) = (cfg.level_value::<AVX>(l, 0, &z), cfg.level_value::<AVX>(l, 1, &z));
-            let stop = watch.brakes_changed_at(
-                chain.level_value::<AVX>(l, 0, &e),
-                chain.level_value::<AVX>(l, 0, &n),
-            ) || watch.play_event_at(xi, rate)
-                || (extremum && rate * rate0 <= 0.0);
-            if !stop {
-                (z, e, n) = propagate(&z, &e, &n, l);
-                offset += 1 << l;
-            }
-        }
-        // The first resolution interval at whose end the stop condition holds.
-        let r = self.resolution_level().min(level);
-        (self.state.z, self.state.earth, self.state.nonearth) = propagate(&z, &e, &n, r);
-        let event = watch.event(&self.state.z, &self.state.earth, &self.state.nonearth);
-        if event {
-            self.handle_event(report);
-        }
-        (offset + (1 << r), event)
     }
 
     /// Advances over `ticks` (less than one scan interval) with one cached propagator if no
@@ -562,183 +418,9 @@ impl Plant {
         true
     }
 
-    /// Propagates `2^level` ticks without looking for events (event budget exhausted).
-    fn blind(&mut self, level: usize) -> (u64, bool) {
-        let key = self.config();
-        let cfg = table(&self.configs, key);
-        self.state.z = mul_vec(&cfg.phi[level], &self.state.z);
-        self.state.earth = mul_vec(&self.chain.phi[level], &self.state.earth);
-        self.state.nonearth = mul_vec(&self.chain.phi[level], &self.state.nonearth);
-        (1 << level, false)
-    }
-
-    /// Scans up to `points` scan intervals ahead for anything the event loop must stop at,
-    /// using only the tabulated functionals. Returns how many intervals are clear.
-    fn scan(&mut self, points: usize) -> usize {
-        let key = self.config();
-        let cfg = table(&self.configs, key);
-        let watch = self.watch(cfg);
-        if points >= MIN_BOUND_POINTS && !self.scan_always {
-            if self.provably_clear(cfg, &watch) {
-                debug_assert_eq!(
-                    self.full_scan(cfg, &watch, points),
-                    points,
-                    "the scan bound missed an event"
-                );
-                self.scan_stats.skipped += 1;
-                return points;
-            }
-            self.scan_stats.scanned += 1;
-        }
-        self.full_scan(cfg, &watch, points)
-    }
-
-    /// `scan` looking at every point.
-    fn full_scan(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch, points: usize) -> usize {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.full_scan_avx(cfg, watch, points) };
-        }
-        self.full_scan_inline::<false>(cfg, watch, points)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    unsafe fn full_scan_avx(
-        &self,
-        cfg: &Propagators<{ linear::N }>,
-        watch: &Watch,
-        points: usize,
-    ) -> usize {
-        self.full_scan_inline::<true>(cfg, watch, points)
-    }
-
-    /// The scan, four points' values at a time (`Propagators::scanned4`: the same bits as
-    /// one at a time), each point then decided in order as before.
-    #[inline(always)]
-    fn full_scan_inline<const AVX: bool>(
-        &self,
-        cfg: &Propagators<{ linear::N }>,
-        watch: &Watch,
-        points: usize,
-    ) -> usize {
-        let chain = &self.chain;
-        let (z, e, n) = (&self.state.z, &self.state.earth, &self.state.nonearth);
-        let dt = TICK * (1u64 << chain.scan_level) as f64;
-        let mut xi_prev = watch.xi(z);
-        let mut rate_prev = watch.rate(z);
-        for g in 0..points.div_ceil(4) {
-            let ve = chain.scanned4::<AVX>(g, 0, e);
-            let vn = chain.scanned4::<AVX>(g, 0, n);
-            let xi = cfg.scanned4::<AVX>(g, 0, z);
-            let rate = cfg.scanned4::<AVX>(g, 1, z);
-            #[cfg(target_arch = "x86_64")]
-            if AVX && 4 * g + 4 <= points {
-                // SAFETY: `AVX` callers run with AVX.
-                let may_stop = unsafe {
-                    group_may_stop(watch, [&ve, &vn, &xi, &rate], xi_prev, rate_prev, dt)
-                };
-                if !may_stop {
-                    (xi_prev, rate_prev) = (xi[3], rate[3]);
-                    continue;
-                }
-            }
-            for l in 0..4 {
-                let k = 4 * g + l + 1;
-                if k > points {
-                    break;
-                }
-                let (xi, rate) = (xi[l], rate[l]);
-                let stop = (ve[l] < watch.vth) != watch.earth_closed
-                    || (vn[l] >= watch.vth) != watch.nonearth_closed
-                    || watch.play_event_at(xi, rate)
-                    || (watch.direction == 0.0
-                        && rate * rate_prev < 0.0
-                        && watch.extremum_may_cross(xi_prev, xi, rate_prev, rate, dt));
-                if stop {
-                    return k - 1;
-                }
-                xi_prev = xi;
-                rate_prev = rate;
-            }
-        }
-        points
-    }
-
-    /// Whether the scan of any number of points (up to a whole top-level piece) from the
-    /// current state is certain to find every point clear, from the bounds of the watched
-    /// functionals over all scan points (`linear::ScanBound`). The test mirrors every
-    /// condition of `scan` on intervals that hold the very values `scan` would compute,
-    /// so `true` means `scan` would return all points; in doubt it says `false`.
-    fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> bool {
-        let chain = &self.chain;
-        debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
-        let brake = |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s));
-        self.clear_on(
-            watch,
-            || brake(&self.state.earth),
-            || brake(&self.state.nonearth),
-            || {
-                let s = cfg.split(&self.state.z)?;
-                Some((cfg.range(0, &s)?, cfg.range(1, &s)?))
-            },
-        )
-    }
-
-    /// The decision of `provably_clear` on intervals of the brake volts of the earth and
-    /// the non-earth chain, and of `ξ` and of the sign of `ξ̇` (`mechanics`), that hold every
-    /// value the event loop will compare: `true` means no point of them can stop it.
-    #[inline(always)]
-    pub(crate) fn clear_on(
-        &self,
-        watch: &Watch,
-        earth: impl FnOnce() -> Option<(f64, f64)>,
-        nonearth: impl FnOnce() -> Option<(f64, f64)>,
-        mechanics: impl FnOnce() -> Option<((f64, f64), (f64, f64))>,
-    ) -> bool {
-        let clear = |range: Option<(f64, f64)>, closed_below: bool| -> bool {
-            let Some((lo, hi)) = range else {
-                return false;
-            };
-            if closed_below {
-                hi < watch.vth
-            } else {
-                lo >= watch.vth
-            }
-        };
-        // Earth closed ⇔ V_E < V_th; non-earth closed ⇔ V_N ≥ V_th: no switch means V_E
-        // stays on its side of V_th, as does V_N.
-        if !clear(earth(), watch.earth_closed) || !clear(nonearth(), !watch.nonearth_closed) {
-            return false;
-        }
-        let Some(((xi_lo, xi_hi), (rate_lo, rate_hi))) = mechanics() else {
-            return false;
-        };
-        if watch.direction > 0.0 {
-            // Sliding up: ξ̇ stays positive and ξ below the next onset.
-            rate_lo > 0.0 && xi_hi < watch.up
-        } else if watch.direction < 0.0 {
-            rate_hi < 0.0 && xi_lo > watch.down
-        } else {
-            // Nothing slides: ξ stays between the onsets, and so does any turn of ξ between
-            // two points. The same floating-point operations as `extremum_may_cross` on
-            // bounds of its arguments: rounding is monotone, so these bound its results
-            // (for the tail of a step too, whose interval is shorter than a scan interval).
-            let gain = watch.xi_row[ix::VX];
-            if gain.is_nan() || gain < 0.0 {
-                return false;
-            }
-            let rate_max = rate_lo.abs().max(rate_hi.abs());
-            let dt = TICK * (1u64 << self.chain.scan_level) as f64;
-            let reach = dt * (rate_max + rate_max) * watch.xi_row[ix::VX];
-            xi_hi + reach < watch.up && xi_lo - reach > watch.down
-        }
-    }
-
     /// Finest bisection level: event times are located to `rel_tol` seconds of simulated
     /// time (1 ns by default, docs/model.md §2.2 asks for 10 ns or better).
-    fn resolution_level(&self) -> usize {
+    pub(crate) fn resolution_level(&self) -> usize {
         let ticks = (self.params.rel_tol / TICK).max(1.0);
         (ticks.log2().floor() as usize).min(self.chain.scan_level)
     }
@@ -821,7 +503,12 @@ impl Plant {
     fn sync_hysteresis(&mut self) {
         // The rows of the current configuration, from its table if it has one (same bits).
         let (xi, rate) = match &self.configs[self.config_key()] {
-            Some(cfg) => (cfg.watched[0].dot(&self.state.z), cfg.watched[1].dot(&self.state.z)),
+            // The sparse sums of `Watch`: the dense dot products but for the sign of a zero,
+            // which neither `sync` nor the keep interval tells from the other.
+            Some(cfg) => {
+                let watch = self.watch(cfg);
+                (watch.xi(&self.state.z), watch.rate(&self.state.z))
+            }
             None => (
                 linear::xi_row(&self.params, self.state.hysteresis.sticking_weight())
                     .dot(&self.state.z),
