@@ -60,11 +60,51 @@ pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Re
 /// writer in one call.
 #[derive(Debug, Default)]
 pub struct RowWriter {
-    /// Per column: the bits of its last value and that value's text (empty before the
+    /// Per column: the bits of its last value and that value's text (`None` before the
     /// first row).
-    last: Vec<(u64, Vec<u8>)>,
+    last: Vec<(u64, Option<Cell>)>,
+    /// A value's text while it is formatted.
+    scratch: Vec<u8>,
     /// The row being written, handed to the writer in one call.
     line: Vec<u8>,
+}
+
+/// The width of a value's text, its comma first, that a [`Cell`] holds in place: every
+/// value a trace holds in practice (17 significant digits, a sign, a point and a few
+/// zeros); a wider one is kept apart.
+const CELL: usize = 32;
+
+/// A column's text with its comma: in place, so a row copies it as a fixed block of
+/// [`CELL`] bytes (no call, no copy of a length known only as it runs) and keeps `len` of
+/// them; or, wider, kept apart.
+#[derive(Debug)]
+enum Cell {
+    Short { len: usize, text: [u8; CELL] },
+    Long(Vec<u8>),
+}
+
+impl Cell {
+    fn of(text: &[u8]) -> Cell {
+        match text.len() <= CELL {
+            true => {
+                let mut cell = [0; CELL];
+                cell[..text.len()].copy_from_slice(text);
+                Cell::Short { len: text.len(), text: cell }
+            }
+            false => Cell::Long(text.to_vec()),
+        }
+    }
+
+    fn append_to(&self, line: &mut Vec<u8>) {
+        match self {
+            Cell::Short { len, text } => {
+                let end = line.len() + len;
+                line.extend_from_slice(text);
+                line.truncate(end);
+            }
+            Cell::Long(text) => line.extend_from_slice(text),
+        }
+    }
 }
 
 impl RowWriter {
@@ -80,19 +120,23 @@ impl RowWriter {
         row: &[f64],
     ) -> std::io::Result<()> {
         if self.last.len() != row.len() {
-            self.last = vec![(0, Vec::new()); row.len()];
+            self.last = row.iter().map(|_| (0, None)).collect();
         }
         let line = &mut self.line;
         line.clear();
         float_text::push(line, t);
-        for (x, (bits, text)) in row.iter().zip(&mut self.last) {
-            if text.is_empty() || *bits != x.to_bits() {
-                text.clear();
-                text.push(b',');
-                float_text::push(text, *x);
-                *bits = x.to_bits();
-            }
-            line.extend_from_slice(text);
+        for (x, (bits, cell)) in row.iter().zip(&mut self.last) {
+            let cell = match cell {
+                Some(c) if *bits == x.to_bits() => c,
+                _ => {
+                    self.scratch.clear();
+                    self.scratch.push(b',');
+                    float_text::push(&mut self.scratch, *x);
+                    *bits = x.to_bits();
+                    cell.insert(Cell::of(&self.scratch))
+                }
+            };
+            cell.append_to(line);
         }
         line.push(b'\n');
         w.write_all(line)
@@ -186,13 +230,19 @@ mod tests {
     fn a_repeated_value_is_written_as_a_fresh_one_would_be() {
         // Each row's text as `{}` formats it, whether a column repeats its last value or
         // not; 0 and -0, and two NaNs, are told apart by their bits.
-        let rows: [(f64, [f64; 3]); 6] = [
+        // Texts wider than a cell in place (1e300, 1e-30 with 33 bytes and its comma),
+        // at its width exactly (`,-0.0000000000012345678901234567`, 32) and narrower
+        // (`,-0.00012345678901234567`, 24) alike.
+        let rows: [(f64, [f64; 3]); 9] = [
             (0.0, [0.0, 1.25, f64::NAN]),
             (0.002, [0.0, 1.25, f64::NAN]),
             (0.004, [-0.0, 1.25, -f64::NAN]),
             (0.006, [-0.0, 3e-9, f64::INFINITY]),
             (0.008, [0.0, 3e-9, 1e300]),
             (0.01, [0.0, 3e-9, 1e300]),
+            (0.012, [-1.2345678901234567e-4, 1e-30, 1e300]),
+            (0.014, [-1.234567890123456e-9, 1e-30, -1.2345678901234567e-12]),
+            (0.016, [-1.234567890123456e-9, 2.5, -1.2345678901234567e-12]),
         ];
         let mut out = Vec::new();
         let mut w = RowWriter::new();

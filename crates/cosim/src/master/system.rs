@@ -415,16 +415,22 @@ impl System {
                         Some(j) => Column::Latest(j),
                         None => {
                             record_ports.push(p);
-                            Column::Read(record_ports.len() - 1)
+                            Column::Latest(sources.len() + record_ports.len() - 1)
                         }
                     }
                 }
             })
             .collect();
+        // A step reads the recorded ports with the sources, each component's of one type in
+        // one call ([`Simulation::step`]).
+        let read: Vec<Port> = sources.iter().chain(&record_ports).copied().collect();
         let mut sim = Simulation {
-            latest: vec![0.0; sources.len()],
+            latest: vec![0.0; read.len()],
+            sources: sources.len(),
             source_batches: Batches::new(&sources)?,
             record_batches: Batches::new(&record_ports)?,
+            read_batches: Batches::new(&read)?,
+            rows_read: false,
             destination_batches: Batches::new(
                 &destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
             )?,
@@ -435,7 +441,6 @@ impl System {
                 destinations: ticked,
             },
             clocked: self.components.iter().any(|c| c.fmu.clocked()),
-            port_values: vec![0.0; record_ports.len()],
             row: vec![0.0; record.len()],
             destinations,
             columns,
