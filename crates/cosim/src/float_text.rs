@@ -39,7 +39,9 @@ pub fn push(out: &mut Vec<u8>, x: f64) {
     let text = buffer.format_finite(x).as_bytes();
     // zmij writes `[-]d.ddd` (positional, as `{}` writes a number that is not whole) or
     // `[-]d[.ddd]e±x`, with `0.d…` below 1 in either.
-    let Some(at) = text.iter().rposition(|&b| b == b'e') else {
+    // The exponent, if any, is the text's last five bytes at most (`e-324`).
+    let tail = text.len().saturating_sub(5);
+    let Some(at) = text[tail..].iter().rposition(|&b| b == b'e').map(|at| tail + at) else {
         out.extend_from_slice(text);
         return;
     };

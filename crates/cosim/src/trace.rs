@@ -53,58 +53,22 @@ pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Re
 
 /// The CSV rows of [`Trace::write_csv`], one after another, for a writer that streams
 /// them. Each value is its `{}` text (the shortest that reads back as the same `f64`),
-/// written by [`float_text::push`]; a value with the bits of its column's value in the row
-/// before takes that row's text instead of being formatted again. A closed loop's slow
-/// columns (a DAC between gaits, a mode, a held reference) change in a few rows in a
-/// hundred, so a long run's CSV costs a fraction and no byte changes. A row goes to the
-/// writer in one call.
+/// written by [`float_text::push`]. The writer keeps the last row's line and rewrites in it
+/// only the values whose bits changed (and the time): a closed loop's slow columns (a DAC
+/// between gaits, a mode, a held reference) change in a few rows in a hundred, so a long
+/// run's row costs the text of its few changed values and a move of the line's tail where
+/// a text's length changed, and no byte changes. A row goes to the writer in one call.
 #[derive(Debug, Default)]
 pub struct RowWriter {
-    /// Per column: the bits of its last value and that value's text (`None` before the
-    /// first row).
-    last: Vec<(u64, Option<Cell>)>,
+    /// Per column: the bits of its value in the line.
+    bits: Vec<u64>,
+    /// Where each text of the line ends, the time's first, then each column's (its
+    /// comma first); empty before the first row.
+    ends: Vec<usize>,
     /// A value's text while it is formatted.
     scratch: Vec<u8>,
-    /// The row being written, handed to the writer in one call.
+    /// The last row written, its line end included.
     line: Vec<u8>,
-}
-
-/// The width of a value's text, its comma first, that a [`Cell`] holds in place: every
-/// value a trace holds in practice (17 significant digits, a sign, a point and a few
-/// zeros); a wider one is kept apart.
-const CELL: usize = 32;
-
-/// A column's text with its comma: in place, so a row copies it as a fixed block of
-/// [`CELL`] bytes (no call, no copy of a length known only as it runs) and keeps `len` of
-/// them; or, wider, kept apart.
-#[derive(Debug)]
-enum Cell {
-    Short { len: usize, text: [u8; CELL] },
-    Long(Vec<u8>),
-}
-
-impl Cell {
-    fn of(text: &[u8]) -> Cell {
-        match text.len() <= CELL {
-            true => {
-                let mut cell = [0; CELL];
-                cell[..text.len()].copy_from_slice(text);
-                Cell::Short { len: text.len(), text: cell }
-            }
-            false => Cell::Long(text.to_vec()),
-        }
-    }
-
-    fn append_to(&self, line: &mut Vec<u8>) {
-        match self {
-            Cell::Short { len, text } => {
-                let end = line.len() + len;
-                line.extend_from_slice(text);
-                line.truncate(end);
-            }
-            Cell::Long(text) => line.extend_from_slice(text),
-        }
-    }
 }
 
 impl RowWriter {
@@ -119,27 +83,62 @@ impl RowWriter {
         t: f64,
         row: &[f64],
     ) -> std::io::Result<()> {
-        if self.last.len() != row.len() {
-            self.last = row.iter().map(|_| (0, None)).collect();
-        }
-        let line = &mut self.line;
-        line.clear();
-        float_text::push(line, t);
-        for (x, (bits, cell)) in row.iter().zip(&mut self.last) {
-            let cell = match cell {
-                Some(c) if *bits == x.to_bits() => c,
-                _ => {
+        if self.ends.len() != row.len() + 1 {
+            self.first(t, row);
+        } else {
+            self.scratch.clear();
+            float_text::push(&mut self.scratch, t);
+            self.replace(0);
+            for (i, &x) in row.iter().enumerate() {
+                if self.bits[i] != x.to_bits() {
+                    self.bits[i] = x.to_bits();
                     self.scratch.clear();
                     self.scratch.push(b',');
-                    float_text::push(&mut self.scratch, *x);
-                    *bits = x.to_bits();
-                    cell.insert(Cell::of(&self.scratch))
+                    float_text::push(&mut self.scratch, x);
+                    self.replace(i + 1);
                 }
-            };
-            cell.append_to(line);
+            }
+        }
+        w.write_all(&self.line)
+    }
+
+    /// The line of a first row (or of a row of another width than the last).
+    fn first(&mut self, t: f64, row: &[f64]) {
+        let line = &mut self.line;
+        line.clear();
+        self.ends.clear();
+        float_text::push(line, t);
+        self.ends.push(line.len());
+        for x in row {
+            line.push(b',');
+            float_text::push(line, *x);
+            self.ends.push(line.len());
         }
         line.push(b'\n');
-        w.write_all(line)
+        self.bits = row.iter().map(|x| x.to_bits()).collect();
+    }
+
+    /// Puts the text in `scratch` in the place of text `i` of the line (0 the time), the
+    /// rest of the line moved if the lengths differ.
+    fn replace(&mut self, i: usize) {
+        let start = match i {
+            0 => 0,
+            _ => self.ends[i - 1],
+        };
+        let (end, text, line) = (self.ends[i], &self.scratch, &mut self.line);
+        if text.len() != end - start {
+            let tail = line.len();
+            let moved = start + text.len();
+            if moved > end {
+                line.resize(tail + (moved - end), 0);
+            }
+            line.copy_within(end..tail, moved);
+            line.truncate(tail + moved - end);
+            for e in &mut self.ends[i..] {
+                *e = *e + moved - end;
+            }
+        }
+        line[start..start + text.len()].copy_from_slice(text);
     }
 }
 
@@ -230,9 +229,8 @@ mod tests {
     fn a_repeated_value_is_written_as_a_fresh_one_would_be() {
         // Each row's text as `{}` formats it, whether a column repeats its last value or
         // not; 0 and -0, and two NaNs, are told apart by their bits.
-        // Texts wider than a cell in place (1e300, 1e-30 with 33 bytes and its comma),
-        // at its width exactly (`,-0.0000000000012345678901234567`, 32) and narrower
-        // (`,-0.00012345678901234567`, 24) alike.
+        // Texts that grow and shrink in the middle of the line and at its end, long ones
+        // (1e300, 1e-30) among them, with the time's text growing and shrinking too.
         let rows: [(f64, [f64; 3]); 9] = [
             (0.0, [0.0, 1.25, f64::NAN]),
             (0.002, [0.0, 1.25, f64::NAN]),

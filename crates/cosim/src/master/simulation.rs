@@ -38,6 +38,7 @@ impl Simulation {
 
     /// The value input `dst` gets from `feed` at `t`: the latest read of an output, or a
     /// system input at `t`.
+    #[inline]
     pub(super) fn input_value(&mut self, dst: Port, feed: Feed, t: f64) -> Result<f64, Error> {
         Ok(match feed {
             Feed::Latest(j) => self.latest[j],
@@ -48,19 +49,26 @@ impl Simulation {
                 // saturate silently.
                 let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
                 if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
-                    let name = match (self.input_columns[j], &self.input) {
-                        (Some(c), Some(table)) => table.names[c].as_str(),
-                        _ => "?",
-                    };
-                    return Err(Error::Config(format!(
-                        "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
-                        i32::MIN,
-                        i32::MAX
-                    )));
+                    return Err(self.not_an_integer(j, v, t));
                 }
                 v
             }
         })
+    }
+
+    /// Why system input `j`'s value `v` at `t` cannot be set on an Integer input.
+    #[cold]
+    #[inline(never)]
+    fn not_an_integer(&self, j: usize, v: f64, t: f64) -> Error {
+        let name = match (self.input_columns[j], &self.input) {
+            (Some(c), Some(table)) => table.names[c].as_str(),
+            _ => "?",
+        };
+        Error::Config(format!(
+            "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
+            i32::MIN,
+            i32::MAX
+        ))
     }
 
     /// The recorded variables now, in the order of [`Simulation::record_names`].
