@@ -403,7 +403,8 @@ impl System {
             all.into_iter().partition(|(dst, _)| super::clocks::at_ticks(&self.components, dst));
         // A recorded port that feeds an input is read by every step already: the row
         // takes that read (nothing sets a component's inputs between its read and the
-        // row), and only the other ports cost a call of their own.
+        // row). The other recorded ports follow the sources in `latest`: a step without
+        // clocks reads them in the same calls, a row after anything else on their own.
         let mut record_ports: Vec<Port> = Vec::new();
         let columns: Vec<Column> = record
             .iter()
