@@ -118,7 +118,7 @@ impl Plant {
             linear::xi_row(&self.params, w_s),
             linear::drive_rate_row(&self.params, self.state.mode),
         ];
-        let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level, |m| m.exp()));
+        let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level));
         self.configs[key] = Some(t);
     }
 }

@@ -8,6 +8,7 @@
 pub mod analog;
 mod configs;
 pub mod continuous;
+mod expm;
 pub mod hysteresis;
 pub mod linear;
 mod noise;
@@ -169,12 +170,8 @@ impl Plant {
         let mut volts = Chain::zeros();
         volts[2] = 1.0;
         let scan_level = linear::scan_level(params.rel_tol);
-        let chain = Arc::new(Propagators::new(
-            linear::chain_matrix(&params),
-            vec![volts],
-            scan_level,
-            |m| m.exp(),
-        ));
+        let chain =
+            Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], scan_level));
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
         let armed = Armed::of(&hysteresis);

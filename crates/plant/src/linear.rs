@@ -434,17 +434,14 @@ impl<const D: usize> ScanBound<D> {
 }
 
 impl<const D: usize> Propagators<D> {
-    /// `exp` is the matrix exponential (nalgebra's Padé scaling-and-squaring for the concrete size).
-    pub fn new(
-        a: SMatrix<f64, D, D>,
-        watched: Vec<SVector<f64, D>>,
-        scan_level: usize,
-        exp: impl Fn(SMatrix<f64, D, D>) -> SMatrix<f64, D, D>,
-    ) -> Self {
-        // Every level from its own exponential: squaring the finest one 31 times would
-        // double its rounding error at each level.
-        let phi: [SMatrix<f64, D, D>; LEVELS] =
-            std::array::from_fn(|l| exp(a * (TICK * (1u64 << l) as f64)));
+    /// Every level has the bits of its own exponential (nalgebra's Padé scaling and
+    /// squaring of `A 2^l tick`, shared between levels by `expm::dyadic`): squaring the
+    /// finest one 31 times would double its rounding error at each level.
+    pub fn new(a: SMatrix<f64, D, D>, watched: Vec<SVector<f64, D>>, scan_level: usize) -> Self
+    where
+        nalgebra::Const<D>: nalgebra::DimMin<nalgebra::Const<D>, Output = nalgebra::Const<D>>,
+    {
+        let phi = crate::expm::dyadic(&a);
         let step = phi[scan_level];
         let scan_points = 1 << (LEVELS - 1 - scan_level);
         let mut scan = Vec::with_capacity(scan_points * watched.len());
