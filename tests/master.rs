@@ -291,6 +291,34 @@ fn after_a_restore_every_input_is_set_again() {
     }
 }
 
+/// A step reads the recorded outputs with the sources and the row after it calls no FMU;
+/// a row taken right after a restore reads the restored FMUs, not the last step's values.
+/// `plant.runner_position` is recorded and feeds no input.
+#[test]
+fn a_row_after_a_restore_reads_the_restored_fmus() {
+    use inchworm_cosim::System;
+    let opts = Options {
+        stop_time: Some(2.0),
+        step_size: Some(0.002),
+        coupling: Coupling::Jacobi,
+        params: vec![],
+        parameter_set: None,
+        input: Some(InputTable::steps("reference", &[(0.0, 1e-4)]).unwrap()),
+        outputs: vec!["plant.runner_position".into(), "plant.encoder_counts".into()],
+    };
+    let mut sim = System::load(&dist("InchwormSystemOpen.ssp")).unwrap().initialise(&opts).unwrap();
+    steps(&mut sim, 150);
+    let cp = sim.checkpoint().unwrap();
+    let at_checkpoint = sim.sample().unwrap();
+    let later = steps(&mut sim, 200);
+    assert_ne!(later[199][0], at_checkpoint[0], "the runner moved after the checkpoint");
+    sim.restore(&cp).unwrap();
+    let restored = sim.sample().unwrap();
+    let bits = |row: &[f64]| -> Vec<u64> { row.iter().map(|v| v.to_bits()).collect() };
+    assert_eq!(bits(&restored), bits(&at_checkpoint), "the row right after the restore");
+    sim.release(cp).unwrap();
+}
+
 #[test]
 fn a_checkpoint_of_fmi3_and_fmi2_components_repeats_the_run_bit_for_bit() {
     use inchworm_cosim::System;

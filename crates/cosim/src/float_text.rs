@@ -20,12 +20,14 @@ use std::io::Write;
 
 /// Appends `x` to `out` as `format!("{x}")` would.
 pub fn push(out: &mut Vec<u8>, x: f64) {
-    // Whole numbers (±0 included; NaN and the infinities fail one test or the other).
-    if x == x.trunc() && x.abs() < TWO_POW_53 {
+    // Whole numbers (±0 included; NaN and the infinities fail the range test). Below 2⁵³
+    // the conversion to `i64` and back is exact, so it gives `x` back just when `x` is
+    // whole.
+    if x.abs() < TWO_POW_53 && (x as i64) as f64 == x {
         if x == 0.0 && x.is_sign_negative() {
             out.extend_from_slice(b"-0");
         } else {
-            write!(out, "{}", x as i64).expect("a Vec takes any bytes");
+            push_integer(out, x as i64);
         }
         return;
     }
@@ -37,7 +39,9 @@ pub fn push(out: &mut Vec<u8>, x: f64) {
     let text = buffer.format_finite(x).as_bytes();
     // zmij writes `[-]d.ddd` (positional, as `{}` writes a number that is not whole) or
     // `[-]d[.ddd]e±x`, with `0.d…` below 1 in either.
-    let Some(at) = text.iter().rposition(|&b| b == b'e') else {
+    // The exponent, if any, is the text's last five bytes at most (`e-324`).
+    let tail = text.len().saturating_sub(5);
+    let Some(at) = text[tail..].iter().rposition(|&b| b == b'e').map(|at| tail + at) else {
         out.extend_from_slice(text);
         return;
     };
@@ -70,6 +74,26 @@ pub fn push(out: &mut Vec<u8>, x: f64) {
         out.extend_from_slice(fraction);
         out.resize(out.len() + (e - n) as usize, b'0');
     }
+}
+
+/// Appends the decimal digits of `i`, a `-` first if it is negative, as `{}` writes an
+/// `i64`.
+fn push_integer(out: &mut Vec<u8>, i: i64) {
+    let mut digits = [0u8; 20];
+    let mut at = digits.len();
+    let mut n = i.unsigned_abs();
+    loop {
+        at -= 1;
+        digits[at] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    if i < 0 {
+        out.push(b'-');
+    }
+    out.extend_from_slice(&digits[at..]);
 }
 
 /// 2⁵³: every whole `f64` below it is an `i64` with the same `{}` text.
@@ -194,6 +218,29 @@ mod tests {
             check(f64::from(k));
             check(f64::from(k) * 0.001);
             check(f64::from(k) * 0.002);
+        }
+    }
+
+    #[test]
+    fn whole_numbers_are_core_fmt_text() {
+        // Every digit count of both signs up to 2⁵³, where the integer path ends.
+        let mut x = 1.0f64;
+        while x < 1e16 {
+            neighbours(x);
+            neighbours(x - 1.0);
+            neighbours(x * 7.0 + 3.0);
+            x *= 10.0;
+        }
+        for x in [9007199254740991.0, 9007199254740992.0, -9007199254740991.0, 4503599627370495.5] {
+            neighbours(x);
+        }
+        let mut s = 0x6a09_e667_f3bc_c909u64;
+        for _ in 0..200_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            let whole = (s >> 11) as i64 >> (s % 53);
+            check(whole as f64);
         }
     }
 

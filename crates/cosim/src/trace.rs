@@ -53,17 +53,21 @@ pub fn write_header(w: &mut dyn std::io::Write, names: &[String]) -> std::io::Re
 
 /// The CSV rows of [`Trace::write_csv`], one after another, for a writer that streams
 /// them. Each value is its `{}` text (the shortest that reads back as the same `f64`),
-/// written by [`float_text::push`]; a value with the bits of its column's value in the row
-/// before takes that row's text instead of being formatted again. A closed loop's slow
-/// columns (a DAC between gaits, a mode, a held reference) change in a few rows in a
-/// hundred, so a long run's CSV costs a fraction and no byte changes. A row goes to the
-/// writer in one call.
+/// written by [`float_text::push`]. The writer keeps the last row's line and rewrites in it
+/// only the values whose bits changed (and the time): a closed loop's slow columns (a DAC
+/// between gaits, a mode, a held reference) change in a few rows in a hundred, so a long
+/// run's row costs the text of its few changed values and a move of the line's tail where
+/// a text's length changed, and no byte changes. A row goes to the writer in one call.
 #[derive(Debug, Default)]
 pub struct RowWriter {
-    /// Per column: the bits of its last value and that value's text (empty before the
-    /// first row).
-    last: Vec<(u64, Vec<u8>)>,
-    /// The row being written, handed to the writer in one call.
+    /// Per column: the bits of its value in the line.
+    bits: Vec<u64>,
+    /// Where each text of the line ends, the time's first, then each column's (its
+    /// comma first); empty before the first row.
+    ends: Vec<usize>,
+    /// A value's text while it is formatted.
+    scratch: Vec<u8>,
+    /// The last row written, its line end included.
     line: Vec<u8>,
 }
 
@@ -79,23 +83,62 @@ impl RowWriter {
         t: f64,
         row: &[f64],
     ) -> std::io::Result<()> {
-        if self.last.len() != row.len() {
-            self.last = vec![(0, Vec::new()); row.len()];
+        if self.ends.len() != row.len() + 1 {
+            self.first(t, row);
+        } else {
+            self.scratch.clear();
+            float_text::push(&mut self.scratch, t);
+            self.replace(0);
+            for (i, &x) in row.iter().enumerate() {
+                if self.bits[i] != x.to_bits() {
+                    self.bits[i] = x.to_bits();
+                    self.scratch.clear();
+                    self.scratch.push(b',');
+                    float_text::push(&mut self.scratch, x);
+                    self.replace(i + 1);
+                }
+            }
         }
+        w.write_all(&self.line)
+    }
+
+    /// The line of a first row (or of a row of another width than the last).
+    fn first(&mut self, t: f64, row: &[f64]) {
         let line = &mut self.line;
         line.clear();
+        self.ends.clear();
         float_text::push(line, t);
-        for (x, (bits, text)) in row.iter().zip(&mut self.last) {
-            if text.is_empty() || *bits != x.to_bits() {
-                text.clear();
-                text.push(b',');
-                float_text::push(text, *x);
-                *bits = x.to_bits();
-            }
-            line.extend_from_slice(text);
+        self.ends.push(line.len());
+        for x in row {
+            line.push(b',');
+            float_text::push(line, *x);
+            self.ends.push(line.len());
         }
         line.push(b'\n');
-        w.write_all(line)
+        self.bits = row.iter().map(|x| x.to_bits()).collect();
+    }
+
+    /// Puts the text in `scratch` in the place of text `i` of the line (0 the time), the
+    /// rest of the line moved if the lengths differ.
+    fn replace(&mut self, i: usize) {
+        let start = match i {
+            0 => 0,
+            _ => self.ends[i - 1],
+        };
+        let (end, text, line) = (self.ends[i], &self.scratch, &mut self.line);
+        if text.len() != end - start {
+            let tail = line.len();
+            let moved = start + text.len();
+            if moved > end {
+                line.resize(tail + (moved - end), 0);
+            }
+            line.copy_within(end..tail, moved);
+            line.truncate(tail + moved - end);
+            for e in &mut self.ends[i..] {
+                *e = *e + moved - end;
+            }
+        }
+        line[start..start + text.len()].copy_from_slice(text);
     }
 }
 
@@ -186,13 +229,18 @@ mod tests {
     fn a_repeated_value_is_written_as_a_fresh_one_would_be() {
         // Each row's text as `{}` formats it, whether a column repeats its last value or
         // not; 0 and -0, and two NaNs, are told apart by their bits.
-        let rows: [(f64, [f64; 3]); 6] = [
+        // Texts that grow and shrink in the middle of the line and at its end, long ones
+        // (1e300, 1e-30) among them, with the time's text growing and shrinking too.
+        let rows: [(f64, [f64; 3]); 9] = [
             (0.0, [0.0, 1.25, f64::NAN]),
             (0.002, [0.0, 1.25, f64::NAN]),
             (0.004, [-0.0, 1.25, -f64::NAN]),
             (0.006, [-0.0, 3e-9, f64::INFINITY]),
             (0.008, [0.0, 3e-9, 1e300]),
             (0.01, [0.0, 3e-9, 1e300]),
+            (0.012, [-1.2345678901234567e-4, 1e-30, 1e300]),
+            (0.014, [-1.234567890123456e-9, 1e-30, -1.2345678901234567e-12]),
+            (0.016, [-1.234567890123456e-9, 2.5, -1.2345678901234567e-12]),
         ];
         let mut out = Vec::new();
         let mut w = RowWriter::new();

@@ -65,6 +65,7 @@ impl Simulation {
         }
         self.k = checkpoint.k;
         self.latest.clone_from(&checkpoint.latest);
+        self.rows_read = false;
         Ok(())
     }
 

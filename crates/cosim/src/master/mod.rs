@@ -69,10 +69,8 @@ enum Feed {
 /// Where a row finds one recorded value.
 #[derive(Clone, Copy, Debug)]
 enum Column {
-    /// A port that feeds an input: its latest read, `latest[j]`.
+    /// A port's latest read, `latest[j]`.
     Latest(usize),
-    /// A port read for the rows alone: `port_values[k]`.
-    Read(usize),
     /// A system input at the row's time.
     SystemInput(usize),
 }
@@ -122,9 +120,21 @@ pub struct System {
 /// An initialized system stepping on a fixed communication grid `k h` (phase 3 of [`run`]).
 pub struct Simulation {
     components: Vec<Component>,
-    /// The latest read of every component output that feeds an input.
+    /// The latest read of every component output that feeds an input (the first
+    /// `sources`), then of every recorded output that feeds none.
     latest: Vec<f64>,
+    sources: usize,
+    /// The outputs that feed inputs.
     source_batches: Batches,
+    /// The recorded outputs that feed no input, into `latest[sources..]`.
+    record_batches: Batches,
+    /// Both, each component's of one type in one call: what a step of a system without
+    /// clocks reads.
+    read_batches: Batches,
+    /// The recorded outputs in `latest` are those of the FMUs now: the last step read them
+    /// with the sources and nothing has been called since. A row then takes them as they
+    /// are.
+    rows_read: bool,
     destinations: Vec<(Port, Feed)>,
     destination_batches: Batches,
     /// The clocked inputs of the clocked components, set at their ticks.
@@ -136,8 +146,6 @@ pub struct Simulation {
     /// Where each value of a row comes from, in the order of `record_names`.
     columns: Vec<Column>,
     record_names: Vec<String>,
-    record_batches: Batches,
-    port_values: Vec<f64>,
     /// The row [`Simulation::sample_row`] fills, kept so that a step's row allocates nothing.
     row: Vec<f64>,
     input: Option<InputTable>,

@@ -38,6 +38,7 @@ impl Simulation {
 
     /// The value input `dst` gets from `feed` at `t`: the latest read of an output, or a
     /// system input at `t`.
+    #[inline]
     pub(super) fn input_value(&mut self, dst: Port, feed: Feed, t: f64) -> Result<f64, Error> {
         Ok(match feed {
             Feed::Latest(j) => self.latest[j],
@@ -48,19 +49,26 @@ impl Simulation {
                 // saturate silently.
                 let int = matches!(dst.ty, VarType::Integer | VarType::Enumeration);
                 if int && !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&v) {
-                    let name = match (self.input_columns[j], &self.input) {
-                        (Some(c), Some(table)) => table.names[c].as_str(),
-                        _ => "?",
-                    };
-                    return Err(Error::Config(format!(
-                        "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
-                        i32::MIN,
-                        i32::MAX
-                    )));
+                    return Err(self.not_an_integer(j, v, t));
                 }
                 v
             }
         })
+    }
+
+    /// Why system input `j`'s value `v` at `t` cannot be set on an Integer input.
+    #[cold]
+    #[inline(never)]
+    fn not_an_integer(&self, j: usize, v: f64, t: f64) -> Error {
+        let name = match (self.input_columns[j], &self.input) {
+            (Some(c), Some(table)) => table.names[c].as_str(),
+            _ => "?",
+        };
+        Error::Config(format!(
+            "input CSV column `{name}` = {v} at t = {t}: out of the Integer range {}..={}",
+            i32::MIN,
+            i32::MAX
+        ))
     }
 
     /// The recorded variables now, in the order of [`Simulation::record_names`].
@@ -70,12 +78,14 @@ impl Simulation {
 
     /// [`Simulation::sample`] into a buffer the simulation keeps: valid until the next call.
     pub fn sample_row(&mut self) -> Result<&[f64], Error> {
-        self.record_batches.read(&mut self.components, &mut self.port_values, None)?;
+        if !self.rows_read {
+            let recorded = &mut self.latest[self.sources..];
+            self.record_batches.read(&mut self.components, recorded, None)?;
+        }
         let t = self.time();
         for (out, column) in self.row.iter_mut().zip(&self.columns) {
             *out = match *column {
                 Column::Latest(j) => self.latest[j],
-                Column::Read(k) => self.port_values[k],
                 Column::SystemInput(i) => {
                     let row = &mut self.input_rows[i];
                     system_input(&self.input_columns, self.input.as_ref(), i, t, row)
@@ -89,7 +99,12 @@ impl Simulation {
     /// their ticks' events as `clocks` says: those within the step as they step, those at
     /// its end after every component's step and read (Jacobi) or after their own
     /// (Gauss–Seidel), those at the start time at the start of the first step.
+    ///
+    /// Without clocks a component's outputs change only in its own step, so the step reads
+    /// each component's recorded outputs with those that feed inputs, in the same call,
+    /// and the row after it ([`Simulation::sample_row`]) calls no FMU.
     pub fn step(&mut self) -> Result<(), Error> {
+        self.rows_read = false;
         let h = self.h;
         let t = self.time();
         let end = (self.k + 1) as f64 * h;
@@ -106,7 +121,7 @@ impl Simulation {
                     } else {
                         self.components[ci].fmu.advance(t, h)?;
                     }
-                    self.source_batches.read(&mut self.components, &mut self.latest, Some(ci))?;
+                    self.read_outputs(Some(ci))?;
                     if self.clocked {
                         self.end_events(Some(ci), end)?;
                     }
@@ -124,14 +139,26 @@ impl Simulation {
                         self.components[ci].fmu.advance(t, h)?;
                     }
                 }
-                self.source_batches.read(&mut self.components, &mut self.latest, None)?;
+                self.read_outputs(None)?;
                 if self.clocked {
                     self.end_events(None, end)?;
                 }
             }
         }
         self.k += 1;
+        self.rows_read = !self.clocked;
         Ok(())
+    }
+
+    /// Reads the outputs of component `only` (every component if `None`) after its step:
+    /// with clocks, those that feed inputs (the clocks' events at the step's end may
+    /// change the others before the row); without, the recorded ones too.
+    fn read_outputs(&mut self, only: Option<usize>) -> Result<(), Error> {
+        let batches = match self.clocked {
+            true => &mut self.source_batches,
+            false => &mut self.read_batches,
+        };
+        batches.read(&mut self.components, &mut self.latest, only)
     }
 
     /// What integrating each Model Exchange component cost so far, by component name.

@@ -403,7 +403,8 @@ impl System {
             all.into_iter().partition(|(dst, _)| super::clocks::at_ticks(&self.components, dst));
         // A recorded port that feeds an input is read by every step already: the row
         // takes that read (nothing sets a component's inputs between its read and the
-        // row), and only the other ports cost a call of their own.
+        // row). The other recorded ports follow the sources in `latest`: a step without
+        // clocks reads them in the same calls, a row after anything else on their own.
         let mut record_ports: Vec<Port> = Vec::new();
         let columns: Vec<Column> = record
             .iter()
@@ -415,16 +416,22 @@ impl System {
                         Some(j) => Column::Latest(j),
                         None => {
                             record_ports.push(p);
-                            Column::Read(record_ports.len() - 1)
+                            Column::Latest(sources.len() + record_ports.len() - 1)
                         }
                     }
                 }
             })
             .collect();
+        // A step reads the recorded ports with the sources, each component's of one type in
+        // one call ([`Simulation::step`]).
+        let read: Vec<Port> = sources.iter().chain(&record_ports).copied().collect();
         let mut sim = Simulation {
-            latest: vec![0.0; sources.len()],
+            latest: vec![0.0; read.len()],
+            sources: sources.len(),
             source_batches: Batches::new(&sources)?,
             record_batches: Batches::new(&record_ports)?,
+            read_batches: Batches::new(&read)?,
+            rows_read: false,
             destination_batches: Batches::new(
                 &destinations.iter().map(|(p, _)| *p).collect::<Vec<_>>(),
             )?,
@@ -435,7 +442,6 @@ impl System {
                 destinations: ticked,
             },
             clocked: self.components.iter().any(|c| c.fmu.clocked()),
-            port_values: vec![0.0; record_ports.len()],
             row: vec![0.0; record.len()],
             destinations,
             columns,
