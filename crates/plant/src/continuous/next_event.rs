@@ -1,0 +1,125 @@
+//! The plant's next event with its inputs held, for a Model Exchange master to stop at
+//! (docs/model.md §5.1, docs/model-exchange.md).
+//!
+//! Between events the plant with its DAC volts held is the exact solver's propagation:
+//! from the physical state after an event update, [`EventProbe::next_event`] runs a copy
+//! of the plant through `Plant::step` and reads where its event loop located the first
+//! event (`StepReport::first_event`). The FMU announces that time as its next time event,
+//! so a master stops there and the update applies the event, however long its integrator's
+//! steps are: the indicators of node 3's ring (`ξ` against a slip onset, `ξ̇` at a slip's
+//! end) can cross and return inside one step of an integrator that steps with the slow
+//! motion, and its root finding, which sees only the ends of its steps, misses them.
+
+use crate::{Dac, Mode, Plant};
+
+/// How far ahead one prediction looks (s). A prediction that finds nothing is announced
+/// at this distance, so an event further on is looked for again from there.
+pub const HORIZON: f64 = 0.01;
+
+/// The steps the probe takes (s): the event loop runs on to the end of the step that
+/// located the first event, so a shorter step wastes less after it; the length repeats,
+/// so the solver's plans for it are built once.
+const CHUNK: f64 = 2.5e-4;
+
+/// What an event changes: the mode and the brakes, the sliding set and, while elements
+/// slide, their direction (their memories follow `ξ` then, and are not compared).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Discrete {
+    mode: Mode,
+    brakes: (bool, bool),
+    sliding: u8,
+    direction: i8,
+}
+
+impl Discrete {
+    fn of(p: &Plant) -> Discrete {
+        let (s, h) = (&p.state, &p.state.hysteresis);
+        Discrete {
+            mode: s.mode,
+            brakes: (s.earth_closed, s.nonearth_closed),
+            sliding: h.sliding,
+            direction: if h.sliding != 0 { h.direction } else { 0 },
+        }
+    }
+}
+
+/// A plant of the same parameters whose propagators the predictions reuse.
+#[derive(Clone, Debug)]
+pub struct EventProbe {
+    plant: Plant,
+}
+
+impl EventProbe {
+    /// A probe for plants of `plant`'s parameters (its caches come along).
+    pub fn new(plant: &Plant) -> EventProbe {
+        EventProbe { plant: plant.clone() }
+    }
+
+    /// The time of the first event the exact solver locates after `from`'s time with `dac`
+    /// held, if one lies within [`HORIZON`]. `None` too if the propagation leaves the
+    /// finite numbers (`Plant::step` refuses it).
+    pub fn next_event(&mut self, from: &Plant, dac: Dac) -> Option<f64> {
+        let p = &mut self.plant;
+        p.state = from.state.clone();
+        let chunks = (HORIZON / CHUNK).round() as usize;
+        for _ in 0..chunks {
+            let before = Discrete::of(p);
+            let report = p.step(dac, CHUNK).ok()?;
+            if let Some(t) = report.first_event {
+                return Some(t);
+            }
+            // A change that no located event reports happened where the step began (its
+            // first hysteresis update): the step's start is the latest time it may be.
+            if Discrete::of(p) != before {
+                return Some(p.state.time - CHUNK);
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::PlantParams;
+
+    /// The events of a forward stroke from rest, one after the other: each predicted time
+    /// is where the solver changes the discrete state (unchanged 10 ns before it, changed
+    /// 10 ns after), and the brake switches are the solver's own located times.
+    #[test]
+    fn each_predicted_event_is_where_the_solver_changes_the_discrete_state() {
+        let mut plant = Plant::new(PlantParams::fia20()).unwrap();
+        let mut probe = EventProbe::new(&plant);
+        // At rest the volts hold nothing up: no event within the horizon.
+        assert_eq!(probe.next_event(&plant, Dac::default()), None);
+        // Both brakes switch (HOLD to DRIVE: the channels are alike, the two crossings
+        // within 10 ns), the stack extends: its elements slip one after the other and
+        // stick where node 3's ring turns `ξ`.
+        let dac = Dac { earth: 10.0, nonearth: 10.0, extension: 6.0 };
+        let (mut brakes, mut slips) = (0, 0);
+        for _ in 0..12 {
+            let now = plant.state.time;
+            let Some(t) = probe.next_event(&plant, dac) else { break };
+            assert!(t > now && t <= now + HORIZON, "{t} after {now}");
+            let before = Discrete::of(&plant);
+            let mut early = plant.clone();
+            if t - now > 1e-8 {
+                early.step(dac, t - now - 1e-8).unwrap();
+                assert_eq!(Discrete::of(&early), before, "at {t}");
+            }
+            let report = plant.step(dac, t - now + 1e-8).unwrap();
+            let after = Discrete::of(&plant);
+            assert_ne!(after, before, "at {t}");
+            if after.brakes != before.brakes {
+                brakes += u32::from(after.brakes.0 != before.brakes.0)
+                    + u32::from(after.brakes.1 != before.brakes.1);
+                let located = report.first_brake_event.unwrap();
+                assert!((located - t).abs() < 2e-9, "brake at {located}, predicted {t}");
+            } else {
+                slips += 1;
+            }
+        }
+        assert_eq!(brakes, 2);
+        assert!(slips >= 2, "{slips}");
+    }
+}
