@@ -13,7 +13,7 @@ mod table;
 use inchworm_fmi_export::{
     EventUpdate, Model, ModelExchange, ModelInfo, Reader, Row, StepLog, Writer,
 };
-use inchworm_plant::continuous::next_event::{EventProbe, HORIZON};
+use inchworm_plant::continuous::next_event::EventProbe;
 use inchworm_plant::continuous::{EventBudget, EventReport, Jacobian};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
@@ -262,7 +262,7 @@ impl<F: Formulation> Model for PlantModel<F> {
         // The next event of the exact propagation with these volts held: a master stops
         // there whatever its steps, and its update applies it. Nothing within the horizon:
         // the prediction is made again from there.
-        let next = probe.next_event(f.plant(), dac).unwrap_or(t + HORIZON);
+        let next = probe.next_time_event(f.plant(), dac);
         Ok(EventUpdate { states_changed: event.states_changed, next_event_time: Some(next) })
     }
 

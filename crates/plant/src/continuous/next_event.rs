@@ -69,12 +69,18 @@ impl EventProbe {
                 return Some(t);
             }
             // A change that no located event reports happened where the step began (its
-            // first hysteresis update): the step's start is the latest time it may be.
+            // first hysteresis update): by the step's end it has happened.
             if Discrete::of(p) != before {
-                return Some(p.state.time - CHUNK);
+                return Some(p.state.time);
             }
         }
         None
+    }
+
+    /// The time event to announce after an update of `from` with `dac` held: its next
+    /// event, or with none within [`HORIZON`] the horizon, where the next prediction starts.
+    pub fn next_time_event(&mut self, from: &Plant, dac: Dac) -> f64 {
+        self.next_event(from, dac).unwrap_or(from.state.time + HORIZON)
     }
 }
 
