@@ -10,6 +10,7 @@
 //! end) can cross and return inside one step of an integrator that steps with the slow
 //! motion, and its root finding, which sees only the ends of its steps, misses them.
 
+use crate::params::N_PLAYS;
 use crate::{Dac, Mode, Plant};
 
 /// How far ahead one prediction looks (s). A prediction that finds nothing is announced
@@ -43,16 +44,37 @@ impl Discrete {
     }
 }
 
-/// A plant of the same parameters whose propagators the predictions reuse.
+/// What a prediction started from besides the continuous state: the discrete state, the
+/// elements' memories and the held volts (bits).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Origin {
+    discrete: Discrete,
+    memory: [u64; N_PLAYS],
+    dac: [u64; 3],
+}
+
+impl Origin {
+    fn of(p: &Plant, dac: Dac) -> Origin {
+        Origin {
+            discrete: Discrete::of(p),
+            memory: p.state.hysteresis.memory.map(f64::to_bits),
+            dac: [dac.earth, dac.nonearth, dac.extension].map(f64::to_bits),
+        }
+    }
+}
+
+/// A plant of the same parameters whose propagators the predictions reuse, and the last
+/// time event announced with what it was predicted from.
 #[derive(Clone, Debug)]
 pub struct EventProbe {
     plant: Plant,
+    announced: Option<(Origin, f64)>,
 }
 
 impl EventProbe {
     /// A probe for plants of `plant`'s parameters (its caches come along).
     pub fn new(plant: &Plant) -> EventProbe {
-        EventProbe { plant: plant.clone() }
+        EventProbe { plant: plant.clone(), announced: None }
     }
 
     /// The time of the first event the exact solver locates after `from`'s time with `dac`
@@ -79,8 +101,28 @@ impl EventProbe {
 
     /// The time event to announce after an update of `from` with `dac` held: its next
     /// event, or with none within [`HORIZON`] the horizon, where the next prediction starts.
+    ///
+    /// An update that changed neither the discrete state nor the volts since the last
+    /// prediction, before its time, keeps it: the master has been integrating the same
+    /// trajectory since (a master that updates at every communication point pays for a
+    /// prediction only after an event or a change of the volts).
+    ///
+    /// The time is at least the solver's event resolution (`rel_tol` seconds) after
+    /// `from`'s: the exact solver locates events no finer, and a master's integrator can't
+    /// stop a few rounding units ahead (where a master's root lies just before the event
+    /// and its state has not crossed yet).
     pub fn next_time_event(&mut self, from: &Plant, dac: Dac) -> f64 {
-        self.next_event(from, dac).unwrap_or(from.state.time + HORIZON)
+        let now = from.state.time;
+        let origin = Origin::of(from, dac);
+        let at = match self.announced {
+            Some((o, at)) if o == origin && now < at => at,
+            _ => {
+                let at = self.next_event(from, dac).unwrap_or(now + HORIZON);
+                self.announced = Some((origin, at));
+                at
+            }
+        };
+        at.max(now + from.params.rel_tol)
     }
 }
 
@@ -127,5 +169,27 @@ mod tests {
         }
         assert_eq!(brakes, 2);
         assert!(slips >= 2, "{slips}");
+    }
+
+    /// An update that changed nothing keeps the announced time; new volts, or an event,
+    /// predict anew.
+    #[test]
+    fn an_unchanged_update_keeps_the_announced_time() {
+        let mut plant = Plant::new(PlantParams::fia20()).unwrap();
+        let mut probe = EventProbe::new(&plant);
+        let dac = Dac { earth: 10.0, nonearth: 10.0, extension: 6.0 };
+        let first = probe.next_time_event(&plant, dac);
+        assert_eq!(Some(first), probe.next_event(&plant, dac));
+        // Half-way there nothing has changed: the announced time stands.
+        plant.step(dac, first / 2.0).unwrap();
+        assert_eq!(probe.next_time_event(&plant, dac).to_bits(), first.to_bits());
+        // Other volts: predicted anew, from here.
+        let other = Dac { extension: 0.0, ..dac };
+        let again = probe.next_time_event(&plant, other);
+        assert_eq!(Some(again), probe.next_event(&plant, other));
+        // Past the event: the next one.
+        plant.step(dac, first - plant.state.time + 1e-8).unwrap();
+        let next = probe.next_time_event(&plant, dac);
+        assert!(next > first + 1e-8, "{next} after {first}");
     }
 }
