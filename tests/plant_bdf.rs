@@ -139,7 +139,7 @@ fn run<F: Formulation>(mut m: F, dacs: &[Dac]) -> Run {
         loop {
             let next = probe.next_time_event(m.plant(), dac);
             // A time event this close to the sample's end is at it (as the master has it).
-            let stop = if next < t1 - 1e-9 * H { next } else { t1 };
+            let stop = next.filter(|&te| te < t1 - 1e-9 * H).unwrap_or(t1);
             let x0 = m.states();
             let cell = RefCell::new(&mut m);
             let problem = OdeBuilder::<NalgebraMat<f64>>::new()

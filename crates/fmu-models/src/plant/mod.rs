@@ -260,10 +260,9 @@ impl<F: Formulation> Model for PlantModel<F> {
         let event = f.event_update(dac, t);
         Self::report(f.plant(), &event.step, before, log);
         // The next event of the exact propagation with these volts held: a master stops
-        // there whatever its steps, and its update applies it. Nothing within the horizon:
-        // the prediction is made again from there.
+        // there whatever its steps, and its update applies it.
         let next = probe.next_time_event(f.plant(), dac);
-        Ok(EventUpdate { states_changed: event.states_changed, next_event_time: Some(next) })
+        Ok(EventUpdate { states_changed: event.states_changed, next_event_time: next })
     }
 
     /// Exact: the formulation's matrices. A Co-Simulation instance, which integrates no
