@@ -28,6 +28,7 @@ use crate::linear::{self, ix, mul_vec, Chain, ChainMatrix, Vector};
 use crate::solver::held_volts;
 use crate::{Dac, Mode, Plant, PlantParams, StepReport};
 
+pub mod next_event;
 pub mod reduced;
 
 /// Continuous states: the mechanics (`y1 v1 y2 v2 y3 v3 y4 v4`, positions as deviations

@@ -77,6 +77,9 @@ pub struct StepReport {
     pub slips: u32,
     /// Time (s) of the first brake switch in this step.
     pub first_brake_event: Option<f64>,
+    /// Time (s) of the first located event in this step (a brake switch, a slip onset or
+    /// end): where the step first changed the discrete state inside it.
+    pub first_event: Option<f64>,
     /// The step needed more events than a step may have (chattering at a threshold), so
     /// the rest of it ran without looking for events.
     pub event_budget_exhausted: bool,

@@ -267,7 +267,7 @@ impl Plant {
         let first = (self.state.z, self.state.earth, self.state.nonearth);
         let mut stopless = true;
         while left > 0 {
-            let brakes_before = report.brake_events;
+            let (brakes_before, events_before) = (report.brake_events, events);
             let watching = stops < budget;
             if left >= fine {
                 let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
@@ -326,6 +326,9 @@ impl Plant {
             }
             if report.brake_events > brakes_before && report.first_brake_event.is_none() {
                 report.first_brake_event = Some(t0 + (total - left) as f64 * TICK);
+            }
+            if events > events_before && report.first_event.is_none() {
+                report.first_event = Some(t0 + (total - left) as f64 * TICK);
             }
         }
         report.event_budget_exhausted = stops >= budget;

@@ -13,6 +13,7 @@ mod table;
 use inchworm_fmi_export::{
     EventUpdate, Model, ModelExchange, ModelInfo, Reader, Row, StepLog, Writer,
 };
+use inchworm_plant::continuous::next_event::EventProbe;
 use inchworm_plant::continuous::{EventBudget, EventReport, Jacobian};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
@@ -79,6 +80,9 @@ pub struct PlantModel<F> {
     /// Not part of the FMU state: a restored state starts a fresh window.
     start: f64,
     budget: EventBudget,
+    /// Model Exchange: the exact propagation that finds the next event after an update,
+    /// announced as the next time event (docs/model.md §5.1). A cache, not FMU state.
+    probe: Option<EventProbe>,
 }
 
 /// Outputs before the plant exists (instantiated / initialization mode): at rest, docs/model.md §2.7.
@@ -200,6 +204,7 @@ impl<F: Formulation> Model for PlantModel<F> {
             built: Built::Not,
             start: 0.0,
             budget: EventBudget::default(),
+            probe: None,
         }
     }
 
@@ -214,6 +219,7 @@ impl<F: Formulation> Model for PlantModel<F> {
         let Built::Cs(plant) = std::mem::replace(&mut self.built, Built::Not) else {
             return Err("the plant is built at exit from initialization".into());
         };
+        self.probe = Some(EventProbe::new(&plant));
         let mut f = F::build(plant)?;
         f.set_time(self.start);
         self.built = Built::Me(f);
@@ -247,11 +253,16 @@ impl<F: Formulation> Model for PlantModel<F> {
     fn update_discrete_states(&mut self, t: f64, log: &mut StepLog) -> Result<EventUpdate, String> {
         let (start, dac) = (self.start, self.dac);
         self.budget.spend(t, start)?;
-        let f = self.formulation()?;
+        let (Built::Me(f), Some(probe)) = (&mut self.built, &mut self.probe) else {
+            return Err("the plant is not initialized for Model Exchange".into());
+        };
         let before = f.plant().mode();
         let event = f.event_update(dac, t);
         Self::report(f.plant(), &event.step, before, log);
-        Ok(EventUpdate { states_changed: event.states_changed, next_event_time: None })
+        // The next event of the exact propagation with these volts held: a master stops
+        // there whatever its steps, and its update applies it.
+        let next = probe.next_time_event(f.plant(), dac);
+        Ok(EventUpdate { states_changed: event.states_changed, next_event_time: next })
     }
 
     /// Exact: the formulation's matrices. A Co-Simulation instance, which integrates no
@@ -305,7 +316,9 @@ impl<F: Formulation> Model for PlantModel<F> {
                 Built::Cs(p)
             }
             ME_BUILT => {
-                let mut f = F::build(plant()?)?;
+                let p = plant()?;
+                self.probe = Some(EventProbe::new(&p));
+                let mut f = F::build(p)?;
                 f.load_state(rest)?;
                 Built::Me(f)
             }
