@@ -23,7 +23,6 @@
 //!
 //! LOCKED has no mechanics: there `s` is the physical state and the stack stays frozen.
 
-use std::cell::Cell;
 use std::sync::Arc;
 
 use nalgebra::{Complex, SMatrix};
@@ -146,6 +145,34 @@ fn block<const R: usize, const C: usize>(
     SMatrix::from_fn(|r, c| a[(rows[r], cols[c])])
 }
 
+/// The rates a [`Reduced`] keeps between reads, with the DAC volts' bits they are for. A
+/// mutex, not a `Cell`, so the plant stays `Sync` (a framework may share it between threads);
+/// a read that finds it taken by another thread computes the rates without keeping them.
+#[derive(Debug, Default)]
+struct KeptRates(std::sync::Mutex<Option<([u64; 3], [f64; N_STATES])>>);
+
+impl KeptRates {
+    fn get(&self) -> Option<([u64; 3], [f64; N_STATES])> {
+        self.0.try_lock().ok().and_then(|k| *k)
+    }
+
+    fn set(&self, key: [u64; 3], rates: [f64; N_STATES]) {
+        if let Ok(mut k) = self.0.try_lock() {
+            *k = Some((key, rates));
+        }
+    }
+
+    fn clear(&mut self) {
+        *self.0.get_mut().unwrap_or_else(|p| p.into_inner()) = None;
+    }
+}
+
+impl Clone for KeptRates {
+    fn clone(&self) -> Self {
+        KeptRates(std::sync::Mutex::new(self.get()))
+    }
+}
+
 /// Iterates `m ← step(m)` to its fixed point; `None` if it doesn't settle (rounding leaves
 /// a relative change of 1e-14 or so there) or leaves the finite numbers.
 fn fixed_point<const R: usize, const C: usize>(
@@ -212,7 +239,7 @@ pub struct Reduced {
     /// The rates of the last [`Reduced::derivatives`], with the bits of the DAC volts
     /// they were taken for: a master reads the rates one variable at a time, each the
     /// same vector. Every `&mut self` method forgets them.
-    rates: Cell<Option<([u64; 3], [f64; N_STATES])>>,
+    rates: KeptRates,
     /// Every configuration's split, by the plant's configuration key.
     configs: Arc<Vec<Config>>,
 }
@@ -250,7 +277,7 @@ impl Reduced {
             modal: None,
             since,
             at: None,
-            rates: Cell::new(None),
+            rates: KeptRates::default(),
             configs: Arc::new(configs),
         };
         r.split();
@@ -275,7 +302,7 @@ impl Reduced {
     /// Splits the physical state in the current configuration: the fast part from now on,
     /// and the slow state.
     fn split(&mut self) {
-        self.rates.set(None);
+        self.rates.clear();
         self.s = self.plant.state.z;
         self.since = self.plant.state.time;
         self.fast = Fast::zeros();
@@ -296,7 +323,7 @@ impl Reduced {
 
     /// The physical state at the plant's time from the slow state and the fast part.
     fn join(&mut self) {
-        self.rates.set(None);
+        self.rates.clear();
         let key = self.plant.config_key();
         let z = &mut self.plant.state.z;
         match &self.configs[key].split {
@@ -372,7 +399,7 @@ impl Reduced {
             }
         }
         let r = self.rates_now(dac);
-        self.rates.set(Some((key, r)));
+        self.rates.set(key, r);
         r
     }
 
@@ -398,7 +425,7 @@ impl Reduced {
     /// ([`Plant::event_update`]), then, if it changed the physical state or the
     /// configuration, the state split anew in the configuration it leaves.
     pub fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
-        self.rates.set(None);
+        self.rates.clear();
         let before = self.continuous_states();
         if t.to_bits() != self.plant.state.time.to_bits() {
             self.set_time(t);
@@ -446,7 +473,7 @@ impl Reduced {
         next.plant.load_state(plant)?;
         next.modal = next.modal_of_fast();
         next.at = None;
-        next.rates.set(None);
+        next.rates.clear();
         *self = next;
         Ok(())
     }
