@@ -229,20 +229,7 @@ impl CLoop {
     /// One run of the loop over `DURATION`.
     fn run(&self) -> Result<Timed, String> {
         let exe = &self.exe;
-        let mut child = Command::new(exe)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|e| format!("{}: {e}", exe.display()))?;
-        let stdin = child.stdin.take().expect("piped");
-        (&stdin).write_all(self.input.as_bytes()).map_err(|e| e.to_string())?;
-        drop(stdin);
-        let out = child.wait_with_output().map_err(|e| e.to_string())?;
-        let v: Vec<f64> = String::from_utf8_lossy(&out.stdout)
-            .split_whitespace()
-            .filter_map(|x| x.parse().ok())
-            .collect();
+        let (out, v) = run_program(exe, &self.input)?;
         match v[..] {
             [wall, cpu, count] if out.status.success() => {
                 Ok(Timed { wall, cpu, sim_s: DURATION, final_count: Some(count as i64) })
@@ -255,6 +242,25 @@ impl CLoop {
             )),
         }
     }
+}
+
+/// Runs `exe` with `input` on its standard input: its output and the numbers it printed.
+fn run_program(exe: &Path, input: &str) -> Result<(std::process::Output, Vec<f64>), String> {
+    let mut child = Command::new(exe)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{}: {e}", exe.display()))?;
+    let stdin = child.stdin.take().expect("piped");
+    (&stdin).write_all(input.as_bytes()).map_err(|e| e.to_string())?;
+    drop(stdin);
+    let out = child.wait_with_output().map_err(|e| e.to_string())?;
+    let v = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    Ok((out, v))
 }
 
 /// The C anchor (`benches/rk4_anchor.c`): RK4 of the quiet plant over `RK4_SECONDS`, and
@@ -308,19 +314,7 @@ impl Anchor {
     /// propagation, relative to the state's size.
     fn run(&self) -> Result<(Timed, f64), String> {
         let exe = &self.exe;
-        let mut child = Command::new(exe)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .spawn()
-            .map_err(|e| format!("{}: {e}", exe.display()))?;
-        let stdin = child.stdin.take().expect("piped");
-        (&stdin).write_all(self.input.as_bytes()).map_err(|e| e.to_string())?;
-        drop(stdin);
-        let out = child.wait_with_output().map_err(|e| e.to_string())?;
-        let v: Vec<f64> = String::from_utf8_lossy(&out.stdout)
-            .split_whitespace()
-            .filter_map(|x| x.parse().ok())
-            .collect();
+        let (out, v) = run_program(exe, &self.input)?;
         if !out.status.success() || v.len() != N + 2 {
             return Err(format!("{} failed ({})", exe.display(), out.status));
         }
