@@ -2,10 +2,10 @@
 //!
 //! The public types and the plant's state live here; the event-driven exact solver in
 //! `solver` (its scan in `scan`, its pieces and their bisection in `pieces`, the quiet step
-//! in `quiet`), its per-configuration propagator cache in `configs` (the tables' exponentials in
-//! `expm`), the state bytes in
-//! `state`, the encoder noise in `noise`; the same plant in continuous time, for a master
-//! that integrates it (Model Exchange), in `continuous`.
+//! in `quiet`), its per-configuration propagator cache in `configs` (the tables'
+//! exponentials in `expm`), the state bytes in `state`, the encoder noise in `noise`; the
+//! same plant in continuous time, for a master that integrates it (Model Exchange), in
+//! `continuous`.
 
 pub mod analog;
 mod configs;
