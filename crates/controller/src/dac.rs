@@ -5,8 +5,7 @@
 pub use inchworm_board::{DAC_FULL_SCALE, DAC_MAX_CODE};
 
 pub(crate) fn quantize(v: f64) -> (f64, u16) {
-    let code = (v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE))
-        .round()
+    let code = inchworm_board::round_half_away(v / DAC_FULL_SCALE * f64::from(DAC_MAX_CODE))
         .clamp(0.0, f64::from(DAC_MAX_CODE)) as u16;
     (volts_of_code(code), code)
 }

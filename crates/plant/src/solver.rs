@@ -545,8 +545,8 @@ impl Plant {
         if self.params.encoder_noise > 0.0 {
             x += self.params.encoder_noise * gaussian(&mut self.state.rng);
         }
-        // f64::round rounds half away from zero, as docs/model.md §2.6 asks.
-        self.state.encoder_counts = (x / self.params.q_enc).round() as i64;
+        // Half away from zero, as docs/model.md §2.6 asks.
+        self.state.encoder_counts = inchworm_board::round_half_away(x / self.params.q_enc) as i64;
     }
 }
 

@@ -123,7 +123,7 @@ impl Batches {
                 }
                 _ => {
                     for (&s, v) in g.slots.iter().zip(&mut g.integers) {
-                        let i = values[s].round() as i32;
+                        let i = whole(values[s]);
                         changed |= *v != i;
                         *v = i;
                     }
@@ -149,5 +149,52 @@ impl Batches {
     /// state): the next [`Batches::write`] sets every group.
     pub(super) fn forget(&mut self) {
         self.groups.iter_mut().for_each(|g| g.held = false);
+    }
+}
+
+/// `x` rounded to an `i32` as `x.round() as i32` does, without a call into the C library
+/// for the whole numbers an Integer output gives (the common case: they go through as
+/// they are).
+#[inline]
+fn whole(x: f64) -> i32 {
+    let t = x as i32;
+    if f64::from(t) == x {
+        t
+    } else {
+        x.round() as i32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::whole;
+
+    #[test]
+    fn whole_is_round_as_i32() {
+        let cases = [
+            0.0,
+            -0.0,
+            1.0,
+            -7.0,
+            0.5,
+            -0.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            123_456.75,
+            2_147_483_647.0,
+            2_147_483_647.4,
+            2_147_483_648.0,
+            -2_147_483_648.0,
+            -2_147_483_649.0,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for x in cases {
+            assert_eq!(whole(x), x.round() as i32, "{x:e}");
+        }
     }
 }
