@@ -192,6 +192,17 @@ pub trait Model: Clone + Send + 'static {
         Err("this model has no continuous states".into())
     }
 
+    /// A Model Exchange array whole (`Get*` of the continuous states, their derivatives or
+    /// the event indicators), in the order of [`ModelExchange`], for a model that computes
+    /// it in one evaluation where a read through each variable's row would take one per
+    /// element; `out` has the declared length. Returns whether it wrote `out`: `false`
+    /// (the default) has the layer read each variable through its row. The values must be
+    /// those the rows give (each model's tests compare them); one that is not finite is
+    /// refused through its row, with its name.
+    fn me_array(&self, _array: entry::Array, _out: &mut [f64]) -> bool {
+        false
+    }
+
     /// Event mode at time `t`: the discrete-time equations and the jumps. Called once per
     /// `NewDiscreteStates`/`UpdateDiscreteStates`; a model whose one update reaches the
     /// fixed point of its event iteration never asks for another. An `Err` moves the

@@ -92,12 +92,12 @@ impl Formulation for Plant {
         Ok(())
     }
 
-    fn derivative(&self, dac: Dac, i: usize) -> f64 {
-        self.derivatives(dac)[i]
+    fn rates(&self, dac: Dac, out: &mut [f64]) {
+        out.copy_from_slice(&self.derivatives(dac));
     }
 
-    fn derivative_at_rest(p: &PlantParams, dac: Dac, i: usize) -> f64 {
-        continuous::at_rest(p, dac).0[i]
+    fn rates_at_rest(p: &PlantParams, dac: Dac, out: &mut [f64]) {
+        out.copy_from_slice(&continuous::at_rest(p, dac).0);
     }
 
     fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {

@@ -10,11 +10,12 @@ mod full;
 mod reduced;
 mod table;
 
+use inchworm_fmi_export::entry::Array;
 use inchworm_fmi_export::{
     EventUpdate, Model, ModelExchange, ModelInfo, Reader, Row, StepLog, Writer,
 };
 use inchworm_plant::continuous::next_event::EventProbe;
-use inchworm_plant::continuous::{EventBudget, EventReport, Jacobian};
+use inchworm_plant::continuous::{self, EventBudget, EventReport, Jacobian, N_INDICATORS};
 use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
 pub use full::PlantFullFmu;
@@ -38,10 +39,10 @@ pub trait Formulation: Clone + std::fmt::Debug + Send + Sized + 'static {
     fn set_time(&mut self, t: f64);
     fn continuous_state(&self, i: usize) -> f64;
     fn set_continuous_states(&mut self, x: &[f64]) -> Result<(), String>;
-    /// The rate of continuous state `i` with `dac` held.
-    fn derivative(&self, dac: Dac, i: usize) -> f64;
+    /// The rates of the continuous states with `dac` held, into `out` (one per state).
+    fn rates(&self, dac: Dac, out: &mut [f64]);
     /// The same before the plant is built: at rest (docs/model.md §2.7).
-    fn derivative_at_rest(p: &PlantParams, dac: Dac, i: usize) -> f64;
+    fn rates_at_rest(p: &PlantParams, dac: Dac, out: &mut [f64]);
     fn event_update(&mut self, dac: Dac, t: f64) -> EventReport;
     /// The directional derivatives of [`Model::directional_derivative`], through
     /// [`directional`] with the formulation's exact Jacobian.
@@ -138,21 +139,35 @@ impl<F: Formulation> PlantModel<F> {
         }
     }
 
-    /// The rate of [`PlantModel::me_state`]`(k)`; under Co-Simulation the model's.
-    fn me_rate(&self, k: usize) -> f64 {
+    /// The rates of every [`PlantModel::me_state`] into `out`, in the formulation's order;
+    /// under Co-Simulation the model's.
+    fn me_rates(&self, out: &mut [f64]) {
         match &self.built {
-            Built::Me(f) => f.derivative(self.dac, k - F::FIRST),
-            Built::Cs(p) => p.derivatives(self.dac)[k],
-            Built::Not => F::derivative_at_rest(&self.params, self.dac, k - F::FIRST),
+            Built::Me(f) => f.rates(self.dac, out),
+            Built::Cs(p) => out.copy_from_slice(&p.derivatives(self.dac)[F::FIRST..]),
+            Built::Not => F::rates_at_rest(&self.params, self.dac, out),
+        }
+    }
+
+    /// The rate of [`PlantModel::me_state`]`(k)`: a row's read of [`PlantModel::me_rates`].
+    fn me_rate(&self, k: usize) -> f64 {
+        let mut rates = [0.0; continuous::N_STATES];
+        let n = F::model_exchange().states.len();
+        self.me_rates(&mut rates[..n]);
+        rates[k - F::FIRST]
+    }
+
+    /// The event indicators.
+    fn indicators(&self) -> [f64; N_INDICATORS] {
+        match self.physical() {
+            Some(p) => p.event_indicators(),
+            None => continuous::at_rest(&self.params, self.dac).1,
         }
     }
 
     /// Event indicator `i`.
     fn indicator(&self, i: usize) -> f64 {
-        match self.physical() {
-            Some(p) => p.event_indicators()[i],
-            None => inchworm_plant::continuous::at_rest(&self.params, self.dac).1[i],
-        }
+        self.indicators()[i]
     }
 
     fn formulation(&mut self) -> Result<&mut F, String> {
@@ -238,6 +253,17 @@ impl<F: Formulation> Model for PlantModel<F> {
 
     fn model_exchange() -> Option<&'static ModelExchange> {
         Some(F::model_exchange())
+    }
+
+    /// The derivatives and the event indicators in one evaluation each (a row reads one
+    /// element of the same evaluation).
+    fn me_array(&self, array: Array, out: &mut [f64]) -> bool {
+        match array {
+            Array::Derivatives => self.me_rates(out),
+            Array::EventIndicators => out.copy_from_slice(&self.indicators()),
+            Array::States | Array::Nominals => return false,
+        }
+        true
     }
 
     fn set_time(&mut self, t: f64) {
@@ -412,6 +438,59 @@ mod tests {
         }
         assert_eq!(PlantFmu::info().model_identifier, "InchwormPlant");
         assert_eq!(PlantFullFmu::info().model_identifier, "InchwormPlantFull");
+    }
+
+    /// A Model Exchange array read whole has the bits of its rows read one by one, in every
+    /// state a master reads it in: before the plant is built, under Co-Simulation after
+    /// steps across brake switches, and integrated, at a moved time and states.
+    fn whole_arrays_are_the_rows<F: Formulation>() {
+        let me = F::model_exchange();
+        let check = |m: &PlantModel<F>, when: &str| {
+            for (array, vrs) in [
+                (Array::Derivatives, me.states.iter().map(|s| s.derivative).collect::<Vec<_>>()),
+                (Array::EventIndicators, me.event_indicators.to_vec()),
+            ] {
+                let mut whole = vec![f64::NAN; vrs.len()];
+                assert!(m.me_array(array, &mut whole), "{array:?} {when}");
+                for (vr, w) in vrs.iter().zip(&whole) {
+                    let row = inchworm_fmi_export::row_of::<PlantModel<F>>(*vr).unwrap();
+                    let by_row = row.get(m).real();
+                    assert_eq!(w.to_bits(), by_row.to_bits(), "{} {when}", row.var.name);
+                }
+            }
+            let mut out = vec![0.0; me.states.len()];
+            assert!(!m.me_array(Array::States, &mut out) && !m.me_array(Array::Nominals, &mut out));
+        };
+        let mut m = PlantModel::<F>::new();
+        m.dac = Dac { extension: 3.0, earth: 2.0, nonearth: 8.0 };
+        check(&m, "before initialization");
+        m.exit_initialization(0.0).unwrap();
+        let mut log = StepLog::new(false);
+        for k in 0..60 {
+            m.dac.earth = if k % 20 < 10 { 10.0 } else { 0.0 };
+            m.dac.extension = 0.1 * k as f64;
+            m.do_step(k as f64 * 2e-3, 2e-3, &mut log).unwrap();
+        }
+        check(&m, "under Co-Simulation");
+        let mut m = PlantModel::<F>::new();
+        m.dac = Dac { extension: 5.0, earth: 10.0, nonearth: 0.0 };
+        m.exit_initialization(0.0).unwrap();
+        m.enter_model_exchange().unwrap();
+        m.update_discrete_states(0.0, &mut log).unwrap();
+        m.set_time(1e-4);
+        let mut x = vec![0.0; me.states.len()];
+        for (i, s) in me.states.iter().enumerate() {
+            x[i] = inchworm_fmi_export::row_of::<PlantModel<F>>(s.value).unwrap().get(&m).real();
+        }
+        x[0] += 1e-7;
+        m.set_continuous_states(&x).unwrap();
+        check(&m, "integrated");
+    }
+
+    #[test]
+    fn model_exchange_arrays_read_whole_are_the_rows() {
+        whole_arrays_are_the_rows::<Reduced>();
+        whole_arrays_are_the_rows::<Plant>();
     }
 
     /// A model made from parameters holds them: what masters set from `parameter_values`.

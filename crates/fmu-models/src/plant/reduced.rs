@@ -82,12 +82,15 @@ impl Formulation for Reduced {
         Ok(())
     }
 
-    fn derivative(&self, dac: Dac, i: usize) -> f64 {
-        self.derivatives(dac)[i]
+    fn rates(&self, dac: Dac, out: &mut [f64]) {
+        out.copy_from_slice(&self.derivatives(dac));
     }
 
-    fn derivative_at_rest(p: &PlantParams, dac: Dac, i: usize) -> f64 {
-        reduced::at_rest(p, dac).map_or(f64::NAN, |(d, _)| d[i])
+    fn rates_at_rest(p: &PlantParams, dac: Dac, out: &mut [f64]) {
+        match reduced::at_rest(p, dac) {
+            Ok((d, _)) => out.copy_from_slice(&d),
+            Err(_) => out.fill(f64::NAN),
+        }
     }
 
     fn event_update(&mut self, dac: Dac, t: f64) -> EventReport {
