@@ -188,6 +188,7 @@ impl Categories {
     pub fn without(self, other: Categories) -> Categories {
         Categories(self.0 & !other.0)
     }
+    #[inline]
     pub fn contains(self, c: LogCategory) -> bool {
         self.0 & c.bit() != 0
     }
@@ -437,6 +438,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
     }
 
     /// Whether debug messages of `category` reach the logger.
+    #[inline]
     pub fn wants(&self, category: LogCategory) -> bool {
         self.categories.contains(category) || self.categories.contains(LogCategory::All)
     }

@@ -75,9 +75,11 @@ impl StepLog {
         self.messages.push(Message::Warning(text.to_string()));
     }
     /// What was reported since the last [`StepLog::drain`].
+    #[inline]
     pub fn messages(&self) -> &[Message] {
         &self.messages
     }
+    #[inline]
     pub(crate) fn reset(&mut self, events_wanted: bool) {
         self.events_wanted = events_wanted;
         self.messages.clear();

@@ -5,23 +5,27 @@
 //! FMU's instance (from another library, or from this library but of another model or
 //! standard), or junk. Only a pointer this library returned from an instantiation, not
 //! freed since, and of the entry point's model and standard, is read; everything else is
-//! refused without touching the memory it points to. The registry maps each live
-//! instance's address to the type it was created as ([`TypeId`] of `Instance<S, M>`).
+//! refused without touching the memory it points to.
 //!
-//! The hot path (a master calling `Get*`/`Set*`/`DoStep` on the same few instances) does
-//! not take the registry's lock: each thread keeps the last few instances it found live,
-//! valid while no instance of this library has been freed since (an epoch counter that
-//! every free advances). A hit costs a thread-local read and one atomic load;
-//! `cargo bench -p inchworm-fmu-models --bench instance_check` measures both side by side.
+//! Each live instance has an [`Entry`]: its address, the type it was created as
+//! ([`TypeId`] of `Instance<S, M>`) and its [`Guard`]. The entries sit in a fixed table of
+//! [`SLOTS`] atomic pointers, each instance in the slot its address hashes to, so the
+//! check of every call (a master calling `Get*`/`Set*`/`DoStep` on the same few
+//! instances) is one atomic load and two compares: no lock, no thread-local. An instance
+//! whose slot another holds goes to an overflow map under the registry's lock, and moves
+//! into the slot when its holder is freed; a look-up that misses its slot takes the lock
+//! only while the map holds any. Registering and freeing take the lock.
+//! `cargo bench -p inchworm-fmu-models --bench instance_check` measures the look-up.
+//!
+//! An entry is never freed (a few dozen bytes per instance ever made), and a freed
+//! instance's guard stays taken for good: a thread that loaded the entry just before the
+//! free finds it busy and touches nothing.
 
 use std::any::TypeId;
-use std::cell::Cell;
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::ptr;
+use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, AtomicUsize, Ordering};
 use std::sync::{Mutex, MutexGuard, Once};
-
-/// Live instances: address → the type they were created as and the instance's [`Guard`].
-static LIVE: Mutex<BTreeMap<usize, (TypeId, &'static Guard)>> = Mutex::new(BTreeMap::new());
 
 /// What the calls into one instance share across threads, allocated beside the instance
 /// (not in it: a running call holds the instance exclusively, and another thread's call
@@ -63,42 +67,78 @@ impl Guard {
     }
 }
 
-/// Advanced by every free, after the instance left [`LIVE`]: a thread's cache of live
-/// instances is good only for the epoch it was filled in.
-static EPOCH: AtomicU64 = AtomicU64::new(0);
-
-/// How many instances a thread remembers: a master's loop touches one instance of a model
-/// per component, and a system rarely has more than a few components of one FMU.
-const CACHED: usize = 4;
-
-/// An instance found live: its address, type and guard.
-type Cached = (usize, TypeId, &'static Guard);
-
-/// A thread's cache of instances found live: valid while `epoch` is [`EPOCH`].
-struct Recent {
-    epoch: Cell<u64>,
-    /// The last instances found live, newest first, with their guards.
-    slots: [Cell<Option<Cached>>; CACHED],
+/// One live instance: immutable once published but for its guard's atomics.
+struct Entry {
+    addr: usize,
+    ty: TypeId,
+    guard: Guard,
 }
 
-thread_local! {
-    static RECENT: Recent = const {
-        Recent { epoch: Cell::new(u64::MAX), slots: [const { Cell::new(None) }; CACHED] }
-    };
+/// How many slots the table has: far more than a process has instances of one library,
+/// so that two live instances rarely hash to one slot (32 KiB of pointers).
+pub const SLOTS: usize = 1 << SLOT_BITS;
+const SLOT_BITS: u32 = 12;
+
+/// The live instances that hold their slot; written only under [`WRITE`]'s lock.
+static TABLE: [AtomicPtr<Entry>; SLOTS] = [const { AtomicPtr::new(ptr::null_mut()) }; SLOTS];
+
+/// The registry's lock, and what it holds besides the table.
+struct Registry {
+    /// Live instances whose slot another holds, by (slot, address): the first of a slot is
+    /// the one that moves in when the slot's holder is freed.
+    overflow: BTreeMap<(usize, usize), &'static Entry>,
+    /// Live instances, in the table and in `overflow`.
+    live: usize,
 }
 
-fn live() -> MutexGuard<'static, BTreeMap<usize, (TypeId, &'static Guard)>> {
-    // The map is consistent after every operation on it, so a panic elsewhere while the
-    // lock was held (there is none in this module) leaves nothing half done.
-    LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+static WRITE: Mutex<Registry> = Mutex::new(Registry { overflow: BTreeMap::new(), live: 0 });
+
+/// How many instances `overflow` holds, read without the lock: a look-up that misses its
+/// slot takes the lock only when this is not 0. Stored (Release) after every change of
+/// the table that goes with a change of `overflow`.
+static OVERFLOWED: AtomicUsize = AtomicUsize::new(0);
+
+/// The slot of the instance at `addr`: Fibonacci hashing of the address, whose low bits
+/// (the allocation's alignment) are the same for every instance.
+#[inline(always)]
+fn slot(addr: usize) -> usize {
+    ((addr as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - SLOT_BITS)) as usize
+}
+
+fn write() -> MutexGuard<'static, Registry> {
+    // The registry is consistent after every operation on it, so a panic elsewhere while
+    // the lock was held (there is none in this module) leaves nothing half done.
+    WRITE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// The entry in slot `i` if it is the instance at `addr` of type `ty`.
+#[inline(always)]
+fn in_slot(i: usize, addr: usize, ty: TypeId) -> Option<&'static Entry> {
+    // Acquire: the entry's fields, written before it was published (Release), are seen.
+    let entry = TABLE[i].load(Ordering::Acquire);
+    // SAFETY: a non-null slot holds a leaked entry, never freed.
+    let entry = unsafe { entry.as_ref() }?;
+    (entry.addr == addr && entry.ty == ty).then_some(entry)
 }
 
 /// Records `ptr` as a live instance of `T`; called once, right after it is allocated.
 pub(crate) fn register<T: 'static>(ptr: *mut T) {
     static PINNED: Once = Once::new();
     PINNED.call_once(pin_library);
-    let guard: &'static Guard = Box::leak(Box::default());
-    live().insert(ptr as usize, (TypeId::of::<T>(), guard));
+    let addr = ptr as usize;
+    let entry: &'static Entry =
+        Box::leak(Box::new(Entry { addr, ty: TypeId::of::<T>(), guard: Guard::default() }));
+    let mut registry = write();
+    let i = slot(addr);
+    match TABLE[i].load(Ordering::Relaxed).is_null() {
+        // Release: a thread that loads the entry sees its fields.
+        true => TABLE[i].store(entry as *const Entry as *mut Entry, Ordering::Release),
+        false => {
+            registry.overflow.insert((i, addr), entry);
+            OVERFLOWED.store(registry.overflow.len(), Ordering::Release);
+        }
+    }
+    registry.live += 1;
 }
 
 /// Keeps this library loaded until the process ends, once it has made an instance. The
@@ -149,56 +189,76 @@ pub fn is_live<T: 'static>(ptr: *const T) -> bool {
 /// nothing through `ptr`.
 #[inline]
 pub fn guard_of<T: 'static>(ptr: *const T) -> Option<&'static Guard> {
-    let key = (ptr as usize, TypeId::of::<T>());
-    // Acquire: a free that happened before this call (the only way a master can use a
-    // pointer after freeing it) is seen, so a stale cache is not trusted.
-    let epoch = EPOCH.load(Ordering::Acquire);
-    RECENT.with(|recent| {
-        let current = recent.epoch.get() == epoch;
-        if current {
-            let hit = recent.slots.iter().find_map(|s| s.get().filter(|e| (e.0, e.1) == key));
-            if let Some(entry) = hit {
-                return Some(entry.2);
-            }
-        }
-        let guard = live().get(&key.0).filter(|e| e.0 == key.1).map(|e| e.1)?;
-        if !current {
-            recent.slots.iter().for_each(|s| s.set(None));
-            recent.epoch.set(epoch);
-        }
-        // Newest first: the others move one slot down, the oldest drops out.
-        let mut carry = Some((key.0, key.1, guard));
-        for s in &recent.slots {
-            carry = s.replace(carry);
-        }
-        Some(guard)
-    })
+    let (addr, ty) = (ptr as usize, TypeId::of::<T>());
+    match in_slot(slot(addr), addr, ty) {
+        Some(entry) => Some(&entry.guard),
+        None => missed(addr, ty),
+    }
+}
+
+/// [`guard_of`] for a pointer its slot does not hold: an instance in the overflow map, or
+/// one that is not live (NULL, freed, foreign, of another type).
+#[cold]
+#[inline(never)]
+fn missed(addr: usize, ty: TypeId) -> Option<&'static Guard> {
+    let i = slot(addr);
+    // Acquire, then the slot again: an instance that moved from the map into its slot
+    // (which the count's store follows) is found there.
+    let overflowed = OVERFLOWED.load(Ordering::Acquire);
+    if let Some(entry) = in_slot(i, addr, ty) {
+        return Some(&entry.guard);
+    }
+    if overflowed == 0 {
+        return None;
+    }
+    let registry = write();
+    // Under the lock the table and the map are as the last change left them together.
+    let entry = in_slot(i, addr, ty)
+        .or_else(|| registry.overflow.get(&(i, addr)).copied().filter(|e| e.ty == ty))?;
+    Some(&entry.guard)
 }
 
 /// Removes `ptr` if it is a live instance of `T` and no call runs on it, and says whether
 /// it was removed: only then may the caller free it. A second free of the same pointer
 /// finds nothing; a free while another thread's call runs is refused (and counted as that
-/// call's refusal). The guard stays allocated, taken for good: a thread that found the
-/// instance live just before the free finds it busy and touches nothing (a few bytes per
-/// instance ever made).
+/// call's refusal). The guard stays taken for good: a thread that found the instance live
+/// just before the free finds it busy and touches nothing.
 pub(crate) fn unregister<T: 'static>(ptr: *const T) -> bool {
-    let mut map = live();
-    let Some(&(_, guard)) = map.get(&(ptr as usize)).filter(|e| e.0 == TypeId::of::<T>()) else {
-        return false;
-    };
-    if !guard.enter() {
-        return false;
+    let (addr, ty) = (ptr as usize, TypeId::of::<T>());
+    let i = slot(addr);
+    let mut registry = write();
+    if let Some(entry) = in_slot(i, addr, ty) {
+        if !entry.guard.enter() {
+            return false;
+        }
+        // The first instance waiting for this slot moves in, else the slot is cleared;
+        // Release: a thread that loads the slot after this sees the instance gone.
+        let next = registry.overflow.range((i, 0)..=(i, usize::MAX)).next().map(|(k, e)| (*k, *e));
+        match next {
+            Some((key, next)) => {
+                TABLE[i].store(next as *const Entry as *mut Entry, Ordering::Release);
+                registry.overflow.remove(&key);
+                OVERFLOWED.store(registry.overflow.len(), Ordering::Release);
+            }
+            None => TABLE[i].store(ptr::null_mut(), Ordering::Release),
+        }
+    } else {
+        let Some(entry) = registry.overflow.get(&(i, addr)).filter(|e| e.ty == ty) else {
+            return false;
+        };
+        if !entry.guard.enter() {
+            return false;
+        }
+        registry.overflow.remove(&(i, addr));
+        OVERFLOWED.store(registry.overflow.len(), Ordering::Release);
     }
-    map.remove(&(ptr as usize));
-    // Release, with the lock still held: a thread that sees the new epoch also sees
-    // the instance gone from the map.
-    EPOCH.fetch_add(1, Ordering::Release);
+    registry.live -= 1;
     true
 }
 
 /// How many instances of this library are live (for tests of leaks and double frees).
 pub fn live_count() -> usize {
-    live().len()
+    write().live
 }
 
 #[cfg(test)]
@@ -215,13 +275,13 @@ mod tests {
         assert!(!is_live(a), "not registered yet");
         register(a);
         register(b);
-        assert!(is_live(a) && is_live(a), "found, then found in the cache");
+        assert!(is_live(a) && is_live(a), "found, and found again");
         assert!(!is_live(a as *const B), "the same address as another type");
         assert!(is_live(b));
         assert!(!unregister(a as *const B), "not freed as another type");
         assert!(is_live(a));
         assert!(unregister(a));
-        assert!(!is_live(a), "the cache forgets it with the epoch");
+        assert!(!is_live(a), "freed");
         assert!(!unregister(a), "a second free finds nothing");
         assert!(unregister(b));
         // SAFETY: both came from Box::into_raw and are freed once.
@@ -232,12 +292,12 @@ mod tests {
     }
 
     #[test]
-    fn a_free_on_one_thread_is_seen_by_another_s_cache() {
+    fn a_free_on_one_thread_is_seen_by_another() {
         let a = Box::into_raw(Box::new(A(3)));
         register(a);
         let addr = a as usize;
         assert!(std::thread::spawn(move || is_live(addr as *const A)).join().unwrap());
-        assert!(is_live(a), "cached on this thread");
+        assert!(is_live(a));
         let other = std::thread::spawn(move || {
             assert!(is_live(addr as *const A));
             unregister(addr as *const A)
@@ -246,5 +306,75 @@ mod tests {
         assert!(!is_live(a), "freed on the other thread, so not live here");
         // SAFETY: from Box::into_raw, freed once.
         unsafe { drop(Box::from_raw(a)) };
+    }
+
+    /// The instances of this test only, so that no other test's can take their slots or
+    /// addresses while it runs.
+    struct Many(#[allow(dead_code)] u64);
+
+    /// More instances than slots: every one is live, through its slot or the overflow
+    /// map, each of its own type only; a freed one is not, whichever slot or map held it,
+    /// and the others stay live as overflowed ones move into the freed slots.
+    #[test]
+    fn more_instances_than_slots_are_all_found_until_freed() {
+        let n = SLOTS + SLOTS / 2;
+        // Kept allocated until the end, so no address is reused while the test looks.
+        let all: Vec<*mut Many> = (0..n as u64).map(|k| Box::into_raw(Box::new(Many(k)))).collect();
+        all.iter().for_each(|&p| register(p));
+        assert!(OVERFLOWED.load(Ordering::Relaxed) >= n - SLOTS, "the map holds the rest");
+        assert!(all.iter().all(|&p| is_live(p)));
+        assert!(all.iter().all(|&p| !is_live(p as *const A)), "of another type");
+        let (freed, kept) = all.split_at(n / 2);
+        assert!(freed.iter().all(|&p| unregister(p)));
+        assert!(freed.iter().all(|&p| !is_live(p)), "freed");
+        assert!(freed.iter().all(|&p| !unregister(p)), "a second free finds nothing");
+        assert!(kept.iter().all(|&p| is_live(p)), "moved into freed slots or still waiting");
+        assert!(kept.iter().all(|&p| unregister(p)));
+        assert!(all.iter().all(|&p| !is_live(p)));
+        for p in all {
+            // SAFETY: from Box::into_raw, freed once.
+            unsafe { drop(Box::from_raw(p)) };
+        }
+    }
+
+    /// An instance moving from the overflow map into its slot, as its holder is freed on
+    /// another thread, is found by every look-up of a thread that checks it meanwhile.
+    #[test]
+    fn an_instance_moving_into_its_slot_is_never_missed() {
+        struct Moving(#[allow(dead_code)] u64);
+        let ty = TypeId::of::<Moving>();
+        let mut moved = 0;
+        while moved < 20 {
+            // Two instances that hash to one slot (some 80 allocations find a pair).
+            let mut boxes: Vec<*mut Moving> = Vec::new();
+            let (holder, waiting) = loop {
+                let p = Box::into_raw(Box::new(Moving(moved)));
+                match boxes.iter().find(|&&q| slot(q as usize) == slot(p as usize)) {
+                    Some(&q) => break (q, p),
+                    None => boxes.push(p),
+                }
+            };
+            boxes.push(waiting);
+            register(holder);
+            register(waiting);
+            // Another test's instance may hold the slot: then try again.
+            let (h, w) = (holder as usize, waiting as usize);
+            if in_slot(slot(h), h, ty).is_some() && in_slot(slot(w), w, ty).is_none() {
+                let looking =
+                    std::thread::spawn(move || (0..20_000).all(|_| is_live(w as *const Moving)));
+                assert!(unregister(holder));
+                assert!(looking.join().unwrap(), "found throughout");
+                // Moved in, unless another test's instance waited for the slot before it.
+                moved += u64::from(in_slot(slot(w), w, ty).is_some());
+            } else {
+                assert!(unregister(holder));
+            }
+            assert!(is_live(waiting) && !is_live(holder));
+            assert!(unregister(waiting));
+            for p in boxes {
+                // SAFETY: from Box::into_raw, freed once.
+                unsafe { drop(Box::from_raw(p)) };
+            }
+        }
     }
 }

@@ -34,7 +34,10 @@ pub unsafe fn with_instance<S: Standard, M: Model>(
     status
 }
 
-/// [`with_instance`] once the call holds the instance.
+/// [`with_instance`] once the call holds the instance. What almost every call finds
+/// (`logAll` off, no call refused meanwhile) is checked inline; the messages otherwise are
+/// built in cold functions.
+#[inline(always)]
 fn run<S: Standard, M: Model>(
     inst: &mut Instance<S, M>,
     func: &str,
@@ -43,28 +46,58 @@ fn run<S: Standard, M: Model>(
     guard: &registry::Guard,
 ) -> Status {
     let status = if inst.state as u16 & allowed == 0 {
-        let state = S::state_name(inst.state);
-        let why = format_args!("illegal call sequence: not allowed in state {state}");
-        inst.refuse(func, why)
+        refuse_state(inst, func)
     } else {
-        inst.log(OK, LogCategory::All, format_args!("{func}"));
+        if inst.wants(LogCategory::All) {
+            log_call(inst, func);
+        }
         match catch_unwind(AssertUnwindSafe(|| body(&mut *inst))) {
             Ok(status) => status,
-            Err(panic) => {
-                inst.state = State::Fatal;
-                let what = panic_text(panic.as_ref());
-                let why = format_args!("{func}: internal error, instance unusable: {what}");
-                inst.log(FATAL, LogCategory::StatusError, why);
-                FATAL
-            }
+            Err(panic) => contain(inst, func, panic),
         }
     };
     let n = guard.take_refused();
     if n > 0 {
-        let why = format_args!("{n} call(s) from another thread refused (fmi3Error) while this instance ran {func}: an instance takes one call at a time");
-        inst.log(ERROR, LogCategory::StatusError, why);
+        report_refused(inst, func, n);
     }
     status
+}
+
+#[cold]
+#[inline(never)]
+fn refuse_state<S: Standard, M: Model>(inst: &Instance<S, M>, func: &str) -> Status {
+    let state = S::state_name(inst.state);
+    inst.refuse(func, format_args!("illegal call sequence: not allowed in state {state}"))
+}
+
+/// `logAll`'s line of each call.
+#[cold]
+#[inline(never)]
+fn log_call<S: Standard, M: Model>(inst: &Instance<S, M>, func: &str) {
+    inst.log(OK, LogCategory::All, format_args!("{func}"));
+}
+
+/// A panic of the call's body: the instance ends in Fatal.
+#[cold]
+#[inline(never)]
+fn contain<S: Standard, M: Model>(
+    inst: &mut Instance<S, M>,
+    func: &str,
+    panic: Box<dyn std::any::Any + Send>,
+) -> Status {
+    inst.state = State::Fatal;
+    let what = panic_text(panic.as_ref());
+    let why = format_args!("{func}: internal error, instance unusable: {what}");
+    inst.log(FATAL, LogCategory::StatusError, why);
+    FATAL
+}
+
+/// The calls another thread made while this one ran, refused.
+#[cold]
+#[inline(never)]
+fn report_refused<S: Standard, M: Model>(inst: &Instance<S, M>, func: &str, n: u32) {
+    let why = format_args!("{n} call(s) from another thread refused (fmi3Error) while this instance ran {func}: an instance takes one call at a time");
+    inst.log(ERROR, LogCategory::StatusError, why);
 }
 
 pub(super) unsafe fn slice<'a, T>(ptr: *const T, n: usize) -> Option<&'a [T]> {

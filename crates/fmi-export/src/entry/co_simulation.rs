@@ -164,12 +164,19 @@ impl<S: Standard, M: Model> Instance<S, M> {
     }
 
     /// Logs what the model reported in its last step or update: OK, or Warning if it
-    /// warned.
+    /// warned. Most steps report nothing: checked inline, the log drained in a cold
+    /// function.
+    #[inline(always)]
     pub(super) fn report_step_log(&mut self, func: &str) -> Status {
-        // Most steps report nothing: done without moving the log out and back.
-        if self.step_log.messages().is_empty() {
-            return OK;
+        match self.step_log.messages().is_empty() {
+            true => OK,
+            false => self.drain_step_log(func),
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn drain_step_log(&mut self, func: &str) -> Status {
         let mut log = std::mem::take(&mut self.step_log);
         let mut status = OK;
         for m in log.drain() {

@@ -403,8 +403,15 @@ pub unsafe fn get<S: Standard, M: Model, A: CTypes>(
     })
 }
 
+/// How many references a `Set*` keeps resolved on the stack between its check of every
+/// reference and its writes: a master's call sets a few inputs. A longer call finds the
+/// references past these again as it writes.
+const KEPT: usize = 8;
+
 /// `Set*` of one type. The call reports the worst outcome of its values; a reference
-/// refused or a wrong count refuses it whole, before any value is stored.
+/// refused (FMI 3.0's time among them: not settable) or a wrong count refuses it whole,
+/// before any value is stored. One pass checks every reference and the count and keeps
+/// the first [`KEPT`] references' entries, which the writes then use.
 pub unsafe fn set<S: Standard, M: Model, A: CTypes>(
     c: *mut c_void,
     func: &str,
@@ -415,17 +422,41 @@ pub unsafe fn set<S: Standard, M: Model, A: CTypes>(
         let Some(vrs) = slice(vr, nvr) else {
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
-        if let Err(s) = inst.check_counts(func, vrs, A::KIND, nvalues) {
-            return s;
+        let unused = Indexed { first: 0, len: 0, kind: A::KIND, settable: 0 };
+        let mut kept = [unused; KEPT];
+        let (mut n, mut time) = (0, None);
+        for (i, &r) in vrs.iter().enumerate() {
+            let Some(what) = inst.address(r, A::KIND) else {
+                return inst.refuse_counts(func, vrs, A::KIND, nvalues);
+            };
+            n += what.len();
+            match what {
+                Addressed::Variable(entry) => {
+                    if let Some(k) = kept.get_mut(i) {
+                        *k = entry;
+                    }
+                }
+                Addressed::Time => time = time.or(Some(r)),
+            }
+        }
+        if n != nvalues {
+            return inst.refuse_counts(func, vrs, A::KIND, nvalues);
         }
         let Some(mut values) = slice(values, nvalues) else {
             return inst.refuse(func, format_args!("{} is NULL", S::VALUE_ARGS));
         };
+        if let Some(r) = time {
+            return inst.refuse(func, format_args!("{}", inst.time_refused(r)));
+        }
         let mut status = OK;
-        for &r in vrs {
-            let entry = match inst.variable_of(r, A::KIND) {
-                Ok(entry) => entry,
-                Err(why) => return inst.refuse(func, format_args!("{why}")),
+        for (i, &r) in vrs.iter().enumerate() {
+            let entry = match kept.get(i) {
+                Some(&entry) => entry,
+                // Checked above: found again.
+                None => match inst.variable_of(r, A::KIND) {
+                    Ok(entry) => entry,
+                    Err(why) => return inst.refuse(func, format_args!("{why}")),
+                },
             };
             // Counted above, so the values are there.
             let (these, rest) = values.split_at(entry.len as usize);
