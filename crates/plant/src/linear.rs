@@ -143,9 +143,9 @@ struct FunctionalBound {
     moving: Lanes,
 }
 
-/// The functional of a configuration's bound (`Propagators::bound`) and of the quiet
-/// step's that holds the difference of the row of `ξ̇`'s sign (functional 1) between the
-/// two points of every turn test. Where `ξ̇` changes sign between two points,
+/// The functional of the quiet step's bound (`quiet`) that holds the difference of the row
+/// of `ξ̇`'s sign (functional 1) between the two points of every turn test; a
+/// configuration's bound (`Propagators::bound`) has only the watched functionals. Where `ξ̇` changes sign between two points,
 /// `|ξ̇₀| + |ξ̇₁| = |ξ̇₁ − ξ̇₀|`: the reach of a turn is bounded by the change of `ξ̇` over one
 /// scan interval, a fraction of its amplitude for a ring slower than the scan, where the
 /// bound of `|ξ̇|` alone would take it twice at its peak.
@@ -198,20 +198,11 @@ impl<const D: usize> ScanBound<D> {
         }
         let w = watched.len();
         let row = |k: usize, o: usize| if k == 0 { watched[o] } else { scan[(k - 1) * w + o] };
-        let mut rows: Vec<Vec<BoundRow<D>>> = (0..w)
+        let rows: Vec<Vec<BoundRow<D>>> = (0..w)
             .map(|o| {
                 (0..=scan_points).map(|k| BoundRow { row: row(k, o), magnitude: None }).collect()
             })
             .collect();
-        if w > TURN_RATE {
-            // The watched functionals of a configuration: the differences of `ξ̇`'s row
-            // between consecutive scan points too, for the turn test (`TURN_RATE`).
-            rows.push(
-                (0..scan_points)
-                    .map(|k| BoundRow::difference(&row(k + 1, 1), None, &row(k, 1), None))
-                    .collect(),
-            );
-        }
         Self::from_rows(settle, &rows)
     }
 
@@ -376,33 +367,6 @@ impl<const D: usize> Propagators<D> {
                     lo <= v && v <= hi,
                     "scan bound: functional {o} at point {k} is {v}, outside [{lo}, {hi}]"
                 );
-            }
-        }
-        range
-    }
-
-    /// An interval that holds `|ξ̇₁| + |ξ̇₀|` as the scan computes it wherever a turn test
-    /// pairs two consecutive scan points of opposite `ξ̇` (`TURN_RATE`) in a piece starting
-    /// at the split state; `None` if this table has no such bound or it isn't finite.
-    #[inline]
-    pub fn turn_range(&self, s: &Split<D>) -> Option<(f64, f64)> {
-        let bound = self.bound.as_ref()?;
-        if bound.functionals.len() <= TURN_RATE {
-            return None;
-        }
-        let range = bound.range::<false>(TURN_RATE, s);
-        #[cfg(debug_assertions)]
-        if let Some((lo, hi)) = range {
-            let z = s.z;
-            let mut prev = self.watched[1].dot(&z);
-            for k in 1..=self.scan_points {
-                let rate = self.scanned(k, 1, &z);
-                if rate * prev < 0.0 {
-                    let sum = rate.abs() + prev.abs();
-                    let bound = lo.abs().max(hi.abs()) * (1.0 + BOUND_SLACK);
-                    assert!(sum <= bound, "turn bound: at point {k} |ξ̇₀| + |ξ̇₁| = {sum} > {bound}");
-                }
-                prev = rate;
             }
         }
         range
