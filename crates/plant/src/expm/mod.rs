@@ -332,8 +332,10 @@ fn sum<const D: usize>(
     }
     if let Some(c) = id {
         let (on, off) = (1.0 * c, 0.0 * c);
-        for (i, o) in out.iter_mut().enumerate() {
-            *o += if i % (D + 1) == 0 { on } else { off };
+        for (j, column) in out.as_mut_slice().chunks_exact_mut(D).enumerate() {
+            for (i, o) in column.iter_mut().enumerate() {
+                *o += if i == j { on } else { off };
+            }
         }
     }
     out
@@ -347,10 +349,12 @@ fn add<const D: usize>(
     first: bool,
     f: impl Fn(f64) -> f64,
 ) {
+    // Over the slices, which the compiler vectorizes (nalgebra's `iter` is strided).
+    let (out, m) = (out.as_mut_slice(), m.as_slice());
     if first {
-        out.iter_mut().zip(m.iter()).for_each(|(o, &x)| *o = f(x));
+        out.iter_mut().zip(m).for_each(|(o, &x)| *o = f(x));
     } else {
-        out.iter_mut().zip(m.iter()).for_each(|(o, &x)| *o += f(x));
+        out.iter_mut().zip(m).for_each(|(o, &x)| *o += f(x));
     }
 }
 
