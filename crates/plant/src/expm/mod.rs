@@ -362,8 +362,18 @@ fn add<const D: usize>(
 /// nalgebra's order). The LU of a Padé denominator `q(A)` is regular for the norms each
 /// degree is chosen for.
 fn solve<const D: usize>(u: SMatrix<f64, D, D>, v: SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-    let p = u + v;
-    let q = v - u;
+    // `u + v` and `v − u` entry by entry, over the slices (nalgebra's operators iterate
+    // strided).
+    let (mut p, mut q) = (u, v);
+    for ((p, q), (&u, &v)) in p
+        .as_mut_slice()
+        .iter_mut()
+        .zip(q.as_mut_slice())
+        .zip(u.as_slice().iter().zip(v.as_slice()))
+    {
+        *p = u + v;
+        *q = v - u;
+    }
     crate::lu::solve(&q, &p).unwrap_or_else(|| SMatrix::from_element(f64::NAN))
 }
 
