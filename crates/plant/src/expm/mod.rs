@@ -365,11 +365,8 @@ fn solve<const D: usize>(u: SMatrix<f64, D, D>, v: SMatrix<f64, D, D>) -> SMatri
     // `u + v` and `v − u` entry by entry, over the slices (nalgebra's operators iterate
     // strided).
     let (mut p, mut q) = (u, v);
-    for ((p, q), (&u, &v)) in p
-        .as_mut_slice()
-        .iter_mut()
-        .zip(q.as_mut_slice())
-        .zip(u.as_slice().iter().zip(v.as_slice()))
+    for ((p, q), (&u, &v)) in
+        p.as_mut_slice().iter_mut().zip(q.as_mut_slice()).zip(u.as_slice().iter().zip(v.as_slice()))
     {
         *p = u + v;
         *q = v - u;
