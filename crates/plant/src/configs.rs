@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use crate::linear::{self, ticks_of, Propagators};
-use crate::{Plant, N_PLAYS};
+use crate::{Mode, Plant, PlantParams, N_PLAYS};
 
 /// Propagators of one configuration, shared between clones of a plant.
 pub(crate) type ConfigTable = Arc<Propagators<{ linear::N }>>;
@@ -92,6 +92,20 @@ pub(crate) fn table(configs: &[Option<ConfigTable>], key: usize) -> &Propagators
     configs[key].as_deref().expect("configuration tables are built by Plant::config")
 }
 
+/// Every configuration in the order of its key ([`Plant::config_key`]): its mode, its
+/// sliding set (bit `i` set: play `i` slides) and its system matrix.
+pub(crate) fn every_configuration(
+    p: &PlantParams,
+) -> impl Iterator<Item = (Mode, u32, linear::Matrix)> + '_ {
+    [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free].into_iter().flat_map(move |mode| {
+        (0..1u32 << N_PLAYS).map(move |sliding| {
+            let w_s: f64 =
+                (0..N_PLAYS).filter(|&i| sliding & (1 << i) == 0).map(|i| p.play_weight[i]).sum();
+            (mode, sliding, linear::system_matrix(p, mode, w_s))
+        })
+    })
+}
+
 impl Plant {
     #[inline]
     pub(crate) fn config_key(&self) -> usize {
@@ -120,5 +134,21 @@ impl Plant {
         ];
         let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level));
         self.configs[key] = Some(t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The configurations come in the order of their keys, so a table indexed by
+    /// [`Plant::config_key`] may be built from them in turn.
+    #[test]
+    fn every_configuration_comes_at_its_key() {
+        let p = PlantParams::fia20();
+        let keys: Vec<usize> = every_configuration(&p)
+            .map(|(mode, sliding, _)| (mode.index() << N_PLAYS) | sliding as usize)
+            .collect();
+        assert_eq!(keys, (0..4 << N_PLAYS).collect::<Vec<_>>());
     }
 }

@@ -1,6 +1,7 @@
 use super::*;
+use crate::configs::every_configuration;
 use crate::linear::{chain_matrix, system_matrix};
-use crate::{Mode, PlantParams, N_PLAYS};
+use crate::{Mode, PlantParams};
 
 /// Every level against nalgebra's own `exp` of that level's matrix, bit for bit, and
 /// every share of level 0 (`ℓ`, the powers' one-norms) against the level's own; whether
@@ -84,17 +85,10 @@ fn parameter_sets() -> Vec<(&'static str, PlantParams)> {
 fn every_configuration_of_the_plant_has_nalgebras_bits() {
     for (name, p) in parameter_sets() {
         assert!(check(&chain_matrix(&p), &format!("{name}, analog chain")));
-        for mode in [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free] {
-            for sliding in 0..1u32 << N_PLAYS {
-                let w_s: f64 = (0..N_PLAYS)
-                    .filter(|&i| sliding & (1 << i) == 0)
-                    .map(|i| p.play_weight[i])
-                    .sum();
-                let a = system_matrix(&p, mode, w_s);
-                let what = format!("{name}, {mode:?}, sliding {sliding:#07b}");
-                assert!(check(&a, &what), "{what}: the shared path declined");
-                assert!(ell_shared_everywhere(&a), "{what}: some ℓ took the level's own iterates");
-            }
+        for (mode, sliding, a) in every_configuration(&p) {
+            let what = format!("{name}, {mode:?}, sliding {sliding:#07b}");
+            assert!(check(&a, &what), "{what}: the shared path declined");
+            assert!(ell_shared_everywhere(&a), "{what}: some ℓ took the level's own iterates");
         }
     }
 }

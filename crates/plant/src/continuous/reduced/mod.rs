@@ -28,9 +28,10 @@ use std::sync::Arc;
 use nalgebra::{Complex, SMatrix};
 
 use super::{rates, Jacobian, Slot, N_INDICATORS};
-use crate::linear::{self, ix, Vector};
+use crate::configs::every_configuration;
+use crate::linear::{ix, Vector};
 use crate::params::N_PLAYS;
-use crate::{Dac, Mode, ParamError, Plant, PlantParams};
+use crate::{Dac, ParamError, Plant, PlantParams};
 
 pub use super::EventReport;
 
@@ -142,18 +143,11 @@ impl Reduced {
     pub fn from_plant(plant: Plant) -> Result<Self, ParamError> {
         let p = plant.params();
         let mut configs = Vec::with_capacity(4 << N_PLAYS);
-        for mode in [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free] {
-            for sliding in 0..1u32 << N_PLAYS {
-                let w: f64 = (0..N_PLAYS)
-                    .filter(|&i| sliding & (1 << i) == 0)
-                    .map(|i| p.play_weight[i])
-                    .sum();
-                let a = linear::system_matrix(p, mode, w);
-                configs.push(reduce(&a, mode).ok_or_else(|| ParamError {
-                    field: "m_p".into(),
-                    reason: format!("in {mode:?} the stack's modes are not separated from the analog chain's and the runner's: the reduced formulation needs them several times faster"),
-                })?);
-            }
+        for (mode, _, a) in every_configuration(p) {
+            configs.push(reduce(&a, mode).ok_or_else(|| ParamError {
+                field: "m_p".into(),
+                reason: format!("in {mode:?} the stack's modes are not separated from the analog chain's and the runner's: the reduced formulation needs them several times faster"),
+            })?);
         }
         let since = plant.state.time;
         let mut r = Reduced {

@@ -146,8 +146,8 @@ pub(super) fn reduce(a: &Matrix, mode: Mode) -> Option<Config> {
 mod tests {
     use super::super::{Fast, Reduced};
     use super::*;
-    use crate::linear::{self, ix, Vector};
-    use crate::params::N_PLAYS;
+    use crate::configs::every_configuration;
+    use crate::linear::{ix, Vector};
     use crate::PlantParams;
     use nalgebra::DMatrix;
     use std::f64::consts::PI;
@@ -175,16 +175,9 @@ mod tests {
     /// reduced one.
     fn configurations(p: &PlantParams) -> Vec<(Mode, Matrix, Config)> {
         let r = Reduced::new(p.clone()).unwrap();
-        let modes = [Mode::Hold, Mode::Locked, Mode::Drive, Mode::Free];
-        (0..4usize << N_PLAYS)
-            .map(|key| {
-                let (mode, sliding) = (modes[key >> N_PLAYS], key & ((1 << N_PLAYS) - 1));
-                let w: f64 = (0..N_PLAYS)
-                    .filter(|&i| sliding & (1 << i) == 0)
-                    .map(|i| p.play_weight[i])
-                    .sum();
-                (mode, linear::system_matrix(p, mode, w), r.configs[key].clone())
-            })
+        every_configuration(p)
+            .zip(r.configs.iter())
+            .map(|((mode, _, a), config)| (mode, a, config.clone()))
             .collect()
     }
 
