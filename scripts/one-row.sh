@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
-# A parameter is one row of its model's variable table: everything else comes from the
-# table. This adds one row to the plant's table in a scratch copy of the tracked files,
-# and nothing else, then checks that the new parameter is in the plant FMUs' model descriptions,
-# in the SSP parameter sets, settable with `inchworm run --param` and sweepable with
-# `inchworm sweep`, and that it reaches the physics.
+# A parameter is declared once, on its field. This adds one field, with its doc comment,
+# unit, start value and range, to `PlantParams` in a scratch copy of the tracked files, and
+# changes nothing else; then it checks that everything that lists the plant's parameters
+# took it up: both plant FMUs' model descriptions (FMI 2.0 and 3.0, with the next value
+# reference, its unit and range), the SSP parameter sets, the instance's accessors (`inchworm
+# run --param` sets it and `--output` reads it back), the range check (a value outside it is
+# refused, naming the parameter), the sweep, and the tests that derive their expectations
+# from the declarations (the plant crate's and the FMU models').
 #
-# The row, `one_row_stiffness`, is the environment stiffness `k_e` under a second name, so
-# that its effect is known: a run with it set must equal a run with `k_e` set.
+# The physics does not read the new field, so a run with it set must equal the default run
+# to the byte: adding a parameter disturbs nothing else.
 #
 # Builds in its own target folder (default target/one-row), so that nothing of the
 # project's own build is replaced. A first run seeds it with a copy of the project's release
@@ -24,36 +27,50 @@ fi
 scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
 
+fail() {
+    echo "one-row: $*" >&2
+    exit 1
+}
+
 git ls-files -z | xargs -0 cp --parents -t "$scratch"
-table=crates/fmu-models/src/plant/table.rs
-python3 - "$scratch/$table" <<'EOF'
+params=crates/plant/src/params.rs
+python3 - "$scratch/$params" <<'PY'
 import sys
 path = sys.argv[1]
 text = open(path).read()
-anchor = "        NOISE_SEED: "
-row = (
-    '        ONE_ROW_STIFFNESS: Variable::parameter("one_row_stiffness", 133, 2.0e4, Some("N/m"), '
-    '"The environment stiffness k_e under a second name (scripts/one-row.sh)")'
-    ".with_range(0.0, 1e9).real(|m| m.params.k_e, |m, x| m.params.k_e = x),\n"
+anchor = "    pub noise_seed: u64,\n"
+field = (
+    "    /// Stiffness of a mount the physics does not read (scripts/one-row.sh)\n"
+    '    #[var(unit = "N/m", start = 2.0e4, min = 0.0, max = 1e9)]\n'
+    "    pub one_row_stiffness: f64,\n"
 )
-at = text.index(anchor)
-open(path, "w").write(text[:at] + row + text[at:])
-EOF
+if text.count(anchor) != 1:
+    sys.exit(f"one-row: {path} has no single line {anchor.strip()!r} to add the field after")
+at = text.index(anchor) + len(anchor)
+open(path, "w").write(text[:at] + field + text[at:])
+PY
 cd "$scratch"
-echo "one-row: the added row:"
-git -C "$root" diff --no-index --stat -- "$root/$table" "$scratch/$table" || true
+echo "one-row: the added field:"
+git -C "$root" diff --no-index --stat -- "$root/$params" "$scratch/$params" || true
 export CARGO_TARGET_DIR=$target
 cargo build --release -q --locked -p inchworm
 cargo run --release -q --locked -p fmu-build
 inchworm=$target/release/inchworm
 
-fail() {
-    echo "one-row: $*" >&2
-    exit 1
-}
+# The declaration's value reference: the plant's parameters are numbered from 100 in the
+# order of their fields (an array takes one per element), and the new field comes after the
+# last, noise_seed, in the tracked description.
+last=$(grep -o 'name="noise_seed" valueReference="[0-9]*"' "$root/modelDescription/InchwormPlant.xml" |
+    grep -o '[0-9]*"$' | tr -d '"') || fail "the tracked InchwormPlant.xml has no noise_seed"
+vr=$((last + 1))
 for md in modelDescription/{,fmi3/}InchwormPlant{,Full}.xml; do
     [ -f "$md" ] || fail "no $md in the scratch build"
-    grep -q 'name="one_row_stiffness"' "$md" || fail "$md does not declare one_row_stiffness"
+    row=$(grep -A3 'name="one_row_stiffness"' "$md" | tr -s ' \n' ' ') ||
+        fail "$md does not declare one_row_stiffness"
+    for want in "valueReference=\"$vr\"" 'unit="N/m"' 'min="0"' 'max="1e9"' \
+        'start="20000"' 'causality="parameter"' "a mount the physics does not read"; do
+        case $row in *"$want"*) ;; *) fail "$md: one_row_stiffness lacks $want: $row" ;; esac
+    done
 done
 for set in default fia20 fia6; do
     ssv=modelDescription/ssp/InchwormSystem/resources/plant.$set.ssv
@@ -61,27 +78,38 @@ for set in default fia20 fia6; do
         fail "the parameter set $set ($ssv) has no one_row_stiffness of 20000"
 done
 
-# --param: the new name sets k_e, so the two runs agree to the byte, and differ from the
-# default run.
+# --param sets it on the instance, --output reads it back; the physics is undisturbed.
 run() {
     "$inchworm" run dist/InchwormSystem.ssp --stop-time 0.6 --out "$1" \
         --output plant.encoder_counts --output plant.runner_position "${@:2}" >/dev/null
 }
 run base.csv
 run new.csv --param plant.one_row_stiffness=2e6
-run k_e.csv --param plant.k_e=2e6
-cmp -s new.csv k_e.csv || fail "--param plant.one_row_stiffness=2e6 differs from --param plant.k_e=2e6"
-cmp -s new.csv base.csv && fail "--param plant.one_row_stiffness=2e6 changed nothing"
+cmp -s new.csv base.csv || fail "--param plant.one_row_stiffness=2e6 changed the physics"
+"$inchworm" run dist/InchwormSystem.ssp --stop-time 0.01 --out read.csv \
+    --output plant.one_row_stiffness --param plant.one_row_stiffness=2e6 >/dev/null
+[ "$(tail -1 read.csv)" = "0.01,2000000" ] ||
+    fail "--param plant.one_row_stiffness=2e6 did not reach the instance: $(tail -1 read.csv)"
 
-# The sweep: the same two points by either name, the same metrics.
-sweep() {
-    "$inchworm" sweep dist/InchwormSystem.ssp --stop-time 0.6 --jobs 1 --json \
-        --metric final:plant.encoder_position --grid "$1" | sed 's/"plant\.[a-z_]*"/"p"/g'
-}
-a=$(sweep 'plant.one_row_stiffness=2e4;2e6')
-b=$(sweep 'plant.k_e=2e4;2e6')
-[ "$a" = "$b" ] || fail "the sweep over one_row_stiffness differs from the sweep over k_e:
-$a
-$b"
-[ "$(echo "$a" | sort -u | wc -l)" = 2 ] || fail "the sweep's two points gave the same result: $a"
-echo "one-row: one_row_stiffness, added as one table row, is in both model descriptions, the SSP parameter sets, --param and the sweep"
+# Out of its declared range: refused, naming the parameter and the range.
+if "$inchworm" run dist/InchwormSystem.ssp --stop-time 0.01 --out refused.csv \
+    --param plant.one_row_stiffness=-1 >refused.log 2>&1; then
+    fail "--param plant.one_row_stiffness=-1 (below its declared 0) was accepted"
+fi
+grep -q 'one_row_stiffness: must be within \[0e0, 1e9\] N/m' refused.log ||
+    fail "the refusal of one_row_stiffness=-1 does not name it and its range: $(cat refused.log)"
+[ ! -e refused.csv ] || fail "the refused run wrote refused.csv"
+
+# The sweep: two points, each reading back the value it set.
+sweep=$("$inchworm" sweep dist/InchwormSystem.ssp --stop-time 0.01 --jobs 1 --json \
+    --metric final:plant.one_row_stiffness --grid 'plant.one_row_stiffness=2e4;2e6')
+for v in 20000 2000000; do
+    echo "$sweep" | grep -q "\"final:plant.one_row_stiffness\":$v}" ||
+        fail "the sweep has no point reading one_row_stiffness = $v: $sweep"
+done
+
+# The tests whose expectations come from the declarations: counts, value references,
+# starts and ranges of every parameter, the new one included.
+cargo test --release -q --locked -p inchworm-plant --lib
+cargo test --release -q --locked -p inchworm-fmu-models --lib
+echo "one-row: one_row_stiffness, added as one declared field, is in both model descriptions (vr $vr), the SSP parameter sets, the accessors, the range check, --param and the sweep, and the declaration tests pass"

@@ -179,9 +179,9 @@ pub fn system(m: &Mirror) -> SystemSpec {
             vec![binding(
                 "default",
                 vec![
-                    named(PlantFmu::F_D0, d.f_d0),
-                    named(PlantFmu::T_EM, d.t_em),
-                    named(PlantFmu::K_E, d.k_e),
+                    named(PlantFmu::var(inchworm_plant::PlantParams::F_D0), d.f_d0),
+                    named(PlantFmu::var(inchworm_plant::PlantParams::T_EM), d.t_em),
+                    named(PlantFmu::var(inchworm_plant::PlantParams::K_E), d.k_e),
                 ],
             )]
         };
@@ -215,9 +215,9 @@ pub fn system(m: &Mirror) -> SystemSpec {
         description: format!(
             "Hexagonal segmented mirror, {} ring(s) {centre} the centre: {n} segments, each an InchwormMount on three InchwormReference, InchwormController, InchwormPlant chains; each plant's {}, {}, {} drawn with seed {}{cophase}{control} (fmu-build segmented)",
             m.rings,
-            PlantFmu::F_D0.name(),
-            PlantFmu::T_EM.name(),
-            PlantFmu::K_E.name(),
+            PlantFmu::var(inchworm_plant::PlantParams::F_D0).name(),
+            PlantFmu::var(inchworm_plant::PlantParams::T_EM).name(),
+            PlantFmu::var(inchworm_plant::PlantParams::K_E).name(),
             m.seed,
         ),
         components,
@@ -377,9 +377,27 @@ mod tests {
         assert_eq!(plant.bindings.len(), 1);
         assert_eq!(plant.bindings[0].set, "default");
         let values = &plant.bindings[0].values;
-        assert_eq!(values[0], (PlantFmu::F_D0.name().to_string(), Value::Real(d[17].f_d0)));
-        assert_eq!(values[1], (PlantFmu::T_EM.name().to_string(), Value::Real(d[17].t_em)));
-        assert_eq!(values[2], (PlantFmu::K_E.name().to_string(), Value::Real(d[17].k_e)));
+        assert_eq!(
+            values[0],
+            (
+                PlantFmu::var(inchworm_plant::PlantParams::F_D0).name().to_string(),
+                Value::Real(d[17].f_d0)
+            )
+        );
+        assert_eq!(
+            values[1],
+            (
+                PlantFmu::var(inchworm_plant::PlantParams::T_EM).name().to_string(),
+                Value::Real(d[17].t_em)
+            )
+        );
+        assert_eq!(
+            values[2],
+            (
+                PlantFmu::var(inchworm_plant::PlantParams::K_E).name().to_string(),
+                Value::Real(d[17].k_e)
+            )
+        );
         // Segments share no connection: every one stays within its own prefix.
         for (a, _, b, _) in &spec.connections {
             let seg =

@@ -31,9 +31,9 @@ pub const STEP_SIZE: f64 = 0.002;
 pub fn plant_connectors() -> Vec<&'static str> {
     use inchworm_fmu_models::PlantFmu as P;
     names(&[
-        P::DAC_EARTH,
-        P::DAC_NONEARTH,
-        P::DAC_EXTENSION,
+        P::var(inchworm_plant::Dac::EARTH),
+        P::var(inchworm_plant::Dac::NONEARTH),
+        P::var(inchworm_plant::Dac::EXTENSION),
         P::ENCODER_COUNTS,
         P::ENCODER_POSITION,
         P::RUNNER_POSITION,
@@ -346,9 +346,9 @@ fn link(a: &str, ca: &str, b: &str, cb: &str) -> Connection {
 pub fn loop_connections(controller: &str, plant: &str) -> Vec<Connection> {
     use ControllerFmu as C;
     let dacs = [
-        (C::DAC_EARTH, PlantFmu::DAC_EARTH),
-        (C::DAC_NONEARTH, PlantFmu::DAC_NONEARTH),
-        (C::DAC_EXTENSION, PlantFmu::DAC_EXTENSION),
+        (C::DAC_EARTH, PlantFmu::var(inchworm_plant::Dac::EARTH)),
+        (C::DAC_NONEARTH, PlantFmu::var(inchworm_plant::Dac::NONEARTH)),
+        (C::DAC_EXTENSION, PlantFmu::var(inchworm_plant::Dac::EXTENSION)),
     ];
     let mut c: Vec<Connection> = dacs
         .into_iter()

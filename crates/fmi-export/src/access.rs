@@ -10,6 +10,8 @@
 
 use std::marker::PhantomData;
 
+use inchworm_declare::{Access as FieldAccess, Field, FieldId, Role, Start as DeclaredStart};
+
 use crate::table::{Causality, Kind, Start, Variable};
 use crate::Model;
 
@@ -93,6 +95,75 @@ impl std::fmt::Display for Value {
 pub struct Row<M: 'static> {
     pub var: Variable,
     pub access: Access<M>,
+}
+
+impl<M> Clone for Row<M> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<M> Copy for Row<M> {}
+
+impl<M> Row<M> {
+    /// The row of a declared field (`inchworm_declare`) at value reference `vr`: a
+    /// parameter fixed at initialization or a continuous input, with the field's start,
+    /// unit, range, description, array and wording.
+    pub const fn declared(f: Field<M>, vr: u32) -> Row<M> {
+        let (name, unit, desc) = (f.name, f.unit, f.description);
+        let mut var = match (f.role, f.start) {
+            (Role::Parameter, DeclaredStart::Real(x)) => {
+                Variable::parameter(name, vr, x, unit, desc)
+            }
+            (Role::Parameter, DeclaredStart::Integer(i)) => {
+                Variable::integer_parameter(name, vr, i, unit, desc)
+            }
+            (Role::Parameter, DeclaredStart::Boolean(b)) => {
+                Variable::boolean_parameter(name, vr, b, desc)
+            }
+            (Role::Input, DeclaredStart::Real(x)) => Variable::input(name, vr, x, unit, desc),
+            (Role::Input, DeclaredStart::Integer(i)) => {
+                Variable::integer_input(name, vr, i, unit, desc)
+            }
+            (Role::Input, DeclaredStart::Boolean(b)) => Variable::boolean_input(name, vr, b, desc),
+        };
+        var.min = f.min;
+        var.max = f.max;
+        var.array = f.array;
+        if let Some((quantity, range)) = f.wording {
+            var = var.worded(quantity, range);
+        }
+        let access = match f.access {
+            FieldAccess::Real { get, set } => Access::Real { get, set: Some(set) },
+            FieldAccess::Integer { get, set } => Access::Integer { get, set: Some(set) },
+            FieldAccess::Boolean { get, set } => Access::Boolean { get, set: Some(set) },
+        };
+        var.with_access(access)
+    }
+}
+
+/// The rows a [`table!`] filled in, unwrapped (every slot is filled: the macro counts).
+#[doc(hidden)]
+pub const fn filled<M, const N: usize>(slots: [Option<Row<M>>; N]) -> [Row<M>; N] {
+    const fn take<M>(slot: Option<Row<M>>) -> Row<M> {
+        match slot {
+            Some(row) => row,
+            None => panic!("a table slot left empty"),
+        }
+    }
+    let mut rows = [take(slots[0]); N];
+    let mut i = 1;
+    while i < N {
+        rows[i] = take(slots[i]);
+        i += 1;
+    }
+    rows
+}
+
+/// A model whose table takes the declared fields of its part `P` (`fields(P, vr)` in
+/// [`table!`]): where they start in the table.
+pub trait Declares<P>: Model {
+    #[doc(hidden)]
+    const OFFSET: usize;
 }
 
 impl<M> AsRef<Variable> for Row<M> {
@@ -229,6 +300,13 @@ impl<M: Model> Var<M> {
     pub const fn at(index: usize) -> Self {
         Var { index, model: PhantomData }
     }
+    /// The row of the declared field `f` of the model's part `P`.
+    pub const fn of<P>(f: FieldId<P>) -> Self
+    where
+        M: Declares<P>,
+    {
+        Var::at(<M as Declares<P>>::OFFSET + f.index())
+    }
     pub fn row(self) -> &'static Row<M> {
         &M::table()[self.index]
     }
@@ -252,20 +330,84 @@ impl<M: Model> Var<M> {
     }
 }
 
-/// Declares a model's table and names its rows: `table!(Model, TABLE; NAME: row, …)`
-/// (or `table!(Model, pub(super) TABLE; …)`) defines `static TABLE: [Row<Model>; n]` and one associated constant `Model::NAME` of
-/// type [`Var<Model>`] per row.
+/// Declares a model's table and names its rows. `table!(Model, TABLE; NAME: row, …)` (or
+/// `table!(Model, pub(super) TABLE; …)`) defines `static TABLE: [Row<Model>; n]` and one
+/// associated constant `Model::NAME` of type [`Var<Model>`] per row. The table may also be
+/// a sequence of segments, each a run of named rows in braces or `fields(Part, vr)`: the
+/// declared fields of a part the model holds (`inchworm_declare`, the model
+/// `Has<Part>`), at value references `vr`, `vr + 1`, … in declaration order, named by
+/// `Var::of(Part::FIELD)` (or `Model::var(Part::FIELD)`):
+///
+/// ```ignore
+/// table!(PlantFmu, TABLE;
+///     fields(Dac, 1),
+///     { ENCODER_COUNTS: Variable::output("encoder_counts", 10, …).integer_out(…) },
+///     fields(PlantParams, 100),
+/// );
+/// ```
 #[macro_export]
 macro_rules! table {
-    ($model:ty, $vis:vis $table:ident; $($id:ident: $row:expr),+ $(,)?) => {
-        $vis static $table: [$crate::Row<$model>; [$(stringify!($id)),+].len()] = [$($row),+];
-        /// The rows of the table in order, to name them.
-        #[allow(non_camel_case_types, clippy::upper_case_acronyms, dead_code)]
-        enum __Rows { $($id),+ }
+    // One named row: its constant, and its slot.
+    (@rows ($model:ty) ($vis:vis) ($table:ident) [$t:ident $k:ident] ($off:expr) [$($fill:tt)*]
+        { $id:ident: $row:expr $(, $($more:tt)*)? } $($rest:tt)*) => {
         #[allow(dead_code)]
         impl $model {
-            $(pub const $id: $crate::Var<$model> = $crate::Var::at(__Rows::$id as usize);)+
+            pub const $id: $crate::Var<$model> = $crate::Var::at($off);
         }
+        $crate::table!(@rows ($model) ($vis) ($table) [$t $k] ($off + 1)
+            [$($fill)* $t[$k] = ::core::option::Option::Some($row); $k += 1;]
+            { $($($more)*)? } $($rest)*);
+    };
+    // The end of a run of rows.
+    (@rows ($model:ty) ($vis:vis) ($table:ident) [$t:ident $k:ident] ($off:expr) [$($fill:tt)*]
+        { } $(, $($rest:tt)*)?) => {
+        $crate::table!(@rows ($model) ($vis) ($table) [$t $k] ($off) [$($fill)*] $($($rest)*)?);
+    };
+    // A part's declared fields.
+    (@rows ($model:ty) ($vis:vis) ($table:ident) [$t:ident $k:ident] ($off:expr) [$($fill:tt)*]
+        fields($part:ty, $vr:expr) $(, $($rest:tt)*)?) => {
+        impl $crate::access::Declares<$part> for $model {
+            const OFFSET: usize = $off;
+        }
+        $crate::table!(@rows ($model) ($vis) ($table) [$t $k] ($off + <$part>::N_FIELDS)
+            [$($fill)* {
+                let fields = <$part>::fields_in::<$model>();
+                let mut i = 0;
+                while i < fields.len() {
+                    $t[$k] = ::core::option::Option::Some(
+                        $crate::Row::declared(fields[i], $vr + i as u32),
+                    );
+                    $k += 1;
+                    i += 1;
+                }
+            }]
+            $($($rest)*)?);
+    };
+    // Every segment read: the table.
+    (@rows ($model:ty) ($vis:vis) ($table:ident) [$t:ident $k:ident] ($off:expr) [$($fill:tt)*]) => {
+        $vis static $table: [$crate::Row<$model>; $off] = {
+            let mut $t: [::core::option::Option<$crate::Row<$model>>; $off] = [None; $off];
+            let mut $k = 0usize;
+            $($fill)*
+            assert!($k == $off, "every row has its slot");
+            $crate::access::filled($t)
+        };
+        #[allow(dead_code)]
+        impl $model {
+            /// The row of the declared field `f` of a part this model holds.
+            pub const fn var<P>(f: $crate::inchworm_declare::FieldId<P>) -> $crate::Var<$model>
+            where
+                $model: $crate::access::Declares<P>,
+            {
+                $crate::Var::of(f)
+            }
+        }
+    };
+    ($model:ty, $vis:vis $table:ident; $($id:ident: $row:expr),+ $(,)?) => {
+        $crate::table!($model, $vis $table; { $($id: $row),+ });
+    };
+    ($model:ty, $vis:vis $table:ident; $($segments:tt)+) => {
+        $crate::table!(@rows ($model) ($vis) ($table) [__slots __at] (0usize) [] $($segments)+);
     };
 }
 

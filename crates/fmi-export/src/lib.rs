@@ -12,7 +12,7 @@
 //! [`export_fmi3!`] line, as in the Modelica Association's Reference-FMUs, where all FMI
 //! glue is shared and each model is a small equations file.
 
-mod access;
+pub mod access;
 pub mod api;
 pub mod arrays;
 pub mod entry;
@@ -28,8 +28,11 @@ mod state_blob;
 mod table;
 pub mod testing;
 
-pub use access::{parameter_values, row_named, row_of, start_value, Access, Row, Value, Var};
+pub use access::{
+    parameter_values, row_named, row_of, start_value, Access, Declares, Row, Value, Var,
+};
 pub use entry::same_time;
+pub use inchworm_declare;
 pub use inchworm_state_bytes::{Reader, Writer};
 pub use instance::{Clip, Facts, Interface, LogCategory, Modes, Scheduler, Standard, State};
 pub use table::{

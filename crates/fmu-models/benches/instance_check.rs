@@ -35,7 +35,8 @@ fn per_call(mut f: impl FnMut()) -> f64 {
 
 fn get_set<S: Master>() -> (f64, f64) {
     let h = Harness::<PlantFmu, S>::init("bench");
-    let (position, dac) = (PlantFmu::RUNNER_POSITION.vr(), PlantFmu::DAC_EXTENSION.vr());
+    let (position, dac) =
+        (PlantFmu::RUNNER_POSITION.vr(), PlantFmu::var(inchworm_plant::Dac::EXTENSION).vr());
     let mut x = 0.0;
     let get = per_call(|| unsafe {
         black_box(S::get_reals::<PlantFmu>(h.c, &position, 1, &mut x));

@@ -12,6 +12,9 @@ mod plant;
 pub mod reference;
 
 pub use controller::ControllerFmu;
+/// The plant's declared parts, whose fields name its inputs and parameters
+/// (`PlantFmu::var(Dac::EXTENSION)`).
+pub use inchworm_plant::{Dac, PlantParams};
 pub use mount::MountFmu;
 pub use plant::{Formulation, PlantFmu, PlantFullFmu, PlantModel};
 pub use reference::ReferenceFmu;

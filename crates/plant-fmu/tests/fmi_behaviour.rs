@@ -139,10 +139,21 @@ impl Drop for Instance {
 #[test]
 fn nan_input_is_refused_and_the_instance_stays_usable() {
     let i = Instance::init("nan");
-    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), 4.0), fmi2OK);
-    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), f64::NAN), fmi2Error);
+    assert_eq!(i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr(), 4.0), fmi2OK);
+    assert_eq!(
+        i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr(), f64::NAN),
+        fmi2Error
+    );
     assert!(
-        i.saw(fmi2Error, &["fmi2SetReal", PlantFmu::DAC_EXTENSION.name(), "NaN", "keeping 4 V"]),
+        i.saw(
+            fmi2Error,
+            &[
+                "fmi2SetReal",
+                PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).name(),
+                "NaN",
+                "keeping 4 V"
+            ]
+        ),
         "{:?}",
         i.logged()
     );
@@ -151,31 +162,41 @@ fn nan_input_is_refused_and_the_instance_stays_usable() {
         ["3|logStatusError|fmi2SetReal: dac_extension = NaN refused: DAC volts must be finite; keeping 4 V"],
         "the function is named once, then the reason"
     );
-    assert_eq!(i.real(PlantFmu::DAC_EXTENSION.vr()), (fmi2OK, 4.0), "the last valid value is kept");
-    assert_eq!(i.set_real(PlantFmu::DAC_NONEARTH.vr(), f64::INFINITY), fmi2Error);
+    assert_eq!(
+        i.real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr()),
+        (fmi2OK, 4.0),
+        "the last valid value is kept"
+    );
+    assert_eq!(
+        i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr(), f64::INFINITY),
+        fmi2Error
+    );
     assert_eq!(i.step(0.0, 0.002), fmi2OK, "a refused input leaves the instance usable");
-    assert_eq!(i.set_real(PlantFmu::DAC_EXTENSION.vr(), 5.0), fmi2OK);
+    assert_eq!(i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr(), 5.0), fmi2OK);
     assert_eq!(i.step(0.002, 0.002), fmi2OK);
 }
 
 #[test]
 fn out_of_range_volts_are_clamped_with_a_warning() {
     let i = Instance::init("range");
-    assert_eq!(i.set_real(PlantFmu::DAC_EARTH.vr(), 12.5), fmi2Warning);
+    assert_eq!(i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EARTH).vr(), 12.5), fmi2Warning);
     assert_eq!(
         i.logged(),
         ["1|logStatusWarning|fmi2SetReal: dac_earth = 12.5 V is outside the DAC range 0-10 V, clamped to 10 V"]
     );
-    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()), (fmi2OK, 10.0));
-    assert_eq!(i.set_real(PlantFmu::DAC_NONEARTH.vr(), -0.5), fmi2Warning);
-    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()), (fmi2OK, 0.0));
+    assert_eq!(i.real(PlantFmu::var(inchworm_fmu_models::Dac::EARTH).vr()), (fmi2OK, 10.0));
+    assert_eq!(
+        i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr(), -0.5),
+        fmi2Warning
+    );
+    assert_eq!(i.real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr()), (fmi2OK, 0.0));
     // Several values in one call: each stands alone, the call reports the worst.
     let vrs = DACS.map(Var::vr);
     let vals = [1.0, f64::NAN, 11.0];
     assert_eq!(unsafe { fmu::fmi2SetReal(i.c, vrs.as_ptr(), 3, vals.as_ptr()) }, fmi2Error);
-    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()).1, 1.0);
-    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()).1, 0.0);
-    assert_eq!(i.real(PlantFmu::DAC_EXTENSION.vr()).1, 10.0);
+    assert_eq!(i.real(PlantFmu::var(inchworm_fmu_models::Dac::EARTH).vr()).1, 1.0);
+    assert_eq!(i.real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr()).1, 0.0);
+    assert_eq!(i.real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr()).1, 10.0);
 }
 
 /// FMPy's linear interpolation of the inputs hands the plant 10.000000000000002 V for a DAC
@@ -189,10 +210,16 @@ fn volts_a_rounding_past_the_dac_range_are_its_limits_without_a_warning() {
     let vals = [10.000000000000002, -1e-15, 9.999999999999998];
     assert_eq!(unsafe { fmu::fmi2SetReal(i.c, vrs.as_ptr(), 3, vals.as_ptr()) }, fmi2OK);
     assert_eq!(i.logged(), Vec::<String>::new());
-    assert_eq!(i.real(PlantFmu::DAC_EARTH.vr()).1.to_bits(), 10.0f64.to_bits());
-    assert_eq!(i.real(PlantFmu::DAC_NONEARTH.vr()).1.to_bits(), 0.0f64.to_bits());
     assert_eq!(
-        i.real(PlantFmu::DAC_EXTENSION.vr()).1,
+        i.real(PlantFmu::var(inchworm_fmu_models::Dac::EARTH).vr()).1.to_bits(),
+        10.0f64.to_bits()
+    );
+    assert_eq!(
+        i.real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr()).1.to_bits(),
+        0.0f64.to_bits()
+    );
+    assert_eq!(
+        i.real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr()).1,
         9.999999999999998,
         "inside the range: as given"
     );
@@ -200,7 +227,10 @@ fn volts_a_rounding_past_the_dac_range_are_its_limits_without_a_warning() {
 
 #[test]
 fn bad_parameters_fail_initialization_naming_the_parameter() {
-    for (var, value) in [(PlantFmu::M_P, -0.025), (PlantFmu::PLAY_RADIUS_2, 5.0)] {
+    for (var, value) in [
+        (PlantFmu::var(inchworm_fmu_models::PlantParams::M_P), -0.025),
+        (PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_RADIUS).element(1), 5.0),
+    ] {
         let (vr, name) = (var.vr(), var.name());
         let i = Instance::new("params");
         assert_eq!(i.setup(), fmi2OK);
@@ -216,8 +246,13 @@ fn bad_parameters_fail_initialization_naming_the_parameter() {
         assert_eq!(unsafe { fmu::fmi2Reset(i.c) }, fmi2OK, "reset recovers the instance");
     }
     let i = Instance::new("nan-param");
-    assert_eq!(i.set_real(PlantFmu::M_P.vr(), f64::NAN), fmi2Error);
-    assert!(i.saw(fmi2Error, &[PlantFmu::M_P.name(), "finite"]));
+    assert_eq!(
+        i.set_real(PlantFmu::var(inchworm_fmu_models::PlantParams::M_P).vr(), f64::NAN),
+        fmi2Error
+    );
+    assert!(
+        i.saw(fmi2Error, &[PlantFmu::var(inchworm_fmu_models::PlantParams::M_P).name(), "finite"])
+    );
 }
 
 /// Asserts that every line is a debug (fmi2OK) message and returns the categories seen.
@@ -238,7 +273,11 @@ fn debug_logging_shows_the_plants_brake_events() {
     assert!(events.iter().all(|l| l.contains("brake switch")), "{events:?}");
     assert!(events.iter().any(|l| l.contains("Hold -> Locked")), "{events:?}");
     assert_eq!(i.set_debug_logging(fmi2False, &[]), fmi2OK);
-    assert_eq!(i.set_real(PlantFmu::DAC_EARTH.vr(), 12.0), fmi2Warning, "warnings still go out");
+    assert_eq!(
+        i.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EARTH).vr(), 12.0),
+        fmi2Warning,
+        "warnings still go out"
+    );
     assert!(i.take_logged()[0].starts_with("1|logStatusWarning|fmi2SetReal: dac_earth = 12 V"));
 }
 
@@ -343,16 +382,22 @@ fn state_payload_keeps_format_1_byte_for_byte() {
     let a = Harness::<PlantFmu>::new("format");
     // In initialization mode, where the restored copy may be read back.
     assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(a.set_real(PlantFmu::M_P.vr(), 0.03), fmi2OK);
-    assert_eq!(a.set_real(PlantFmu::DAC_NONEARTH.vr(), 3.5), fmi2OK);
-    assert_eq!(a.set_integer(PlantFmu::NOISE_SEED.vr(), -7), fmi2OK);
+    assert_eq!(a.set_real(PlantFmu::var(inchworm_fmu_models::PlantParams::M_P).vr(), 0.03), fmi2OK);
+    assert_eq!(a.set_real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr(), 3.5), fmi2OK);
+    assert_eq!(
+        a.set_integer(PlantFmu::var(inchworm_fmu_models::PlantParams::NOISE_SEED).vr(), -7),
+        fmi2OK
+    );
     let blob = a.serialize();
     assert_eq!(payload_of::<PlantFmu>(&blob), hex(PLANT_FORMAT_1));
     let b = Harness::<PlantFmu>::new("restored");
     assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
-    assert_eq!(b.real(PlantFmu::M_P.vr()), (fmi2OK, 0.03));
-    assert_eq!(b.real(PlantFmu::DAC_NONEARTH.vr()), (fmi2OK, 3.5));
-    assert_eq!(b.integer(PlantFmu::NOISE_SEED.vr()), (fmi2OK, -7));
+    assert_eq!(b.real(PlantFmu::var(inchworm_fmu_models::PlantParams::M_P).vr()), (fmi2OK, 0.03));
+    assert_eq!(b.real(PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH).vr()), (fmi2OK, 3.5));
+    assert_eq!(
+        b.integer(PlantFmu::var(inchworm_fmu_models::PlantParams::NOISE_SEED).vr()),
+        (fmi2OK, -7)
+    );
     assert_eq!(b.serialize(), blob);
 }
 

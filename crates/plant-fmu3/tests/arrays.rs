@@ -14,14 +14,17 @@ const ERROR: i32 = 3;
 
 fn radii_and_weights(h: &Harness<PlantFmu, Fmi3>, n: usize) -> (i32, Vec<f64>) {
     let mut v = vec![f64::NAN; n];
-    let vrs = [PlantFmu::PLAY_RADIUS_1.vr(), PlantFmu::PLAY_WEIGHT_1.vr()];
+    let vrs = [
+        PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_RADIUS).vr(),
+        PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_WEIGHT).vr(),
+    ];
     let s = unsafe { fmi3GetFloat64::<PlantFmu>(h.c, vrs.as_ptr(), 2, v.as_mut_ptr(), n) };
     (s, v)
 }
 
 #[test]
 fn the_radii_and_weights_are_arrays_got_and_set_whole() {
-    let play_radius = PlantFmu::PLAY_RADIUS_1.vr();
+    let play_radius = PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_RADIUS).vr();
     let h = Harness::<PlantFmu, Fmi3>::new("arrays");
     assert_eq!(h.enter(), 0);
     assert_eq!(
@@ -38,7 +41,7 @@ fn the_radii_and_weights_are_arrays_got_and_set_whole() {
     assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &play_radius, 1, one.as_ptr(), 1) }, ERROR);
     assert!(h.saw(ERROR, &["nValues 1 differs from the 5 values of the 1 value references"]));
     assert_eq!(radii_and_weights(&h, 9).0, ERROR);
-    let element = PlantFmu::PLAY_RADIUS_1.element(1).vr();
+    let element = PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_RADIUS).element(1).vr();
     assert_eq!(unsafe { fmi3SetFloat64::<PlantFmu>(h.c, &element, 1, one.as_ptr(), 1) }, ERROR);
     assert!(h.saw(ERROR, &[&format!("unknown value reference {element}")]));
     assert_eq!(radii_and_weights(&h, 10).1[..5], radii);
@@ -59,14 +62,21 @@ fn an_array_set_through_fmi3_is_the_scalars_set_through_fmi2() {
     assert_eq!((two.enter(), three.enter()), (0, 0));
     let weights = [0.09, 0.08, 0.07, 0.06, 0.05];
     for (k, w) in weights.iter().enumerate() {
-        assert_eq!(two.set_real(PlantFmu::PLAY_WEIGHT_1.element(k).vr(), *w), 0);
+        assert_eq!(
+            two.set_real(
+                PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_WEIGHT).element(k).vr(),
+                *w
+            ),
+            0
+        );
     }
-    let play_weight = PlantFmu::PLAY_WEIGHT_1.vr();
+    let play_weight = PlantFmu::var(inchworm_fmu_models::PlantParams::PLAY_WEIGHT).vr();
     assert_eq!(
         unsafe { fmi3SetFloat64::<PlantFmu>(three.c, &play_weight, 1, weights.as_ptr(), 5) },
         0
     );
-    let (dac, runner) = (PlantFmu::DAC_EXTENSION.vr(), PlantFmu::RUNNER_POSITION.vr());
+    let (dac, runner) =
+        (PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr(), PlantFmu::RUNNER_POSITION.vr());
     assert_eq!((two.exit(), three.exit()), (0, 0));
     for k in 0..200 {
         let t = k as f64 * 0.002;

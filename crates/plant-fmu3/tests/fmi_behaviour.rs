@@ -96,7 +96,7 @@ impl Drop for Exported {
 #[test]
 fn a_state_serialized_by_the_fmi2_fmu_restores_in_the_fmi3_fmu() {
     let two = Harness::<PlantFmu>::init("fmi2");
-    assert_eq!(two.set_real(PlantFmu::DAC_EXTENSION.vr(), 10.0), 0);
+    assert_eq!(two.set_real(PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION).vr(), 10.0), 0);
     for k in 0..20 {
         assert_eq!(two.step(k as f64 * H, H), 0);
     }
@@ -130,9 +130,9 @@ fn the_passive_check_trace_through_fmi3_equals_fmi2_bit_for_bit() {
     for (k, r) in rows.iter().enumerate() {
         let t = k as f64 * H;
         for (var, v) in [
-            (PlantFmu::DAC_EARTH, r[1]),
-            (PlantFmu::DAC_NONEARTH, r[2]),
-            (PlantFmu::DAC_EXTENSION, r[3]),
+            (PlantFmu::var(inchworm_fmu_models::Dac::EARTH), r[1]),
+            (PlantFmu::var(inchworm_fmu_models::Dac::NONEARTH), r[2]),
+            (PlantFmu::var(inchworm_fmu_models::Dac::EXTENSION), r[3]),
         ] {
             let vr = var.vr();
             assert_eq!((two.set_real(vr, v), three.set_real(vr, v)), (0, fmi3OK));

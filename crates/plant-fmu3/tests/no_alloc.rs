@@ -20,7 +20,8 @@ const H: f64 = 0.002;
 fn plant<S: Master>() -> [u64; 3] {
     let h = Harness::<PlantFmu, S>::init("alloc");
     let (dac, outputs) = (PlantFmu::DAC_INPUTS.map(Var::vr), PlantFmu::REAL_OUTPUTS.map(Var::vr));
-    let (counts, k_p) = (PlantFmu::ENCODER_COUNTS.vr(), PlantFmu::K_P.vr());
+    let (counts, k_p) =
+        (PlantFmu::ENCODER_COUNTS.vr(), PlantFmu::var(inchworm_fmu_models::PlantParams::K_P).vr());
     let mut counted = [0u64; 3];
     for k in 0..2000usize {
         let v = match k % 100 {

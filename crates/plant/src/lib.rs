@@ -26,6 +26,9 @@ mod state;
 
 use std::sync::Arc;
 
+use inchworm_board::DAC_FULL_SCALE;
+use inchworm_declare::Declare;
+
 use configs::{ChainRemainder, ConfigTable, Remainder, Whole};
 use hysteresis::Hysteresis;
 use linear::{ix, Chain, Propagators, Vector};
@@ -43,11 +46,18 @@ pub enum Mode {
     Free = 4,
 }
 
-/// DAC output volts driving the three channels, valid range 0–10 V.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// DAC output volts driving the three channels, valid range 0–10 V: the plant's inputs,
+/// declared once here (value references 1, 2, 3 in this order).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Declare)]
 pub struct Dac {
+    /// Earth-brake DAC output, held over the step (0-10 V)
+    #[var(name = "dac_earth", input, unit = "V", start = 0.0, min = 0.0, max = DAC_FULL_SCALE, quantity = "DAC volts", range_name = "DAC range")]
     pub earth: f64,
+    /// Non-earth-brake DAC output, held over the step (0-10 V)
+    #[var(name = "dac_nonearth", input, unit = "V", start = 0.0, min = 0.0, max = DAC_FULL_SCALE, quantity = "DAC volts", range_name = "DAC range")]
     pub nonearth: f64,
+    /// Extension DAC output, held over the step (0-10 V)
+    #[var(name = "dac_extension", input, unit = "V", start = 0.0, min = 0.0, max = DAC_FULL_SCALE, quantity = "DAC volts", range_name = "DAC range")]
     pub extension: f64,
 }
 

@@ -2,64 +2,123 @@
 
 use std::fmt;
 
+use inchworm_declare::{Declare, Declared};
+
 /// Number of play operators in the Prandtl–Ishlinskii hysteresis.
 pub const N_PLAYS: usize = 5;
 
-/// Every parameter of the plant. Field names follow the FMU parameter names
-/// (`L_p` → `l_p`, `T_em` → `t_em`, `C` → `c`, `play_radius[i]` → `play_radius[i-1]`).
-#[derive(Clone, Debug, PartialEq)]
+/// Every parameter of the plant, each declared once on its field: its FMU name (the field's
+/// unless `name` says otherwise), unit, `fia20` value (the start value) and valid range; the
+/// doc comment is the model description's text. The FMUs' parameter rows, the SSP
+/// parameter sets, `inchworm run --param` and [`PlantParams::validate`] read these
+/// declarations (value references 100 onward, in this order).
+///
+/// The ranges span two to four decades around the nominal devices, so any physically
+/// sensible actuator fits, and they keep every configuration's propagators finite and its
+/// step's work bounded: the stiffest corner (`k_p` 1e10 N/m on 0.1 g) rings at ~3 MHz,
+/// which the exact propagation still represents (docs/model.md §2.8). The analog chain
+/// stays a low-pass below 1 MHz (`f_bessel`, `f_amp`): the solver's scan interval assumes it.
+#[derive(Clone, Debug, PartialEq, Declare)]
 pub struct PlantParams {
-    /// Extension PZT mass (kg).
+    /// Extension PZT mass
+    #[var(unit = "kg", start = 0.025, min = 1e-4, max = 10.0)]
     pub m_p: f64,
-    /// Extension PZT short-circuit stiffness (N/m).
+    /// Extension PZT short-circuit stiffness
+    #[var(unit = "N/m", start = 3.0e7, min = 1e5, max = 1e10)]
     pub k_p: f64,
-    /// Extension PZT damping (N s/m).
+    /// Extension PZT damping
+    #[var(unit = "N.s/m", start = 15.0, min = 0.0, max = 1e5)]
     pub c_p: f64,
-    /// Non-earth brake mass carried by node 3 (kg).
+    /// Non-earth brake mass on node 3
+    #[var(unit = "kg", start = 0.040, min = 1e-4, max = 10.0)]
     pub m_b: f64,
-    /// Flexure stiffness (N/m).
+    /// Flexure stiffness
+    #[var(unit = "N/m", start = 5.0e6, min = 1000.0, max = 1e10)]
     pub k_f: f64,
-    /// Flexure damping (N s/m).
+    /// Flexure damping
+    #[var(unit = "N.s/m", start = 20.0, min = 0.0, max = 1e5)]
     pub c_f: f64,
-    /// Runner mass (kg).
+    /// Runner mass
+    #[var(unit = "kg", start = 0.150, min = 1e-4, max = 100.0)]
     pub m_r: f64,
-    /// Environment stiffness acting on the runner (N/m).
+    /// Environment stiffness on the runner
+    #[var(unit = "N/m", start = 2.0e4, min = 0.0, max = 1e9)]
     pub k_e: f64,
-    /// Environment damping (N s/m).
+    /// Environment damping on the runner
+    #[var(unit = "N.s/m", start = 10.0, min = 0.0, max = 1e5)]
     pub c_e: f64,
-    /// PZT rest length (m).
+    /// Extension PZT rest length
+    #[var(name = "L_p", unit = "m", start = 0.036, min = 1e-4, max = 1.0)]
     pub l_p: f64,
-    /// Runner rest position (m).
+    /// Runner rest position
+    #[var(name = "L_r", unit = "m", start = 0.0, min = -1.0, max = 1.0)]
     pub l_r: f64,
-    /// Electromechanical transformer ratio (N/V).
+    /// Electromechanical transformer ratio
+    #[var(name = "T_em", unit = "N/V", start = 8.8, min = 0.001, max = 1000.0)]
     pub t_em: f64,
-    /// PZT capacitance (F).
+    /// PZT capacitance
+    #[var(name = "C", unit = "F", start = 4.0e-6, min = 1e-10, max = 0.01)]
     pub c: f64,
-    /// Play operator radii (V), strictly increasing.
+    /// Slip radii of the five hysteresis elements' stop operators (strictly increasing)
+    #[var(
+        unit = "V",
+        start = [15.0, 30.0, 45.0, 60.0, 75.0],
+        min = 0.1,
+        max = 1000.0,
+        elements = [
+            "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)",
+            "Hysteresis element 2: slip radius",
+            "Hysteresis element 3: slip radius",
+            "Hysteresis element 4: slip radius",
+            "Hysteresis element 5: slip radius",
+        ]
+    )]
     pub play_radius: [f64; N_PLAYS],
-    /// Play operator weights (dimensionless).
+    /// Weights of the five hysteresis elements (capacitance C / weight)
+    #[var(
+        start = [0.08, 0.07, 0.06, 0.05, 0.04],
+        min = 0.0,
+        max = 10.0,
+        elements = [
+            "Hysteresis element 1: weight (capacitance C / weight)",
+            "Hysteresis element 2: weight (capacitance C / weight)",
+            "Hysteresis element 3: weight (capacitance C / weight)",
+            "Hysteresis element 4: weight (capacitance C / weight)",
+            "Hysteresis element 5: weight (capacitance C / weight)",
+        ]
+    )]
     pub play_weight: [f64; N_PLAYS],
-    /// Brake disturbance force at zero environment load (N).
+    /// Brake disturbance force in DRIVE
+    #[var(name = "F_d0", unit = "N", start = 175.0, min = -1e4, max = 1e4)]
     pub f_d0: f64,
-    /// Growth of the brake disturbance with environment load (dimensionless).
+    /// Growth of the brake disturbance with environment load
+    #[var(start = 0.0, min = 0.0, max = 100.0)]
     pub gamma: f64,
-    /// Brake threshold voltage (V).
+    /// Brake threshold voltage
+    #[var(name = "V_th", unit = "V", start = 50.0, min = 0.001, max = 1e4)]
     pub v_th: f64,
-    /// Bessel filter -3 dB frequency (Hz).
+    /// Bessel filter -3 dB frequency
+    #[var(unit = "Hz", start = 300.0, min = 1.0, max = 1e6)]
     pub f_bessel: f64,
-    /// PZT amplifier gain (V/V).
+    /// PZT amplifier gain
+    #[var(start = 10.0, min = 0.001, max = 1000.0)]
     pub amp_gain: f64,
-    /// PZT amplifier roll-off frequency (Hz).
+    /// PZT amplifier roll-off frequency
+    #[var(unit = "Hz", start = 475.0, min = 1.0, max = 1e6)]
     pub f_amp: f64,
-    /// Encoder resolution (m per count).
+    /// Encoder resolution per count
+    #[var(unit = "m", start = inchworm_board::ENCODER_RESOLUTION, min = 1e-12, max = 0.001)]
     pub q_enc: f64,
-    /// Standard deviation of the additive encoder noise (m); 0 = off.
-    pub encoder_noise: f64,
-    /// Seed of the encoder noise generator.
-    pub noise_seed: u64,
-    /// Event location tolerance: brake switches and play events are located to `rel_tol`
-    /// seconds (the propagation between events is exact).
+    /// Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)
+    // The propagation between events is exact: this is not an error tolerance.
+    #[var(unit = "s", start = 1.0e-9, min = 1e-12, max = 1e-6)]
     pub rel_tol: f64,
+    /// Standard deviation of additive encoder noise (0 = off)
+    #[var(unit = "m", start = 0.0, min = 0.0, max = 0.001)]
+    pub encoder_noise: f64,
+    /// Seed of the encoder noise generator
+    #[var(start = 1)]
+    pub noise_seed: u64,
 }
 
 /// A parameter value that the model cannot run with.
@@ -85,35 +144,9 @@ impl Default for PlantParams {
 }
 
 impl PlantParams {
-    /// The 20-µm device (docs/model.md §2.8 default).
+    /// The 20-µm device (docs/model.md §2.8 default): every declared start value.
     pub fn fia20() -> Self {
-        PlantParams {
-            m_p: 0.025,
-            k_p: 3.0e7,
-            c_p: 15.0,
-            m_b: 0.040,
-            k_f: 5.0e6,
-            c_f: 20.0,
-            m_r: 0.150,
-            k_e: 2.0e4,
-            c_e: 10.0,
-            l_p: 0.036,
-            l_r: 0.0,
-            t_em: 8.8,
-            c: 4.0e-6,
-            play_radius: [15.0, 30.0, 45.0, 60.0, 75.0],
-            play_weight: [0.08, 0.07, 0.06, 0.05, 0.04],
-            f_d0: 175.0,
-            gamma: 0.0,
-            v_th: 50.0,
-            f_bessel: 300.0,
-            amp_gain: 10.0,
-            f_amp: 475.0,
-            q_enc: inchworm_board::ENCODER_RESOLUTION,
-            encoder_noise: 0.0,
-            noise_seed: 1,
-            rel_tol: 1e-9,
-        }
+        Self::declared()
     }
 
     /// The 6-µm device: weaker transducer and brake disturbance.
@@ -121,112 +154,32 @@ impl PlantParams {
         PlantParams { t_em: 2.5, f_d0: 105.0, ..Self::fia20() }
     }
 
-    /// The scalar parameters with their FMU names, values and valid ranges.
-    fn scalars(&self) -> [(&'static str, f64); 22] {
-        [
-            ("m_p", self.m_p),
-            ("k_p", self.k_p),
-            ("c_p", self.c_p),
-            ("m_b", self.m_b),
-            ("k_f", self.k_f),
-            ("c_f", self.c_f),
-            ("m_r", self.m_r),
-            ("k_e", self.k_e),
-            ("c_e", self.c_e),
-            ("L_p", self.l_p),
-            ("L_r", self.l_r),
-            ("T_em", self.t_em),
-            ("C", self.c),
-            ("F_d0", self.f_d0),
-            ("gamma", self.gamma),
-            ("V_th", self.v_th),
-            ("f_bessel", self.f_bessel),
-            ("amp_gain", self.amp_gain),
-            ("f_amp", self.f_amp),
-            ("q_enc", self.q_enc),
-            ("encoder_noise", self.encoder_noise),
-            ("rel_tol", self.rel_tol),
-        ]
-    }
-
-    /// Checks every value against its range (`range`); the error names the first offending
-    /// parameter, its value and the range.
+    /// Checks every value against its declared range, and the play radii's order; the
+    /// error names the first offending parameter, its value and the range.
     pub fn validate(&self) -> Result<(), ParamError> {
-        fn err(field: impl Into<String>, reason: impl Into<String>) -> Result<(), ParamError> {
-            Err(ParamError { field: field.into(), reason: reason.into() })
+        if let Some((field, reason)) = inchworm_declare::out_of_range(self) {
+            return Err(ParamError { field: field.into(), reason });
         }
-        let check = |name: &str, v: f64| -> Result<(), ParamError> {
-            let (lo, hi, unit) = range(name).expect("every parameter has a range");
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                err(name, format!("must be within [{lo:e}, {hi:e}] {unit}, got {v:e}"))
-            }
-        };
-        for (name, v) in self.scalars() {
-            check(name, v)?;
-        }
-        for i in 0..N_PLAYS {
-            let (r, w) = (self.play_radius[i], self.play_weight[i]);
-            let rname = format!("play_radius[{}]", i + 1);
-            check_named(&rname, "play_radius", r)?;
-            check_named(&format!("play_weight[{}]", i + 1), "play_weight", w)?;
-            if i > 0 && r <= self.play_radius[i - 1] {
-                return err(
-                    rname,
-                    format!(
-                        "play radii must be strictly increasing, got {r} after {}",
-                        self.play_radius[i - 1]
+        for i in 1..N_PLAYS {
+            let (r, before) = (self.play_radius[i], self.play_radius[i - 1]);
+            if r <= before {
+                return Err(ParamError {
+                    field: format!("play_radius[{}]", i + 1),
+                    reason: format!(
+                        "play radii must be strictly increasing, got {r} after {before}"
                     ),
-                );
+                });
             }
         }
         Ok(())
     }
 }
 
-/// Checks an element of an array parameter against the range of its array.
-fn check_named(name: &str, array: &str, v: f64) -> Result<(), ParamError> {
-    let (lo, hi, unit) = range(array).expect("every parameter has a range");
-    if v.is_finite() && (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(ParamError {
-            field: name.into(),
-            reason: format!("must be within [{lo:e}, {hi:e}] {unit}, got {v:e}"),
-        })
-    }
-}
-
-/// Valid range `[min, max]` and unit of each parameter (by FMU name; `play_radius` and
-/// `play_weight` for every element of those arrays). The ranges span two to four decades
-/// around the nominal devices, so any physically sensible actuator fits, and they keep
-/// every configuration's propagators finite and its step's work bounded: the stiffest
-/// corner (`k_p` 1e10 N/m on 0.1 g) rings at ~3 MHz, which the exact propagation still
-/// represents (docs/model.md §2.8).
+/// The declared range `[min, max]` and unit of the parameter named `name` (an array's
+/// name, `play_radius`, or one of its elements): what [`PlantParams::validate`] enforces.
 pub fn range(name: &str) -> Option<(f64, f64, &'static str)> {
-    Some(match name {
-        "m_p" | "m_b" => (1e-4, 10.0, "kg"),
-        "m_r" => (1e-4, 100.0, "kg"),
-        "k_p" => (1e5, 1e10, "N/m"),
-        "k_f" => (1e3, 1e10, "N/m"),
-        "k_e" => (0.0, 1e9, "N/m"),
-        "c_p" | "c_f" | "c_e" => (0.0, 1e5, "N s/m"),
-        "L_p" => (1e-4, 1.0, "m"),
-        "L_r" => (-1.0, 1.0, "m"),
-        "T_em" => (1e-3, 1e3, "N/V"),
-        "C" => (1e-10, 1e-2, "F"),
-        "play_radius" => (0.1, 1e3, "V"),
-        "play_weight" => (0.0, 10.0, "(dimensionless)"),
-        "F_d0" => (-1e4, 1e4, "N"),
-        "gamma" => (0.0, 100.0, "(dimensionless)"),
-        "V_th" => (1e-3, 1e4, "V"),
-        // The analog chain stays a low-pass below 1 MHz: the solver's scan interval assumes it.
-        "f_bessel" | "f_amp" => (1.0, 1e6, "Hz"),
-        "amp_gain" => (1e-3, 1e3, "V/V"),
-        "q_enc" => (1e-12, 1e-3, "m"),
-        "encoder_noise" => (0.0, 1e-3, "m"),
-        "rel_tol" => (1e-12, 1e-6, "s (event time resolution)"),
-        _ => return None,
-    })
+    let f = PlantParams::FIELDS
+        .iter()
+        .find(|f| f.name == name || f.name.strip_suffix("[1]") == Some(name))?;
+    Some((f.min?, f.max?, f.unit.unwrap_or("(dimensionless)")))
 }

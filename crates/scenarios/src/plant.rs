@@ -52,7 +52,7 @@ impl Plant {
         let booleans = vrs_of(&BOOLEAN_OUTPUTS, VarType::Boolean)?;
         fmu.enter_initialization(None, 0.0, None)?;
         fmu.exit_initialization()?;
-        let q_enc = fmu.real(PlantFmu::Q_ENC.name())?;
+        let q_enc = fmu.real(PlantFmu::var(inchworm_plant::PlantParams::Q_ENC).name())?;
         Ok(Self { fmu, inputs, reals, integers, booleans, q_enc })
     }
 

@@ -2,7 +2,6 @@
 //! 17 continuous states (docs/model.md §5), `inchworm_plant::continuous`.
 
 use super::{directional, plant_table, Formulation, PlantModel, CHANNELS, INFO, M, V};
-use inchworm_board::{DAC_FULL_SCALE, ENCODER_RESOLUTION};
 use inchworm_fmi_export::{ContinuousState, Kind, ModelExchange, ModelInfo, Row, Variable};
 use inchworm_plant::continuous::{self, EventReport, N_STATES};
 use inchworm_plant::{Dac, Plant, PlantParams};
@@ -111,8 +110,11 @@ impl Formulation for Plant {
         seed: &[f64],
         out: &mut [f64],
     ) -> Result<(), String> {
-        let dacs =
-            [PlantFullFmu::DAC_EXTENSION, PlantFullFmu::DAC_EARTH, PlantFullFmu::DAC_NONEARTH];
+        let dacs = [
+            PlantFullFmu::var(inchworm_plant::Dac::EXTENSION),
+            PlantFullFmu::var(inchworm_plant::Dac::EARTH),
+            PlantFullFmu::var(inchworm_plant::Dac::NONEARTH),
+        ];
         directional(&ME, &self.jacobian(), dacs.map(|d| d.vr()), (unknowns, knowns, seed, out))
     }
 

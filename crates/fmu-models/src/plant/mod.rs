@@ -106,6 +106,26 @@ const NOT_BUILT: u8 = 0;
 const CS_BUILT: u8 = 1;
 const ME_BUILT: u8 = 2;
 
+/// The parameters and the DAC inputs are the model's declared parts: the table takes
+/// their rows from their fields' declarations.
+impl<F> inchworm_fmi_export::inchworm_declare::Has<PlantParams> for PlantModel<F> {
+    fn part(&self) -> &PlantParams {
+        &self.params
+    }
+    fn part_mut(&mut self) -> &mut PlantParams {
+        &mut self.params
+    }
+}
+
+impl<F> inchworm_fmi_export::inchworm_declare::Has<Dac> for PlantModel<F> {
+    fn part(&self) -> &Dac {
+        &self.dac
+    }
+    fn part_mut(&mut self) -> &mut Dac {
+        &mut self.dac
+    }
+}
+
 impl<F: Formulation> PlantModel<F> {
     /// A model that will run `params` (validated at initialization, as a master's).
     pub fn with_params(params: PlantParams) -> Self {
@@ -390,29 +410,41 @@ mod tests {
     use inchworm_fmi_export::{start_value, Causality, Kind};
     use inchworm_plant::continuous::reduced::Reduced;
 
-    /// The table is the FMU's public description; the plant crate holds the defaults and the
-    /// ranges. Every parameter's start and min/max must be the plant's own, in both FMUs.
+    /// The parameter rows are the plant crate's declarations, at value references 100 on in
+    /// declaration order: every start value is what a new model holds, and every declared
+    /// range is the one `PlantParams::validate` enforces (a value just outside either end is
+    /// refused, naming the row's variable).
     fn parameters_are_the_plant_crates<F: Formulation>() -> usize {
+        use inchworm_fmi_export::inchworm_declare::Declared;
         let fmu = PlantModel::<F>::new();
+        let rows: Vec<_> =
+            F::table().iter().filter(|r| r.var.causality == Causality::Parameter).collect();
+        assert_eq!(rows.len(), PlantParams::FIELDS.len());
         let mut ranged = 0;
-        for r in F::table().iter().filter(|r| r.var.causality == Causality::Parameter) {
+        for (k, (r, f)) in rows.iter().zip(PlantParams::FIELDS).enumerate() {
             let v = &r.var;
+            assert_eq!((v.name, v.vr, v.description), (f.name, 100 + k as u32, f.description));
             assert_eq!(start_value(v), Some(r.get(&fmu)), "{}: start", v.name);
-            if v.kind == Kind::Real {
-                let base = v.name.split('[').next().unwrap();
-                let (lo, hi, _) = inchworm_plant::params::range(base)
-                    .unwrap_or_else(|| panic!("{} has no range in the plant crate", v.name));
-                assert_eq!((v.min, v.max), (Some(lo), Some(hi)), "{}: range", v.name);
-                ranged += 1;
+            let (Some(lo), Some(hi)) = (v.min, v.max) else { continue };
+            assert_eq!(v.kind, Kind::Real, "{}", v.name);
+            for outside in [lo - lo.abs().max(1e-300) * 1e-9, hi + hi.abs() * 1e-9] {
+                let mut m = PlantModel::<F>::new();
+                r.set(&mut m, inchworm_fmi_export::Value::Real(outside)).unwrap();
+                let e = m.params.validate().expect_err(v.name);
+                assert_eq!(e.field, v.name, "{outside:e}: {e}");
             }
+            ranged += 1;
         }
         ranged
     }
 
     #[test]
     fn parameter_starts_and_ranges_are_the_plant_crates() {
-        assert_eq!(parameters_are_the_plant_crates::<Reduced>(), 32);
-        assert_eq!(parameters_are_the_plant_crates::<Plant>(), 32);
+        use inchworm_fmi_export::inchworm_declare::Declared;
+        let ranged = PlantParams::FIELDS.iter().filter(|f| f.min.is_some()).count();
+        assert!(ranged >= 32, "the fia20 parameters are ranged: {ranged}");
+        assert_eq!(parameters_are_the_plant_crates::<Reduced>(), ranged);
+        assert_eq!(parameters_are_the_plant_crates::<Plant>(), ranged);
     }
 
     /// The two FMUs differ only in their formulation's states and rates: the reduced one's
@@ -498,8 +530,12 @@ mod tests {
     fn a_model_of_given_parameters_reads_them_back() {
         let fia6 = PlantFmu::with_params(PlantParams::fia6());
         let values: Vec<_> = inchworm_fmi_export::parameter_values(&fia6).collect();
-        assert_eq!(values.len(), 33);
-        assert!(values.contains(&(PlantFmu::T_EM.name(), inchworm_fmi_export::Value::Real(2.5))));
+        use inchworm_fmi_export::inchworm_declare::Declared;
+        assert_eq!(values.len(), PlantParams::FIELDS.len());
+        assert!(values.contains(&(
+            PlantFmu::var(inchworm_plant::PlantParams::T_EM).name(),
+            inchworm_fmi_export::Value::Real(2.5)
+        )));
         assert!(values.contains(&("F_d0", inchworm_fmi_export::Value::Real(105.0))));
     }
 }

@@ -3,7 +3,6 @@
 //! velocity, and the three channels), `inchworm_plant::continuous::reduced`.
 
 use super::{directional, plant_table, Formulation, PlantModel, CHANNELS, INFO, M, V};
-use inchworm_board::{DAC_FULL_SCALE, ENCODER_RESOLUTION};
 use inchworm_fmi_export::{ContinuousState, Kind, ModelExchange, ModelInfo, Row, Variable};
 use inchworm_plant::continuous::reduced::{self, Reduced, N_STATES};
 use inchworm_plant::continuous::EventReport;
@@ -104,7 +103,11 @@ impl Formulation for Reduced {
         seed: &[f64],
         out: &mut [f64],
     ) -> Result<(), String> {
-        let dacs = [PlantFmu::DAC_EXTENSION, PlantFmu::DAC_EARTH, PlantFmu::DAC_NONEARTH];
+        let dacs = [
+            PlantFmu::var(inchworm_plant::Dac::EXTENSION),
+            PlantFmu::var(inchworm_plant::Dac::EARTH),
+            PlantFmu::var(inchworm_plant::Dac::NONEARTH),
+        ];
         directional(&ME, &self.jacobian(), dacs.map(|d| d.vr()), (unknowns, knowns, seed, out))
     }
 

@@ -5,18 +5,18 @@
 use inchworm_fmi_export::{ContinuousState, ModelInfo, Unit};
 
 /// The rows both FMUs have, with the rows of a formulation's continuous states and of
-/// their derivatives in between. Value references: inputs 1.., outputs 10.., parameters
-/// 100.. (arrays contiguous), the model's continuous states 200.., their derivatives
-/// 220.. (the order of `inchworm_plant::continuous`), the event indicators 240.. The names
-/// the rows use (`Variable`, `Kind`, `M`, `V`, the board's constants) resolve where it is
-/// invoked.
+/// their derivatives in between. Value references: inputs 1.. (the declared fields of
+/// `inchworm_plant::Dac`), outputs 10.., parameters 100.. (the declared fields of
+/// `PlantParams`, arrays contiguous), the model's continuous states 200.., their
+/// derivatives 220.. (the order of `inchworm_plant::continuous`), the event indicators
+/// 240.. The names the rows use (`Variable`, `Kind`, `M`, `V`, `Dac`, `PlantParams`)
+/// resolve where it is invoked.
 macro_rules! plant_table {
     ($model:ty; states { $($sid:ident: $srow:expr),* $(,)? } derivatives { $($did:ident: $drow:expr),* $(,)? }) => {
         #[rustfmt::skip]
         inchworm_fmi_export::table!($model, TABLE;
-        DAC_EARTH: Variable::input("dac_earth", 1, 0.0, V, "Earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.earth, |m, x| m.dac.earth = x),
-        DAC_NONEARTH: Variable::input("dac_nonearth", 2, 0.0, V, "Non-earth-brake DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.nonearth, |m, x| m.dac.nonearth = x),
-        DAC_EXTENSION: Variable::input("dac_extension", 3, 0.0, V, "Extension DAC output, held over the step (0-10 V)").with_range(0.0, DAC_FULL_SCALE).worded("DAC volts", "DAC range").real(|m| m.dac.extension, |m, x| m.dac.extension = x),
+        fields(Dac, 1),
+        {
         ENCODER_COUNTS: Variable::output("encoder_counts", 10, Kind::Integer, None, "Encoder reading: round((x4 - L_r)/q_enc), half away from zero").integer_out(|m| m.outputs().encoder_counts.clamp(i32::MIN as i64, i32::MAX as i64) as i32),
         ENCODER_POSITION: Variable::output("encoder_position", 11, Kind::Real, M, "encoder_counts * q_enc").real_out(|m| m.outputs().encoder_position),
         RUNNER_POSITION: Variable::output("runner_position", 12, Kind::Real, M, "True runner position x4 - L_r").real_out(|m| m.state(6)),
@@ -28,39 +28,9 @@ macro_rules! plant_table {
         EARTH_CLOSED: Variable::output("earth_closed", 18, Kind::Boolean, None, "Earth brake clamps the runner (voltage_earth < V_th)").boolean_out(|m| m.outputs().earth_closed),
         NONEARTH_CLOSED: Variable::output("nonearth_closed", 19, Kind::Boolean, None, "Non-earth brake clamps the runner (voltage_nonearth >= V_th)").boolean_out(|m| m.outputs().nonearth_closed),
         SLIP_EVENTS: Variable::output("slip_events", 20, Kind::Integer, None, "Entries into FREE (both brakes open: not nominal)").integer_out(|m| m.outputs().slip_events.min(i32::MAX as u32) as i32),
-        M_P: Variable::parameter("m_p", 100, 0.025, Some("kg"), "Extension PZT mass").with_range(1e-4, 10.0).real(|m| m.params.m_p, |m, x| m.params.m_p = x),
-        K_P: Variable::parameter("k_p", 101, 3.0e7, Some("N/m"), "Extension PZT short-circuit stiffness").with_range(1e5, 1e10).real(|m| m.params.k_p, |m, x| m.params.k_p = x),
-        C_P: Variable::parameter("c_p", 102, 15.0, Some("N.s/m"), "Extension PZT damping").with_range(0.0, 1e5).real(|m| m.params.c_p, |m, x| m.params.c_p = x),
-        M_B: Variable::parameter("m_b", 103, 0.040, Some("kg"), "Non-earth brake mass on node 3").with_range(1e-4, 10.0).real(|m| m.params.m_b, |m, x| m.params.m_b = x),
-        K_F: Variable::parameter("k_f", 104, 5.0e6, Some("N/m"), "Flexure stiffness").with_range(1000.0, 1e10).real(|m| m.params.k_f, |m, x| m.params.k_f = x),
-        C_F: Variable::parameter("c_f", 105, 20.0, Some("N.s/m"), "Flexure damping").with_range(0.0, 1e5).real(|m| m.params.c_f, |m, x| m.params.c_f = x),
-        M_R: Variable::parameter("m_r", 106, 0.150, Some("kg"), "Runner mass").with_range(1e-4, 100.0).real(|m| m.params.m_r, |m, x| m.params.m_r = x),
-        K_E: Variable::parameter("k_e", 107, 2.0e4, Some("N/m"), "Environment stiffness on the runner").with_range(0.0, 1e9).real(|m| m.params.k_e, |m, x| m.params.k_e = x),
-        C_E: Variable::parameter("c_e", 108, 10.0, Some("N.s/m"), "Environment damping on the runner").with_range(0.0, 1e5).real(|m| m.params.c_e, |m, x| m.params.c_e = x),
-        L_P: Variable::parameter("L_p", 109, 0.036, M, "Extension PZT rest length").with_range(1e-4, 1.0).real(|m| m.params.l_p, |m, x| m.params.l_p = x),
-        L_R: Variable::parameter("L_r", 110, 0.0, M, "Runner rest position").with_range(-1.0, 1.0).real(|m| m.params.l_r, |m, x| m.params.l_r = x),
-        T_EM: Variable::parameter("T_em", 111, 8.8, Some("N/V"), "Electromechanical transformer ratio").with_range(0.001, 1000.0).real(|m| m.params.t_em, |m, x| m.params.t_em = x),
-        C: Variable::parameter("C", 112, 4.0e-6, Some("F"), "PZT capacitance").with_range(1e-10, 0.01).real(|m| m.params.c, |m, x| m.params.c = x),
-        PLAY_RADIUS_1: Variable::parameter("play_radius[1]", 113, 15.0, V, "Hysteresis element 1: slip radius of its stop operator (radii strictly increasing)").with_range(0.1, 1000.0).array("Slip radii of the five hysteresis elements' stop operators (strictly increasing)").real(|m| m.params.play_radius[0], |m, x| m.params.play_radius[0] = x),
-        PLAY_RADIUS_2: Variable::parameter("play_radius[2]", 114, 30.0, V, "Hysteresis element 2: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[1], |m, x| m.params.play_radius[1] = x),
-        PLAY_RADIUS_3: Variable::parameter("play_radius[3]", 115, 45.0, V, "Hysteresis element 3: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[2], |m, x| m.params.play_radius[2] = x),
-        PLAY_RADIUS_4: Variable::parameter("play_radius[4]", 116, 60.0, V, "Hysteresis element 4: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[3], |m, x| m.params.play_radius[3] = x),
-        PLAY_RADIUS_5: Variable::parameter("play_radius[5]", 117, 75.0, V, "Hysteresis element 5: slip radius").with_range(0.1, 1000.0).real(|m| m.params.play_radius[4], |m, x| m.params.play_radius[4] = x),
-        PLAY_WEIGHT_1: Variable::parameter("play_weight[1]", 118, 0.08, None, "Hysteresis element 1: weight (capacitance C / weight)").with_range(0.0, 10.0).array("Weights of the five hysteresis elements (capacitance C / weight)").real(|m| m.params.play_weight[0], |m, x| m.params.play_weight[0] = x),
-        PLAY_WEIGHT_2: Variable::parameter("play_weight[2]", 119, 0.07, None, "Hysteresis element 2: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[1], |m, x| m.params.play_weight[1] = x),
-        PLAY_WEIGHT_3: Variable::parameter("play_weight[3]", 120, 0.06, None, "Hysteresis element 3: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[2], |m, x| m.params.play_weight[2] = x),
-        PLAY_WEIGHT_4: Variable::parameter("play_weight[4]", 121, 0.05, None, "Hysteresis element 4: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[3], |m, x| m.params.play_weight[3] = x),
-        PLAY_WEIGHT_5: Variable::parameter("play_weight[5]", 122, 0.04, None, "Hysteresis element 5: weight (capacitance C / weight)").with_range(0.0, 10.0).real(|m| m.params.play_weight[4], |m, x| m.params.play_weight[4] = x),
-        F_D0: Variable::parameter("F_d0", 123, 175.0, Some("N"), "Brake disturbance force in DRIVE").with_range(-1e4, 1e4).real(|m| m.params.f_d0, |m, x| m.params.f_d0 = x),
-        GAMMA: Variable::parameter("gamma", 124, 0.0, None, "Growth of the brake disturbance with environment load").with_range(0.0, 100.0).real(|m| m.params.gamma, |m, x| m.params.gamma = x),
-        V_TH: Variable::parameter("V_th", 125, 50.0, V, "Brake threshold voltage").with_range(0.001, 1e4).real(|m| m.params.v_th, |m, x| m.params.v_th = x),
-        F_BESSEL: Variable::parameter("f_bessel", 126, 300.0, Some("Hz"), "Bessel filter -3 dB frequency").with_range(1.0, 1e6).real(|m| m.params.f_bessel, |m, x| m.params.f_bessel = x),
-        AMP_GAIN: Variable::parameter("amp_gain", 127, 10.0, None, "PZT amplifier gain").with_range(0.001, 1000.0).real(|m| m.params.amp_gain, |m, x| m.params.amp_gain = x),
-        F_AMP: Variable::parameter("f_amp", 128, 475.0, Some("Hz"), "PZT amplifier roll-off frequency").with_range(1.0, 1e6).real(|m| m.params.f_amp, |m, x| m.params.f_amp = x),
-        Q_ENC: Variable::parameter("q_enc", 129, ENCODER_RESOLUTION, M, "Encoder resolution per count").with_range(1e-12, 0.001).real(|m| m.params.q_enc, |m, x| m.params.q_enc = x),
-        REL_TOL: Variable::parameter("rel_tol", 130, 1.0e-9, Some("s"), "Event time resolution: brake switches and hysteresis slip events are located to this time (1e-12..1e-6)").with_range(1e-12, 1e-6).real(|m| m.params.rel_tol, |m, x| m.params.rel_tol = x),
-        ENCODER_NOISE: Variable::parameter("encoder_noise", 131, 0.0, M, "Standard deviation of additive encoder noise (0 = off)").with_range(0.0, 0.001).real(|m| m.params.encoder_noise, |m, x| m.params.encoder_noise = x),
-        NOISE_SEED: Variable::integer_parameter("noise_seed", 132, 1, None, "Seed of the encoder noise generator").integer(|m| m.params.noise_seed as i32, |m, x| m.params.noise_seed = x as u32 as u64),
+        },
+        fields(PlantParams, 100),
+        {
         NODE1_DISPLACEMENT: Variable::local("node1_displacement", 200, Some("m"), "Node 1 displacement from rest, x1 - L_p/3 (a continuous state of the model's formulation)").real_out(|m| m.state(0)),
         NODE1_VELOCITY: Variable::local("node1_velocity", 201, Some("m/s"), "Node 1 velocity v1 (a continuous state of the model's formulation)").real_out(|m| m.state(1)),
         NODE2_DISPLACEMENT: Variable::local("node2_displacement", 202, Some("m"), "Node 2 displacement from rest, x2 - 2 L_p/3 (a continuous state of the model's formulation)").real_out(|m| m.state(2)),
@@ -89,12 +59,12 @@ macro_rules! plant_table {
         SLIP_ONSET_UP: Variable::local("slip_onset_up", 242, Some("V"), "xi - the next slip onset above: an element starts to slip upward where it reaches 0").real_out(|m| m.indicator(2)),
         SLIP_ONSET_DOWN: Variable::local("slip_onset_down", 243, Some("V"), "The next slip onset below - xi: an element starts to slip downward where it reaches 0").real_out(|m| m.indicator(3)),
         SLIP_END: Variable::local("slip_end", 244, Some("V/s"), "-(rate of xi) in the slip direction while elements slip (-1 otherwise): the slip ends where it reaches 0").real_out(|m| m.indicator(4)),
-        );
+        });
 
         impl $model {
             /// The DAC inputs (V), in the order of the plant's `Dac` fields.
             pub const DAC_INPUTS: [inchworm_fmi_export::Var<$model>; 3] =
-                [Self::DAC_EARTH, Self::DAC_NONEARTH, Self::DAC_EXTENSION];
+                [Self::var(Dac::EARTH), Self::var(Dac::NONEARTH), Self::var(Dac::EXTENSION)];
             /// Every Real output.
             pub const REAL_OUTPUTS: [inchworm_fmi_export::Var<$model>; 6] = [
                 Self::ENCODER_POSITION,
