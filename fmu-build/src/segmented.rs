@@ -20,7 +20,7 @@ use std::process::ExitCode;
 use inchworm_cosim::sweep::plan::{self, SplitMix64};
 use inchworm_fmi_export::{Value, Var};
 use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
-use inchworm_fmu_models::{ControllerFmu, MountFmu, PlantFmu};
+use inchworm_fmu_models::{ControllerFmu, ControllerParams, MountFmu, PlantFmu};
 use inchworm_plant::PlantParams;
 
 use crate::ssp::{self, binding, Binding, SystemSpec};
@@ -76,10 +76,16 @@ impl Control {
         match self {
             Control::Stepping => vec![],
             Control::Deadband => {
-                vec![binding("default", named(ControllerFmu::DEADBAND, Value::Real(DEADBAND)))]
+                vec![binding(
+                    "default",
+                    named(ControllerFmu::var(ControllerParams::DEADBAND), Value::Real(DEADBAND)),
+                )]
             }
             Control::Analog => {
-                vec![binding("default", named(ControllerFmu::ANALOG, Value::Boolean(true)))]
+                vec![binding(
+                    "default",
+                    named(ControllerFmu::var(ControllerParams::ANALOG), Value::Boolean(true)),
+                )]
             }
         }
     }
@@ -453,13 +459,19 @@ mod tests {
         assert_eq!(deadband.len(), 1);
         assert_eq!(
             deadband[0].values,
-            [(ControllerFmu::DEADBAND.name().to_string(), Value::Real(DEADBAND))]
+            [(
+                ControllerFmu::var(ControllerParams::DEADBAND).name().to_string(),
+                Value::Real(DEADBAND)
+            )]
         );
         let analog = system(&Mirror { controller: Control::Analog, ..m.clone() });
         let c = analog.components.iter().find(|c| c.name == "seg0_controller_a").unwrap();
         assert_eq!(
             c.bindings[0].values,
-            [(ControllerFmu::ANALOG.name().to_string(), Value::Boolean(true))]
+            [(
+                ControllerFmu::var(ControllerParams::ANALOG).name().to_string(),
+                Value::Boolean(true)
+            )]
         );
         // Without --cophase and --controller: the mount's command, the FMUs' defaults.
         let plain = system(&mirror(5));

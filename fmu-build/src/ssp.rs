@@ -297,9 +297,10 @@ pub fn plant_bindings() -> Vec<Binding> {
 /// The controller's sets: `default` (the four flags at their starts), the control
 /// variants of the paper's Fig. 5 and Figs. 6–7.
 pub fn controller_bindings() -> Vec<Binding> {
-    use ControllerFmu as C;
+    use inchworm_fmu_models::ControllerParams as P;
     let flags =
-        [C::FEEDFORWARD, C::PREFILTER, C::USE_SCALE_FACTOR_ESTIMATE, C::USE_DISTURBANCE_ESTIMATE];
+        [P::FEEDFORWARD, P::PREFILTER, P::USE_SCALE_FACTOR_ESTIMATE, P::USE_DISTURBANCE_ESTIMATE]
+            .map(ControllerFmu::var);
     let set = |values: [bool; 4]| -> Vec<(String, Value)> {
         flags.iter().zip(values).map(|(v, b)| (v.name().to_string(), Value::Boolean(b))).collect()
     };

@@ -5,7 +5,7 @@ use inchworm_fmi_export::ffi::*;
 use inchworm_fmi_export::model_description;
 use inchworm_fmi_export::testing::{categories_of, payload_of, with_payload, Harness};
 use inchworm_fmi_export::{parameter_values, Model, Var};
-use inchworm_fmu_models::ControllerFmu;
+use inchworm_fmu_models::{ControllerFmu, ControllerParams};
 
 type H = Harness<ControllerFmu>;
 
@@ -113,18 +113,24 @@ fn bad_inputs_and_parameters_are_refused_with_a_message() {
     assert_eq!(h.real(999).0, fmi2Error, "999 is no variable's value reference");
     assert_eq!(h.set_real(ControllerFmu::DAC_EARTH.vr(), 1.0), fmi2Error, "outputs cannot be set");
     assert_eq!(
-        h.set_boolean(ControllerFmu::FEEDFORWARD.vr(), false),
+        h.set_boolean(ControllerFmu::var(ControllerParams::FEEDFORWARD).vr(), false),
         fmi2Error,
         "fixed parameters cannot change after initialization"
     );
 
     for (what, set) in [
         (
-            ControllerFmu::SAMPLES_PER_STEP.name(),
-            Box::new(|h: &H| h.set_integer(ControllerFmu::SAMPLES_PER_STEP.vr(), 3))
-                as Box<dyn Fn(&H) -> fmi2Status>,
+            ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP).name(),
+            Box::new(|h: &H| {
+                h.set_integer(ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP).vr(), 3)
+            }) as Box<dyn Fn(&H) -> fmi2Status>,
         ),
-        ("basis_peak", Box::new(|h: &H| h.set_real(ControllerFmu::BASIS_PEAK_5.vr(), 2e-6))),
+        (
+            "basis_peak",
+            Box::new(|h: &H| {
+                h.set_real(ControllerFmu::var(ControllerParams::BASIS_PEAKS).element(4).vr(), 2e-6)
+            }),
+        ),
     ] {
         let h = H::new("params");
         assert_eq!(h.setup(), fmi2OK);
@@ -226,15 +232,21 @@ fn state_payload_keeps_format_1_byte_for_byte() {
     let a = H::new("format");
     // In initialization mode, where the restored copy may be read back.
     assert_eq!((a.setup(), a.enter()), (fmi2OK, fmi2OK));
-    assert_eq!(a.set_boolean(ControllerFmu::PREFILTER.vr(), true), fmi2OK);
-    assert_eq!(a.set_integer(ControllerFmu::SAMPLES_PER_STEP.vr(), 50), fmi2OK);
+    assert_eq!(a.set_boolean(ControllerFmu::var(ControllerParams::PREFILTER).vr(), true), fmi2OK);
+    assert_eq!(
+        a.set_integer(ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP).vr(), 50),
+        fmi2OK
+    );
     assert_eq!(a.set_integer(ControllerFmu::ENCODER_COUNTS.vr(), -12), fmi2OK);
     let blob = a.serialize();
     assert_eq!(payload_of::<ControllerFmu>(&blob), hex(CONTROLLER_FORMAT_1));
     let b = H::new("restored");
     assert_eq!(b.deserialize(&blob), fmi2OK, "{:?}", b.logged());
-    assert_eq!(b.boolean(ControllerFmu::PREFILTER.vr()), (fmi2OK, true));
-    assert_eq!(b.integer(ControllerFmu::SAMPLES_PER_STEP.vr()), (fmi2OK, 50));
+    assert_eq!(b.boolean(ControllerFmu::var(ControllerParams::PREFILTER).vr()), (fmi2OK, true));
+    assert_eq!(
+        b.integer(ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP).vr()),
+        (fmi2OK, 50)
+    );
     assert_eq!(b.integer(ControllerFmu::ENCODER_COUNTS.vr()), (fmi2OK, -12));
     assert_eq!(b.serialize(), blob);
 }
@@ -255,19 +267,19 @@ fn parameters_a_master_could_not_have_set_are_refused_in_a_state() {
     let b = H::new("target");
     for (bytes, why) in [
         (
-            at(ControllerFmu::PREFILTER, 0.5),
+            at(ControllerFmu::var(ControllerParams::PREFILTER), 0.5),
             "parameter prefilter has the invalid Boolean value 0.5",
         ),
         (
-            at(ControllerFmu::SAMPLES_PER_STEP, 1.5),
+            at(ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP), 1.5),
             "parameter samples_per_step has the invalid Integer value 1.5",
         ),
         (
-            at(ControllerFmu::SAMPLES_PER_STEP, -1.0),
+            at(ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP), -1.0),
             "parameter samples_per_step has the invalid Integer value -1",
         ),
         (
-            at(ControllerFmu::DEADBAND, f64::NAN),
+            at(ControllerFmu::var(ControllerParams::DEADBAND), f64::NAN),
             "parameter deadband has the invalid Real value NaN",
         ),
         (

@@ -40,6 +40,8 @@
 //! after every entry that the reference did not disturb (the volts the loop settled at
 //! against the volts it entered with).
 
+use inchworm_declare::{Declare, Declared};
+
 /// Samples each brake phase of a sequence is held (6 ms).
 pub const PHASE_SAMPLES: u32 = 3;
 /// Samples the extension is given to move in HOLD before the brakes change (10 ms).
@@ -49,23 +51,27 @@ pub const LEARN_SAMPLES: u32 = 30;
 /// Middle of the extension DAC range (V).
 pub const MID: f64 = 5.0;
 
-/// Parameters of analog mode.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Parameters of analog mode, each declared once (the controller FMU's parameters;
+/// [`crate::Params`] flattens them).
+#[derive(Clone, Copy, Debug, PartialEq, Declare)]
 pub struct AnalogParams {
-    /// Enter analog mode at an iteration with `|r − y|` below this (m); leave it when the
-    /// error exceeds twice this.
+    /// Analog mode: enter at an iteration with |reference - position| below this, leave above twice it (0 < 2 x range < (5 V - analog_recentre_band) x analog_gain)
+    #[var(name = "analog_range", unit = "m", start = 2.5e-6, min = 0.0, max = 2e-5)]
     pub range: f64,
-    /// DRIVE gain the loop is designed on (m per DAC volt).
+    /// Analog mode: DRIVE gain of the extension the loop is designed on, m per DAC volt (> 0)
+    #[var(name = "analog_gain", unit = "m/V", start = 1.7e-6, min = 1e-8, max = 1e-4)]
     pub gain: f64,
-    /// Loop gain `k_I` (per sample): `u += (k_I / g) e`.
+    /// Analog mode: integrator gain k_I per sample, u += (k_I / analog_gain) e (0 < k_I < 1)
+    #[var(name = "analog_loop_gain", start = 0.3, min = 0.0, max = 1.0)]
     pub loop_gain: f64,
-    /// Re-centre when the extension command leaves `[band, 10 V − band]` (V).
+    /// Analog mode: re-centre the extension when its command leaves [band, 10 V - band] (0.5 <= band < 4 V)
+    #[var(name = "analog_recentre_band", unit = "V", start = 1.5, min = 0.5, max = 4.0)]
     pub recentre_band: f64,
 }
 
 impl Default for AnalogParams {
     fn default() -> Self {
-        AnalogParams { range: 2.5e-6, gain: 1.7e-6, loop_gain: 0.3, recentre_band: 1.5 }
+        AnalogParams::declared()
     }
 }
 

@@ -7,22 +7,32 @@
 //! integrators (zero steady-state error to a constant per-step disturbance) and a lead
 //! zero at `a` for phase margin.
 
+use inchworm_declare::{Declare, Declared};
+
 use crate::feedforward::Feedforward;
 use crate::prefilter::Prefilter;
 
-/// Coefficients of the compensator and the prefilter.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Coefficients of the compensator and the prefilter, each declared once (the controller
+/// FMU's parameters; [`crate::Params`] flattens them).
+#[derive(Clone, Copy, Debug, PartialEq, Declare)]
 pub struct Gains {
+    /// K of C(z) = K (z - a)/(z - 1)
+    #[var(name = "compensator_gain", start = 0.36)]
     pub k: f64,
+    /// a of C(z) = K (z - a)/(z - 1)
+    #[var(name = "compensator_zero", start = 0.8)]
     pub a: f64,
-    /// Prefilter pole: `r_f ← p r_f + (1 − p) r`. At `p = a` it cancels the closed-loop
-    /// zero, the source of the loop's overshoot to a reference step.
+    /// Prefilter r_f <- p r_f + (1 - p) r
+    ///
+    /// At `p = a` it cancels the closed-loop zero, the source of the loop's overshoot to a
+    /// reference step.
+    #[var(start = 0.8)]
     pub prefilter_pole: f64,
 }
 
 impl Default for Gains {
     fn default() -> Self {
-        Gains { k: 0.36, a: 0.8, prefilter_pole: 0.8 }
+        Gains::declared()
     }
 }
 

@@ -2,6 +2,7 @@
 //! 13–20): state = ten basis weights θ and the disturbance BD (m), process `ẋ = w`,
 //! measurement `z = [EXT_cmd, BD] = H x + v` with `H = [φ(EXT_moved) 0; 0 … 0 1]`.
 
+use inchworm_declare::{Declare, Declared};
 use nalgebra::{SMatrix, SVector};
 
 use crate::basis::Basis;
@@ -9,29 +10,34 @@ use crate::basis::Basis;
 pub type State = SVector<f64, 11>;
 pub type Cov = SMatrix<f64, 11, 11>;
 
-/// Noise levels (1-σ). Units: weights dimensionless, disturbance in m, per √s for the
-/// process noise.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Noise levels (1-σ), each declared once (the controller FMU's parameters;
+/// [`crate::Params`] flattens them). Units: weights dimensionless, disturbance in m, per
+/// √s for the process noise; the starts are docs/model.md §4's prototype levels.
+#[derive(Clone, Copy, Debug, PartialEq, Declare)]
 pub struct Noise {
+    /// Prior 1-sigma of each scale-factor weight
+    #[var(start = 0.05)]
     pub weight_prior: f64,
+    /// Prior 1-sigma of the disturbance
+    #[var(unit = "m", start = 5e-6)]
     pub disturbance_prior: f64,
+    /// Process noise of the weights per sqrt(s)
+    #[var(name = "weight_process_noise", start = 1e-3)]
     pub weight_process: f64,
+    /// Process noise of the disturbance per sqrt(s)
+    #[var(name = "disturbance_process_noise", unit = "m", start = 0.1e-6)]
     pub disturbance_process: f64,
+    /// Measurement noise of EXT_cmd
+    #[var(name = "ext_cmd_noise", start = 5e-3)]
     pub ext_cmd_measurement: f64,
+    /// Measurement noise of BD
+    #[var(name = "bd_noise", unit = "m", start = 0.05e-6)]
     pub bd_measurement: f64,
 }
 
 impl Default for Noise {
-    /// docs/model.md §4's prototype levels.
     fn default() -> Self {
-        Noise {
-            weight_prior: 0.05,
-            disturbance_prior: 5e-6,
-            weight_process: 1e-3,
-            disturbance_process: 0.1e-6,
-            ext_cmd_measurement: 5e-3,
-            bd_measurement: 0.05e-6,
-        }
+        Noise::declared()
     }
 }
 

@@ -2,6 +2,8 @@
 //! their validation: everything a caller can get wrong is refused here, by name, before
 //! a [`Controller`](crate::Controller) is built.
 
+use inchworm_declare::{Declare, Declared};
+
 use crate::analog::AnalogParams;
 use crate::basis::{self, Basis};
 use crate::compensator::Gains;
@@ -19,58 +21,85 @@ pub const CALIBRATED_DISTURBANCE: f64 = 4.7012e-6;
 /// The nominal linear inverse scale factor of the 20 µm device: weight = peak / 20 µm.
 pub const NOMINAL_WEIGHTS: [f64; 10] = [-1.2, -0.8, -0.4, -0.15, -0.05, 0.05, 0.15, 0.4, 0.8, 1.2];
 
-#[derive(Clone, Debug, PartialEq)]
+/// Every parameter of the controller, each declared once on its field (or on the fields
+/// of the structs it flattens): its FMU name, unit, default (the start value), range where
+/// the model description gives one; the first paragraph of the doc comment is the model
+/// description's text. The controller FMU's parameter rows, its SSP parameter set and
+/// `inchworm run --param` read these declarations (value references 100 onward, in this
+/// order); [`Params::validate`] is the full check.
+#[derive(Clone, Debug, PartialEq, Declare)]
 pub struct Params {
+    /// Feed the reference increment forward (feedback sees it one iteration later)
+    #[var(start = true)]
     pub feedforward: bool,
+    /// Prefilter the reference
+    #[var(start = false)]
     pub prefilter: bool,
+    /// Use the estimated inverse scale factor (else scale_weights_start)
+    #[var(start = true)]
     pub use_scale_factor_estimate: bool,
+    /// Use the estimated brake disturbance (else 0)
+    #[var(start = true)]
     pub use_disturbance_estimate: bool,
-    /// No step while |reference − position| is below this (m); 0 = always step.
+    /// No step while |reference - position| is below this (0 = always step)
+    #[var(unit = "m", start = 0.0)]
     pub deadband: f64,
+    /// Samples of 2 ms per step (7..10000)
+    #[var(start = 100)]
     pub samples_per_step: u32,
+    #[var(flatten)]
     pub gains: Gains,
+    #[var(flatten)]
     pub noise: Noise,
-    pub basis_peaks: [f64; 10],
-    pub scale_weights_start: [f64; 10],
-    pub disturbance_start: f64,
-    /// Encoder resolution (m per count).
+    /// Encoder resolution per count
+    #[var(unit = "m", start = inchworm_board::ENCODER_RESOLUTION)]
     pub q_enc: f64,
-    /// Analog mode near the target ([`analog`], docs/model.md §4.2); default off.
+    /// Initial disturbance estimate (fia20 calibration)
+    #[var(unit = "m", start = CALIBRATED_DISTURBANCE)]
+    pub disturbance_start: f64,
+    /// Peaks of the fuzzy basis of the extension command (strictly increasing, peak 5 < 0 < peak 6)
+    #[var(
+        name = "basis_peak",
+        at = 20,
+        unit = "m",
+        start = basis::FIA20_PEAKS,
+        element = "Peak {k} of the fuzzy basis (strictly increasing, 5 < 0 < 6)"
+    )]
+    pub basis_peaks: [f64; 10],
+    /// Initial inverse scale factor weights (fia20 calibration)
+    #[var(
+        start = CALIBRATED_WEIGHTS,
+        element = "Initial inverse scale factor weight {k} (fia20 calibration)"
+    )]
+    pub scale_weights_start: [f64; 10],
+    /// Analog mode near the target: hold in DRIVE with the extension under a loop of its own instead of stepping (deadband must be 0)
+    ///
+    /// ([`analog`](crate::analog), docs/model.md §4.2); default off.
+    #[var(start = false)]
     pub analog: bool,
+    #[var(flatten)]
     pub analog_params: AnalogParams,
-    /// Estimate the brake-disturbance map over the extension command ([`bdmap`]).
+    /// Estimate the brake-disturbance map over the extension command (a second Kalman filter, 9 weights)
+    ///
+    /// ([`bdmap`](crate::bdmap)).
+    #[var(start = false)]
     pub disturbance_map: bool,
-    /// Plan with the map's prediction for the coming step instead of the latest estimate
-    /// (needs `disturbance_map` and `use_disturbance_estimate`).
+    /// Plan with the map's prediction for the coming step (needs disturbance_map and use_disturbance_estimate)
+    ///
+    /// Instead of the latest estimate.
+    #[var(start = false)]
     pub use_disturbance_map: bool,
-    /// The single-integrator compensator `C(z) = single_integrator_gain` instead of
-    /// `K (z − a)/(z − 1)` (needs `use_disturbance_map`).
+    /// Single-integrator compensator C(z) = single_integrator_gain instead of K (z - a)/(z - 1) (needs use_disturbance_map)
+    #[var(start = false)]
     pub single_integrator: bool,
+    /// k of the single-integrator compensator, loop k/(z - 1) (0 < k < 2)
+    #[var(start = 0.6, min = 0.0, max = 2.0)]
     pub single_integrator_gain: f64,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params {
-            feedforward: true,
-            prefilter: false,
-            use_scale_factor_estimate: true,
-            use_disturbance_estimate: true,
-            deadband: 0.0,
-            samples_per_step: 100,
-            gains: Gains::default(),
-            noise: Noise::default(),
-            basis_peaks: basis::FIA20_PEAKS,
-            scale_weights_start: CALIBRATED_WEIGHTS,
-            disturbance_start: CALIBRATED_DISTURBANCE,
-            q_enc: inchworm_board::ENCODER_RESOLUTION,
-            analog: false,
-            analog_params: AnalogParams::default(),
-            disturbance_map: false,
-            use_disturbance_map: false,
-            single_integrator: false,
-            single_integrator_gain: 0.6,
-        }
+        Params::declared()
     }
 }
 

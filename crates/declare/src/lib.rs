@@ -30,7 +30,11 @@ use std::marker::PhantomData;
 
 /// `#[derive(Declare)]`: the attribute `#[var(...)]` on every field (keys: `name`, `unit`,
 /// `start`, `min`, `max`, `input`, `quantity` and `range_name` for an input's messages,
-/// `elements` for the descriptions of an array's elements), the doc comment its
+/// `elements` (one each) or `element` (a template, `{k}` the element's number) for the
+/// descriptions of an array's elements, `at = n` to start the field at value reference
+/// base + n, `flatten` for a field that is itself a declared struct, whose variables are
+/// spliced in (one level: a model holding the outer struct holds the inner one too),
+/// `skip` for a field that is not a variable), the first paragraph of the doc comment its
 /// description.
 pub use inchworm_declare_derive::Declare;
 
@@ -99,6 +103,9 @@ pub struct Field<M: 'static> {
     pub array: Option<&'static str>,
     /// How messages name an input's values and its range ("DAC volts", "DAC range").
     pub wording: Option<(&'static str, &'static str)>,
+    /// The value reference relative to the part's base: the declaration order, an array
+    /// one per element, with the gaps `at = n` leaves.
+    pub offset: u32,
     pub access: Access<M>,
 }
 
@@ -219,4 +226,22 @@ pub fn out_of_range<P: Declared>(p: &P) -> Option<(&'static str, String)> {
 /// The field of `P` named `name` (an array's element as `name[k]`).
 pub fn field_named<P: Declared>(name: &str) -> Option<&'static Field<P>> {
     P::FIELDS.iter().find(|f| f.name == name)
+}
+
+/// `has!(Model { Part => field.path, … })`: the model holds each part at that path, so the
+/// part's declared fields reach it ([`Has`]).
+#[macro_export]
+macro_rules! has {
+    ($model:ty { $($part:ty => $($path:ident).+),+ $(,)? }) => {
+        $(
+            impl $crate::Has<$part> for $model {
+                fn part(&self) -> &$part {
+                    &self.$($path).+
+                }
+                fn part_mut(&mut self) -> &mut $part {
+                    &mut self.$($path).+
+                }
+            }
+        )+
+    };
 }

@@ -335,7 +335,8 @@ impl<M: Model> Var<M> {
 /// associated constant `Model::NAME` of type [`Var<Model>`] per row. The table may also be
 /// a sequence of segments, each a run of named rows in braces or `fields(Part, vr)`: the
 /// declared fields of a part the model holds (`inchworm_declare`, the model
-/// `Has<Part>`), at value references `vr`, `vr + 1`, … in declaration order, named by
+/// `Has<Part>`), at value references `vr`, `vr + 1`, … in declaration order (with the gaps
+/// the declaration leaves, `at = n`), named by
 /// `Var::of(Part::FIELD)` (or `Model::var(Part::FIELD)`):
 ///
 /// ```ignore
@@ -375,7 +376,7 @@ macro_rules! table {
                 let mut i = 0;
                 while i < fields.len() {
                     $t[$k] = ::core::option::Option::Some(
-                        $crate::Row::declared(fields[i], $vr + i as u32),
+                        $crate::Row::declared(fields[i], $vr + fields[i].offset),
                     );
                     $k += 1;
                     i += 1;

@@ -12,6 +12,7 @@ mod plant;
 pub mod reference;
 
 pub use controller::ControllerFmu;
+pub use inchworm_controller::Params as ControllerParams;
 /// The plant's declared parts, whose fields name its inputs and parameters
 /// (`PlantFmu::var(Dac::EXTENSION)`).
 pub use inchworm_plant::{Dac, PlantParams};

@@ -8,7 +8,7 @@ use inchworm_fmi_export::api::Fmi2;
 use inchworm_fmi_export::fmi3::api::Fmi3;
 use inchworm_fmi_export::testing::{Harness, Master};
 use inchworm_fmi_export::Var;
-use inchworm_fmu_models::{ControllerFmu, PlantFmu};
+use inchworm_fmu_models::{ControllerFmu, ControllerParams, PlantFmu};
 
 #[path = "../../../tests/support/counting_alloc.rs"]
 mod counting_alloc;
@@ -67,9 +67,12 @@ fn controller<S: Master>() -> [u64; 3] {
     let (encoder_counts, reference_vr) =
         (ControllerFmu::ENCODER_COUNTS.vr(), ControllerFmu::REFERENCE.vr());
     let (dac_vrs, codes) = (DAC.map(Var::vr), CODES.map(Var::vr));
-    let (n_steps, prefilter) = (ControllerFmu::N_STEPS.vr(), ControllerFmu::PREFILTER.vr());
-    let (deadband, samples_per_step) =
-        (ControllerFmu::DEADBAND.vr(), ControllerFmu::SAMPLES_PER_STEP.vr());
+    let (n_steps, prefilter) =
+        (ControllerFmu::N_STEPS.vr(), ControllerFmu::var(ControllerParams::PREFILTER).vr());
+    let (deadband, samples_per_step) = (
+        ControllerFmu::var(ControllerParams::DEADBAND).vr(),
+        ControllerFmu::var(ControllerParams::SAMPLES_PER_STEP).vr(),
+    );
     let mut counted = [0u64; 3];
     let (mut counts, mut moves) = (0, 0);
     for k in 0..3000usize {

@@ -34,6 +34,12 @@ struct Decl {
     quantity: Option<LitStr>,
     range_name: Option<LitStr>,
     elements: Option<Vec<LitStr>>,
+    /// `element = "… {k} …"`: an array element's description, `{k}` its number from 1.
+    element: Option<LitStr>,
+    /// `at = n`: the field's value reference is the part's base + n (a gap before it).
+    at: Option<u32>,
+    /// `flatten`: the field is a declared struct whose fields are spliced in here.
+    flatten: bool,
     skip: bool,
 }
 
@@ -55,6 +61,8 @@ fn kind_of(ty: &Type) -> Kind {
     }
 }
 
+/// The first paragraph of the doc comment, its lines joined: the variable's description
+/// (further paragraphs document the Rust field only).
 fn doc_of(attrs: &[syn::Attribute]) -> String {
     let mut lines = Vec::new();
     for a in attrs.iter().filter(|a| a.path().is_ident("doc")) {
@@ -62,9 +70,13 @@ fn doc_of(attrs: &[syn::Attribute]) -> String {
             if let Expr::Lit(ExprLit { lit: Lit::Str(s), .. }) = &nv.value {
                 let line = s.value();
                 let line = line.trim();
-                if !line.is_empty() {
-                    lines.push(line.to_string());
+                if line.is_empty() {
+                    if lines.is_empty() {
+                        continue;
+                    }
+                    break;
                 }
+                lines.push(line.to_string());
             }
         }
     }
@@ -86,6 +98,9 @@ fn parse_field(f: &syn::Field) -> syn::Result<Decl> {
         quantity: None,
         range_name: None,
         elements: None,
+        element: None,
+        at: None,
+        flatten: false,
         skip: false,
     };
     let mut seen = false;
@@ -101,6 +116,9 @@ fn parse_field(f: &syn::Field) -> syn::Result<Decl> {
                 "max" => d.max = Some(meta.value()?.parse()?),
                 "input" => d.input = true,
                 "skip" => d.skip = true,
+                "flatten" => d.flatten = true,
+                "at" => d.at = Some(meta.value()?.parse::<syn::LitInt>()?.base10_parse()?),
+                "element" => d.element = Some(meta.value()?.parse()?),
                 "quantity" => d.quantity = Some(meta.value()?.parse()?),
                 "range_name" => d.range_name = Some(meta.value()?.parse()?),
                 "elements" => {
@@ -116,7 +134,7 @@ fn parse_field(f: &syn::Field) -> syn::Result<Decl> {
                     }
                     d.elements = Some(out);
                 }
-                _ => return Err(meta.error("unknown key of #[var]: name, unit, start, min, max, input, skip, quantity, range_name, elements")),
+                _ => return Err(meta.error("unknown key of #[var]: name, unit, start, min, max, input, skip, flatten, at, quantity, range_name, elements, element")),
             }
             Ok(())
         })?;
@@ -127,7 +145,7 @@ fn parse_field(f: &syn::Field) -> syn::Result<Decl> {
             "every field of a declared struct has its #[var(...)] (or #[var(skip)])",
         ));
     }
-    if !d.skip {
+    if !d.skip && !d.flatten {
         if d.start.is_none() {
             return Err(syn::Error::new_spanned(
                 &d.field,
@@ -158,6 +176,13 @@ fn opt_f64(e: &Option<Expr>) -> Tokens {
     }
 }
 
+/// A run of the struct's own variables, or a flattened struct's (its type, and the
+/// value-reference offset its variables start at).
+enum Segment {
+    Own(Vec<Tokens>),
+    Nested(Box<Type>, Tokens),
+}
+
 fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
     let ty = &input.ident;
     let fields = match &input.data {
@@ -170,18 +195,58 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
     let decls = fields.iter().map(parse_field).collect::<syn::Result<Vec<_>>>()?;
     let krate = quote!(::inchworm_declare);
 
-    let mut entries = Vec::new();
+    let mut segments: Vec<Segment> = Vec::new();
+    let own = |segments: &mut Vec<Segment>, entry: Tokens| match segments.last_mut() {
+        Some(Segment::Own(v)) => v.push(entry),
+        _ => segments.push(Segment::Own(vec![entry])),
+    };
     let mut ids = Vec::new();
     let mut inits = Vec::new();
-    let mut index = 0usize;
+    let mut has = Vec::new();
+    let mut nested_types: Vec<Type> = Vec::new();
+    let mut checks = Vec::new();
+    // The running index into FIELDS and value-reference offset, as const expressions.
+    let mut index = quote!(0usize);
+    let mut offset = quote!(0u32);
     for d in &decls {
         let field = &d.field;
         if d.skip {
             inits.push(quote!(#field: ::core::default::Default::default()));
             continue;
         }
+        if let Some(at) = d.at {
+            let message = format!("`at = {at}` on {field} is below the value references before it");
+            checks.push(quote!(assert!(#at >= #offset, #message);));
+            offset = quote!(#at);
+        }
+        if d.flatten {
+            let nty = &d.ty;
+            inits.push(quote!(#field: <#nty as #krate::Declared>::declared()));
+            has.push(quote! {
+                impl #krate::Has<#nty> for #ty {
+                    fn part(&self) -> &#nty {
+                        &self.#field
+                    }
+                    fn part_mut(&mut self) -> &mut #nty {
+                        &mut self.#field
+                    }
+                }
+            });
+            let doc = format!("The handle in `{ty}` of a field of its flattened `{field}`.");
+            ids.push(quote! {
+                #[doc = #doc]
+                #[allow(dead_code)]
+                pub const fn #field(id: #krate::FieldId<#nty>) -> #krate::FieldId<#ty> {
+                    #krate::FieldId::at(#index + id.index())
+                }
+            });
+            segments.push(Segment::Nested(Box::new(nty.clone()), offset.clone()));
+            nested_types.push(nty.clone());
+            index = quote!((#index + <#nty>::N_FIELDS));
+            offset = quote!((#offset + <#nty>::SPAN));
+            continue;
+        }
         let start = d.start.as_ref().expect("checked");
-        inits.push(quote!(#field: #start));
         let id = format_ident!("{}", d.field.to_string().to_uppercase());
         ids.push(quote! {
             #[allow(dead_code)]
@@ -195,67 +260,85 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
             (None, None) => quote!(::core::option::Option::None),
             _ => return Err(syn::Error::new_spanned(field, "quantity and range_name go together")),
         };
-        let entry =
-            |name: String, description: String, array: Tokens, start: Tokens, access: Tokens| {
-                let (name, description) = (
-                    LitStr::new(&name, Span::call_site()),
-                    LitStr::new(&description, Span::call_site()),
-                );
-                quote! {
-                    #krate::Field {
-                        name: #name,
-                        role: #role,
-                        description: #description,
-                        unit: #unit,
-                        start: #start,
-                        min: #min,
-                        max: #max,
-                        array: #array,
-                        wording: #wording,
-                        access: #access,
-                    }
+        let entry = |name: String,
+                     description: String,
+                     array: Tokens,
+                     start: Tokens,
+                     access: Tokens,
+                     offset: &Tokens| {
+            let (name, description) = (
+                LitStr::new(&name, Span::call_site()),
+                LitStr::new(&description, Span::call_site()),
+            );
+            quote! {
+                #krate::Field {
+                    name: #name,
+                    role: #role,
+                    description: #description,
+                    unit: #unit,
+                    start: #start,
+                    min: #min,
+                    max: #max,
+                    array: #array,
+                    wording: #wording,
+                    offset: #offset,
+                    access: #access,
                 }
-            };
+            }
+        };
         let none = quote!(::core::option::Option::None);
+        let scalar = |access: Tokens, start: Tokens| {
+            entry(d.name.clone(), d.description.clone(), none.clone(), start, access, &offset)
+        };
         match kind_of(&d.ty) {
             Kind::Real => {
+                inits.push(quote!(#field: #start));
                 let access = quote!(#krate::Access::Real {
                     get: |m: &M| #krate::Has::<#ty>::part(m).#field,
                     set: |m: &mut M, x: f64| #krate::Has::<#ty>::part_mut(m).#field = x,
                 });
-                let start = quote!(#krate::Start::Real(#start));
-                entries.push(entry(d.name.clone(), d.description.clone(), none, start, access));
-                index += 1;
+                own(&mut segments, scalar(access, quote!(#krate::Start::Real(#start))));
+                index = quote!((#index + 1));
+                offset = quote!((#offset + 1));
             }
             Kind::Boolean => {
+                inits.push(quote!(#field: #start));
                 let access = quote!(#krate::Access::Boolean {
                     get: |m: &M| #krate::Has::<#ty>::part(m).#field,
                     set: |m: &mut M, x: bool| #krate::Has::<#ty>::part_mut(m).#field = x,
                 });
-                let start = quote!(#krate::Start::Boolean(#start));
-                entries.push(entry(d.name.clone(), d.description.clone(), none, start, access));
-                index += 1;
+                own(&mut segments, scalar(access, quote!(#krate::Start::Boolean(#start))));
+                index = quote!((#index + 1));
+                offset = quote!((#offset + 1));
             }
             Kind::Integer => {
+                inits.push(quote!(#field: #start));
                 let fty = &d.ty;
                 let access = quote!(#krate::Access::Integer {
                     get: |m: &M| #krate::IntegerField::to_fmi(#krate::Has::<#ty>::part(m).#field),
                     set: |m: &mut M, x: i32| #krate::Has::<#ty>::part_mut(m).#field = <#fty as #krate::IntegerField>::from_fmi(x),
                 });
                 let start = quote!(#krate::Start::Integer((#start) as i32));
-                entries.push(entry(d.name.clone(), d.description.clone(), none, start, access));
-                index += 1;
+                own(&mut segments, scalar(access, start));
+                index = quote!((#index + 1));
+                offset = quote!((#offset + 1));
             }
             Kind::RealArray => {
-                let starts = match start {
-                    Expr::Array(a) => a.elems.iter().cloned().collect::<Vec<_>>(),
+                // The elements' starts: an array literal's, or a constant's elements (the
+                // type's length then a literal).
+                let starts: Vec<Tokens> = match start {
+                    Expr::Array(a) => a.elems.iter().map(|e| quote!(#e)).collect(),
                     other => {
-                        return Err(syn::Error::new_spanned(
-                            other,
-                            "an array field's start is an array literal: [a, b, ...]",
-                        ))
+                        let n = array_len(&d.ty).ok_or_else(|| {
+                            syn::Error::new_spanned(
+                                other,
+                                "an array field's start is an array literal [a, b, ...], or a constant when its type's length is a literal",
+                            )
+                        })?;
+                        (0..n).map(|k| quote!((#other)[#k])).collect()
                     }
                 };
+                inits.push(quote!(#field: [#(#starts),*]));
                 if let Some(el) = &d.elements {
                     if el.len() != starts.len() {
                         return Err(syn::Error::new_spanned(
@@ -265,9 +348,10 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
                     }
                 }
                 for (k, s) in starts.iter().enumerate() {
-                    let element = match &d.elements {
-                        Some(el) => el[k].value(),
-                        None => d.description.clone(),
+                    let element = match (&d.elements, &d.element) {
+                        (Some(el), _) => el[k].value(),
+                        (None, Some(t)) => t.value().replace("{k}", &(k + 1).to_string()),
+                        (None, None) => d.description.clone(),
                     };
                     let array = if k == 0 {
                         let whole = LitStr::new(&d.description, Span::call_site());
@@ -281,23 +365,78 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
                     });
                     let name = format!("{}[{}]", d.name, k + 1);
                     let start = quote!(#krate::Start::Real(#s));
-                    entries.push(entry(name, element, array, start, access));
+                    own(&mut segments, entry(name, element, array, start, access, &offset));
+                    offset = quote!((#offset + 1));
                 }
-                index += starts.len();
+                let n = starts.len();
+                index = quote!((#index + #n));
             }
         }
     }
-    let n = entries.len();
+
+    // The fields, in declaration order: one array literal when the struct flattens none,
+    // else its segments copied one after another.
+    let body = match segments.as_slice() {
+        [] => quote!([]),
+        [Segment::Own(entries)] => quote!([#(#entries),*]),
+        _ => {
+            let mut lets = Vec::new();
+            let mut copies = Vec::new();
+            for (i, seg) in segments.iter().enumerate() {
+                let name = format_ident!("segment{}", i);
+                match seg {
+                    Segment::Own(entries) => {
+                        lets.push(quote!(let #name = [#(#entries),*];));
+                        copies.push(quote! {
+                            let mut i = 0;
+                            while i < #name.len() {
+                                out[at] = #name[i];
+                                at += 1;
+                                i += 1;
+                            }
+                        });
+                    }
+                    Segment::Nested(nty, base) => {
+                        lets.push(quote!(let #name = <#nty>::fields_in::<M>();));
+                        copies.push(quote! {
+                            let mut i = 0;
+                            while i < #name.len() {
+                                let mut f = #name[i];
+                                f.offset += #base;
+                                out[at] = f;
+                                at += 1;
+                                i += 1;
+                            }
+                        });
+                    }
+                }
+            }
+            quote! {{
+                #(#lets)*
+                let mut out = [segment0[0]; Self::N_FIELDS];
+                let mut at = 0usize;
+                #(#copies)*
+                assert!(at == Self::N_FIELDS);
+                out
+            }}
+        }
+    };
+    let bounds = quote!(#krate::Has<#ty> #(+ #krate::Has<#nested_types>)*);
     Ok(quote! {
         impl #ty {
             /// The number of declared variables (an array's elements each one).
-            pub const N_FIELDS: usize = #n;
+            pub const N_FIELDS: usize = #index;
+            /// The value references the variables span from the part's base (gaps
+            /// included).
+            pub const SPAN: u32 = #offset;
             /// The declared variables as a model `M` holding this part reaches them.
-            pub const fn fields_in<M: #krate::Has<#ty>>() -> [#krate::Field<M>; #n] {
-                [#(#entries),*]
+            pub const fn fields_in<M: #bounds>() -> [#krate::Field<M>; Self::N_FIELDS] {
+                #body
             }
             #(#ids)*
         }
+        const _: () = { #(#checks)* };
+        #(#has)*
         impl #krate::Declared for #ty {
             const FIELDS: &'static [#krate::Field<Self>] = &Self::fields_in::<Self>();
             fn declared() -> Self {
@@ -305,4 +444,15 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
             }
         }
     })
+}
+
+/// The length of an array type whose length is an integer literal.
+fn array_len(ty: &Type) -> Option<usize> {
+    match ty {
+        Type::Array(a) => match &a.len {
+            Expr::Lit(ExprLit { lit: Lit::Int(n), .. }) => n.base10_parse().ok(),
+            _ => None,
+        },
+        _ => None,
+    }
 }

@@ -35,6 +35,9 @@
 //! step of an instance with event mode changes nothing. The output clock `gait_step` ticks
 //! at the samples that end a gait step and update the estimator. docs/model.md §5, Clocks.
 
+use inchworm_controller::analog::AnalogParams;
+use inchworm_controller::compensator::Gains;
+use inchworm_controller::estimator::Noise;
 use inchworm_controller::{Controller, Params, Sample, SAMPLE_PERIOD};
 // The layer's `same_time`: communication points within 1e-9 relative (a few ulps at 0) are
 // one point, so an instant the master reaches up to rounding counts as reached.
@@ -56,6 +59,15 @@ pub struct ControllerFmu {
     /// and updated the estimator. Not saved with the state (it lasts one event).
     gait_ticked: bool,
 }
+
+// The parameters are the model's declared part: the table takes their rows from the
+// declarations on `Params` and the structs it flattens.
+inchworm_fmi_export::inchworm_declare::has!(ControllerFmu {
+    Params => params,
+    Gains => params.gains,
+    Noise => params.noise,
+    AnalogParams => params.analog_params,
+});
 
 /// Where the controller is on its sample grid `s_n = origin + n × SAMPLE_PERIOD`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
