@@ -300,6 +300,11 @@ impl<M: Model> Var<M> {
     pub const fn at(index: usize) -> Self {
         Var { index, model: PhantomData }
     }
+    /// The row's position in the table.
+    #[doc(hidden)]
+    pub const fn index(self) -> usize {
+        self.index
+    }
     /// The row of the declared field `f` of the model's part `P`.
     pub const fn of<P>(f: FieldId<P>) -> Self
     where
@@ -401,6 +406,11 @@ macro_rules! table {
                 $model: $crate::access::Declares<P>,
             {
                 $crate::Var::of(f)
+            }
+            /// The value reference of row `v`, in a constant (the Model Exchange states
+            /// and event indicators name their rows with it).
+            pub const fn vr_of(v: $crate::Var<$model>) -> u32 {
+                $table[v.index()].var.vr
             }
         }
     };

@@ -1,8 +1,8 @@
 //! `InchwormPlantFull`: the plant whose Model Exchange is the model's own formulation, its
 //! 17 continuous states (docs/model.md §5), `inchworm_plant::continuous`.
 
-use super::{directional, plant_table, Formulation, PlantModel, CHANNELS, INFO, M, V};
-use inchworm_fmi_export::{ContinuousState, Kind, ModelExchange, ModelInfo, Row, Variable};
+use super::{directional, plant_table, Formulation, PlantModel, INFO, M, V};
+use inchworm_fmi_export::{Kind, ModelExchange, ModelInfo, Row, Variable};
 use inchworm_plant::continuous::{self, EventReport, N_STATES};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
@@ -26,25 +26,26 @@ plant_table!(PlantFullFmu;
 /// The 17 states in the order of `inchworm_plant::continuous`.
 static ME: ModelExchange = ModelExchange {
     states: &{
+        type F = PlantFullFmu;
         let mechanics = [
-            ContinuousState { value: 200, derivative: 220, nominal: 1e-2 },
-            ContinuousState { value: 201, derivative: 221, nominal: 10.0 },
-            ContinuousState { value: 202, derivative: 222, nominal: 1e-2 },
-            ContinuousState { value: 203, derivative: 223, nominal: 10.0 },
-            ContinuousState { value: 13, derivative: 224, nominal: 1e-2 },
-            ContinuousState { value: 204, derivative: 225, nominal: 10.0 },
-            ContinuousState { value: 12, derivative: 226, nominal: 1e-2 },
-            ContinuousState { value: 205, derivative: 227, nominal: 10.0 },
+            F::me_state_of(F::NODE1_DISPLACEMENT, F::DER_NODE1_DISPLACEMENT, 1e-2),
+            F::me_state_of(F::NODE1_VELOCITY, F::DER_NODE1_VELOCITY, 10.0),
+            F::me_state_of(F::NODE2_DISPLACEMENT, F::DER_NODE2_DISPLACEMENT, 1e-2),
+            F::me_state_of(F::NODE2_VELOCITY, F::DER_NODE2_VELOCITY, 10.0),
+            F::me_state_of(F::EXTENSION, F::DER_EXTENSION, 1e-2),
+            F::me_state_of(F::NODE3_VELOCITY, F::DER_NODE3_VELOCITY, 10.0),
+            F::me_state_of(F::RUNNER_POSITION, F::DER_RUNNER_POSITION, 1e-2),
+            F::me_state_of(F::RUNNER_VELOCITY, F::DER_RUNNER_VELOCITY, 10.0),
         ];
-        let mut all = [CHANNELS[0]; N_STATES];
+        let mut all = [F::CHANNELS[0]; N_STATES];
         let mut i = 0;
         while i < N_STATES {
-            all[i] = if i < 8 { mechanics[i] } else { CHANNELS[i - 8] };
+            all[i] = if i < 8 { mechanics[i] } else { F::CHANNELS[i - 8] };
             i += 1;
         }
         all
     },
-    event_indicators: &[240, 241, 242, 243, 244],
+    event_indicators: &PlantFullFmu::EVENT_INDICATORS,
     directional_derivatives: true,
 };
 

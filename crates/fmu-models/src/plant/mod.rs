@@ -20,7 +20,7 @@ use inchworm_plant::{Dac, Mode, Outputs, Plant, PlantParams, StepReport};
 
 pub use full::PlantFullFmu;
 pub use reduced::PlantFmu;
-use table::{plant_table, CHANNELS, INFO, M, V};
+use table::{plant_table, INFO, M, V};
 
 /// The plant as a Model Exchange master integrates it: the formulation's continuous states,
 /// their rates and the events, over the [`Plant`] that holds the physical state. Its

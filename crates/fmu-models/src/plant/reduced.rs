@@ -2,8 +2,8 @@
 //! docs/model.md §5.1, 11 continuous states (the slow parts of the runner's position and
 //! velocity, and the three channels), `inchworm_plant::continuous::reduced`.
 
-use super::{directional, plant_table, Formulation, PlantModel, CHANNELS, INFO, M, V};
-use inchworm_fmi_export::{ContinuousState, Kind, ModelExchange, ModelInfo, Row, Variable};
+use super::{directional, plant_table, Formulation, PlantModel, INFO, M, V};
+use inchworm_fmi_export::{Kind, ModelExchange, ModelInfo, Row, Variable};
 use inchworm_plant::continuous::reduced::{self, Reduced, N_STATES};
 use inchworm_plant::continuous::EventReport;
 use inchworm_plant::{Dac, Plant, PlantParams};
@@ -27,19 +27,20 @@ plant_table!(PlantFmu;
 /// and keep its error on the runner a fraction of a count (docs/model.md §5.1).
 static ME: ModelExchange = ModelExchange {
     states: &{
+        type F = PlantFmu;
         let runner = [
-            ContinuousState { value: 212, derivative: 238, nominal: 1e-5 },
-            ContinuousState { value: 213, derivative: 239, nominal: 0.1 },
+            F::me_state_of(F::RUNNER_SLOW, F::DER_RUNNER_SLOW, 1e-5),
+            F::me_state_of(F::RUNNER_SLOW_VELOCITY, F::DER_RUNNER_SLOW_VELOCITY, 0.1),
         ];
-        let mut all = [CHANNELS[0]; N_STATES];
+        let mut all = [F::CHANNELS[0]; N_STATES];
         let mut i = 0;
         while i < N_STATES {
-            all[i] = if i < 2 { runner[i] } else { CHANNELS[i - 2] };
+            all[i] = if i < 2 { runner[i] } else { F::CHANNELS[i - 2] };
             i += 1;
         }
         all
     },
-    event_indicators: &[240, 241, 242, 243, 244],
+    event_indicators: &PlantFmu::EVENT_INDICATORS,
     directional_derivatives: true,
 };
 

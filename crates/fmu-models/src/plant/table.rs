@@ -2,7 +2,7 @@
 //! macro that each formulation fills with its continuous states and their derivatives), the
 //! units, the model information and the analog channels' continuous states.
 
-use inchworm_fmi_export::{ContinuousState, ModelInfo, Unit};
+use inchworm_fmi_export::{ModelInfo, Unit};
 
 /// The rows both FMUs have, with the rows of a formulation's continuous states and of
 /// their derivatives in between. Value references: inputs 1.. (the declared fields of
@@ -65,6 +65,40 @@ macro_rules! plant_table {
             /// The DAC inputs (V), in the order of the plant's `Dac` fields.
             pub const DAC_INPUTS: [inchworm_fmi_export::Var<$model>; 3] =
                 [Self::var(Dac::EARTH), Self::var(Dac::NONEARTH), Self::var(Dac::EXTENSION)];
+            /// The channels' continuous states, the last nine of both formulations: the
+            /// extension, earth and non-earth channels, each its Bessel output, its rate and
+            /// the amplifier volts, with their derivatives' rows.
+            pub(super) const CHANNELS: [inchworm_fmi_export::ContinuousState; 9] = [
+                Self::me_state_of(Self::BESSEL_EXTENSION, Self::DER_BESSEL_EXTENSION, 10.0),
+                Self::me_state_of(Self::BESSEL_EXTENSION_RATE, Self::DER_BESSEL_EXTENSION_RATE, 10000.0),
+                Self::me_state_of(Self::VOLTAGE_EXTENSION, Self::DER_VOLTAGE_EXTENSION, 100.0),
+                Self::me_state_of(Self::BESSEL_EARTH, Self::DER_BESSEL_EARTH, 10.0),
+                Self::me_state_of(Self::BESSEL_EARTH_RATE, Self::DER_BESSEL_EARTH_RATE, 10000.0),
+                Self::me_state_of(Self::VOLTAGE_EARTH, Self::DER_VOLTAGE_EARTH, 100.0),
+                Self::me_state_of(Self::BESSEL_NONEARTH, Self::DER_BESSEL_NONEARTH, 10.0),
+                Self::me_state_of(Self::BESSEL_NONEARTH_RATE, Self::DER_BESSEL_NONEARTH_RATE, 10000.0),
+                Self::me_state_of(Self::VOLTAGE_NONEARTH, Self::DER_VOLTAGE_NONEARTH, 100.0),
+            ];
+            /// The event indicators, in the order of `inchworm_plant::continuous`'s.
+            pub(super) const EVENT_INDICATORS: [u32; 5] = [
+                Self::vr_of(Self::EARTH_SWITCH),
+                Self::vr_of(Self::NONEARTH_SWITCH),
+                Self::vr_of(Self::SLIP_ONSET_UP),
+                Self::vr_of(Self::SLIP_ONSET_DOWN),
+                Self::vr_of(Self::SLIP_END),
+            ];
+            /// The continuous state of row `value`, whose rate is row `derivative`.
+            pub(super) const fn me_state_of(
+                value: inchworm_fmi_export::Var<$model>,
+                derivative: inchworm_fmi_export::Var<$model>,
+                nominal: f64,
+            ) -> inchworm_fmi_export::ContinuousState {
+                inchworm_fmi_export::ContinuousState {
+                    value: Self::vr_of(value),
+                    derivative: Self::vr_of(derivative),
+                    nominal,
+                }
+            }
             /// Every Real output.
             pub const REAL_OUTPUTS: [inchworm_fmi_export::Var<$model>; 6] = [
                 Self::ENCODER_POSITION,
@@ -113,18 +147,3 @@ pub(super) const INFO: ModelInfo = ModelInfo {
     log_events: "Model events: brake switches, mode changes, slips",
     documentation_html: include_str!("../plant.html"),
 };
-
-/// The channels' continuous states, the last nine of both formulations: the extension, earth
-/// and non-earth channels, each its Bessel output, its rate and the amplifier volts (value
-/// references of the states; of their derivatives, 220 + the model's index).
-pub(super) const CHANNELS: [ContinuousState; 9] = [
-    ContinuousState { value: 206, derivative: 228, nominal: 10.0 },
-    ContinuousState { value: 207, derivative: 229, nominal: 10000.0 },
-    ContinuousState { value: 16, derivative: 230, nominal: 100.0 },
-    ContinuousState { value: 208, derivative: 231, nominal: 10.0 },
-    ContinuousState { value: 209, derivative: 232, nominal: 10000.0 },
-    ContinuousState { value: 14, derivative: 233, nominal: 100.0 },
-    ContinuousState { value: 210, derivative: 234, nominal: 10.0 },
-    ContinuousState { value: 211, derivative: 235, nominal: 10000.0 },
-    ContinuousState { value: 15, derivative: 236, nominal: 100.0 },
-];
