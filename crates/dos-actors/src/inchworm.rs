@@ -17,8 +17,12 @@ use crate::uid::*;
 use crate::Error;
 
 /// The loop's connections, by the tables' names: controller output, plant input.
-const DACS: [&str; 3] = ["dac_earth", "dac_nonearth", "dac_extension"];
-const ENCODER: &str = "encoder_counts";
+const DACS: [&str; 3] = [
+    ControllerFmu::name_of(ControllerFmu::DAC_EARTH),
+    ControllerFmu::name_of(ControllerFmu::DAC_NONEARTH),
+    ControllerFmu::name_of(ControllerFmu::DAC_EXTENSION),
+];
+const ENCODER: &str = PlantFmu::name_of(PlantFmu::ENCODER_COUNTS);
 
 pub struct Inchworm<const ID: u8> {
     controller: Driven<ControllerFmu>,

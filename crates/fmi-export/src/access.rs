@@ -412,6 +412,10 @@ macro_rules! table {
             pub const fn vr_of(v: $crate::Var<$model>) -> u32 {
                 $table[v.index()].var.vr
             }
+            /// The name of row `v`, in a constant (for a client's signal names).
+            pub const fn name_of(v: $crate::Var<$model>) -> &'static str {
+                $table[v.index()].var.name
+            }
         }
     };
     ($model:ty, $vis:vis $table:ident; $($id:ident: $row:expr),+ $(,)?) => {

@@ -8,7 +8,7 @@ use std::path::Path;
 use inchworm_bridge::{Compensator, Mechanism, ModelError, Schedule, PERIOD};
 use inchworm_controller::volts_of_code;
 use inchworm_fmi_export::same_time;
-use inchworm_fmu_models::ControllerFmu;
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
 use inchworm_cosim::fmu::{Causality, Clock, CsFmu, FmuError, Instance, SeFmu, VarType};
 use inchworm_cosim::master::set_param;
@@ -46,8 +46,8 @@ pub struct FmuMechanism {
 impl FmuMechanism {
     pub fn load(path: &Path, params: &[(String, String)]) -> Result<FmuMechanism, Error> {
         let fmu = start(path, "plant", params)?;
-        let dac = fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real)?;
-        let encoder = fmu.vrs_of(&["encoder_counts"], VarType::Integer)?;
+        let dac = fmu.vrs_of(&PlantFmu::DAC_INPUTS.map(|v| v.name()), VarType::Real)?;
+        let encoder = fmu.vrs_of(&[PlantFmu::ENCODER_COUNTS.name()], VarType::Integer)?;
         Ok(FmuMechanism { fmu, dac, encoder, path: path.to_path_buf(), params: params.to_vec() })
     }
 }
