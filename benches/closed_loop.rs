@@ -211,17 +211,20 @@ impl CLoop {
             }
         };
         let (plant, ctrl) = (&descriptions[0], &descriptions[1]);
-        let dac = ["dac_earth", "dac_nonearth", "dac_extension"];
+        use inchworm_fmu_models::{ControllerFmu as C, ControllerParams, PlantFmu as P};
+        let dac = P::DAC_INPUTS.map(|v| v.name());
+        let counts = P::ENCODER_COUNTS.name();
         for n in dac {
             input += &format!("{}\n", vr(plant, n, VarType::Real)?);
         }
-        input += &format!("{}\n", vr(plant, "encoder_counts", VarType::Integer)?);
+        input += &format!("{}\n", vr(plant, counts, VarType::Integer)?);
         for n in dac {
             input += &format!("{}\n", vr(ctrl, n, VarType::Real)?);
         }
-        input += &format!("{}\n", vr(ctrl, "encoder_counts", VarType::Integer)?);
-        input += &format!("{}\n", vr(ctrl, "reference", VarType::Real)?);
-        input += &format!("{}\n", vr(ctrl, "prefilter", VarType::Boolean)?);
+        input += &format!("{}\n", vr(ctrl, C::ENCODER_COUNTS.name(), VarType::Integer)?);
+        input += &format!("{}\n", vr(ctrl, C::REFERENCE.name(), VarType::Real)?);
+        let prefilter = C::var(ControllerParams::PREFILTER).name();
+        input += &format!("{}\n", vr(ctrl, prefilter, VarType::Boolean)?);
         input += &format!("{DURATION}\n");
         Ok(CLoop { exe, input, _unpacked: unpacked })
     }

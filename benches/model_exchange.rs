@@ -87,7 +87,7 @@ fn load_average() -> String {
 fn gait_input(trace_csv: &str) -> String {
     let mut lines = trace_csv.lines();
     let head: Vec<&str> = lines.next().expect("header").split(',').collect();
-    let names = ["dac_earth", "dac_nonearth", "dac_extension"];
+    let names = inchworm_fmu_models::PlantFmu::DAC_INPUTS.map(|v| v.name());
     let col = |n: &str| head.iter().position(|h| *h == n).expect(n);
     let (t, dac) = (col("time"), names.map(col));
     let mut out = format!("time,{}\n", names.join(","));
@@ -131,7 +131,8 @@ fn fmpy_me(root: &Path, plant: &Path, gait: &Path, cs: &Path) -> Result<String, 
 /// The plant alone on the check trace's gaits: its CS and the master's ME, then FMPy's
 /// CVode on the ME, side by side.
 fn plant_alone(root: &Path, dist: &Path) {
-    const COUNTS: &str = "encoder_counts";
+    const COUNTS: &str =
+        inchworm_fmu_models::PlantFmu::name_of(inchworm_fmu_models::PlantFmu::ENCODER_COUNTS);
     let plant = dist.join("InchwormPlant.fmu");
     let trace =
         std::fs::read_to_string(root.join("tests/data/plant-check-trace-fia20-passive.csv"))

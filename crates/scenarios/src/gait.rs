@@ -173,9 +173,9 @@ mod tests {
         for (k, (r, d)) in rows.iter().zip(&dacs).enumerate() {
             assert!((r[0] - k as f64 * SAMPLE_PERIOD_S).abs() < 1e-9, "row {k}: time {}", r[0]);
             for (name, want, got) in [
-                ("dac_earth", r[1], d.earth),
-                ("dac_nonearth", r[2], d.nonearth),
-                ("dac_extension", r[3], d.extension),
+                (Dac::EARTH.name(), r[1], d.earth),
+                (Dac::NONEARTH.name(), r[2], d.nonearth),
+                (Dac::EXTENSION.name(), r[3], d.extension),
             ] {
                 assert!(
                     (want - got).abs() < 1e-12,

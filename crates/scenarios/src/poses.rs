@@ -142,7 +142,7 @@ mod tests {
         let mut recorded = Vec::new();
         for k in 0..2 {
             for x in ["a", "b"] {
-                for v in ["dac_earth", "dac_nonearth", "dac_extension"] {
+                for v in inchworm_fmu_models::ControllerFmu::DAC_OUTPUTS.map(|v| v.name()) {
                     recorded.push(format!("seg{k}_controller_{x}.{v}"));
                 }
             }

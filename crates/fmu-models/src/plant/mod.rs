@@ -536,6 +536,7 @@ mod tests {
             PlantFmu::var(inchworm_plant::PlantParams::T_EM).name(),
             inchworm_fmi_export::Value::Real(2.5)
         )));
-        assert!(values.contains(&("F_d0", inchworm_fmi_export::Value::Real(105.0))));
+        let f_d0 = PlantParams::F_D0.name();
+        assert!(values.contains(&(f_d0, inchworm_fmi_export::Value::Real(105.0))));
     }
 }
