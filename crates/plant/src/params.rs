@@ -79,13 +79,7 @@ pub struct PlantParams {
         start = [0.08, 0.07, 0.06, 0.05, 0.04],
         min = 0.0,
         max = 10.0,
-        elements = [
-            "Hysteresis element 1: weight (capacitance C / weight)",
-            "Hysteresis element 2: weight (capacitance C / weight)",
-            "Hysteresis element 3: weight (capacitance C / weight)",
-            "Hysteresis element 4: weight (capacitance C / weight)",
-            "Hysteresis element 5: weight (capacitance C / weight)",
-        ]
+        element = "Hysteresis element {k}: weight (capacitance C / weight)"
     )]
     pub play_weight: [f64; N_PLAYS],
     /// Brake disturbance force in DRIVE

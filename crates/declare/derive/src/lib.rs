@@ -384,32 +384,21 @@ fn expand(input: &DeriveInput) -> syn::Result<Tokens> {
             let mut copies = Vec::new();
             for (i, seg) in segments.iter().enumerate() {
                 let name = format_ident!("segment{}", i);
-                match seg {
-                    Segment::Own(entries) => {
-                        lets.push(quote!(let #name = [#(#entries),*];));
-                        copies.push(quote! {
-                            let mut i = 0;
-                            while i < #name.len() {
-                                out[at] = #name[i];
-                                at += 1;
-                                i += 1;
-                            }
-                        });
+                let (array, base) = match seg {
+                    Segment::Own(entries) => (quote!([#(#entries),*]), quote!(0u32)),
+                    Segment::Nested(nty, base) => (quote!(<#nty>::fields_in::<M>()), base.clone()),
+                };
+                lets.push(quote!(let #name = #array;));
+                copies.push(quote! {
+                    let mut i = 0;
+                    while i < #name.len() {
+                        let mut f = #name[i];
+                        f.offset += #base;
+                        out[at] = f;
+                        at += 1;
+                        i += 1;
                     }
-                    Segment::Nested(nty, base) => {
-                        lets.push(quote!(let #name = <#nty>::fields_in::<M>();));
-                        copies.push(quote! {
-                            let mut i = 0;
-                            while i < #name.len() {
-                                let mut f = #name[i];
-                                f.offset += #base;
-                                out[at] = f;
-                                at += 1;
-                                i += 1;
-                            }
-                        });
-                    }
-                }
+                });
             }
             quote! {{
                 #(#lets)*
