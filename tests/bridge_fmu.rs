@@ -20,14 +20,9 @@ mod lockstep;
 mod real_time;
 use real_time::{turn, RealTime};
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
 
-fn fmu(name: &str) -> PathBuf {
-    let p = Path::new(DIST).join(name);
-    assert!(p.is_file(), "build the FMUs first: cargo run --release -p fmu-build");
-    p
-}
+use inchworm_dist::path as fmu;
 
 /// The closed loop through the FMUs by the master, the reference `rows` held piecewise
 /// constant, as the bridge runs it.

@@ -15,9 +15,7 @@ use inchworm::master::{self, Coupling, InputTable, Options};
 use inchworm_bridge::controller::ControllerReport;
 use inchworm_bridge::runlog::{read_log, Record};
 
-#[path = "support/dist.rs"]
-mod support;
-use support::dist;
+use inchworm_dist::path as dist;
 
 #[path = "support/lockstep.rs"]
 mod lockstep;

@@ -18,9 +18,7 @@ use inchworm_cosim::master::{Interfaces, Options, System};
 use inchworm_cosim::Trace;
 use inchworm_scenarios::scenario::{by_name, Drive};
 
-#[path = "support/dist.rs"]
-mod dist;
-use dist::dist;
+use inchworm_dist::path as dist;
 
 /// The stop time: into Fig. 5's move, where the gait steps and the estimator updates.
 const STOP: f64 = 1.0;

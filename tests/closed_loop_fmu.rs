@@ -3,18 +3,12 @@
 //! grid, record bit-identical values in every column (the FMPy loop (c) is in
 //! tests/python).
 
-use std::path::Path;
-
 use inchworm_cosim::trace::Trace;
 use inchworm_scenarios::closed_loop::{recorded, LoopView, ITERATED};
 use inchworm_scenarios::scenario::{self, Via};
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
-
 fn ssp() -> std::path::PathBuf {
-    let p = Path::new(DIST).join("InchwormSystem.ssp");
-    assert!(p.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
-    p
+    inchworm_dist::path("InchwormSystem.ssp")
 }
 
 /// Every recorded column equal, bit for bit, at every communication point from t = 0.

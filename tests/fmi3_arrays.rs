@@ -4,20 +4,10 @@
 //! and traces the same elements (`controller.scale_weights[3]`) by the names the FMI 2.0
 //! FMUs' scalars have, and gives the FMI 2.0 system's trace bit for bit.
 
-use std::path::{Path, PathBuf};
-
 use inchworm_cosim::master::{run, Coupling, InputTable, Options};
 use inchworm_cosim::trace::Trace;
 
-fn dist(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("dist").join(name);
-    assert!(
-        p.is_file(),
-        "{} is missing: run `cargo run --release -p fmu-build` first",
-        p.display()
-    );
-    p
-}
+use inchworm_dist::path as dist;
 
 /// The closed loop's options, or the open loop's with the Fig. 5 step as its input.
 fn options(params: &[(&str, &str)], open: bool) -> Options {

@@ -10,9 +10,7 @@ use inchworm_cosim::trace::Trace;
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::closed_loop::run as direct;
 
-#[path = "support/dist.rs"]
-mod dist;
-use dist::dist;
+use inchworm_dist::path as dist;
 
 fn options(parameter_set: Option<&str>, coupling: Coupling) -> Options {
     Options {

@@ -10,9 +10,7 @@ use inchworm_cosim::master::{Coupling, InputTable, Options, System};
 mod counting_alloc;
 use counting_alloc::allocations;
 
-#[path = "support/dist.rs"]
-mod dist;
-use dist::dist;
+use inchworm_dist::path as dist;
 
 /// Allocations in `steps` steps and rows after 500 steps of warm-up, and whether the
 /// runner moved over them (so the gaits, brake switches and estimator ran).

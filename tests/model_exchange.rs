@@ -19,14 +19,7 @@ use inchworm_scenarios::scenario;
 const ENCODER: &str = "plant.encoder_counts";
 const SAMPLE: f64 = 0.002;
 
-fn dist_ssp(name: &str) -> PathBuf {
-    let dist = std::env::var_os("INCHWORM_DIST")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("dist"));
-    let ssp = dist.join(name);
-    assert!(ssp.is_file(), "{} is missing: cargo run --release -p fmu-build", ssp.display());
-    ssp
-}
+use inchworm_dist::path as dist_ssp;
 
 fn open_ssp() -> PathBuf {
     dist_ssp("InchwormSystemOpen.ssp")

@@ -18,18 +18,14 @@ use fmi::traits::FmiImport;
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::gait::{self, CHECK_TOLERANCE_UM, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
-const FMU: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist/InchwormPlant.fmu");
 const TRACE: &str =
     concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/plant-check-trace-fia20-passive.csv");
 /// docs/model.md §2.9: every sample of the trace within 1 encoder count.
 const COUNT_TOLERANCE: i64 = 1;
 
-fn require_fmu() {
-    assert!(
-        Path::new(FMU).is_file(),
-        "{FMU} does not exist: build it first with `cargo run --release -p fmu-build` \
-         (this test checks the packaged FMU and cannot pass without it)"
-    );
+/// `dist/InchwormPlant.fmu`: the tests check the packaged FMU and cannot pass without it.
+fn fmu() -> String {
+    inchworm_dist::path("InchwormPlant.fmu").display().to_string()
 }
 
 /// One row of the reference trace: the DAC volts held during [time, time + 2 ms), and
@@ -77,7 +73,7 @@ fn vr(import: &Fmi2Import, name: &str) -> u32 {
     import
         .model_description()
         .model_variable_by_name(name)
-        .unwrap_or_else(|e| panic!("{FMU}: variable `{name}`: {e}"))
+        .unwrap_or_else(|e| panic!("{}: variable `{name}`: {e}", fmu()))
         .value_reference
 }
 
@@ -91,12 +87,12 @@ struct Sampled {
 /// Replays the reference inputs through a fresh instance with 2 ms `fmi2DoStep`s, the
 /// communication point computed as k · h as a master does.
 fn run_fmu(rows: &[Row]) -> (Vec<Sampled>, f64) {
-    require_fmu();
+    let path = fmu();
     let import: Fmi2Import =
-        fmi::import::from_path(FMU).unwrap_or_else(|e| panic!("importing {FMU}: {e}"));
+        fmi::import::from_path(&path).unwrap_or_else(|e| panic!("importing {path}: {e}"));
     assert!(
         import.model_description().co_simulation.is_some(),
-        "{FMU}: no <CoSimulation> in modelDescription.xml"
+        "{path}: no <CoSimulation> in modelDescription.xml"
     );
     let inputs = ["dac_earth", "dac_nonearth", "dac_extension"].map(|n| vr(&import, n));
     let ints = ["encoder_counts", "mode"].map(|n| vr(&import, n));
@@ -211,7 +207,8 @@ fn reference_trace_and_check_values_through_the_fmu() {
     let shown = failures.len().min(20);
     assert!(
         check_failures.is_empty() && failures.is_empty(),
-        "docs/model.md §2.9 through {FMU}: {} of 15 check values out of tolerance, {} sample deviations (encoder or mode) in {} samples\n{}\n(first {shown} sample deviations)\n{}",
+        "docs/model.md §2.9 through {}: {} of 15 check values out of tolerance, {} sample deviations (encoder or mode) in {} samples\n{}\n(first {shown} sample deviations)\n{}",
+        fmu(),
         check_failures.len(),
         failures.len(),
         rows.len(),
@@ -225,11 +222,11 @@ fn reference_trace_and_check_values_through_the_fmu() {
 /// trace; the plot is a PNG; the printed check values all hold.
 #[test]
 fn gait_command_writes_the_run_and_its_plot() {
-    require_fmu();
+    let path = fmu();
     let out_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("inchworm-gait-command");
     let _ = std::fs::remove_dir_all(&out_dir);
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_inchworm"))
-        .args(["gait", "--fmu", FMU, "--out"])
+        .args(["gait", "--fmu", &path, "--out"])
         .arg(&out_dir)
         .output()
         .expect("running inchworm gait");

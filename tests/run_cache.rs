@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
-const SSP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist/InchwormSystem.ssp");
 
 fn scratch(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("inchworm-run-cache-{}-{tag}", std::process::id()));
@@ -20,9 +19,10 @@ fn scratch(tag: &str) -> PathBuf {
 /// `inchworm run` of the closed system into `dir/<out>`, with TMPDIR at `dir/tmp` and the
 /// cache at `cache` (`off` for none); its stdout.
 fn run(dir: &Path, out: &str, cache: &str) -> String {
-    assert!(Path::new(SSP).is_file(), "build the FMUs first: cargo run --release -p fmu-build");
     let o = Command::new(BIN)
-        .args(["run", SSP, "--out"])
+        .arg("run")
+        .arg(inchworm_dist::path("InchwormSystem.ssp"))
+        .arg("--out")
         .arg(dir.join(out))
         .env("TMPDIR", dir.join("tmp"))
         .env("INCHWORM_FMU_CACHE", cache)

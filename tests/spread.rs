@@ -4,9 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-#[path = "support/dist.rs"]
-mod support;
-
 const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
 
 /// A folder of this test's own: the tests of this file run at once, in one process.
@@ -21,7 +18,7 @@ fn scratch(test: &str) -> PathBuf {
 fn run_spread(system: &str, dir: &Path) -> Output {
     Command::new(BIN)
         .arg("run")
-        .arg(support::dist(system))
+        .arg(inchworm_dist::path(system))
         .arg("--out")
         .arg(dir.join("run.csv"))
         .arg("--spread")

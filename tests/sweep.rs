@@ -13,12 +13,8 @@ use inchworm_cosim::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
 use inchworm_cosim::sweep::{json_line, results_csv};
 use inchworm_scenarios::metrics::{LoopMetrics, Metric};
 
-const DIST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/dist");
-
 fn ssp() -> PathBuf {
-    let p = Path::new(DIST).join("InchwormSystemOpen.ssp");
-    assert!(p.is_file(), "build the FMUs and the SSP first: cargo run --release -p fmu-build");
-    p
+    inchworm_dist::path("InchwormSystemOpen.ssp")
 }
 
 fn ulps(a: f64, b: f64) -> u64 {
@@ -187,7 +183,7 @@ fn nominal_fig5_metrics_are_the_scenarios() {
 fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
     // InchwormSystem.ssp records the reference as its reference component's output, not as
     // a system input: the loop metrics read it there (they failed every run before).
-    let closed = Path::new(DIST).join("InchwormSystem.ssp");
+    let closed = inchworm_dist::path("InchwormSystem.ssp");
     let metrics = LoopMetrics::parse(&METRICS).unwrap();
     assert_eq!(metrics.clone().for_system(&ssp()).unwrap().reference, "reference");
     let metrics = metrics.for_system(&closed).unwrap();
@@ -340,7 +336,7 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
     // fresh load gives (a reset that misses any state shows as a repeat that differs).
     let values = [8.8, 8.8, 9.4, 8.8, 8.2, 9.4, 8.8];
     for (file, param, open) in systems {
-        let system = Path::new(DIST).join(file);
+        let system = inchworm_dist::path(file);
         assert!(system.is_file(), "{}: run `cargo run --release -p fmu-build`", system.display());
         let input = open.then(|| InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap());
         let setup = Setup {

@@ -18,9 +18,7 @@ use inchworm_dos_actors::{ssp_value, FmuClient, Logger};
 use inchworm_fmu_models::PlantFmu;
 use mirror_fmu::{fmu_chain, STEP};
 
-fn dist() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist")
-}
+use inchworm_dist::dir as dist;
 
 /// One actuator of FMU clients and a logger, `steps` steps, within 60 s.
 async fn run(

@@ -10,7 +10,7 @@ mod mirror_fmu;
 
 use mirror_fmu::mirror_native;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use inchworm_cosim::ssp::{first_bindings, Archive};
 use inchworm_cosim::Options;
@@ -22,9 +22,7 @@ use inchworm_fmu_models::{MountFmu, PlantFmu};
 /// 5 s: the piston move, its settling and the tip commanded at 4 s.
 const STEPS: u64 = 2500;
 
-pub fn dist() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist")
-}
+pub use inchworm_dist::dir as dist;
 
 /// Each chain's reference bindings in `MirrorMount.ssp`, by parameter name.
 fn commands() -> [Vec<(String, f64)>; 3] {

@@ -6,16 +6,7 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 
-/// `dist/<name>` of the workspace, built by `cargo run --release -p fmu-build`.
-pub fn dist(name: &str) -> PathBuf {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../dist").join(name);
-    assert!(
-        p.is_file(),
-        "{} is missing: build the FMUs first with `cargo run --release -p fmu-build` (these tests check those files)",
-        p.display()
-    );
-    p
-}
+pub use inchworm_dist::path as dist;
 
 /// A fresh directory for this test's files.
 pub fn scratch(tag: &str) -> PathBuf {
