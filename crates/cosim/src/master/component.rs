@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use super::clocks::Clocked;
+use super::clocked::Clocked;
 use super::{Interfaces, Port};
 use crate::archive::cut;
 use crate::error::interface_name;

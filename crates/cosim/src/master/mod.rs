@@ -5,6 +5,7 @@
 
 mod batches;
 mod checkpoint;
+mod clocked;
 mod clocks;
 mod component;
 mod parallel;

@@ -7,7 +7,7 @@
 use std::ffi::c_void;
 
 use super::call::{slice, slice_mut, with_instance};
-use super::co_simulation::same_time;
+use super::time::same_time;
 use crate::instance::*;
 use crate::state::*;
 use crate::table::{Causality, ClockKind, Kind, Variable};

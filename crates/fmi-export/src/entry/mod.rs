@@ -26,6 +26,7 @@ mod co_simulation;
 mod fmu_state;
 mod lifecycle;
 mod model_exchange;
+mod time;
 mod values;
 
 pub use crate::instance::{Standard, Status};
@@ -35,7 +36,7 @@ pub use clocks::{
     activate_model_partition, constant_intervals, enter_step_mode, get_clock, get_interval,
     get_shift, has_clocks, refusal, set_clock,
 };
-pub use co_simulation::{do_step, same_time, status_query, StepOutputs};
+pub use co_simulation::{do_step, status_query, StepOutputs};
 pub use fmu_state::{
     deserialize, free_fmu_state, get_fmu_state, serialize, serialized_size, set_fmu_state,
 };
@@ -48,6 +49,7 @@ pub use model_exchange::{
     enter_event_mode, get_array, get_count, set_continuous_states, set_time,
     update_discrete_states, Array, EventSink,
 };
+pub use time::same_time;
 pub use values::{
     get, no_variables_of, set, Booleans, CBoolean, CTypes, Integers, Reals, Value, CLAMPS_IN_FULL,
 };

@@ -5,7 +5,7 @@ use std::ffi::c_void;
 
 use super::call::{slice, slice_mut, with_instance};
 use super::clocks::{has_event_mode, leave_event, next_tick, no_event_mode, run_activated};
-use super::co_simulation::same_time;
+use super::time::same_time;
 use super::values::read_row;
 use crate::instance::*;
 use crate::state::*;
