@@ -24,8 +24,9 @@
 use nalgebra::SMatrix;
 
 use crate::hysteresis::Hysteresis;
-use crate::linear::{self, ix, mul_vec, Chain, ChainMatrix, Vector};
-use crate::solver::held_volts;
+use crate::linear::{self, ix, Chain, ChainMatrix, Vector};
+use crate::numerics::kernels::mul_vec;
+use crate::numerics::solver::held_volts;
 use crate::{Dac, Mode, Plant, PlantParams, StepReport};
 
 pub mod next_event;
@@ -135,7 +136,7 @@ impl Plant {
     }
 
     fn system_matrix(&self) -> linear::Matrix {
-        match &self.configs[self.config_key()] {
+        match &self.solver.configs[self.config_key()] {
             Some(cfg) => cfg.a,
             None => linear::system_matrix(
                 &self.params,
@@ -148,7 +149,7 @@ impl Plant {
     /// The rate of every continuous state with `dac` held, in the current configuration.
     pub fn derivatives(&self, dac: Dac) -> [f64; N_STATES] {
         let (z, e, n) = self.held(dac);
-        rates(&SLOTS, &self.system_matrix(), &self.chain.a, (&z, &e, &n))
+        rates(&SLOTS, &self.system_matrix(), &self.solver.chain.a, (&z, &e, &n))
     }
 
     /// The exact Jacobian of [`Plant::derivatives`]: the configuration's matrices.
@@ -159,7 +160,7 @@ impl Plant {
     /// The Jacobian of the rates of the states `slots` under the rate matrix `a` of the
     /// mechanics and the extension channel and the plant's channel matrix.
     fn jacobian_of<const S: usize>(&self, slots: &[Slot; S], a: &linear::Matrix) -> Jacobian<S> {
-        let m = &self.chain.a;
+        let m = &self.solver.chain.a;
         let mut j = Jacobian { states: SMatrix::zeros(), inputs: SMatrix::zeros() };
         for (r, sr) in slots.iter().enumerate() {
             for (c, sc) in slots.iter().enumerate() {
@@ -269,7 +270,7 @@ pub fn at_rest(p: &PlantParams, dac: Dac) -> ([f64; N_STATES], [f64; N_INDICATOR
 /// it a master is locating an endless sequence of events at one threshold (chattering): the
 /// FMU can't suspend the master's root finding as the exact solver suspends its own, so
 /// the update fails instead of letting the master spin.
-pub const EVENTS_PER_2_MS: u32 = crate::solver::EVENTS_PER_2_MS;
+pub const EVENTS_PER_2_MS: u32 = crate::numerics::solver::EVENTS_PER_2_MS;
 
 /// Counts the event updates of the 2 ms window `[t0 + 2k ms, t0 + 2(k + 1) ms)` the master
 /// is in.

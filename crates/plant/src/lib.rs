@@ -1,41 +1,32 @@
 //! The JPL inchworm actuator plant (docs/model.md §2): plain Rust, no FFI, no I/O.
 //!
-//! The public types and the plant's state live here; the event-driven exact solver in
-//! `solver` (its scan in `scan`, its pieces and their bisection in `pieces`, the quiet step
-//! in `quiet`), its per-configuration propagator cache in `configs` (the tables'
-//! exponentials in `expm`), the state bytes in `state`, the encoder noise in `noise`; the
-//! same plant in continuous time, for a master that integrates it (Model Exchange), in
-//! `continuous`.
+//! The physics and its data live at this floor: the public types and the plant's state
+//! (`Dynamics`) here, the parameters in `params`, the analog chain in `analog`, the
+//! hysteresis in `hysteresis`, the equations of every mode in `linear`, the state bytes
+//! in `state`, the encoder noise in `noise`; the same plant in continuous time, for a
+//! master that integrates it (Model Exchange), in `continuous`. How the equations are
+//! solved (the event-driven exact propagation, its caches and AVX kernels) is `numerics`,
+//! behind [`Plant::step`].
 
 pub mod analog;
-mod configs;
 pub mod continuous;
-mod expm;
 pub mod hysteresis;
-mod kernels;
 pub mod linear;
-mod lu;
 mod noise;
+mod numerics;
 pub mod params;
-mod pieces;
-mod quiet;
 pub mod rk4;
-mod scan;
-mod solver;
 mod state;
-
-use std::sync::Arc;
 
 use inchworm_board::DAC_FULL_SCALE;
 use inchworm_declare::Declare;
 
-use configs::{ChainRemainder, ConfigTable, Remainder, Whole};
 use hysteresis::Hysteresis;
-use linear::{ix, Chain, Propagators, Vector};
+use linear::{ix, Chain, Vector};
+use numerics::solver::Armed;
+pub use numerics::solver::{StepError, MAX_STEP};
+use numerics::Solver;
 pub use params::{ParamError, PlantParams, N_PLAYS};
-use quiet::QuietPlan;
-use solver::Armed;
-pub use solver::{StepError, MAX_STEP};
 
 /// Mechanical mode, decided by the two brakes (docs/model.md §2.2). The discriminant is the FMU's `mode` output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,29 +134,8 @@ pub(crate) struct Dynamics {
 pub struct Plant {
     params: PlantParams,
     state: Dynamics,
-    chain: Arc<Propagators<4>>,
-    /// Lazily built propagators, indexed by mode and sliding set.
-    configs: Vec<Option<ConfigTable>>,
-    /// Propagators over the last sub-scan tail of a step, per configuration: a master's
-    /// steps repeat, so their tails do too.
-    /// Boxed: most are empty, and a clone (`load_state` makes one) copies only the others.
-    remainders: Vec<Option<Box<Remainder>>>,
-    chain_remainder: Option<ChainRemainder>,
-    /// Propagators of a whole step that stops nowhere (`configs::whole_step`), per
-    /// configuration, for the last step length each (boxed as `remainders`).
-    wholes: Vec<Option<Box<Whole<{ linear::N }>>>>,
-    chain_whole: Option<Whole<4>>,
-    /// The quiet-step plans of each mode with nothing slipping, for one step length each.
-    quiet: [Option<Arc<QuietPlan>>; 4],
-    /// The length of the last step (bits of `h`): a plan is built when a length repeats.
-    last_h: u64,
-    /// Always take the event loop and scan every point (the solver before the quiet step
-    /// and the quiet-step bound); results are bit-identical either way. For benchmarks and
-    /// tests.
-    scan_always: bool,
-    /// Scans of `MIN_BOUND_POINTS` or more points: how many were run, how many the bound
-    /// proved clear.
-    scan_stats: ScanStats,
+    /// The propagators and their caches (`numerics`), derived from `params`.
+    solver: Solver,
 }
 
 /// How many long scans ran and how many the bound proved clear without scanning, how
@@ -186,11 +156,7 @@ impl Plant {
         params.validate()?;
         let mut z = Vector::zeros();
         z[ix::ONE] = 1.0;
-        let mut volts = Chain::zeros();
-        volts[2] = 1.0;
-        let scan_level = linear::scan_level(params.rel_tol);
-        let chain =
-            Arc::new(Propagators::new(linear::chain_matrix(&params), vec![volts], scan_level));
+        let solver = Solver::new(&params);
         let hysteresis = Hysteresis::new(params.play_radius, params.play_weight);
         let rng = params.noise_seed;
         let armed = Armed::of(&hysteresis);
@@ -211,16 +177,7 @@ impl Plant {
                 encoder_counts: 0,
                 rng,
             },
-            chain,
-            configs: vec![None; 4 << N_PLAYS],
-            remainders: vec![None; 4 << N_PLAYS],
-            chain_remainder: None,
-            wholes: vec![None; 4 << N_PLAYS],
-            chain_whole: None,
-            quiet: Default::default(),
-            last_h: 0,
-            scan_always: false,
-            scan_stats: ScanStats::default(),
+            solver,
         })
     }
 
@@ -243,13 +200,13 @@ impl Plant {
     /// the same bits). For benchmarks and tests.
     #[doc(hidden)]
     pub fn set_scan_always(&mut self, on: bool) {
-        self.scan_always = on;
+        self.solver.scan_always = on;
     }
 
     /// Counts of long scans run and skipped so far. For benchmarks and tests.
     #[doc(hidden)]
     pub fn scan_stats(&self) -> ScanStats {
-        self.scan_stats
+        self.solver.scan_stats
     }
 
     /// Sets the mechanical state: positions as deviations from rest (`x_i − i L_p/3`,

@@ -1,6 +1,6 @@
 //! The plant's dynamic state as bytes, for FMU state save/restore and serialisation.
 
-use crate::solver::Armed;
+use crate::numerics::solver::Armed;
 use crate::{Mode, Plant, N_PLAYS};
 
 impl Plant {

@@ -28,8 +28,8 @@ use std::sync::Arc;
 use nalgebra::{Complex, SMatrix};
 
 use super::{rates, Jacobian, Slot, N_INDICATORS};
-use crate::configs::every_configuration;
 use crate::linear::{ix, Vector};
+use crate::numerics::configs::every_configuration;
 use crate::params::N_PLAYS;
 use crate::{Dac, ParamError, Plant, PlantParams};
 
@@ -288,7 +288,7 @@ impl Reduced {
         let (held, e, n) = self.plant.held(dac);
         let mut s = self.s;
         s[ix::UX] = held[ix::UX];
-        rates(&REDUCED, &self.config().a, &self.plant.chain.a, (&s, &e, &n))
+        rates(&REDUCED, &self.config().a, &self.plant.solver.chain.a, (&s, &e, &n))
     }
 
     /// The exact Jacobian of [`Reduced::derivatives`]: the configuration's matrices.

@@ -146,8 +146,8 @@ pub(super) fn reduce(a: &Matrix, mode: Mode) -> Option<Config> {
 mod tests {
     use super::super::{Fast, Reduced};
     use super::*;
-    use crate::configs::every_configuration;
     use crate::linear::{ix, Vector};
+    use crate::numerics::configs::every_configuration;
     use crate::PlantParams;
     use nalgebra::DMatrix;
     use std::f64::consts::PI;

@@ -1,9 +1,12 @@
 //! The event-driven exact solver: propagation by the tabulated `e^{A 2^l tick}`, scans of
 //! the watched functionals, bisection to the first event, and the jump conditions.
 
-use crate::configs::{product, table, ChainRemainder, Remainder, Whole};
+use super::configs::{product, table, ChainRemainder, Remainder, Whole};
+use super::kernels::mul_vec;
+use super::propagators::Propagators;
+use super::ticks::{ticks_of, TICK};
 use crate::hysteresis::Hysteresis;
-use crate::linear::{self, ix, mul_vec, ticks_of, Chain, Propagators, Vector, TICK};
+use crate::linear::{self, ix, Chain, Vector};
 use crate::noise::gaussian;
 use crate::Dac;
 use crate::{Mode, Plant, StepReport};
@@ -258,7 +261,7 @@ impl Plant {
         // alone decides the cached tail, as it always has, so results keep their bits.)
         let mut stops = 0u32;
         let budget = event_budget(h);
-        let scan_level = self.chain.scan_level;
+        let scan_level = self.solver.chain.scan_level;
         let fine = 1u64 << scan_level;
         let total = left;
         let t0 = self.state.time;
@@ -270,15 +273,16 @@ impl Plant {
             let (brakes_before, events_before) = (report.brake_events, events);
             let watching = stops < budget;
             if left >= fine {
-                let points = ((left >> scan_level) as usize).min(self.chain.scan_points);
+                let points = ((left >> scan_level) as usize).min(self.solver.chain.scan_points);
                 let clear = if watching { self.scan(points) } else { points };
                 if clear > 0 {
                     let key = self.config();
-                    let cfg = table(&self.configs, key);
+                    let cfg = table(&self.solver.configs, key);
                     let ticks = (clear as u64) << scan_level;
                     self.state.z = cfg.advance(self.state.z, ticks, 0.0);
-                    self.state.earth = self.chain.advance(self.state.earth, ticks, 0.0);
-                    self.state.nonearth = self.chain.advance(self.state.nonearth, ticks, 0.0);
+                    self.state.earth = self.solver.chain.advance(self.state.earth, ticks, 0.0);
+                    self.state.nonearth =
+                        self.solver.chain.advance(self.state.nonearth, ticks, 0.0);
                     left -= ticks;
                 }
                 if clear < points {
@@ -332,16 +336,16 @@ impl Plant {
             }
         }
         report.event_budget_exhausted = stops >= budget;
-        self.scan_stats.stops += u64::from(stops);
+        self.solver.scan_stats.stops += u64::from(stops);
         if stopless && self.whole(first, h) {
             // The scans and the tail's test ran on the chain of products; the state is the
             // whole-step product's, as the quiet step's.
         } else if rest > 0.0 {
             let key = self.config();
-            let cfg = table(&self.configs, key);
+            let cfg = table(&self.solver.configs, key);
             self.state.z = cfg.advance(self.state.z, 0, rest);
-            self.state.earth = self.chain.advance(self.state.earth, 0, rest);
-            self.state.nonearth = self.chain.advance(self.state.nonearth, 0, rest);
+            self.state.earth = self.solver.chain.advance(self.state.earth, 0, rest);
+            self.state.nonearth = self.solver.chain.advance(self.state.nonearth, 0, rest);
         }
         if self.state.mode == Mode::Drive {
             // The runner rides on node 3: remove the rounding drift of the two equal rows.
@@ -358,18 +362,18 @@ impl Plant {
     /// false (and changes nothing) otherwise, leaving the interval to the dyadic pieces.
     fn remainder(&mut self, ticks: u64) -> bool {
         let key = self.config();
-        let cfg = table(&self.configs, key);
+        let cfg = table(&self.solver.configs, key);
         let fresh = |c: &Option<Box<Remainder>>| c.as_ref().is_some_and(|r| r.ticks == ticks);
-        if !fresh(&self.remainders[key]) {
-            self.remainders[key] =
+        if !fresh(&self.solver.remainders[key]) {
+            self.solver.remainders[key] =
                 Some(Box::new(Remainder { ticks, phi: product(&cfg.phi, ticks) }));
         }
-        if self.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
-            self.chain_remainder =
-                Some(ChainRemainder { ticks, phi: product(&self.chain.phi, ticks) });
+        if self.solver.chain_remainder.as_ref().is_none_or(|r| r.ticks != ticks) {
+            self.solver.chain_remainder =
+                Some(ChainRemainder { ticks, phi: product(&self.solver.chain.phi, ticks) });
         }
-        let phi = &self.remainders[key].as_ref().expect("just filled").phi;
-        let chain_phi = &self.chain_remainder.as_ref().expect("just filled").phi;
+        let phi = &self.solver.remainders[key].as_ref().expect("just filled").phi;
+        let chain_phi = &self.solver.chain_remainder.as_ref().expect("just filled").phi;
         let (z1, e1, n1) = (
             mul_vec(phi, &self.state.z),
             mul_vec(chain_phi, &self.state.earth),
@@ -399,20 +403,20 @@ impl Plant {
     fn whole(&mut self, first: (Vector, Chain, Chain), h: f64) -> bool {
         let key = self.config();
         let bits = h.to_bits();
-        if self.wholes[key].as_ref().is_none_or(|w| w.h != bits) {
-            let w = Whole::new(table(&self.configs, key), h);
-            match &mut self.wholes[key] {
+        if self.solver.wholes[key].as_ref().is_none_or(|w| w.h != bits) {
+            let w = Whole::new(table(&self.solver.configs, key), h);
+            match &mut self.solver.wholes[key] {
                 // Refilled in place: a master that changes its step allocates nothing.
                 Some(b) => **b = w,
                 slot => *slot = Some(Box::new(w)),
             }
         }
-        if self.chain_whole.as_ref().is_none_or(|w| w.h != bits) {
-            self.chain_whole = Some(Whole::new(&self.chain, h));
+        if self.solver.chain_whole.as_ref().is_none_or(|w| w.h != bits) {
+            self.solver.chain_whole = Some(Whole::new(&self.solver.chain, h));
         }
         let (Some(Some(phi)), Some(Some(chain_phi))) = (
-            self.wholes[key].as_ref().map(|w| w.phi.as_ref()),
-            self.chain_whole.as_ref().map(|w| w.phi.as_ref()),
+            self.solver.wholes[key].as_ref().map(|w| w.phi.as_ref()),
+            self.solver.chain_whole.as_ref().map(|w| w.phi.as_ref()),
         ) else {
             return false;
         };
@@ -425,7 +429,7 @@ impl Plant {
     /// time (1 ns by default, docs/model.md §2.2 asks for 10 ns or better).
     pub(crate) fn resolution_level(&self) -> usize {
         let ticks = (self.params.rel_tol / TICK).max(1.0);
-        (ticks.log2().floor() as usize).min(self.chain.scan_level)
+        (ticks.log2().floor() as usize).min(self.solver.chain.scan_level)
     }
 
     /// What to watch in the current configuration, whose table is `cfg`: its watched rows
@@ -505,7 +509,7 @@ impl Plant {
     /// and writes the resulting offset `c0` into the state.
     fn sync_hysteresis(&mut self) {
         // The rows of the current configuration, from its table if it has one (same bits).
-        let (xi, rate) = match &self.configs[self.config_key()] {
+        let (xi, rate) = match &self.solver.configs[self.config_key()] {
             // The sparse sums of `Watch`: the dense dot products but for the sign of a zero,
             // which neither `sync` nor the keep interval tells from the other.
             Some(cfg) => {

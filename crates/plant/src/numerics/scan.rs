@@ -1,10 +1,12 @@
 //! The scan: the watched functionals at the scan points of a piece, from the tabulated rows
 //! (`Propagators::scanned4`), four points at a time; and the scan bound, which proves a
-//! whole scan clear (or its brakes) from the state alone (`linear::ScanBound`).
+//! whole scan clear (or its brakes) from the state alone (`propagators::ScanBound`).
 
-use crate::configs::table;
-use crate::linear::{self, ix, Chain, Propagators, BOUND_SLACK, TICK};
-use crate::solver::Watch;
+use super::configs::table;
+use super::propagators::{Propagators, BOUND_SLACK};
+use super::solver::Watch;
+use super::ticks::TICK;
+use crate::linear::{self, ix, Chain};
 use crate::Plant;
 
 /// A scan of fewer points than this is cheaper than the bound that could skip it.
@@ -129,10 +131,10 @@ impl Plant {
     /// using only the tabulated functionals. Returns how many intervals are clear.
     pub(crate) fn scan(&mut self, points: usize) -> usize {
         let key = self.config();
-        let cfg = table(&self.configs, key);
+        let cfg = table(&self.solver.configs, key);
         let watch = self.watch(cfg);
         let mut brakes = true;
-        if points >= MIN_BOUND_POINTS && !self.scan_always {
+        if points >= MIN_BOUND_POINTS && !self.solver.scan_always {
             match self.provably_clear(cfg, &watch) {
                 Proof::All => {
                     debug_assert_eq!(
@@ -140,13 +142,13 @@ impl Plant {
                         points,
                         "the scan bound missed an event"
                     );
-                    self.scan_stats.skipped += 1;
+                    self.solver.scan_stats.skipped += 1;
                     return points;
                 }
                 Proof::Brakes => brakes = false,
                 Proof::Nothing => {}
             }
-            self.scan_stats.scanned += 1;
+            self.solver.scan_stats.scanned += 1;
         }
         let clear = self.full_scan(cfg, &watch, points, brakes);
         debug_assert!(
@@ -205,7 +207,7 @@ impl Plant {
         watch: &Watch,
         points: usize,
     ) -> usize {
-        let chain = &self.chain;
+        let chain = &self.solver.chain;
         let (z, e, n) = (&self.state.z, &self.state.earth, &self.state.nonearth);
         let dt = TICK * (1u64 << chain.scan_level) as f64;
         let mut xi_prev = watch.xi(z);
@@ -254,12 +256,12 @@ impl Plant {
 
     /// Whether the scan of any number of points (up to a whole top-level piece) from the
     /// current state is certain to find every point clear, from the bounds of the watched
-    /// functionals over all scan points (`linear::ScanBound`). The test mirrors every
+    /// functionals over all scan points (`propagators::ScanBound`). The test mirrors every
     /// condition of `scan` on intervals that hold the very values `scan` would compute,
     /// so `Proof::All` means `scan` would return all points, and `Proof::Brakes` that no
     /// brake test of the scan can fire; in doubt it proves less.
     fn provably_clear(&self, cfg: &Propagators<{ linear::N }>, watch: &Watch) -> Proof {
-        let chain = &self.chain;
+        let chain = &self.solver.chain;
         debug_assert!(cfg.watched[0] == *watch.xi_row && cfg.watched[1] == *watch.rate_row);
         let brake = |state: &Chain| chain.split(state).and_then(|s| chain.range(0, &s));
         if !brakes_clear_on(watch, brake(&self.state.earth), brake(&self.state.nonearth)) {
@@ -269,7 +271,7 @@ impl Plant {
             return Proof::Brakes;
         };
         let mechanics = || Some((cfg.range(0, &s)?, cfg.range(1, &s)?));
-        // A configuration's bound has no functional of the turn test (`linear::TURN_RATE`):
+        // A configuration's bound has no functional of the turn test (`propagators::TURN_RATE`):
         // a turn that the interval of `ξ̇` leaves open is left to the scan.
         if self.mechanics_clear_on(watch, mechanics(), || None) {
             Proof::All
@@ -322,7 +324,7 @@ impl Plant {
             if gain.is_nan() || gain < 0.0 {
                 return false;
             }
-            let dt = TICK * (1u64 << self.chain.scan_level) as f64;
+            let dt = TICK * (1u64 << self.solver.chain.scan_level) as f64;
             // `|ξ̇₀| + |ξ̇₁|` bounded by `sum`.
             let inside = |sum: f64| {
                 let reach = dt * sum * watch.xi_row[ix::VX];
@@ -333,7 +335,7 @@ impl Plant {
                 return true;
             }
             // The turn test fires only where `ξ̇₀ ξ̇₁ < 0`, and there `|ξ̇₀| + |ξ̇₁|` is
-            // `|ξ̇₁ − ξ̇₀|` (`linear::TURN_RATE`), which the interval `turn` holds; the
+            // `|ξ̇₁ − ξ̇₀|` (`propagators::TURN_RATE`), which the interval `turn` holds; the
             // computed sum of the two magnitudes rounds to at most its bound times
             // `1 + BOUND_SLACK`, and the rest is monotone as above. A NaN decides nothing.
             let Some((lo, hi)) = turn() else {

@@ -2,8 +2,10 @@
 //! watched functionals say it stops, bisected down the table to the first resolution
 //! interval at whose end a stop condition holds.
 
-use crate::configs::table;
-use crate::linear::{self, mul_vec, mul_vec_inline, Chain, Vector, TICK};
+use super::configs::table;
+use super::kernels::{mul_vec, mul_vec_inline};
+use super::ticks::TICK;
+use crate::linear::{self, Chain, Vector};
 use crate::{Plant, StepReport};
 
 impl Plant {
@@ -56,8 +58,8 @@ impl Plant {
         let mut consumed = 0u64;
         while consumed < left {
             let stop_level = {
-                let cfg = table(&self.configs, key);
-                let chain = &*self.chain;
+                let cfg = table(&self.solver.configs, key);
+                let chain = &*self.solver.chain;
                 let watch = self.watch(cfg);
                 let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
                 let mut stop_level = None;
@@ -112,8 +114,8 @@ impl Plant {
         report: &mut StepReport,
     ) -> (u64, bool) {
         let key = self.config();
-        let cfg = table(&self.configs, key);
-        let chain = &*self.chain;
+        let cfg = table(&self.solver.configs, key);
+        let chain = &*self.solver.chain;
         let (z0, e0, n0) = (self.state.z, self.state.earth, self.state.nonearth);
         let watch = self.watch(cfg);
         let (xi1, rate1) =
@@ -174,10 +176,10 @@ impl Plant {
     /// Propagates `2^level` ticks without looking for events (event budget exhausted).
     pub(crate) fn blind(&mut self, level: usize) -> (u64, bool) {
         let key = self.config();
-        let cfg = table(&self.configs, key);
+        let cfg = table(&self.solver.configs, key);
         self.state.z = mul_vec(&cfg.phi[level], &self.state.z);
-        self.state.earth = mul_vec(&self.chain.phi[level], &self.state.earth);
-        self.state.nonearth = mul_vec(&self.chain.phi[level], &self.state.nonearth);
+        self.state.earth = mul_vec(&self.solver.chain.phi[level], &self.state.earth);
+        self.state.nonearth = mul_vec(&self.solver.chain.phi[level], &self.state.nonearth);
         (1 << level, false)
     }
 

@@ -16,13 +16,12 @@ use std::sync::Arc;
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::configs::{product, table, whole_step};
-use crate::linear::ticks_of;
-use crate::linear::{
-    self, ix, mul_vec_inline, BoundRow, Chain, ChainMatrix, Matrix, Propagators, ScanBound, Vector,
-    LEVELS, TURN_RATE,
-};
-use crate::scan::MIN_BOUND_POINTS;
+use super::configs::{product, table, whole_step};
+use super::kernels::mul_vec_inline;
+use super::propagators::{BoundRow, Propagators, ScanBound, TURN_RATE};
+use super::scan::MIN_BOUND_POINTS;
+use super::ticks::{ticks_of, LEVELS};
+use crate::linear::{self, ix, Chain, ChainMatrix, Matrix, Vector};
 use crate::{Dac, Mode, Plant, StepReport, N_PLAYS};
 
 /// Most scan segments a planned step may have: a 2 ms step has two (128 points and 3 at
@@ -116,7 +115,7 @@ fn step_rows<const D: usize>(
 }
 
 /// The differences of functional `o` of `t` between the two points of every turn test of a
-/// step of these segments and tail (`linear::TURN_RATE`): each segment's consecutive scan
+/// step of these segments and tail (`propagators::TURN_RATE`): each segment's consecutive scan
 /// points, and the tail's start and end.
 fn step_differences<const D: usize>(
     t: &Propagators<D>,
@@ -198,16 +197,16 @@ impl Plant {
     /// the event loop, at the cost of one bound and the products. `None` (and the plant
     /// unchanged) otherwise, and then the event loop takes the step.
     pub(crate) fn quiet_step(&mut self, dac: Dac, h: f64) -> Option<StepReport> {
-        let repeated = std::mem::replace(&mut self.last_h, h.to_bits()) == h.to_bits();
-        if self.scan_always || self.state.hysteresis.sliding != 0 {
+        let repeated = std::mem::replace(&mut self.solver.last_h, h.to_bits()) == h.to_bits();
+        if self.solver.scan_always || self.state.hysteresis.sliding != 0 {
             return None;
         }
         let mode = self.state.mode.index();
         let key = mode << N_PLAYS;
-        if self.quiet[mode].as_ref().is_none_or(|p| p.h != h.to_bits()) {
+        if self.solver.quiet[mode].as_ref().is_none_or(|p| p.h != h.to_bits()) {
             // Plans are for the steps a master repeats; the first step of a length and the
             // first entry into a configuration take the general path.
-            self.configs[key].as_ref()?;
+            self.solver.configs[key].as_ref()?;
             if !repeated {
                 return None;
             }
@@ -217,7 +216,7 @@ impl Plant {
         #[cfg(debug_assertions)]
         let reference = {
             let mut p = self.clone();
-            p.scan_always = true;
+            p.solver.scan_always = true;
             p.step(dac, h).expect("the quiet step is finite");
             p
         };
@@ -226,8 +225,8 @@ impl Plant {
         self.state.nonearth = q.nonearth;
         self.state.hysteresis.direction = q.direction;
         self.state.armed.sync_direction(&self.state.hysteresis);
-        self.scan_stats.skipped += q.long_segments;
-        self.scan_stats.quiet += 1;
+        self.solver.scan_stats.skipped += q.long_segments;
+        self.solver.scan_stats.quiet += 1;
         self.state.time += h;
         self.sample_encoder();
         #[cfg(debug_assertions)]
@@ -243,8 +242,8 @@ impl Plant {
     #[cold]
     #[inline(never)]
     fn build_quiet(&mut self, mode: usize, h: f64) {
-        let cfg = table(&self.configs, mode << N_PLAYS);
-        self.quiet[mode] = Some(Arc::new(QuietPlan::new(h, cfg, &self.chain)));
+        let cfg = table(&self.solver.configs, mode << N_PLAYS);
+        self.solver.quiet[mode] = Some(Arc::new(QuietPlan::new(h, cfg, &self.solver.chain)));
     }
 
     /// The end of the step if it is quiet and finite, from the plan of this mode and `h`.
@@ -266,17 +265,17 @@ impl Plant {
 
     #[inline(always)]
     fn quiet_state_inline<const AVX: bool>(&self, dac: Dac, h: f64, key: usize) -> Option<Quiet> {
-        let plan = self.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
-        let cfg = table(&self.configs, key);
+        let plan = self.solver.quiet[key >> N_PLAYS].as_deref()?.body.as_ref()?;
+        let cfg = table(&self.solver.configs, key);
         let (mut z, mut e, mut n) = (self.state.z, self.state.earth, self.state.nonearth);
-        let volts = crate::solver::held_volts;
+        let volts = super::solver::held_volts;
         z[ix::UX] = volts(dac.extension);
         e[3] = volts(dac.earth);
         n[3] = volts(dac.nonearth);
         let watch = self.watch(cfg);
         // What `sync_hysteresis` would do; a quiet step leaves the memories as they are.
         let rate = watch.rate(&z);
-        let direction = crate::solver::rate_sign(rate);
+        let direction = super::solver::rate_sign(rate);
         let xi = watch.xi(&z);
         debug_assert!(
             !self.state.armed.keeps(xi) || self.state.hysteresis.sync_keeps(xi, direction)

@@ -1,6 +1,6 @@
 use super::*;
-use crate::configs::every_configuration;
 use crate::linear::{chain_matrix, system_matrix};
+use crate::numerics::configs::every_configuration;
 use crate::{Mode, PlantParams};
 
 /// Every level against nalgebra's own `exp` of that level's matrix, bit for bit, and

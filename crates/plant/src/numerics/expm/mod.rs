@@ -23,8 +23,8 @@
 
 use nalgebra::{Const, DimMin, SMatrix, SVector};
 
-use crate::kernels::{mul_mat, mul_vec};
-use crate::linear::{LEVELS, TICK};
+use crate::numerics::kernels::{mul_mat, mul_vec};
+use crate::numerics::ticks::{LEVELS, TICK};
 
 /// Writes `e^{a 2^l tick}` for every level `l` into `phi[l]`, each with the bits of
 /// `exp(a * (TICK * 2^l))`.
@@ -371,7 +371,7 @@ fn solve<const D: usize>(u: SMatrix<f64, D, D>, v: SMatrix<f64, D, D>) -> SMatri
         *p = u + v;
         *q = v - u;
     }
-    crate::lu::solve(&q, &p).unwrap_or_else(|| SMatrix::from_element(f64::NAN))
+    crate::numerics::lu::solve(&q, &p).unwrap_or_else(|| SMatrix::from_element(f64::NAN))
 }
 
 /// The most products with a vector `ℓ` takes: `2m + 1` for degree 13.

@@ -3,7 +3,9 @@
 
 use std::sync::Arc;
 
-use crate::linear::{self, ticks_of, Propagators};
+use super::propagators::Propagators;
+use super::ticks::{ticks_of, LEVELS};
+use crate::linear;
 use crate::{Mode, Plant, PlantParams, N_PLAYS};
 
 /// Propagators of one configuration, shared between clones of a plant.
@@ -23,7 +25,7 @@ pub(crate) struct ChainRemainder {
 
 /// `e^{A ticks}` as the product of the dyadic table entries.
 pub(crate) fn product<const D: usize>(
-    phi: &[nalgebra::SMatrix<f64, D, D>; linear::LEVELS],
+    phi: &[nalgebra::SMatrix<f64, D, D>; LEVELS],
     ticks: u64,
 ) -> nalgebra::SMatrix<f64, D, D> {
     let mut m = nalgebra::SMatrix::<f64, D, D>::identity();
@@ -117,7 +119,7 @@ impl Plant {
     #[inline]
     pub(crate) fn config(&mut self) -> usize {
         let key = self.config_key();
-        if self.configs[key].is_none() {
+        if self.solver.configs[key].is_none() {
             self.build_config(key);
         }
         key
@@ -132,8 +134,8 @@ impl Plant {
             linear::xi_row(&self.params, w_s),
             linear::drive_rate_row(&self.params, self.state.mode),
         ];
-        let t = Arc::new(Propagators::new(a, watched, self.chain.scan_level));
-        self.configs[key] = Some(t);
+        let t = Arc::new(Propagators::new(a, watched, self.solver.chain.scan_level));
+        self.solver.configs[key] = Some(t);
     }
 }
 
