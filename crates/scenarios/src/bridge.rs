@@ -13,7 +13,36 @@ use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_cosim::fmu::{Causality, Clock, CsFmu, FmuError, Instance, SeFmu, VarType};
 use inchworm_cosim::master::set_param;
 
-use crate::Error;
+/// What loading the bridge's FMUs reports: the import layer's error as it is, a
+/// `--param` the FMU refused, or an FMU without the interface the bridge drives.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Fmu(#[from] FmuError),
+    /// A `--param NAME=VALUE` the FMU at `path` refused.
+    #[error("{}: parameter `{name}`: {source}", path.display())]
+    Parameter {
+        path: std::path::PathBuf,
+        name: String,
+        #[source]
+        source: Box<inchworm_cosim::Error>,
+    },
+    /// The controller FMU lacks a clock the bridge drives it by (Scheduled Execution).
+    #[error("{}: no {causality} clock `{name}` in modelDescription.xml (the bridge activates `sample_clock` and reads `gait_step`)", path.display())]
+    NoClock { path: std::path::PathBuf, name: &'static str, causality: Causality },
+    /// The controller FMU's sample clock does not tick at the bridge's period.
+    #[error("{}: the clock `{name}` ticks every {} s; the bridge ticks every {period} s", path.display(), interval.map_or("(no intervalDecimal)".to_string(), |i| i.to_string()))]
+    ClockInterval {
+        path: std::path::PathBuf,
+        name: &'static str,
+        interval: Option<f64>,
+        period: f64,
+    },
+    /// The controller FMU's DAC code does not fit the wire's 16 bits.
+    #[error("the controller FMU gave DAC code {0}, outside 0–65535")]
+    DacCode(i32),
+}
 
 fn start(path: &Path, instance: &str, params: &[(String, String)]) -> Result<CsFmu, Error> {
     let mut fmu = CsFmu::load(path, instance, false)?;

@@ -13,9 +13,37 @@ use inchworm_plant::{Dac, Outputs, Plant, PlantParams};
 
 use crate::gait::Step;
 use crate::holding::{Held, HoldingRms, Parked, Settle};
-use crate::Error;
 use inchworm_cosim::ssp::Archive;
 use inchworm_cosim::Trace;
+
+/// What a directly coupled run reports: a model crate's error as it is.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The plant crate refused its parameters.
+    #[error(transparent)]
+    PlantParams(#[from] inchworm_plant::ParamError),
+    /// The plant crate's step failed.
+    #[error(transparent)]
+    PlantStep(#[from] inchworm_plant::StepError),
+    /// The controller crate refused its parameters (its message).
+    #[error("{0}")]
+    Controller(String),
+    #[error(transparent)]
+    Gait(#[from] crate::gait::AmplitudeError),
+}
+
+/// What the closed-loop analysis finds missing in a trace.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TraceError {
+    /// A trace without a variable the analysis reads.
+    #[error("the trace has no `{0}`")]
+    NoVariable(String),
+    /// A trace without a row.
+    #[error("the trace is empty")]
+    Empty,
+}
 
 /// The plan flag of the controller crate's sample: the controller FMU has no such output,
 /// so only the direct coupling records it (see [`LoopView::iterated`]).
@@ -194,11 +222,11 @@ pub struct LoopView {
 
 impl LoopView {
     /// Reads a trace holding [`recorded`] (and [`ITERATED`] if it has it).
-    pub fn new(trace: &Trace) -> Result<LoopView, Error> {
-        let missing = |name: &str| Error::NoVariable(name.to_owned());
+    pub fn new(trace: &Trace) -> Result<LoopView, TraceError> {
+        let missing = |name: &str| TraceError::NoVariable(name.to_owned());
         let col = |name: &str| trace.column(name).ok_or_else(|| missing(name));
         if trace.rows.is_empty() {
-            return Err(Error::EmptyTrace);
+            return Err(TraceError::Empty);
         }
         let after = |v: Vec<f64>| v[1..].to_vec();
         let dac: Vec<Vec<f64>> = DAC.iter().map(|n| col(n)).collect::<Result<_, _>>()?;

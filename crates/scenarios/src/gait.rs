@@ -10,7 +10,10 @@ use inchworm_controller::gait::Timing;
 pub use inchworm_controller::measurements::Raw as RawMeasurements;
 use inchworm_plant::Dac;
 
-use crate::Error;
+/// A gait step's amplitude outside [-1, 1] (or not a number).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("step amplitude {0} is outside [-1, 1]")]
+pub struct AmplitudeError(pub f64);
 
 /// Controller sample period `T_s` (s), docs/model.md §3.1.
 pub const SAMPLE_PERIOD_S: f64 = inchworm_controller::SAMPLE_PERIOD;
@@ -28,9 +31,9 @@ pub struct Step {
 impl Step {
     /// A step of amplitude `y`. `y ≥ 0` runs the forward gait (`y = 0` cycles the brakes
     /// with the extension unpowered), `y < 0` the backward gait with `a = |y|`.
-    pub fn new(y: f64) -> Result<Self, Error> {
+    pub fn new(y: f64) -> Result<Self, AmplitudeError> {
         if !y.is_finite() || y.abs() > 1.0 {
-            return Err(Error::Amplitude(y));
+            return Err(AmplitudeError(y));
         }
         Ok(Self { amplitude: y })
     }

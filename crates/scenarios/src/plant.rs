@@ -9,8 +9,22 @@ use inchworm_plant::PlantParams;
 pub use inchworm_plant::{Dac, Mode, Outputs};
 
 use crate::gait::{self, RawMeasurements, Step, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
-use crate::Error;
 use inchworm_cosim::fmu::{CsFmu, FmuError, VarType};
+
+/// What a run through the plant FMU reports: the import layer's error as it is, or an
+/// output outside the plant's interface.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Fmu(#[from] FmuError),
+    /// The plant FMU's `mode` is none of its four.
+    #[error("the plant FMU gave mode {0}, not 1–4")]
+    Mode(i32),
+    /// The plant FMU's `slip_events` is negative.
+    #[error("the plant FMU gave {0} slip events")]
+    SlipEvents(i32),
+}
 
 const INTEGER_OUTPUTS: [Var<PlantFmu>; 3] =
     [PlantFmu::ENCODER_COUNTS, PlantFmu::MODE, PlantFmu::SLIP_EVENTS];
@@ -75,7 +89,7 @@ impl Plant {
             voltage_earth: r[3],
             voltage_nonearth: r[4],
             voltage_extension: r[5],
-            mode: mode(i[1]).ok_or(Error::PlantMode(i[1]))?,
+            mode: mode(i[1]).ok_or(Error::Mode(i[1]))?,
             earth_closed: b[0],
             nonearth_closed: b[1],
             slip_events: u32::try_from(i[2]).map_err(|_| Error::SlipEvents(i[2]))?,

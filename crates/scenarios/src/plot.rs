@@ -20,15 +20,31 @@ pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
 
 const FONT: &str = "sans-serif";
 
+/// A plot font that cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FontError {
+    /// The plot font cannot be read.
+    #[error("{}: cannot read the plot font: {source} (on Debian: apt-get install fonts-dejavu-core, or pass --font)", path.display())]
+    File {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The plot font is not a font plotters can use.
+    #[error("{}: not a TrueType/OpenType font", .0.display())]
+    NotAFont(std::path::PathBuf),
+}
+
 /// Reads a TrueType/OpenType font and registers it as the face every plot uses.
-pub fn load_font(path: &Path) -> Result<(), crate::Error> {
+pub fn load_font(path: &Path) -> Result<(), FontError> {
     let bytes = std::fs::read(path)
-        .map_err(|source| crate::Error::FontFile { path: path.to_path_buf(), source })?;
+        .map_err(|source| FontError::File { path: path.to_path_buf(), source })?;
     // plotters keeps registered fonts for the life of the process and wants them 'static;
     // one font per process, so leaking it is the intended use.
     let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
     register_font(FONT, FontStyle::Normal, bytes)
-        .map_err(|_| crate::Error::NotAFont(path.to_path_buf()))
+        .map_err(|_| FontError::NotAFont(path.to_path_buf()))
 }
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;

@@ -13,6 +13,35 @@ use crate::closed_loop::{self, LoopView, REFERENCE_OUTPUT};
 use inchworm_cosim::master::{self, Coupling, InputTable, Options, Timing};
 use inchworm_cosim::Trace;
 
+/// What a scenario reports: the engine's or a directly coupled run's error as it is, what
+/// the analysis found missing in a trace, or a file it could not write.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    #[error(transparent)]
+    Engine(#[from] inchworm_cosim::Error),
+    #[error(transparent)]
+    ClosedLoop(#[from] closed_loop::Error),
+    #[error(transparent)]
+    Trace(#[from] closed_loop::TraceError),
+    #[error(transparent)]
+    Font(#[from] crate::plot::FontError),
+    /// A file the scenario writes (its folder, its CSV) cannot be written.
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A plot cannot be drawn.
+    #[error("{}: cannot draw the plot: {source}", path.display())]
+    Plot {
+        path: std::path::PathBuf,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+}
+
 /// What drives the plant in one variant.
 #[derive(Clone, Debug)]
 pub enum Drive {
@@ -249,17 +278,13 @@ impl Scenario {
 
     /// Runs one variant. An open-loop slew has no FMU system, so it runs the plant crate
     /// whatever `via` says.
-    pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, crate::Error> {
+    pub fn run_variant(&self, v: &Variant, via: Via) -> Result<Trace, Error> {
         self.run_variant_timed(v, via).map(|(trace, _)| trace)
     }
 
     /// [`Scenario::run_variant`], with where its wall time went (a run of the crates has
     /// nothing to load: all of it is loop).
-    pub fn run_variant_timed(
-        &self,
-        v: &Variant,
-        via: Via,
-    ) -> Result<(Trace, Timing), crate::Error> {
+    pub fn run_variant_timed(&self, v: &Variant, via: Via) -> Result<(Trace, Timing), Error> {
         let start = std::time::Instant::now();
         let crates = |trace: Trace| {
             let loop_s = start.elapsed().as_secs_f64();
@@ -298,12 +323,12 @@ impl Scenario {
     }
 
     /// Every variant, in order.
-    pub fn run(&self, via: Via) -> Result<Vec<Trace>, crate::Error> {
+    pub fn run(&self, via: Via) -> Result<Vec<Trace>, Error> {
         self.run_timed(via).map(|(traces, _)| traces)
     }
 
     /// [`Scenario::run`], with where the runs' wall time went, all variants together.
-    pub fn run_timed(&self, via: Via) -> Result<(Vec<Trace>, Timing), crate::Error> {
+    pub fn run_timed(&self, via: Via) -> Result<(Vec<Trace>, Timing), Error> {
         let mut all = Timing::default();
         let mut traces = Vec::new();
         for v in &self.variants {

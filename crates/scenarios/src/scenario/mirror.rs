@@ -68,12 +68,12 @@ fn settle(
 /// Runs `MirrorMount.ssp` by the master (Jacobi, 2 ms, no input: the commands are the
 /// references' bindings) and measures it on the parked samples, as the paper's figures
 /// are measured.
-pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, crate::Error> {
+pub fn mirror_run(ssp: &Path) -> Result<MirrorRun, super::Error> {
     mirror_run_timed(ssp).map(|(run, _)| run)
 }
 
 /// [`mirror_run`], with where its wall time went.
-pub fn mirror_run_timed(ssp: &Path) -> Result<(MirrorRun, Timing), crate::Error> {
+pub fn mirror_run_timed(ssp: &Path) -> Result<(MirrorRun, Timing), super::Error> {
     let opts = Options {
         stop_time: Some(MIRROR_DURATION),
         step_size: Some(SAMPLE_PERIOD),
@@ -164,10 +164,10 @@ impl MirrorRun {
 
 /// `inchworm scenario mirror`: runs `<dist>/MirrorMount.ssp`, prints its figures, writes
 /// `<out>/mirror.csv` (the recorded variables) and `<out>/mirror.png`.
-pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> {
+pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), super::Error> {
     crate::plot::load_font(font)?;
     std::fs::create_dir_all(out)
-        .map_err(|source| crate::Error::Write { path: out.into(), source })?;
+        .map_err(|source| super::Error::Write { path: out.into(), source })?;
     let ssp = dist.join("MirrorMount.ssp");
     let (run, timing) = mirror_run_timed(&ssp)?;
     println!(
@@ -180,7 +180,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
     println!("{timing}");
     let csv = out.join("mirror.csv");
     let mut text = Vec::new();
-    let write = |source| crate::Error::Write { path: csv.clone(), source };
+    let write = |source| super::Error::Write { path: csv.clone(), source };
     run.trace.write_csv(&mut text).map_err(write)?;
     std::fs::write(&csv, text).map_err(write)?;
     println!("wrote {}", csv.display());
@@ -190,7 +190,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), crate::Error> 
         &run.plot_trace(),
         &png,
     )
-    .map_err(|source| crate::Error::Plot { path: png.clone(), source })?;
+    .map_err(|source| super::Error::Plot { path: png.clone(), source })?;
     println!("wrote {}", png.display());
     Ok(())
 }

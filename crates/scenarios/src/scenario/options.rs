@@ -96,7 +96,7 @@ pub(super) fn controller_options(name: &str) -> Option<Scenario> {
 /// What a controller-option scenario adds to its traces: for `bdmap`, the map learned over the
 /// staircase, as CSV and a figure, and the residuals of the coming step's disturbance
 /// over the staircase and over a 2 mm slew after it (printed). Nothing for the others.
-pub fn write_extras(name: &str, out: &Path) -> Result<(), crate::Error> {
+pub fn write_extras(name: &str, out: &Path) -> Result<(), super::Error> {
     if name != "bdmap" {
         return Ok(());
     }
@@ -121,10 +121,10 @@ pub fn write_extras(name: &str, out: &Path) -> Result<(), crate::Error> {
         text.push_str(&format!("{c},{b:e}\n"));
     }
     std::fs::write(&csv, text)
-        .map_err(|source| crate::Error::Write { path: csv.clone(), source })?;
+        .map_err(|source| super::Error::Write { path: csv.clone(), source })?;
     println!("wrote {}", csv.display());
     let png = out.join("bdmap_map.png");
-    map_png(&st, &png).map_err(|source| crate::Error::Plot { path: png.clone(), source })?;
+    map_png(&st, &png).map_err(|source| super::Error::Plot { path: png.clone(), source })?;
     println!("wrote {}", png.display());
     Ok(())
 }
