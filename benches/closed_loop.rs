@@ -130,7 +130,7 @@ fn master_loop(ssp: &Path, opts: &Options, sim_s: f64) -> (Timed, f64) {
 fn direct_loop(s: &Scenario, controller: &Params, seconds: f64) -> i64 {
     let d = direct(PlantParams::fia20(), controller.clone(), |t| s.reference.value(0, t), seconds)
         .expect("direct run");
-    *d.column("plant.encoder_counts").unwrap().last().unwrap() as i64
+    *d.column(inchworm_scenarios::closed_loop::ENCODER_COUNTS).unwrap().last().unwrap() as i64
 }
 
 /// The FMPy loop, or why it did not run.
@@ -340,7 +340,7 @@ fn main() {
     // the master records no more than the FMPy loop does.
     let mut opts = s.options(&PlantParams::fia20(), &controller);
     opts.stop_time = Some(DURATION);
-    opts.outputs = vec!["plant.encoder_counts".into()];
+    opts.outputs = vec![inchworm_scenarios::closed_loop::ENCODER_COUNTS.into()];
 
     if let Ok(only) = std::env::var("CLOSED_LOOP_ONLY") {
         let seconds: f64 = std::env::var("CLOSED_LOOP_SECONDS")

@@ -7,6 +7,7 @@ import time
 
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 H = 0.002
 LEVELS = [100e-6, 60e-6, 250e-6, 245e-6, 130e-6, 131.5e-6, 20e-6]
@@ -25,12 +26,12 @@ def main(dist, duration):
     ctrl, cv = load(f"{dist}/InchwormController.fmu", "controller")
     for f in (plant, ctrl):
         f.enterInitializationMode()
-    ctrl.setBoolean([cv["prefilter"]], [True])
+    ctrl.setBoolean([cv[Controller.PREFILTER]], [True])
     for f in (plant, ctrl):
         f.exitInitializationMode()
-    dac = ["dac_earth", "dac_nonearth", "dac_extension"]
+    dac = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
     pdac, cdac = [pv[n] for n in dac], [cv[n] for n in dac]
-    penc, cenc, cref = [pv["encoder_counts"]], [cv["encoder_counts"]], [cv["reference"]]
+    penc, cenc, cref = [pv[Plant.ENCODER_COUNTS]], [cv[Plant.ENCODER_COUNTS]], [cv[Controller.REFERENCE]]
     n = int(round(duration / H))
     start = time.perf_counter()
     cpu_start = time.process_time()

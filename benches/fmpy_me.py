@@ -22,6 +22,7 @@ from fmpy.fmi2 import FMU2Model
 from fmpy.sundials import CVodeSolver
 from fmpy.sundials.nvector_serial import N_VNew_Serial
 from fmpy.sundials.libraries import sundials_cvode
+from inchworm_variables import InchwormPlant as Plant
 
 Q_ENC = 1.2e-9  # m a count (docs/model.md §2.6)
 T = 0.002
@@ -65,7 +66,7 @@ def counts_at_samples(result, n):
         if abs(t - T * k) < 1e-9:
             last[k] = i
     rows = result[[last[k] for k in range(1, n + 1)]]
-    return np.round(rows["runner_position"] / Q_ENC).astype(int)
+    return np.round(rows[Plant.RUNNER_POSITION] / Q_ENC).astype(int)
 
 
 def rhs_call_us(path):
@@ -97,7 +98,7 @@ def rhs_call_us(path):
 
 def main(plant, gait, cs_counts):
     signals = np.genfromtxt(gait, delimiter=",", names=True)
-    cs = np.genfromtxt(cs_counts, delimiter=",", names=True)["encoder_counts"].astype(int)
+    cs = np.genfromtxt(cs_counts, delimiter=",", names=True)[Plant.ENCODER_COUNTS].astype(int)
     stop = len(cs) * T
     for rtol in (None, 1e-8):
         for interval in (0.001, 0.002):
@@ -106,7 +107,7 @@ def main(plant, gait, cs_counts):
             cpu, wall = time.process_time(), time.perf_counter()
             result = simulate_fmu(plant, fmi_type="ModelExchange", solver="CVode", relative_tolerance=rtol,
                                   stop_time=stop, output_interval=interval, input=signals,
-                                  output=["runner_position"])
+                                  output=[Plant.RUNNER_POSITION])
             wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
             gc.collect()  # the last solver (a cycle through its callbacks) counted by its __del__
             worst = int(np.max(np.abs(counts_at_samples(result, len(cs)) - cs)))

@@ -23,7 +23,7 @@ use std::time::Instant;
 use inchworm_cosim::input::InputTable;
 use inchworm_cosim::{Coupling, Error, Interfaces, Options, System, Trace};
 
-const ENCODER: &str = "plant.encoder_counts";
+const ENCODER: &str = inchworm_scenarios::closed_loop::ENCODER_COUNTS;
 
 /// The process's user and system CPU time (s): with the other cores busy the wall time
 /// of a run varies, its CPU time much less.

@@ -50,7 +50,8 @@ fn main() {
         eprintln!("bench sweep: build dist/ first: cargo run --release -p fmu-build");
         std::process::exit(1);
     }
-    let input = InputTable::steps("reference", &[(0.0, 100e-6)]).expect("one finite row");
+    let input =
+        InputTable::steps(closed_loop::REFERENCE, &[(0.0, 100e-6)]).expect("one finite row");
     let metric_names = ["settle:1e-6", "rms:6:10", "disturbance"];
     let setup = Setup {
         system: ssp.clone(),

@@ -3,10 +3,11 @@
 # unit, start value and range, to `PlantParams` in a scratch copy of the tracked files, and
 # changes nothing else; then it checks that everything that lists the plant's parameters
 # took it up: both plant FMUs' model descriptions (FMI 2.0 and 3.0, with the next value
-# reference, its unit and range), the SSP parameter sets, the instance's accessors (`inchworm
-# run --param` sets it and `--output` reads it back), the range check (a value outside it is
-# refused, naming the parameter), the sweep, and the tests that derive their expectations
-# from the declarations (the plant crate's and the FMU models').
+# reference, its unit and range), the SSP parameter sets, the Python packages' variable
+# names, the instance's accessors (`inchworm run --param` sets it and `--output` reads it
+# back), the range check (a value outside it is refused, naming the parameter), the sweep,
+# and the tests that derive their expectations from the declarations (the plant crate's and
+# the FMU models').
 #
 # The physics does not read the new field, so a run with it set must equal the default run
 # to the byte: adding a parameter disturbs nothing else.
@@ -77,6 +78,9 @@ for set in default fia20 fia6; do
     grep -q 'name="one_row_stiffness"><ssv:Real value="20000"/>' "$ssv" ||
         fail "the parameter set $set ($ssv) has no one_row_stiffness of 20000"
 done
+py=python/inchworm_variables/inchworm_variables/__init__.py
+[ "$(grep -c '^    ONE_ROW_STIFFNESS = "one_row_stiffness"$' "$py")" = 2 ] ||
+    fail "$py does not name one_row_stiffness in both plant classes"
 
 # --param sets it on the instance, --output reads it back; the physics is undisturbed.
 run() {

@@ -26,6 +26,7 @@ import sys
 import numpy as np
 from fmpy import simulate_fmu
 from fmpy.util import read_ref_opt_file
+from inchworm_variables import InchwormController as Controller, InchwormMount as Mount, InchwormPlant as Plant
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "fmu-build" / "reference"
@@ -33,11 +34,11 @@ CHECK_TRACE = ROOT / "tests" / "data" / "plant-check-trace-fia20-passive.csv"
 H = 0.002
 
 OUTPUTS = {
-    "InchwormPlant": ["encoder_counts", "mode", "runner_position"],
-    "InchwormPlantFull": ["encoder_counts", "mode", "runner_position"],
-    "InchwormController": ["dac_earth", "dac_nonearth", "dac_extension", "disturbance_estimate"],
-    "InchwormReference": ["reference"],
-    "InchwormMount": ["piston", "tip", "tilt"],
+    "InchwormPlant": [Plant.ENCODER_COUNTS, Plant.MODE, Plant.RUNNER_POSITION],
+    "InchwormPlantFull": [Plant.ENCODER_COUNTS, Plant.MODE, Plant.RUNNER_POSITION],
+    "InchwormController": [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION, Controller.DISTURBANCE_ESTIMATE],
+    "InchwormReference": [Controller.REFERENCE],
+    "InchwormMount": [Mount.PISTON, Mount.TIP, Mount.TILT],
 }
 STOP = {"InchwormPlant": 1.0, "InchwormPlantFull": 1.0, "InchwormController": 2.0, "InchwormReference": 1.0, "InchwormMount": 1.0}
 
@@ -74,7 +75,7 @@ def step_rows(samples):
 def plant_input():
     with open(CHECK_TRACE, newline="") as f:
         rows = list(csv.DictReader(f))
-    names = ["dac_earth", "dac_nonearth", "dac_extension"]
+    names = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
     return names, step_rows([(round(float(r["time"]), 6), [float(r[n]) for n in names]) for r in rows])
 
 
@@ -87,12 +88,12 @@ def controller_input(steps):
 
     after = jacobi_fig5(steps * H)
     seen = [0] + after[:-1]
-    return ["reference", "encoder_counts"], step_rows([(round(k * H, 6), [100e-6, c]) for k, c in enumerate(seen)])
+    return [Controller.REFERENCE, Plant.ENCODER_COUNTS], step_rows([(round(k * H, 6), [100e-6, c]) for k, c in enumerate(seen)])
 
 
 def mount_input():
     # a: 0 -> 30 µm, b: 0 -> -10 µm, c: constant 5 µm, linear over the second.
-    return ["position_a", "position_b", "position_c"], [[0.0, 0.0, 0.0, 5e-6], [1.0, 30e-6, -10e-6, 5e-6]]
+    return [Mount.POSITION_A, Mount.POSITION_B, Mount.POSITION_C], [[0.0, 0.0, 0.0, 5e-6], [1.0, 30e-6, -10e-6, 5e-6]]
 
 
 def simulate(fmu, model_dir, name):

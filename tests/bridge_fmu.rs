@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use inchworm::bridge::FmuCompensator;
-use inchworm::closed_loop::{recorded, LoopView};
+use inchworm::closed_loop::{recorded, LoopView, REFERENCE};
 use inchworm::master::{self, Coupling, InputTable, Options};
 use inchworm_bridge::runlog::{read_log, LogWriter, Record, MAGIC};
 
@@ -33,7 +33,7 @@ fn cosimulation(rows: &[(f64, f64)], seconds: f64) -> LoopView {
         coupling: Coupling::Jacobi,
         params: vec![],
         parameter_set: None,
-        input: Some(InputTable::steps("reference", rows).unwrap()),
+        input: Some(InputTable::steps(REFERENCE, rows).unwrap()),
         outputs: recorded(),
     };
     LoopView::new(&master::run(&fmu("InchwormSystemOpen.ssp"), &opts, |_| {}).unwrap()).unwrap()

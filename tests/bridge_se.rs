@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use inchworm::bridge::{FmuController, Interface};
-use inchworm::closed_loop::{recorded, LoopView};
+use inchworm::closed_loop::{recorded, LoopView, REFERENCE};
 use inchworm::master::{self, Coupling, InputTable, Options};
 use inchworm_bridge::controller::ControllerReport;
 use inchworm_bridge::runlog::{read_log, Record};
@@ -61,7 +61,7 @@ fn scheduled_execution_gives_the_co_simulation_trace_and_the_masters() {
         coupling: Coupling::Jacobi,
         params: vec![],
         parameter_set: None,
-        input: Some(InputTable::steps("reference", &[(0.0, 100e-6), (2.0, 40e-6)]).unwrap()),
+        input: Some(InputTable::steps(REFERENCE, &[(0.0, 100e-6), (2.0, 40e-6)]).unwrap()),
         outputs: recorded(),
     };
     let cosim =

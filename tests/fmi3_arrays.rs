@@ -6,40 +6,47 @@
 
 use inchworm_cosim::master::{run, Coupling, InputTable, Options};
 use inchworm_cosim::trace::Trace;
+use inchworm_fmu_models::{ControllerFmu, ControllerParams, PlantFmu, PlantParams};
 
 use inchworm_dist::path as dist;
 
+/// What the runs trace: the plant's encoder and the controller's weights 3 and 10.
+fn traced() -> [String; 3] {
+    [
+        format!("plant.{}", PlantFmu::ENCODER_COUNTS.name()),
+        format!("controller.{}", ControllerFmu::SCALE_WEIGHTS[2].name()),
+        format!("controller.{}", ControllerFmu::SCALE_WEIGHTS[9].name()),
+    ]
+}
+
 /// The closed loop's options, or the open loop's with the Fig. 5 step as its input.
-fn options(params: &[(&str, &str)], open: bool) -> Options {
+fn options(params: &[(String, &str)], open: bool) -> Options {
     Options {
         stop_time: Some(3.0),
         step_size: Some(0.002),
         coupling: Coupling::Jacobi,
-        params: params.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect(),
+        params: params.iter().map(|(n, v)| (n.clone(), v.to_string())).collect(),
         parameter_set: Some("fia6".into()),
         input: open.then(|| InputTable::parse("time,reference\n0,1e-4\n").unwrap()),
-        outputs: vec![
-            "plant.encoder_counts".into(),
-            "controller.scale_weights[3]".into(),
-            "controller.scale_weights[10]".into(),
-        ],
+        outputs: traced().to_vec(),
     }
 }
 
 fn columns(t: &Trace) -> Vec<Vec<u64>> {
-    ["plant.encoder_counts", "controller.scale_weights[3]", "controller.scale_weights[10]"]
-        .iter()
-        .map(|c| t.column(c).unwrap().iter().map(|x| x.to_bits()).collect())
-        .collect()
+    traced().iter().map(|c| t.column(c).unwrap().iter().map(|x| x.to_bits()).collect()).collect()
 }
 
 #[test]
 fn array_elements_are_bound_set_and_traced_by_name_in_both_standards() {
+    let radius = PlantFmu::var(PlantParams::PLAY_RADIUS);
+    let weight = PlantFmu::var(PlantParams::PLAY_WEIGHT);
+    let peak = ControllerFmu::var(ControllerParams::BASIS_PEAKS);
+    let start = ControllerFmu::var(ControllerParams::SCALE_WEIGHTS_START);
     let changed = [
-        ("plant.play_radius[3]", "44"),
-        ("plant.play_weight[5]", "0.041"),
-        ("controller.basis_peak[10]", "2.5e-5"),
-        ("controller.scale_weights_start[3]", "0.9"),
+        (format!("plant.{}", radius.element(2).name()), "44"),
+        (format!("plant.{}", weight.element(4).name()), "0.041"),
+        (format!("controller.{}", peak.element(9).name()), "2.5e-5"),
+        (format!("controller.{}", start.element(2).name()), "0.9"),
     ];
     for (fmi2, fmi3, open) in [
         ("InchwormSystem.ssp", "fmi3/InchwormSystemMixed.ssp", false),
@@ -48,7 +55,7 @@ fn array_elements_are_bound_set_and_traced_by_name_in_both_standards() {
         let two = run(&dist(fmi2), &options(&changed, open), |_| {}).unwrap();
         let three = run(&dist(fmi3), &options(&changed, open), |_| {}).unwrap();
         assert_eq!(columns(&two), columns(&three), "{fmi3}: FMI 3.0 arrays = FMI 2.0 scalars");
-        let w3 = three.column("controller.scale_weights[3]").unwrap()[0];
+        let w3 = three.column(&traced()[1]).unwrap()[0];
         assert_eq!(w3, 0.9, "{fmi3}: the start weight set");
         let unchanged = run(&dist(fmi3), &options(&[], open), |_| {}).unwrap();
         assert_ne!(columns(&unchanged)[0], columns(&three)[0], "{fmi3}: the elements set count");

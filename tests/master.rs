@@ -7,10 +7,26 @@ use std::path::Path;
 use inchworm_controller::Params;
 use inchworm_cosim::master::{run, Coupling, InputTable, Options};
 use inchworm_cosim::trace::Trace;
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::closed_loop::run as direct;
 
 use inchworm_dist::path as dist;
+
+/// The plant's variable `name` as the systems record it.
+fn plant(name: &str) -> String {
+    format!("plant.{name}")
+}
+
+/// The plant's encoder counts as the systems record them.
+fn encoder_counts() -> String {
+    plant(PlantFmu::ENCODER_COUNTS.name())
+}
+
+/// The open system's output connector of the plant's encoder position.
+fn encoder_position() -> &'static str {
+    PlantFmu::ENCODER_POSITION.name()
+}
 
 fn options(parameter_set: Option<&str>, coupling: Coupling) -> Options {
     Options {
@@ -20,12 +36,12 @@ fn options(parameter_set: Option<&str>, coupling: Coupling) -> Options {
         params: vec![],
         parameter_set: parameter_set.map(str::to_string),
         input: Some(InputTable::parse("time,reference\n0,1e-4\n").unwrap()),
-        outputs: vec!["plant.encoder_counts".into(), "encoder_position".into()],
+        outputs: vec![encoder_counts(), encoder_position().into()],
     }
 }
 
 fn counts(r: &Trace) -> Vec<i64> {
-    r.column("plant.encoder_counts").unwrap().iter().map(|&c| c as i64).collect()
+    r.column(&encoder_counts()).unwrap().iter().map(|&c| c as i64).collect()
 }
 
 #[test]
@@ -49,7 +65,7 @@ fn ssp_through_the_master_equals_the_direct_coupling() {
     .unwrap();
     assert_eq!(counts(&fb), counts(&d), "feedback only");
     // The system output connector carries the plant's encoder position.
-    let pos = full.column("encoder_position").unwrap();
+    let pos = full.column(encoder_position()).unwrap();
     assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6);
 }
 
@@ -64,9 +80,12 @@ fn parameter_sets_and_params_reach_the_fmus() {
     let fia20 = run(&ssp, &o, |_| {}).unwrap();
     // fia6's weaker transducer moves less per step: after the first step (0.2 s) the
     // runner is nearer the start.
-    let at = |r: &Trace| r.column("plant.encoder_counts").unwrap()[100];
+    let at = |r: &Trace| r.column(&encoder_counts()).unwrap()[100];
     assert!(at(&fia6) < 0.8 * at(&fia20), "fia6 {} vs fia20 {} counts", at(&fia6), at(&fia20));
-    o.params = vec![("plant.T_em".into(), "2.5".into()), ("plant.F_d0".into(), "105".into())];
+    o.params = vec![
+        (plant(PlantParams::T_EM.name()), "2.5".into()),
+        (plant(PlantParams::F_D0.name()), "105".into()),
+    ];
     let by_param = run(&ssp, &o, |_| {}).unwrap();
     assert_eq!(counts(&by_param), counts(&fia6));
 }
@@ -75,7 +94,7 @@ fn parameter_sets_and_params_reach_the_fmus() {
 fn gauss_seidel_closes_the_loop_too() {
     let r = run(&dist("InchwormSystemOpen.ssp"), &options(None, Coupling::GaussSeidel), |_| {})
         .unwrap();
-    let pos = r.column("encoder_position").unwrap();
+    let pos = r.column(encoder_position()).unwrap();
     assert!((pos.last().unwrap() - 100e-6).abs() < 1e-6, "final position {}", pos.last().unwrap());
     assert_ne!(
         counts(&r),
@@ -101,7 +120,7 @@ fn bad_files_names_and_values_are_refused_clearly() {
     let e = error_of(&ssp, &o);
     assert!(e.contains("no_such_thing") && e.contains("no variable"), "{e}");
     let mut o = options(None, Coupling::Jacobi);
-    o.params = vec![("plant.T_em".into(), "lots".into())];
+    o.params = vec![(plant(PlantParams::T_EM.name()), "lots".into())];
     assert!(error_of(&ssp, &o).contains("not a number"));
     let mut o = options(None, Coupling::Jacobi);
     o.parameter_set = Some("nonexistent".into());
@@ -270,8 +289,11 @@ fn after_a_restore_every_input_is_set_again() {
             coupling,
             params: vec![],
             parameter_set: None,
-            input: Some(InputTable::steps("reference", &[(0.0, 0.0), (0.3, 1e-4)]).unwrap()),
-            outputs: vec!["plant.encoder_counts".into(), "plant.runner_position".into()],
+            input: Some(
+                InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 0.0), (0.3, 1e-4)])
+                    .unwrap(),
+            ),
+            outputs: vec![encoder_counts(), plant(PlantFmu::RUNNER_POSITION.name())],
         };
         let mut sim =
             System::load(&dist("InchwormSystemOpen.ssp")).unwrap().initialise(&opts).unwrap();
@@ -301,8 +323,8 @@ fn a_row_after_a_restore_reads_the_restored_fmus() {
         coupling: Coupling::Jacobi,
         params: vec![],
         parameter_set: None,
-        input: Some(InputTable::steps("reference", &[(0.0, 1e-4)]).unwrap()),
-        outputs: vec!["plant.runner_position".into(), "plant.encoder_counts".into()],
+        input: Some(InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 1e-4)]).unwrap()),
+        outputs: vec![plant(PlantFmu::RUNNER_POSITION.name()), encoder_counts()],
     };
     let mut sim = System::load(&dist("InchwormSystemOpen.ssp")).unwrap().initialise(&opts).unwrap();
     steps(&mut sim, 150);
@@ -330,8 +352,9 @@ fn a_checkpoint_of_fmi3_and_fmi2_components_repeats_the_run_bit_for_bit() {
             coupling: Coupling::Jacobi,
             params: vec![],
             parameter_set: None,
-            input: input.map(|r| InputTable::steps("reference", &[(0.0, r)]).unwrap()),
-            outputs: vec!["plant.encoder_counts".into(), "plant.runner_position".into()],
+            input: input
+                .map(|r| InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, r)]).unwrap()),
+            outputs: vec![encoder_counts(), plant(PlantFmu::RUNNER_POSITION.name())],
         };
         let mut sim = System::load(&dist(ssp)).unwrap().initialise(&opts).unwrap();
         // Into the move of Fig. 5, where the gait and the estimator are busy.

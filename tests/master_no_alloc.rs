@@ -5,6 +5,7 @@
 //! and crates/plant-fmu3/tests/no_alloc.rs counts it.
 
 use inchworm_cosim::master::{Coupling, InputTable, Options, System};
+use inchworm_fmu_models::{ControllerFmu, PlantFmu};
 
 #[path = "support/counting_alloc.rs"]
 mod counting_alloc;
@@ -22,14 +23,15 @@ fn steady_loop(ssp: &str, coupling: Coupling, steps: usize) -> (u64, bool) {
         params: vec![],
         parameter_set: None,
         // A move, then back: both gait directions inside the counted steps.
-        input: Some(InputTable::steps("reference", &[(0.0, 60e-6), (1.5, -20e-6)]).unwrap()),
+        input: Some(
+            InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 60e-6), (1.5, -20e-6)])
+                .unwrap(),
+        ),
         // An Integer that feeds the controller, a Real and a Boolean read for the rows
         // alone: every kind of read the master makes.
-        outputs: vec![
-            "plant.encoder_counts".into(),
-            "plant.runner_position".into(),
-            "plant.earth_closed".into(),
-        ],
+        outputs: [PlantFmu::ENCODER_COUNTS, PlantFmu::RUNNER_POSITION, PlantFmu::EARTH_CLOSED]
+            .map(|v| format!("plant.{}", v.name()))
+            .to_vec(),
     };
     let mut sim = System::load(&dist(ssp)).unwrap().initialise(&opts).unwrap();
     for _ in 0..500 {
@@ -67,8 +69,8 @@ fn the_counter_sees_a_sampled_row() {
         coupling: Coupling::Jacobi,
         params: vec![],
         parameter_set: None,
-        input: Some(InputTable::steps("reference", &[(0.0, 60e-6)]).unwrap()),
-        outputs: vec!["plant.encoder_counts".into()],
+        input: Some(InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 60e-6)]).unwrap()),
+        outputs: vec![format!("plant.{}", PlantFmu::ENCODER_COUNTS.name())],
     };
     let mut sim = System::load(&dist("InchwormSystemOpen.ssp")).unwrap().initialise(&opts).unwrap();
     sim.step().unwrap();

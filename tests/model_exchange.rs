@@ -13,13 +13,23 @@ use std::path::PathBuf;
 
 use inchworm_controller::Params;
 use inchworm_cosim::{Coupling, Interfaces, Options, System, Trace};
+use inchworm_fmu_models::PlantFmu;
 use inchworm_scenarios::closed_loop::LoopView;
 use inchworm_scenarios::scenario;
 
-const ENCODER: &str = "plant.encoder_counts";
 const SAMPLE: f64 = 0.002;
 
 use inchworm_dist::path as dist_ssp;
+
+/// The plant's variable `name` as the systems record it.
+fn plant(name: &str) -> String {
+    format!("plant.{name}")
+}
+
+/// The encoder counts, the traces compared.
+fn encoder() -> String {
+    plant(PlantFmu::ENCODER_COUNTS.name())
+}
 
 fn open_ssp() -> PathBuf {
     dist_ssp("InchwormSystemOpen.ssp")
@@ -65,7 +75,7 @@ fn largest_difference(a: &Trace, b: &Trace) -> f64 {
 
 /// The largest encoder difference in counts, and on how many samples the two differ.
 fn differences(a: &Trace, b: &Trace) -> (f64, usize) {
-    let (a, b) = (a.column(ENCODER).unwrap(), b.column(ENCODER).unwrap());
+    let (a, b) = (a.column(&encoder()).unwrap(), b.column(&encoder()).unwrap());
     assert_eq!(a.len(), b.len());
     let d: Vec<f64> = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).collect();
     (d.iter().copied().fold(0.0, f64::max), d.iter().filter(|&&x| x > 0.0).count())
@@ -98,7 +108,7 @@ fn staircase(stop: f64) -> Options {
         params: vec![],
         parameter_set: Some("staircase".into()),
         input: None,
-        outputs: vec![ENCODER.into()],
+        outputs: vec![encoder()],
     }
 }
 
@@ -122,7 +132,7 @@ fn the_me_plant_gives_the_cs_trace_over_60_s_of_the_staircase() {
 #[test]
 fn a_checkpoint_of_the_me_plant_repeats_the_run_bit_for_bit() {
     let mut o = staircase(3.0);
-    o.outputs.push("plant.runner_position".into());
+    o.outputs.push(plant(PlantFmu::RUNNER_POSITION.name()));
     let mut sim = System::load_as(&dist_ssp("InchwormSystem.ssp"), &as_me(&["plant"]))
         .unwrap()
         .initialise(&o)

@@ -15,6 +15,7 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::FmiImport;
 
+use inchworm_fmu_models::PlantFmu;
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::gait::{self, CHECK_TOLERANCE_UM, SAMPLES_PER_STEP, SAMPLE_PERIOD_S};
 
@@ -94,10 +95,10 @@ fn run_fmu(rows: &[Row]) -> (Vec<Sampled>, f64) {
         import.model_description().co_simulation.is_some(),
         "{path}: no <CoSimulation> in modelDescription.xml"
     );
-    let inputs = ["dac_earth", "dac_nonearth", "dac_extension"].map(|n| vr(&import, n));
-    let ints = ["encoder_counts", "mode"].map(|n| vr(&import, n));
-    let runner = [vr(&import, "runner_position")];
-    let q_enc = [vr(&import, "q_enc")];
+    let inputs = PlantFmu::DAC_INPUTS.map(|v| vr(&import, v.name()));
+    let ints = [PlantFmu::ENCODER_COUNTS, PlantFmu::MODE].map(|v| vr(&import, v.name()));
+    let runner = [vr(&import, PlantFmu::RUNNER_POSITION.name())];
+    let q_enc = [vr(&import, PlantParams::Q_ENC.name())];
 
     let mut inst = import
         .instantiate_cs("plant_fmu_test", false, false)
@@ -253,11 +254,11 @@ fn gait_command_writes_the_run_and_its_plot() {
     };
     let (t, e, n, x, c, m) = (
         col("time"),
-        col("dac_earth"),
-        col("dac_nonearth"),
-        col("dac_extension"),
-        col("encoder_counts"),
-        col("mode"),
+        col(PlantFmu::DAC_INPUTS[0].name()),
+        col(PlantFmu::DAC_INPUTS[1].name()),
+        col(PlantFmu::DAC_INPUTS[2].name()),
+        col(PlantFmu::ENCODER_COUNTS.name()),
+        col(PlantFmu::MODE.name()),
     );
     let data: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().expect("gait.csv: a number")).collect())

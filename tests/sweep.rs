@@ -11,10 +11,16 @@ use inchworm_cosim::sweep::exec::{self, Setup, Worker};
 use inchworm_cosim::sweep::metrics::{Metrics, Reductions};
 use inchworm_cosim::sweep::plan::{self, Axis, Plan, Row, SplitMix64};
 use inchworm_cosim::sweep::{json_line, results_csv};
+use inchworm_fmu_models::{ControllerFmu, PlantFmu, PlantParams, ReferenceFmu};
 use inchworm_scenarios::metrics::{LoopMetrics, Metric};
 
 fn ssp() -> PathBuf {
     inchworm_dist::path("InchwormSystemOpen.ssp")
+}
+
+/// The plant's variable `name` as the systems record it.
+fn plant(name: &str) -> String {
+    format!("plant.{name}")
 }
 
 fn ulps(a: f64, b: f64) -> u64 {
@@ -123,7 +129,7 @@ fn grids_are_a_cartesian_product_times_the_samples() {
     }
 }
 
-fn fig5_setup(metrics: &[&str]) -> Setup {
+fn fig5_setup<S: AsRef<str>>(metrics: &[S]) -> Setup {
     Setup {
         system: ssp(),
         options: Options {
@@ -132,21 +138,25 @@ fn fig5_setup(metrics: &[&str]) -> Setup {
             coupling: Coupling::Jacobi,
             params: vec![],
             parameter_set: Some("full-control".into()),
-            input: Some(InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap()),
+            input: Some(
+                InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 100e-6)]).unwrap(),
+            ),
             outputs: vec![],
         },
         metrics: Arc::new(LoopMetrics::parse(metrics).unwrap()),
     }
 }
 
-const METRICS: [&str; 6] = [
-    "settle:1e-6",
-    "rms:6:10",
-    "disturbance",
-    "slips",
-    "min:plant.encoder_position",
-    "max:plant.runner_position",
-];
+fn loop_metrics() -> [String; 6] {
+    [
+        "settle:1e-6".into(),
+        "rms:6:10".into(),
+        "disturbance".into(),
+        "slips".into(),
+        format!("min:{}", plant(PlantFmu::ENCODER_POSITION.name())),
+        format!("max:{}", plant(PlantFmu::RUNNER_POSITION.name())),
+    ]
+}
 
 /// The metrics of one row on a freshly loaded system, through `master::run`: its whole
 /// trace fed to the reducer a sweep feeds row by row (`Metrics::compute`), so a sweep row
@@ -161,7 +171,7 @@ fn fresh(setup: &Setup, names: &[String], row: &Row) -> Vec<Option<f64>> {
 
 #[test]
 fn nominal_fig5_metrics_are_the_scenarios() {
-    let setup = fig5_setup(&METRICS);
+    let setup = fig5_setup(&loop_metrics());
     let p = Plan::build(&[plan::parse_grid("plant.T_em=8.8;8.8").unwrap()], 1, 0).unwrap();
     let out = exec::run_plan(&setup, &p, 1, |_| {});
     // `inchworm scenario fig5`, full control: settles within 1 µm at 0.788 s, parked RMS
@@ -184,15 +194,17 @@ fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
     // InchwormSystem.ssp records the reference as its reference component's output, not as
     // a system input: the loop metrics read it there (they failed every run before).
     let closed = inchworm_dist::path("InchwormSystem.ssp");
-    let metrics = LoopMetrics::parse(&METRICS).unwrap();
-    assert_eq!(metrics.clone().for_system(&ssp()).unwrap().reference, "reference");
+    let metrics = LoopMetrics::parse(&loop_metrics()).unwrap();
+    let input = ControllerFmu::REFERENCE.name();
+    assert_eq!(metrics.clone().for_system(&ssp()).unwrap().reference, input);
     let metrics = metrics.for_system(&closed).unwrap();
-    assert_eq!(metrics.reference, "reference.reference");
-    assert_eq!(metrics.recorded()[0], "reference.reference");
-    let fig5 = fig5_setup(&METRICS);
+    let output = format!("reference.{}", ReferenceFmu::REFERENCE.name());
+    assert_eq!(metrics.reference, output);
+    assert_eq!(metrics.recorded()[0], output);
+    let fig5 = fig5_setup(&loop_metrics());
     let options = Options { input: None, ..fig5.options };
     let setup = Setup { system: closed, options, metrics: Arc::new(metrics) };
-    let names: Vec<String> = vec!["plant.T_em".into()];
+    let names: Vec<String> = vec![plant(PlantParams::T_EM.name())];
     let rows: Vec<Row> = [8.8, 9.2]
         .iter()
         .enumerate()
@@ -201,7 +213,7 @@ fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
     let plan = Plan { names: names.clone(), rows: rows.clone() };
     let out = exec::run_plan(&setup, &plan, 1, |_| {});
     // The open system fed the same step by its system input.
-    let open = fig5_setup(&METRICS);
+    let open = fig5_setup(&loop_metrics());
     for (o, r) in out.iter().zip(&rows) {
         assert_eq!(o.error, None, "row {}", r.run);
         let bits = |v: &[Option<f64>]| -> Vec<Option<u64>> {
@@ -217,8 +229,9 @@ fn the_closed_system_sweeps_to_the_open_systems_loop_metrics() {
 
 #[test]
 fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
-    let setup = fig5_setup(&METRICS);
-    let names: Vec<String> = ["plant.T_em", "plant.F_d0"].map(String::from).to_vec();
+    let setup = fig5_setup(&loop_metrics());
+    let names: Vec<String> =
+        [PlantParams::T_EM, PlantParams::F_D0].map(|f| plant(f.name())).to_vec();
     let rows: Vec<Row> = [(8.5, 190.0), (9.2, 160.0), (-1.0, 175.0), (8.8, 175.0), (9.0, 180.0)]
         .iter()
         .enumerate()
@@ -251,7 +264,7 @@ fn a_reset_system_runs_like_a_freshly_loaded_one_and_a_failure_is_a_row() {
 fn a_value_the_fmu_refuses_fails_its_row_and_the_next_loads_anew() {
     // Each radius is in its declared range, but the plant wants them strictly increasing.
     let setup = fig5_setup(&["settle:1e-6"]);
-    let names = vec!["plant.play_radius[1]".to_string()];
+    let names = vec![plant(PlantFmu::var(PlantParams::PLAY_RADIUS).name())];
     let rows: Vec<Row> = [0.1, 100.0, 0.1]
         .iter()
         .enumerate()
@@ -272,8 +285,9 @@ fn a_value_the_fmu_refuses_fails_its_row_and_the_next_loads_anew() {
 fn parallel_results_equal_serial_ones() {
     let setup = fig5_setup(&["settle:1e-6", "disturbance"]);
     let sweeps = [
-        plan::parse_sample("plant.T_em=normal(8.8,0.15)").unwrap(),
-        plan::parse_sample("plant.k_p=normal(3e7,5e5)").unwrap(),
+        plan::parse_sample(&format!("{}=normal(8.8,0.15)", plant(PlantParams::T_EM.name())))
+            .unwrap(),
+        plan::parse_sample(&format!("{}=normal(3e7,5e5)", plant(PlantParams::K_P.name()))).unwrap(),
     ];
     let p = Plan::build(&sweeps, 8, 3).unwrap();
     let one = exec::run_plan(&setup, &p, 1, |_| {});
@@ -325,12 +339,13 @@ fn every_output(system: &Path, input: &Option<InputTable>) -> Arc<dyn Metrics> {
 #[test]
 fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
     // (system, a parameter of it to sweep, whether it has a system input to feed).
+    let t_em = PlantParams::T_EM.name();
     let systems = [
-        ("InchwormSystem.ssp", "plant.T_em", false),
-        ("InchwormSystemOpen.ssp", "plant.T_em", true),
-        ("MirrorMount.ssp", "plant_b.T_em", false),
-        ("fmi3/InchwormSystemOpen.ssp", "plant.T_em", true),
-        ("fmi3/InchwormSystemMixed.ssp", "plant.T_em", false),
+        ("InchwormSystem.ssp", plant(t_em), false),
+        ("InchwormSystemOpen.ssp", plant(t_em), true),
+        ("MirrorMount.ssp", format!("plant_b.{t_em}"), false),
+        ("fmi3/InchwormSystemOpen.ssp", plant(t_em), true),
+        ("fmi3/InchwormSystemMixed.ssp", plant(t_em), false),
     ];
     // Repeated and shuffled: a value seen before, after another, must still give the row a
     // fresh load gives (a reset that misses any state shows as a repeat that differs).
@@ -338,7 +353,8 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
     for (file, param, open) in systems {
         let system = inchworm_dist::path(file);
         assert!(system.is_file(), "{}: run `cargo run --release -p fmu-build`", system.display());
-        let input = open.then(|| InputTable::steps("reference", &[(0.0, 100e-6)]).unwrap());
+        let input = open
+            .then(|| InputTable::steps(ControllerFmu::REFERENCE.name(), &[(0.0, 100e-6)]).unwrap());
         let setup = Setup {
             system: system.clone(),
             options: Options {
@@ -352,7 +368,7 @@ fn every_shipped_system_sweeps_to_what_run_gives_row_for_row() {
             },
             metrics: every_output(&system, &input),
         };
-        let names = vec![param.to_string()];
+        let names = vec![param.clone()];
         let rows: Vec<Row> = values
             .iter()
             .enumerate()

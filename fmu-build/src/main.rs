@@ -31,6 +31,7 @@ use inchworm_fmi_export::{fmi3, model_description, Model};
 mod check;
 mod evidence;
 mod platforms;
+mod python;
 mod segmented;
 mod ssp;
 
@@ -140,7 +141,8 @@ fn systems() -> Vec<System> {
 /// Every file that is generated and committed, as (path relative to the workspace root,
 /// text): the model descriptions of both standards, and for each FMI 2.0 system its
 /// `SystemStructure.ssd` and parameter sets (the FMI 3.0 systems reuse those
-/// specifications unchanged, so their texts are the same).
+/// specifications unchanged, so their texts are the same), and the Python packages'
+/// variable names.
 fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
     let mut files = Vec::new();
     for f in fmus {
@@ -156,6 +158,7 @@ fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
             files.push((dir.join(path), text));
         }
     }
+    files.push((PathBuf::from(python::MODULE), python::module()));
     files
 }
 
@@ -485,7 +488,7 @@ fn main() -> ExitCode {
             eprintln!("fmu-build --check: {f}");
         }
         eprintln!(
-            "fmu-build --check: {} problems with the committed generated files in {}; `cargo run --release -p fmu-build` writes them from the variable tables (remove links first), then commit modelDescription/",
+            "fmu-build --check: {} problems with the committed generated files in {}; `cargo run --release -p fmu-build` writes them from the variable tables (remove links first), then commit them",
             found.len(),
             checked.join(check::GENERATED_DIR).display()
         );

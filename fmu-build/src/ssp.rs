@@ -370,7 +370,12 @@ fn component(
 
 /// `InchwormSystem.ssp`: closed, no system connectors.
 pub fn closed_system() -> SystemSpec {
-    let mut connections = vec![link("reference", "reference", "controller", "reference")];
+    let mut connections = vec![link(
+        "reference",
+        ReferenceFmu::REFERENCE.name(),
+        "controller",
+        ControllerFmu::REFERENCE.name(),
+    )];
     connections.extend(loop_connections("controller", "plant"));
     SystemSpec {
         name: "InchwormSystem",

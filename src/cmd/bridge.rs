@@ -15,6 +15,7 @@ use inchworm_bridge::runlog::{LogWriter, Record};
 use inchworm_bridge::transport::{open_serial, CobsTransport, Transport, UdpTransport};
 use inchworm_plant::PlantParams;
 use inchworm_scenarios::bridge::{FmuController, Interface};
+use inchworm_scenarios::closed_loop::REFERENCE;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RoleArg {
@@ -252,8 +253,8 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             let col = t
                 .names
                 .iter()
-                .position(|n| n == "reference")
-                .ok_or_else(|| format!("{}: no `reference` column", p.display()))?;
+                .position(|n| n == REFERENCE)
+                .ok_or_else(|| format!("{}: no `{REFERENCE}` column", p.display()))?;
             Some((t, col))
         }
         None => None,

@@ -13,6 +13,7 @@ import sys
 import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 HARNESS = ROOT / "tests" / "cross" / "harness.c"
@@ -46,7 +47,7 @@ def check_args(fmu, lib):
     """Harness arguments of the check trace through the plant's library `lib`."""
     major, token, v = description(fmu)
     return [str(major), "check", str(lib), token, str(CHECK_TRACE)] + [
-        v[n] for n in ("dac_earth", "dac_nonearth", "dac_extension", "encoder_counts")
+        v[n] for n in (Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION, Plant.ENCODER_COUNTS)
     ]
 
 
@@ -54,12 +55,12 @@ def fig5_args(plant_fmu, plant_lib, ctrl_fmu, ctrl_lib, variant):
     """Harness arguments of the Fig. 5 loop (`full` or `feedback` control)."""
     major, ptoken, p = description(plant_fmu)
     _, ctoken, c = description(ctrl_fmu)
-    dac = ("dac_earth", "dac_nonearth", "dac_extension")
+    dac = (Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION)
     return (
         [str(major), "fig5", str(plant_lib), ptoken, str(ctrl_lib), ctoken, variant, str(FIG5_STEPS)]
-        + [p[n] for n in dac + ("encoder_counts",)]
-        + [c[n] for n in dac + ("encoder_counts", "reference")]
-        + [c[n] for n in ("feedforward", "use_scale_factor_estimate", "use_disturbance_estimate")]
+        + [p[n] for n in dac + (Plant.ENCODER_COUNTS,)]
+        + [c[n] for n in dac + (Plant.ENCODER_COUNTS, Controller.REFERENCE)]
+        + [c[n] for n in (Controller.FEEDFORWARD, Controller.USE_SCALE_FACTOR_ESTIMATE, Controller.USE_DISTURBANCE_ESTIMATE)]
     )
 
 

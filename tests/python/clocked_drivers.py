@@ -11,6 +11,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi3 import (FMU3ScheduledExecution, FMU3Slave, fmi3Boolean, fmi3ClockUpdateCallback,
                        fmi3InstanceEnvironment, fmi3LockPreemptionCallback, fmi3LogMessageCallback,
                        fmi3UnlockPreemptionCallback)
+from inchworm_variables import InchwormController as ControllerVars, InchwormPlant as Plant
 
 # The controller's sample period (the interval of `sample_clock`), the run's samples and the
 # reference its tests set (crates/controller-fmu3/tests/clocks.rs).
@@ -18,9 +19,9 @@ H = 0.002
 SAMPLES = 500
 REFERENCE = 30e-6
 STOP_TIME = SAMPLES * H
-CODES = ["dac_earth_code", "dac_nonearth_code", "dac_extension_code"]
+CODES = [ControllerVars.DAC_EARTH_CODE, ControllerVars.DAC_NONEARTH_CODE, ControllerVars.DAC_EXTENSION_CODE]
 # The estimates `gait_step` clocks: the disturbance and the first scale-factor weight.
-ESTIMATES = ["disturbance_estimate", "scale_weights"]
+ESTIMATES = [ControllerVars.DISTURBANCE_ESTIMATE, "scale_weights"]
 
 
 @dataclass
@@ -69,7 +70,7 @@ class Controller:
     def initialize(self, fmu):
         """Initialized at t = 0 to stop at 1 s, with the reference set."""
         fmu.enterInitializationMode(startTime=0.0, stopTime=STOP_TIME)
-        fmu.setFloat64([self.vr["reference"]], [REFERENCE])
+        fmu.setFloat64([self.vr[ControllerVars.REFERENCE]], [REFERENCE])
         fmu.exitInitializationMode()
 
     def record(self, fmu, run):
@@ -79,7 +80,7 @@ class Controller:
         run.estimates.append((values[0], values[1]))
 
     def gait_step(self, fmu):
-        return fmu.getClock([self.vr["gait_step"]])[0]
+        return fmu.getClock([self.vr[ControllerVars.GAIT_STEP]])[0]
 
 
 def plain(ctrl, encoder, log):
@@ -90,7 +91,7 @@ def plain(ctrl, encoder, log):
     run = Run()
     ctrl.record(fmu, run)
     for k, counts in enumerate(encoder[:SAMPLES]):
-        fmu.setInt32([ctrl.vr["encoder_counts"]], [counts])
+        fmu.setInt32([ctrl.vr[Plant.ENCODER_COUNTS]], [counts])
         event, terminate, early, _ = fmu.doStep(k * H, H)
         assert (event, terminate, early) == (False, False, False), f"step {k}"
         ctrl.record(fmu, run)
@@ -106,11 +107,11 @@ def event_mode(ctrl, encoder, log):
     next tick, where the step ends with eventHandlingNeeded."""
     fmu = ctrl.slave("events", log, event_mode=True)
     ctrl.initialize(fmu)
-    sample, run = ctrl.vr["sample_clock"], Run()
+    sample, run = ctrl.vr[ControllerVars.SAMPLE_CLOCK], Run()
     for k, counts in enumerate(encoder):
         t = k * H
         fmu.setClock([sample], [True])
-        fmu.setInt32([ctrl.vr["encoder_counts"]], [counts])
+        fmu.setInt32([ctrl.vr[Plant.ENCODER_COUNTS]], [counts])
         need_update, terminate, _, _, next_defined, next_time = fmu.updateDiscreteStates()
         assert (need_update, terminate, next_defined) == (False, False, True), f"update at tick {k}"
         assert abs(next_time - (t + H)) < 1e-12, f"the next tick after {t}"
@@ -174,9 +175,9 @@ def scheduled(ctrl, encoder, log):
     fmu.instantiate_with(log, clock_update, lambda: schedule.preemption.append("lock"),
                          lambda: schedule.preemption.append("unlock"))
     ctrl.initialize(fmu)
-    sample, run = ctrl.vr["sample_clock"], Run()
+    sample, run = ctrl.vr[ControllerVars.SAMPLE_CLOCK], Run()
     for k, counts in enumerate(encoder):
-        fmu.setInt32([ctrl.vr["encoder_counts"]], [counts])
+        fmu.setInt32([ctrl.vr[Plant.ENCODER_COUNTS]], [counts])
         now[0] = k
         signalled = len(schedule.updates)
         fmu.activateModelPartition(sample, k * H)

@@ -4,6 +4,7 @@ import csv
 import pathlib
 
 import pytest
+from inchworm_variables import InchwormPlant as Plant
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DIST = ROOT / "dist"
@@ -52,7 +53,7 @@ def reference_rows():
 def write_gait_input(rows, path):
     """FMPy input file of the reference DAC sequence: a repeated time row at every change,
     so FMPy holds the volts piecewise constant (it takes the value after the event)."""
-    names = ["dac_earth", "dac_nonearth", "dac_extension"]
+    names = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time"] + names)

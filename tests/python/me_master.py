@@ -18,9 +18,10 @@ from fmpy.sundials import CVodeSolver
 from fmpy.sundials.libraries import sundials_cvode
 
 from conftest import DIST
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 T = 0.002
-DAC = ["dac_earth", "dac_nonearth", "dac_extension"]
+DAC = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
 
 _num_steps = sundials_cvode.CVodeGetNumSteps
 _num_steps.argtypes = [c_void_p, POINTER(c_long)]
@@ -118,7 +119,7 @@ def run(plant_path, samples, rtol=None, schedule=None, controller_path=None, ref
     k = 1..samples and the counts `{"events", "state_events", "steps"}`."""
     plant = Me(plant_path, "plant", plant_start)
     # The reference is there at the first latch (t = 0), as before a first step in CS.
-    ctrl_start = {"reference": reference, **(controller_start or {})}
+    ctrl_start = {Controller.REFERENCE: reference, **(controller_start or {})}
     ctrl = Me(controller_path, "controller", ctrl_start, controller_bools) if controller_path else None
     stop = samples * T
     solver = Counted(
@@ -139,13 +140,13 @@ def run(plant_path, samples, rtol=None, schedule=None, controller_path=None, ref
                 ctrl.fmu.enterEventMode()
             plant.update()
             events += 1
-            rows.append((t, plant.integer("encoder_counts"), plant.real(["runner_position"])[0],
-                         plant.integer("mode"), tuple(held)))
+            rows.append((t, plant.integer(Plant.ENCODER_COUNTS), plant.real([Plant.RUNNER_POSITION])[0],
+                         plant.integer(Plant.MODE), tuple(held)))
             if k == samples:
                 break
         if ctrl:
-            ctrl.set_integer("encoder_counts", plant.integer("encoder_counts"))
-            ctrl.set_real(["reference"], [reference])
+            ctrl.set_integer(Plant.ENCODER_COUNTS, plant.integer(Plant.ENCODER_COUNTS))
+            ctrl.set_real([Controller.REFERENCE], [reference])
             next_time = ctrl.update()
             assert next_time is not None and abs(next_time - (t + T)) < 1e-12, next_time
             held = ctrl.real(DAC)

@@ -17,6 +17,7 @@ from fmpy.validation import validate_fmu, validate_model_description
 
 import clocked_drivers as drv
 from conftest import DIST
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 FMU = DIST / "fmi3" / "InchwormController.fmu"
 # What the FMU logs when an importer leaves the event at a tick without activating the
@@ -24,7 +25,7 @@ FMU = DIST / "fmi3" / "InchwormController.fmu"
 NOT_ACTIVATED = ("fmi3EnterStepMode: sample_clock ticks at 0 s and was not activated in this event: "
                  "the importer activates a time-based input clock at each of its ticks")
 # The outputs gait_step clocks; every other output is clocked by sample_clock.
-GAIT_CLOCKED = {"disturbance_estimate", "scale_weights"}
+GAIT_CLOCKED = {Controller.DISTURBANCE_ESTIMATE, "scale_weights"}
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +96,7 @@ def test_simulate_fmu_with_event_mode_is_refused_with_the_reason(encoder, plain_
     log = drv.Log()
     with pytest.raises(FMICallException) as refused:
         simulate_fmu(str(FMU), use_event_mode=True, logger=log.callback,
-                     start_values={"reference": drv.REFERENCE})
+                     start_values={Controller.REFERENCE: drv.REFERENCE})
     assert refused.value.function == "fmi3EnterStepMode"
     assert refused.value.status == 3
     [error] = log.errors()
@@ -105,9 +106,9 @@ def test_simulate_fmu_with_event_mode_is_refused_with_the_reason(encoder, plain_
     # The way on the message names: without event mode each fmi3DoStep runs its tick, and
     # simulate_fmu fed the same encoder gives the drivers' DAC codes at all 501 instants.
     signals = np.array([(k * drv.H, counts) for k, counts in enumerate(encoder)],
-                       dtype=[("time", np.float64), ("encoder_counts", np.int32)])
+                       dtype=[("time", np.float64), (Plant.ENCODER_COUNTS, np.int32)])
     result = simulate_fmu(str(FMU), input=signals, output=drv.CODES, stop_time=drv.STOP_TIME,
-                          output_interval=drv.H, start_values={"reference": drv.REFERENCE})
+                          output_interval=drv.H, start_values={Controller.REFERENCE: drv.REFERENCE})
     codes = [tuple(int(c) for c in row) for row in zip(*(result[n] for n in drv.CODES))]
     assert codes == plain_run.codes
 
@@ -142,7 +143,7 @@ def test_fmusim_event_mode_loop_is_refused_and_the_event_stays_open(controller):
     assert error.startswith(f"fmusim: {NOT_ACTIVATED}"), error
 
     # Nothing changed: still in the event at t = 0, which the activation completes.
-    fmu.setClock([controller.vr["sample_clock"]], [True])
+    fmu.setClock([controller.vr[Controller.SAMPLE_CLOCK]], [True])
     fmu.updateDiscreteStates()
     fmu.enterStepMode()
     event, terminate, early, last = fmu.doStep(0.0, drv.H)
@@ -156,7 +157,7 @@ def test_validation_includes_the_clocked_variable_rules():
     assert validate_fmu(str(FMU)) == []
     md = read_model_description(str(FMU))
     clocks = {v.name: v for v in md.modelVariables if v.type == "Clock"}
-    sample, gait = clocks["sample_clock"], clocks["gait_step"]
+    sample, gait = clocks[Controller.SAMPLE_CLOCK], clocks[Controller.GAIT_STEP]
     assert (sample.causality, sample.intervalVariability) == ("input", "constant")
     assert (gait.causality, gait.intervalVariability) == ("output", "triggered")
     outputs = [v for v in md.modelVariables if v.causality == "output" and v.type != "Clock"]
@@ -174,5 +175,5 @@ def test_validation_includes_the_clocked_variable_rules():
     # FMPy 0.3.32 reads no interval: the description's own.
     with zipfile.ZipFile(FMU) as z:
         xml = ElementTree.fromstring(z.read("modelDescription.xml"))
-    [clock] = [c for c in xml.iter("Clock") if c.get("name") == "sample_clock"]
+    [clock] = [c for c in xml.iter("Clock") if c.get("name") == Controller.SAMPLE_CLOCK]
     assert float(clock.get("intervalDecimal")) == drv.H

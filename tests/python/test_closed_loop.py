@@ -9,6 +9,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from conftest import DIST, ROOT
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 H = 0.002
 
@@ -27,18 +28,18 @@ def load(path, name):
 def jacobi_fig5(duration):
     plant, pv = load(str(DIST / "InchwormPlant.fmu"), "plant")
     ctrl, cv = load(str(DIST / "InchwormController.fmu"), "controller")
-    dac = ["dac_earth", "dac_nonearth", "dac_extension"]
+    dac = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
     counts = []
     for k in range(int(round(duration / H))):
         t = k * H
-        enc = plant.getInteger([pv["encoder_counts"]])
+        enc = plant.getInteger([pv[Plant.ENCODER_COUNTS]])
         volts = ctrl.getReal([cv[n] for n in dac])
         plant.setReal([pv[n] for n in dac], volts)
-        ctrl.setInteger([cv["encoder_counts"]], enc)
-        ctrl.setReal([cv["reference"]], [100e-6])
+        ctrl.setInteger([cv[Plant.ENCODER_COUNTS]], enc)
+        ctrl.setReal([cv[Controller.REFERENCE]], [100e-6])
         plant.doStep(t, H)
         ctrl.doStep(t, H)
-        counts.append(plant.getInteger([pv["encoder_counts"]])[0])
+        counts.append(plant.getInteger([pv[Plant.ENCODER_COUNTS]])[0])
     for f in (plant, ctrl):
         f.terminate()
         f.freeInstance()
@@ -51,7 +52,7 @@ def test_fmpy_jacobi_loop_equals_the_direct_rust_coupling(tmp_path):
     run = subprocess.run([str(exe), "scenario", "fig5", "--direct", "--out", str(tmp_path)], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
     with open(tmp_path / "fig5_full_control.csv", newline="") as f:
-        direct = [int(r["encoder_counts"]) for r in csv.DictReader(f)]
+        direct = [int(r[Plant.ENCODER_COUNTS]) for r in csv.DictReader(f)]
     fmpy_counts = jacobi_fig5(10.0)
     assert len(fmpy_counts) == len(direct) == 5000
     first = next((i for i, (a, b) in enumerate(zip(direct, fmpy_counts)) if a != b), None)

@@ -9,6 +9,7 @@ from fmpy.validation import validate_fmu
 
 from conftest import DIST
 from test_closed_loop import load
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 
 
@@ -19,24 +20,24 @@ def test_validates_without_problems(controller_fmu):
 def test_simulates_with_defaults_and_starts_stepping_towards_the_reference(controller_fmu):
     # Encoder held at 0, reference 100 µm: the controller plans 3 full forward steps of ~26 µm and a
     # fraction, and drives the forward gait (non-earth brake powered from sample 15).
-    result = simulate_fmu(controller_fmu, stop_time=0.2, start_values={"reference": 100e-6},
-                          output=["dac_nonearth", "dac_nonearth_code", "n_steps", "moving"])
-    assert result["n_steps"][-1] == 3
-    assert result["dac_nonearth_code"].max() == 65535
-    assert result["dac_nonearth"].max() == 10.0
-    assert result["moving"][-1]
+    result = simulate_fmu(controller_fmu, stop_time=0.2, start_values={Controller.REFERENCE: 100e-6},
+                          output=[Plant.DAC_NONEARTH, Controller.DAC_NONEARTH_CODE, Controller.N_STEPS, Controller.MOVING])
+    assert result[Controller.N_STEPS][-1] == 3
+    assert result[Controller.DAC_NONEARTH_CODE].max() == 65535
+    assert result[Plant.DAC_NONEARTH].max() == 10.0
+    assert result[Controller.MOVING][-1]
 
 
 def first_powered(result):
     """Time the non-earth brake DAC first reads 10 V (sample 15 of the first move)."""
-    return next(t for t, v in zip(result["time"], result["dac_nonearth"]) if v > 5.0)
+    return next(t for t, v in zip(result["time"], result[Plant.DAC_NONEARTH]) if v > 5.0)
 
 
 def test_any_output_interval_is_accepted_and_outputs_change_only_at_2_ms_instants(controller_fmu):
     # docs/model.md §5: the latch at each 2 ms instant in [t, t + h), the DAC write at each
     # in (t, t + h]. Encoder held (0), so every run sees the same inputs at every instant.
-    out = ["dac_nonearth", "dac_extension", "n_steps", "servo_error"]
-    args = dict(stop_time=0.2, start_values={"reference": 100e-6}, output=out)
+    out = [Plant.DAC_NONEARTH, Plant.DAC_EXTENSION, Controller.N_STEPS, Controller.SERVO_ERROR]
+    args = dict(stop_time=0.2, start_values={Controller.REFERENCE: 100e-6}, output=out)
     two = simulate_fmu(controller_fmu, output_interval=0.002, **args)
     assert first_powered(two) == pytest.approx(0.028, abs=1e-12)
     for h in (0.001, 0.0005, 0.0001):
@@ -51,7 +52,7 @@ def test_any_output_interval_is_accepted_and_outputs_change_only_at_2_ms_instant
     # 3 ms straddles the instants: the sample written at 28 ms reaches this master at 30 ms.
     three = simulate_fmu(controller_fmu, output_interval=0.003, **args)
     assert first_powered(three) == pytest.approx(0.030, abs=1e-12)
-    assert three["n_steps"][-1] == two["n_steps"][-1] == 3
+    assert three[Controller.N_STEPS][-1] == two[Controller.N_STEPS][-1] == 3
 
 
 def fig5_counts(plant_fmu, controller_fmu, h, duration):
@@ -59,20 +60,20 @@ def fig5_counts(plant_fmu, controller_fmu, h, duration):
     reference: the encoder counts at the 2 ms instants from 2 ms on."""
     plant, pv = load(plant_fmu, "plant")
     ctrl, cv = load(controller_fmu, "controller")
-    dac = ["dac_earth", "dac_nonearth", "dac_extension"]
+    dac = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
     m = round(0.002 / h)
     counts = []
     for k in range(round(duration / h)):
         t = k * h
-        enc = plant.getInteger([pv["encoder_counts"]])
+        enc = plant.getInteger([pv[Plant.ENCODER_COUNTS]])
         volts = ctrl.getReal([cv[n] for n in dac])
         plant.setReal([pv[n] for n in dac], volts)
-        ctrl.setInteger([cv["encoder_counts"]], enc)
-        ctrl.setReal([cv["reference"]], [100e-6])
+        ctrl.setInteger([cv[Plant.ENCODER_COUNTS]], enc)
+        ctrl.setReal([cv[Controller.REFERENCE]], [100e-6])
         plant.doStep(t, h)
         ctrl.doStep(t, h)
         if (k + 1) % m == 0:
-            counts.append(plant.getInteger([pv["encoder_counts"]])[0])
+            counts.append(plant.getInteger([pv[Plant.ENCODER_COUNTS]])[0])
     for f in (plant, ctrl):
         f.terminate()
         f.freeInstance()

@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
+from inchworm_variables import InchwormMount as Mount, InchwormPlant as Plant
 
 sys.path.insert(0, str(ROOT / "python" / "inchworm_segments"))
 from inchworm_segments import __main__ as cli  # noqa: E402
@@ -45,8 +46,8 @@ SEGMENTS = 7
 def _outputs():
     out = []
     for k in range(SEGMENTS):
-        out += [a for v in ("piston", "tip", "tilt") for a in ("--output", f"seg{k}_mount.{v}")]
-        out += [a for x in "abc" for v in ("dac_earth", "dac_nonearth", "dac_extension")
+        out += [a for v in (Mount.PISTON, Mount.TIP, Mount.TILT) for a in ("--output", f"seg{k}_mount.{v}")]
+        out += [a for x in "abc" for v in (Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION)
                 for a in ("--output", f"seg{k}_controller_{x}.{v}")]
     return out
 
@@ -99,16 +100,16 @@ def test_the_first_sample_is_the_drawn_errors(runs):
     assert drawn == _drawn(out["analog"][0])
     pistons = []
     for k, d in enumerate(drawn):
-        assert list(d) == ["piston_offset", "tip_offset", "tilt_offset"]
-        assert abs(d["piston_offset"]) <= 10e-6 and max(abs(d["tip_offset"]), abs(d["tilt_offset"])) <= 5e-6
+        assert list(d) == [Mount.PISTON_OFFSET, Mount.TIP_OFFSET, Mount.TILT_OFFSET]
+        assert abs(d[Mount.PISTON_OFFSET]) <= 10e-6 and max(abs(d[Mount.TIP_OFFSET]), abs(d[Mount.TILT_OFFSET])) <= 5e-6
         for c in out:
             row = first[c]
             # The mount's pose before any step is its offset, to the bit: same SI units and
             # the same convention (tip = dz/dy, tilt = dz/dx) as the optics' CSV.
             assert [float(row[f"seg{k}_{n}"]) for n in ("piston_m", "tip_rad", "tilt_rad")] == \
-                [d["piston_offset"], d["tip_offset"], d["tilt_offset"]]
+                [d[Mount.PISTON_OFFSET], d[Mount.TIP_OFFSET], d[Mount.TILT_OFFSET]]
             assert row["parked"] == "0"
-        pistons.append(d["piston_offset"])
+        pistons.append(d[Mount.PISTON_OFFSET])
     # The first sample's co-phasing error: the aperture-weighted RMS of the wavefront's
     # pistons −2 p_k about their mean, from the drawn values.
     w = F.optics_for(Telescope(pupil_px=32, supersampling=2)).segment_weights

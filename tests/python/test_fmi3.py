@@ -16,6 +16,7 @@ from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
 from conftest import DIST, assert_check_values, write_gait_input
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 FMI3 = DIST / "fmi3"
 FMPY = [str(pathlib.Path(sys.executable).parent / "fmpy")]
@@ -27,8 +28,8 @@ ALLOWED_NEEDED = {"libc.so.6", "libm.so.6", "libgcc_s.so.1", "ld-linux-x86-64.so
 # Scheduled Execution.
 N_FMI3_FUNCTIONS = 75
 H = 0.002
-PLANT_OUTPUTS = ["encoder_counts", "encoder_position", "runner_position", "extension", "voltage_earth",
-                 "voltage_nonearth", "voltage_extension", "mode", "earth_closed", "nonearth_closed", "slip_events"]
+PLANT_OUTPUTS = [Plant.ENCODER_COUNTS, Plant.ENCODER_POSITION, Plant.RUNNER_POSITION, Plant.EXTENSION, Plant.VOLTAGE_EARTH,
+                 Plant.VOLTAGE_NONEARTH, Plant.VOLTAGE_EXTENSION, Plant.MODE, Plant.EARTH_CLOSED, Plant.NONEARTH_CLOSED, Plant.SLIP_EVENTS]
 
 
 def fmu3(name):
@@ -84,7 +85,7 @@ def test_same_variables_as_fmi2(name):
         v3 += [(f"{v.name}[{k + 1}]", v.valueReference + k, v.type, v.causality, starts[k]) for k in range(n)]
     assert v3 == v2
     clocks = [(v.name, v.valueReference, v.causality) for v in md3.modelVariables if v.type == "Clock"]
-    expected = {"InchwormController": [("sample_clock", 5, "input"), ("gait_step", 25, "output")]}
+    expected = {"InchwormController": [(Controller.SAMPLE_CLOCK, 5, "input"), (Controller.GAIT_STEP, 25, "output")]}
     assert clocks == expected.get(name, [])
     time = [v for v in md3.modelVariables if v.causality == "independent"]
     assert [(v.name, v.valueReference) for v in time] == [("time", 0)]
@@ -93,8 +94,8 @@ def test_same_variables_as_fmi2(name):
 def test_plant_simulates_with_defaults_and_stays_at_rest():
     result = simulate_fmu(fmu3("InchwormPlant"))
     assert len(result) > 10
-    assert np.all(result["encoder_counts"] == 0)
-    assert np.all(result["mode"] == 1)
+    assert np.all(result[Plant.ENCODER_COUNTS] == 0)
+    assert np.all(result[Plant.MODE] == 1)
 
 
 def test_controller_simulates_with_defaults():
@@ -117,7 +118,7 @@ def test_plant_gives_the_fmi2_trace_bit_for_bit(reference_rows, tmp_path):
     assert len(r3) == len(r2) == 501
     for name in PLANT_OUTPUTS:
         assert r3[name].tobytes() == r2[name].tobytes(), name
-    counts = list(r3["encoder_counts"][1:])
+    counts = list(r3[Plant.ENCODER_COUNTS][1:])
     assert_check_values(counts)
     ref = np.array([r["encoder_counts_after"] for r in reference_rows])
     assert np.max(np.abs(np.array(counts) - ref)) <= 1
@@ -125,12 +126,12 @@ def test_plant_gives_the_fmi2_trace_bit_for_bit(reference_rows, tmp_path):
 
 def test_fia6_parameters_through_fmpy_fmi3(reference_rows, tmp_path):
     _, signals = gait(reference_rows, tmp_path)
-    kw = dict(stop_time=1.0, output_interval=H, input=signals, output=["encoder_counts"],
+    kw = dict(stop_time=1.0, output_interval=H, input=signals, output=[Plant.ENCODER_COUNTS],
               start_values={"T_em": 2.5, "F_d0": 105.0})
     r3 = simulate_fmu(fmu3("InchwormPlant"), **kw)
     r2 = simulate_fmu(str(DIST / "InchwormPlant.fmu"), **kw)
-    assert r3["encoder_counts"].tobytes() == r2["encoder_counts"].tobytes()
-    assert_check_values(list(r3["encoder_counts"][1:]), "fia6")
+    assert r3[Plant.ENCODER_COUNTS].tobytes() == r2[Plant.ENCODER_COUNTS].tobytes()
+    assert_check_values(list(r3[Plant.ENCODER_COUNTS][1:]), "fia6")
 
 
 def test_command_line_simulate_with_input_file(reference_rows, tmp_path):
@@ -167,7 +168,7 @@ def load2(name, instance):
     return fmu, {v.name: v.valueReference for v in md.modelVariables}
 
 
-DAC = ["dac_earth", "dac_nonearth", "dac_extension"]
+DAC = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
 
 
 def jacobi3(steps):
@@ -176,16 +177,16 @@ def jacobi3(steps):
     counts = []
     for k in range(steps):
         t = k * H
-        enc = plant.getInt32([pv["encoder_counts"]])
+        enc = plant.getInt32([pv[Plant.ENCODER_COUNTS]])
         volts = ctrl.getFloat64([cv[n] for n in DAC])
         plant.setFloat64([pv[n] for n in DAC], volts)
-        ctrl.setInt32([cv["encoder_counts"]], enc)
-        ctrl.setFloat64([cv["reference"]], [100e-6])
+        ctrl.setInt32([cv[Plant.ENCODER_COUNTS]], enc)
+        ctrl.setFloat64([cv[Controller.REFERENCE]], [100e-6])
         for f in (plant, ctrl):
             event, terminate, early, last = f.doStep(t, H)
             assert (event, terminate, early) == (False, False, False)
             assert last == t + H
-        counts.append(plant.getInt32([pv["encoder_counts"]])[0])
+        counts.append(plant.getInt32([pv[Plant.ENCODER_COUNTS]])[0])
     for f in (plant, ctrl):
         f.terminate()
         f.freeInstance()
@@ -198,14 +199,14 @@ def jacobi2(steps):
     counts = []
     for k in range(steps):
         t = k * H
-        enc = plant.getInteger([pv["encoder_counts"]])
+        enc = plant.getInteger([pv[Plant.ENCODER_COUNTS]])
         volts = ctrl.getReal([cv[n] for n in DAC])
         plant.setReal([pv[n] for n in DAC], volts)
-        ctrl.setInteger([cv["encoder_counts"]], enc)
-        ctrl.setReal([cv["reference"]], [100e-6])
+        ctrl.setInteger([cv[Plant.ENCODER_COUNTS]], enc)
+        ctrl.setReal([cv[Controller.REFERENCE]], [100e-6])
         plant.doStep(t, H)
         ctrl.doStep(t, H)
-        counts.append(plant.getInteger([pv["encoder_counts"]])[0])
+        counts.append(plant.getInteger([pv[Plant.ENCODER_COUNTS]])[0])
     for f in (plant, ctrl):
         f.terminate()
         f.freeInstance()
@@ -222,7 +223,7 @@ def test_closed_loop_through_fmpy_fmi3_api_equals_fmi2():
 
 def test_state_round_trip_and_corrupt_blob():
     plant, pv = load3("InchwormPlant", "plant")
-    plant.setFloat64([pv["dac_extension"]], [10.0])
+    plant.setFloat64([pv[Plant.DAC_EXTENSION]], [10.0])
     t = 0.0
     for _ in range(50):
         plant.doStep(t, H)
@@ -233,7 +234,7 @@ def test_state_round_trip_and_corrupt_blob():
     for _ in range(50):
         plant.doStep(t, H)
         t += H
-        ahead.append(plant.getFloat64([pv["extension"]])[0])
+        ahead.append(plant.getFloat64([pv[Plant.EXTENSION]])[0])
     restored = plant.deserializeFMUState(blob)
     plant.setFMUState(restored)
     t = 50 * H
@@ -241,7 +242,7 @@ def test_state_round_trip_and_corrupt_blob():
     for _ in range(50):
         plant.doStep(t, H)
         t += H
-        again.append(plant.getFloat64([pv["extension"]])[0])
+        again.append(plant.getFloat64([pv[Plant.EXTENSION]])[0])
     assert again == ahead
     bad = bytearray(blob)
     bad[len(bad) // 2] ^= 0x10
@@ -271,12 +272,12 @@ def test_refusals_reach_the_logger():
     with pytest.raises(FMICallException):
         plant.getFloat64([9999])
     with pytest.raises(FMICallException):
-        plant.setFloat64([vr["dac_earth"]], [float("nan")])
+        plant.setFloat64([vr[Plant.DAC_EARTH]], [float("nan")])
     with pytest.raises(FMICallException):
-        plant.setFloat64([vr["m_p"]], [1.0])  # a fixed parameter after initialization
+        plant.setFloat64([vr[Plant.M_P]], [1.0])  # a fixed parameter after initialization
     with pytest.raises(FMICallException):
-        plant.getInt32([vr["dac_earth"]])  # a Float64 asked as Int32
-    plant.setFloat64([vr["dac_earth"]], [12.0])  # clamped, with a warning
+        plant.getInt32([vr[Plant.DAC_EARTH]])  # a Float64 asked as Int32
+    plant.setFloat64([vr[Plant.DAC_EARTH]], [12.0])  # clamped, with a warning
     assert plant.getFloat64([0]) == [0.0]  # time
     with pytest.raises(FMICallException):
         plant.enterEventMode()
@@ -350,13 +351,13 @@ def test_fmpy_reads_and_writes_the_arrays_and_the_loop_equals_fmi2():
     (plant3, pv3), (plant2, pv2) = load3("InchwormPlant", "p3"), load2("InchwormPlant", "p2")
     for k in range(500):
         t = k * H
-        enc3, enc2 = plant3.getInt32([pv3["encoder_counts"]]), plant2.getInteger([pv2["encoder_counts"]])
+        enc3, enc2 = plant3.getInt32([pv3[Plant.ENCODER_COUNTS]]), plant2.getInteger([pv2[Plant.ENCODER_COUNTS]])
         plant3.setFloat64([pv3[n] for n in DAC], ctrl3.getFloat64([cv3[n] for n in DAC]))
         plant2.setReal([pv2[n] for n in DAC], ctrl2.getReal([cv2[n] for n in DAC]))
-        ctrl3.setInt32([cv3["encoder_counts"]], enc3)
-        ctrl2.setInteger([cv2["encoder_counts"]], enc2)
-        ctrl3.setFloat64([cv3["reference"]], [100e-6])
-        ctrl2.setReal([cv2["reference"]], [100e-6])
+        ctrl3.setInt32([cv3[Plant.ENCODER_COUNTS]], enc3)
+        ctrl2.setInteger([cv2[Plant.ENCODER_COUNTS]], enc2)
+        ctrl3.setFloat64([cv3[Controller.REFERENCE]], [100e-6])
+        ctrl2.setReal([cv2[Controller.REFERENCE]], [100e-6])
         for f in (plant3, ctrl3):
             f.doStep(t, H)
         for f in (plant2, ctrl2):

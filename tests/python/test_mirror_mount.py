@@ -10,6 +10,7 @@ import pytest
 
 import ssp_masters as m
 from conftest import DIST
+from inchworm_variables import InchwormPlant as Plant
 
 STOP = 10.0
 NAMES = ["mount.piston", "mount.tip", "mount.tilt"] + [f"plant_{x}.encoder_counts" for x in "abc"]
@@ -30,7 +31,7 @@ def ours(mirror_ssp):
 
 def assert_identical(a, b, what, real_atol=0.0):
     for n in NAMES:
-        if real_atol and "encoder_counts" not in n:
+        if real_atol and Plant.ENCODER_COUNTS not in n:
             np.testing.assert_allclose(b[n], a[n], rtol=0, atol=real_atol, err_msg=f"{what}: {n}")
             continue
         assert len(a[n]) == len(b[n]), (what, n, len(a[n]), len(b[n]))

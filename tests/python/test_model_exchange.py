@@ -22,6 +22,7 @@ from fmpy.validation import validate_fmu
 
 import me_master
 from conftest import DIST, ROOT, assert_check_values, write_gait_input
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 Q_ENC = 1.2e-9
 FMUS = {
@@ -63,13 +64,13 @@ def test_both_interfaces_validate(name, version):
 def test_the_reduced_states_are_the_runners_slow_part_and_the_channels():
     md = read_model_description(fmu("plant", "2.0"))
     names = [d.variable.derivative.name for d in md.derivatives]
-    assert names == ["runner_slow", "runner_slow_velocity", "bessel_extension", "bessel_extension_rate",
-                     "voltage_extension", "bessel_earth", "bessel_earth_rate", "voltage_earth",
-                     "bessel_nonearth", "bessel_nonearth_rate", "voltage_nonearth"]
+    assert names == [Plant.RUNNER_SLOW, Plant.RUNNER_SLOW_VELOCITY, Plant.BESSEL_EXTENSION, Plant.BESSEL_EXTENSION_RATE,
+                     Plant.VOLTAGE_EXTENSION, Plant.BESSEL_EARTH, Plant.BESSEL_EARTH_RATE, Plant.VOLTAGE_EARTH,
+                     Plant.BESSEL_NONEARTH, Plant.BESSEL_NONEARTH_RATE, Plant.VOLTAGE_NONEARTH]
     full = read_model_description(fmu("plant_full", "2.0"))
     assert [d.variable.derivative.name for d in full.derivatives][:8] == [
-        "node1_displacement", "node1_velocity", "node2_displacement", "node2_velocity",
-        "extension", "node3_velocity", "runner_position", "runner_velocity"]
+        Plant.NODE1_DISPLACEMENT, Plant.NODE1_VELOCITY, Plant.NODE2_DISPLACEMENT, Plant.NODE2_VELOCITY,
+        Plant.EXTENSION, Plant.NODE3_VELOCITY, Plant.RUNNER_POSITION, Plant.RUNNER_VELOCITY]
 
 
 def at_samples(result):
@@ -87,10 +88,10 @@ def slip_rows(reference_rows):
     """The slip episode of crates/plant/tests/reduced.rs on the check trace's volts: its
     first two gaits, both brakes open for 30 ms (FREE: the runner slips back on the
     environment spring), 40 ms at rest, then the first gait again; 1 s."""
-    dac = [(r["dac_earth"], r["dac_nonearth"], r["dac_extension"]) for r in reference_rows]
+    dac = [(r[Plant.DAC_EARTH], r[Plant.DAC_NONEARTH], r[Plant.DAC_EXTENSION]) for r in reference_rows]
     volts = dac[:200] + [(10.0, 0.0, 0.0)] * 15 + [(0.0, 0.0, 0.0)] * 20 + dac[:100]
     volts += [(0.0, 0.0, 0.0)] * (500 - len(volts))
-    return [{"time": round(0.002 * k, 6), "dac_earth": e, "dac_nonearth": n, "dac_extension": x}
+    return [{"time": round(0.002 * k, 6), Plant.DAC_EARTH: e, Plant.DAC_NONEARTH: n, Plant.DAC_EXTENSION: x}
             for k, (e, n, x) in enumerate(volts)]
 
 
@@ -102,9 +103,9 @@ def gait_signals(rows, path):
 def cs_counts(version, signals):
     """The Co-Simulation plant's encoder at the 500 samples, and its slip count."""
     result = simulate_fmu(fmu("plant", version), fmi_type="CoSimulation", stop_time=1.0, output_interval=0.002,
-                          input=signals, output=["encoder_counts", "slip_events"])
+                          input=signals, output=[Plant.ENCODER_COUNTS, Plant.SLIP_EVENTS])
     assert len(result) == 501
-    return result["encoder_counts"][1:].astype(int), int(result["slip_events"][-1])
+    return result[Plant.ENCODER_COUNTS][1:].astype(int), int(result[Plant.SLIP_EVENTS][-1])
 
 
 # FMPy's Model Exchange defaults: the tolerance is the default experiment's (1e-8; FMPy
@@ -134,24 +135,24 @@ def test_cvode_on_the_reduced_plant_is_within_2_counts_of_cs(trace, interval, to
     start = time.perf_counter()
     result = simulate_fmu(fmu("plant", version), fmi_type="ModelExchange", solver="CVode",
                           relative_tolerance=CVODE_TOLERANCES[tolerance], stop_time=1.0, output_interval=interval,
-                          input=signals, output=["runner_position", "mode", "slip_events"])
+                          input=signals, output=[Plant.RUNNER_POSITION, Plant.MODE, Plant.SLIP_EVENTS])
     wall = time.perf_counter() - start
     samples = at_samples(result)
     assert len(samples) == 501
-    counts = np.round(samples["runner_position"][1:] / Q_ENC).astype(int)
+    counts = np.round(samples[Plant.RUNNER_POSITION][1:] / Q_ENC).astype(int)
     dev = np.abs(counts - cs)
     k = int(np.argmax(dev))
     print(f"InchwormPlant FMI {version}, {trace}, {tolerance}, output every {interval * 1e3:g} ms: {wall:.2f} s, "
           f"worst {dev[k]} count(s) at t = {0.002 * (k + 1):.3f} s")
     assert dev[k] <= 2
-    assert int(samples["slip_events"][-1]) == cs_slips
+    assert int(samples[Plant.SLIP_EVENTS][-1]) == cs_slips
     if trace == "check-trace":
         assert_check_values(list(counts))
-        assert np.array_equal(samples["mode"][1:], np.array([r["mode_after"] for r in reference_rows]))
+        assert np.array_equal(samples[Plant.MODE][1:], np.array([r["mode_after"] for r in reference_rows]))
 
 
 GAMMA_40_SECONDS = 20.0
-DAC_NAMES = ["dac_earth", "dac_nonearth", "dac_extension"]
+DAC_NAMES = [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]
 
 
 def test_cvode_through_gaits_at_gamma_40_is_within_2_counts_of_cs(reference_rows, tmp_path):
@@ -164,25 +165,25 @@ def test_cvode_through_gaits_at_gamma_40_is_within_2_counts_of_cs(reference_rows
     n = int(round(GAMMA_40_SECONDS / 0.002))
     rows = [{"time": round(0.002 * k, 6), **{c: reference_rows[k % 100][c] for c in DAC_NAMES}} for k in range(n)]
     signals = gait_signals(rows, tmp_path / "gait.csv")
-    start_values = {"gamma": 40.0}
+    start_values = {Plant.GAMMA: 40.0}
     cs = simulate_fmu(fmu("plant", "2.0"), fmi_type="CoSimulation", stop_time=GAMMA_40_SECONDS,
-                      output_interval=0.002, input=signals, start_values=start_values, output=["encoder_counts"])
+                      output_interval=0.002, input=signals, start_values=start_values, output=[Plant.ENCODER_COUNTS])
     start = time.perf_counter()
     me = simulate_fmu(fmu("plant", "2.0"), fmi_type="ModelExchange", solver="CVode", stop_time=GAMMA_40_SECONDS,
                       output_interval=0.002, input=signals, start_values=start_values,
-                      output=["runner_position", "slip_events"])
+                      output=[Plant.RUNNER_POSITION, Plant.SLIP_EVENTS])
     wall = time.perf_counter() - start
     samples = at_samples(me)
     assert len(samples) == n + 1
-    counts = np.round(samples["runner_position"][1:] / Q_ENC).astype(int)
-    dev = np.abs(counts - cs["encoder_counts"][1:].astype(int))
+    counts = np.round(samples[Plant.RUNNER_POSITION][1:] / Q_ENC).astype(int)
+    dev = np.abs(counts - cs[Plant.ENCODER_COUNTS][1:].astype(int))
     k = int(np.argmax(dev))
     print(f"InchwormPlant FMI 2.0, γ = 40, {GAMMA_40_SECONDS:g} s of forward gaits, defaults, output every 2 ms: "
           f"{wall:.1f} s, worst {dev[k]} count(s) at t = {0.002 * (k + 1):.3f} s, final {counts[-1]} counts")
     # The runner advances (778 117 counts, 0.93 mm, over the 20 s): not a parked runner compared.
     assert counts[-1] > 700_000
     assert dev[k] <= 2
-    assert int(samples["slip_events"][-1]) == 0
+    assert int(samples[Plant.SLIP_EVENTS][-1]) == 0
 
 
 def test_cvode_on_the_full_plant_reproduces_the_check_trace(reference_rows, tmp_path, monkeypatch):
@@ -201,18 +202,18 @@ def test_cvode_on_the_full_plant_reproduces_the_check_trace(reference_rows, tmp_
     signals = gait_signals(reference_rows, tmp_path / "gait.csv")
     start = time.perf_counter()
     result = simulate_fmu(fmu("plant_full", "2.0"), fmi_type="ModelExchange", solver="CVode", stop_time=1.0,
-                          input=signals, output=["runner_position", "mode"])
+                          input=signals, output=[Plant.RUNNER_POSITION, Plant.MODE])
     wall = time.perf_counter() - start
     rows = at_samples(result)
     assert len(rows) == 501
-    counts = np.round(rows["runner_position"][1:] / Q_ENC).astype(int)
+    counts = np.round(rows[Plant.RUNNER_POSITION][1:] / Q_ENC).astype(int)
     assert_check_values(list(counts))
     ref = np.array([r["encoder_counts_after"] for r in reference_rows])
     dev = np.abs(counts - ref)
     print(f"InchwormPlantFull FMI 2.0 at FMPy's defaults: {wall:.1f} s, worst {dev.max()} count(s), "
           f"{events[0]} events, at least {steps[0]} CVode steps (before the last re-initialization)")
     assert dev.max() <= 2
-    assert np.array_equal(rows["mode"][1:], np.array([r["mode_after"] for r in reference_rows]))
+    assert np.array_equal(rows[Plant.MODE][1:], np.array([r["mode_after"] for r in reference_rows]))
 
 
 def test_fmpy_simulate_command_runs_model_exchange_at_its_defaults(reference_rows, tmp_path):
@@ -230,7 +231,7 @@ def test_fmpy_simulate_command_runs_model_exchange_at_its_defaults(reference_row
     result = np.genfromtxt(out, delimiter=",", names=True)
     rows = at_samples(result)
     assert len(rows) == 201
-    counts = np.round(rows["runner_position"][1:] / Q_ENC).astype(int)
+    counts = np.round(rows[Plant.RUNNER_POSITION][1:] / Q_ENC).astype(int)
     ref = np.array([r["encoder_counts_after"] for r in reference_rows[:200]])
     assert int(np.max(np.abs(counts - ref))) <= 2
     assert abs(counts[-1] * Q_ENC - 51.458e-6) < 0.02e-6  # s7 of the second gait, §2.9
@@ -247,8 +248,8 @@ def cs_fig5(tmp_path):
     out = {}
     for variant in ["full_control", "feedback_only"]:
         with open(tmp_path / f"fig5_{variant}.csv", newline="") as f:
-            out[variant] = [(float(r["time"]), int(r["encoder_counts"]),
-                             (float(r["dac_earth"]), float(r["dac_nonearth"]), float(r["dac_extension"])))
+            out[variant] = [(float(r["time"]), int(r[Plant.ENCODER_COUNTS]),
+                             (float(r[Plant.DAC_EARTH]), float(r[Plant.DAC_NONEARTH]), float(r[Plant.DAC_EXTENSION])))
                             for r in csv.DictReader(f)]
     return out
 
@@ -292,7 +293,7 @@ RMS_TOLERANCE = {("feedback_only", "default"): 0.5e-9, ("full_control", "default
                  ("feedback_only", "tight"): 0.1e-9, ("full_control", "tight"): 0.1e-9,
                  ("feedback_only", "tightest"): 0.1e-9, ("full_control", "tightest"): 0.1e-9}
 
-FEEDBACK_ONLY = {"feedforward": False, "use_scale_factor_estimate": False, "use_disturbance_estimate": False}
+FEEDBACK_ONLY = {Controller.FEEDFORWARD: False, Controller.USE_SCALE_FACTOR_ESTIMATE: False, Controller.USE_DISTURBANCE_ESTIMATE: False}
 
 
 def me_fig5(version, variant, samples, rtol=None, substeps=4):

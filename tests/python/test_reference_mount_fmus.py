@@ -11,6 +11,7 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
 from conftest import built_fmu
+from inchworm_variables import InchwormController as Controller, InchwormMount as Mount, InchwormReference as Reference
 
 # glibc before 2.34 (the floor is 2.17) kept libdl and libpthread apart from libc; every
 # glibc since still ships both names.
@@ -37,12 +38,12 @@ def test_validates_and_exports_only_fmi2_symbols(name, tmp_path):
 
 def test_reference_defaults_to_the_fig5_step_and_follows_a_ramped_table():
     fmu = built_fmu("InchwormReference")
-    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=["reference"])
-    assert np.all(r["reference"] == 100e-6)
-    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=["reference"],
-                     start_values={"n_points": 2, "times[1]": 0.1, "positions[1]": 20e-6,
-                                   "times[2]": 0.5, "positions[2]": -10e-6, "ramp_time": 0.1})
-    t, x = r["time"], r["reference"]
+    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=[Controller.REFERENCE])
+    assert np.all(r[Controller.REFERENCE] == 100e-6)
+    r = simulate_fmu(fmu, stop_time=1.0, output_interval=0.002, output=[Controller.REFERENCE],
+                     start_values={Reference.N_POINTS: 2, Reference.TIMES_1: 0.1, Reference.POSITIONS_1: 20e-6,
+                                   Reference.TIMES_2: 0.5, Reference.POSITIONS_2: -10e-6, Reference.RAMP_TIME: 0.1})
+    t, x = r["time"], r[Controller.REFERENCE]
     assert np.all(x[t < 0.099] == 0.0)
     np.testing.assert_allclose(x[np.isclose(t, 0.15)], 10e-6, rtol=1e-9)
     assert np.all(x[(t > 0.201) & (t < 0.499)] == 20e-6)
@@ -52,8 +53,8 @@ def test_reference_defaults_to_the_fig5_step_and_follows_a_ramped_table():
 
 def test_mount_turns_three_positions_into_piston_tip_and_tilt():
     fmu = built_fmu("InchwormMount")
-    r = simulate_fmu(fmu, stop_time=0.01, output_interval=0.002, output=["piston", "tip", "tilt"],
-                     start_values={"position_a": 30.2e-6, "position_b": 29.9e-6, "position_c": 29.9e-6})
-    np.testing.assert_allclose(r["piston"][-1], 30e-6, rtol=1e-12)
-    np.testing.assert_allclose(r["tip"][-1], 4e-6, rtol=1e-9)
-    assert abs(r["tilt"][-1]) < 1e-15
+    r = simulate_fmu(fmu, stop_time=0.01, output_interval=0.002, output=[Mount.PISTON, Mount.TIP, Mount.TILT],
+                     start_values={Mount.POSITION_A: 30.2e-6, Mount.POSITION_B: 29.9e-6, Mount.POSITION_C: 29.9e-6})
+    np.testing.assert_allclose(r[Mount.PISTON][-1], 30e-6, rtol=1e-12)
+    np.testing.assert_allclose(r[Mount.TIP][-1], 4e-6, rtol=1e-9)
+    assert abs(r[Mount.TILT][-1]) < 1e-15

@@ -14,6 +14,7 @@ from fmpy import read_model_description
 from fmpy.cross_check.validate_vendor_repo import validate_repo, validate_test_fmu
 
 from conftest import DIST, REFERENCE, ROOT
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 sys.path.insert(0, str(ROOT / "scripts"))
 import reference_results  # noqa: E402
@@ -71,7 +72,7 @@ def test_fmpy_reproduces_the_reference_results_from_the_fmu_alone(sub, name, tmp
         bad = np.flatnonzero(got != ref[col])
         assert bad.size == 0, f"{col} differs first at t = {ref['time'][bad[0]]}: {got[bad[0]]} vs {ref[col][bad[0]]}"
     if name == "InchwormReference":
-        assert np.all(ref["reference"] == 100e-6), "the default: the Fig. 5 step from t = 0"
+        assert np.all(ref[Controller.REFERENCE] == 100e-6), "the default: the Fig. 5 step from t = 0"
     else:
         assert any(np.ptp(ref[c]) > 0 for c in ref.dtype.names[1:]), "the experiment moves the outputs"
 
@@ -80,7 +81,7 @@ def test_the_plant_reference_output_is_the_independent_check_trace_within_one_co
     ref = read(ROOT / "fmu-build" / "reference" / "InchwormPlant" / "InchwormPlant_ref.csv")
     with open(REFERENCE, newline="") as f:
         independent = [int(float(r["encoder_counts_after"])) for r in csv.DictReader(f)]
-    counts = ref["encoder_counts"][1:].astype(int)
+    counts = ref[Plant.ENCODER_COUNTS][1:].astype(int)
     assert len(counts) == len(independent) == 500
     assert int(np.max(np.abs(counts - np.array(independent)))) <= 1
 
@@ -90,10 +91,10 @@ def test_the_controller_reference_output_is_the_fig5_loop():
     (the encoder within 1 µm over the last 50 ms, after the last correcting gait)."""
     d = ROOT / "fmu-build" / "reference" / "InchwormController"
     inp = read(d / "InchwormController_in.csv")
-    late = inp["encoder_counts"][inp["time"] >= 1.95] * 1.2e-3
+    late = inp[Plant.ENCODER_COUNTS][inp["time"] >= 1.95] * 1.2e-3
     assert late.size > 0 and np.all(np.abs(late - 100.0) < 1.0)
     out = read(d / "InchwormController_ref.csv")
-    assert np.any(out["dac_extension"] != 0) and np.all(out["dac_extension"][out["time"] > 1.95] == 0)
+    assert np.any(out[Plant.DAC_EXTENSION] != 0) and np.all(out[Plant.DAC_EXTENSION][out["time"] > 1.95] == 0)
 
 
 @pytest.mark.parametrize("sub,name", ALL_FMUS)

@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
+from inchworm_variables import InchwormMount as Mount
 
 sys.path.insert(0, str(ROOT / "python" / "inchworm_segments"))
 from inchworm_segments import __main__ as cli  # noqa: E402
@@ -120,7 +121,7 @@ def segment_light(optics, k, grid, tip=0.0, tilt=0.0):
     return np.asarray(prop.forward(hcipy.Wavefront(field, LAMBDA)).power)
 
 
-@pytest.mark.parametrize("axis", ["tilt", "tip"])
+@pytest.mark.parametrize("axis", [Mount.TILT, Mount.TIP])
 def test_a_segment_tilt_moves_its_light_by_twice_the_angle(optics, axis):
     k = 2
     lod = SMALL.lambda_over_d_rad
@@ -132,7 +133,7 @@ def test_a_segment_tilt_moves_its_light_by_twice_the_angle(optics, axis):
     flat = segment_light(optics, k, grid).reshape(optics.focal_shape)
     moved = segment_light(optics, k, grid, **{axis: theta}).reshape(optics.focal_shape)
     # x follows tilt (dz/dx), y follows tip (dz/dy); image arrays are [y, x].
-    if axis == "tilt":
+    if axis == Mount.TILT:
         assert np.allclose(moved[:, 3:], flat[:, :-3], atol=1e-12 * flat.max(), rtol=0)
     else:
         assert np.allclose(moved[3:, :], flat[:-3, :], atol=1e-12 * flat.max(), rtol=0)
@@ -141,7 +142,7 @@ def test_a_segment_tilt_moves_its_light_by_twice_the_angle(optics, axis):
     # PSF is centro-symmetric), and most of the light is in the field.
     theta = 0.37 * lod
     want = SMALL.tilt_shift_lambda_d(theta)  # −0.74 λ/D
-    centre = np.array([want, 0.0] if axis == "tilt" else [0.0, want]) * lod
+    centre = np.array([want, 0.0] if axis == Mount.TILT else [0.0, want]) * lod
     # A field symmetric about its centre (hcipy's focal grids hold the origin, one pixel off symmetry).
     field = hcipy.make_uniform_grid([64, 64], 16 * lod).shifted(centre)
     img = segment_light(optics, k, field, **{axis: theta})
@@ -154,7 +155,7 @@ def test_a_segment_tilt_moves_its_light_by_twice_the_angle(optics, axis):
     assert abs(still @ np.asarray(axis_field.y)) / still.sum() / lod < 1e-3
     # And the field on the axis does not hold the tilted light there: the closed form is what fits.
     off = segment_light(optics, k, axis_field, **{axis: theta})
-    c_off = (off @ np.asarray(axis_field.x if axis == "tilt" else axis_field.y)) / off.sum() / lod
+    c_off = (off @ np.asarray(axis_field.x if axis == Mount.TILT else axis_field.y)) / off.sum() / lod
     assert c_off < 0.8 * want, c_off  # pulled toward the axis by the field's edge, but well off it
 
 

@@ -12,6 +12,7 @@ from fmpy.ssp.ssd import read_ssd, read_ssv
 
 import ssp_masters as m
 from conftest import DIST
+from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 SETS = {
     "plant": ["default", "fia20", "fia6"],
@@ -43,10 +44,10 @@ def test_closed_system_validates_and_connects_only_components(system_ssp, tmp_pa
     assert ssd.system.connectors == [], "no system connectors: nothing to feed from outside"
     ends = {(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in ssd.system.connections}
     assert all(a is not None and b is not None for a, _, b, _ in ends), "a component at both ends"
-    for ch in ["dac_earth", "dac_nonearth", "dac_extension"]:
+    for ch in [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION]:
         assert ("controller", ch, "plant", ch) in ends
-    assert ("plant", "encoder_counts", "controller", "encoder_counts") in ends
-    assert ("reference", "reference", "controller", "reference") in ends
+    assert ("plant", Plant.ENCODER_COUNTS, "controller", Plant.ENCODER_COUNTS) in ends
+    assert ("reference", Controller.REFERENCE, "controller", Controller.REFERENCE) in ends
     with zipfile.ZipFile(system_ssp) as z:
         z.extractall(tmp_path)
         ssvs = [n for n in z.namelist() if n.endswith(".ssv")]
@@ -69,7 +70,7 @@ def test_each_components_first_binding_equals_the_fmu_defaults(system_ssp):
     # Names are relative to the component: no prefix in any set.
     assert all("." not in n for s in sets.values() for c in s.values() for n in c)
     assert sets["fia6"]["plant"]["T_em"] == ("Real", "2.5") and sets["fia20"]["plant"]["T_em"] == ("Real", "8.8")
-    assert sets["feedback-only"]["controller"]["feedforward"] == ("Boolean", "false")
+    assert sets["feedback-only"]["controller"][Controller.FEEDFORWARD] == ("Boolean", "false")
 
 
 def settle_time(t, counts, target=100e-6, tol=1e-6):
@@ -90,9 +91,9 @@ def test_inchworm_runs_the_closed_system_with_no_input_and_every_set_changes_the
     assert np.all(base["reference.reference"] == 100e-6), "the Fig. 5 step from t = 0"
     enc = base["plant.encoder_counts"]
     assert abs(enc[-1] * 1.2e-9 - 100e-6) < 1e-6
-    runs = {s: m.inchworm(system_ssp, 10, n, parameter_set=s)[1][n[0]] for s in ["default", "full-control", "feedback-only", "prefilter", "fia20", "fia6"]}
+    runs = {s: m.inchworm(system_ssp, 10, n, parameter_set=s)[1][n[0]] for s in ["default", "full-control", "feedback-only", Controller.PREFILTER, "fia20", "fia6"]}
     assert np.array_equal(runs["default"], enc) and np.array_equal(runs["full-control"], enc) and np.array_equal(runs["fia20"], enc)
-    for s in ["feedback-only", "prefilter", "fia6"]:
+    for s in ["feedback-only", Controller.PREFILTER, "fia6"]:
         assert not np.array_equal(runs[s], enc), s
     assert settle_time(t, runs["feedback-only"]) > settle_time(t, enc) + 0.5, "feedback only settles later"
     _, stair = m.inchworm(system_ssp, 2, ["reference.reference"], parameter_set="staircase")
@@ -104,9 +105,9 @@ def test_inchworm_runs_the_closed_system_with_no_input_and_every_set_changes_the
 def test_open_variant_validates_and_runs_in_fmpy_with_a_system_input(open_ssp, tmp_path):
     ssd = read_ssd(open_ssp, validate=True)
     assert [e.name for e in ssd.system.elements] == ["plant", "controller"]
-    assert [c.name for c in ssd.system.connectors][0] == "reference"
+    assert [c.name for c in ssd.system.connectors][0] == Controller.REFERENCE
     stop = 4.0
-    r = simulate_ssp(open_ssp, stop_time=stop, step_size=0.002, input={"reference": lambda t: 100e-6})
+    r = simulate_ssp(open_ssp, stop_time=stop, step_size=0.002, input={Controller.REFERENCE: lambda t: 100e-6})
     ref = tmp_path / "ref.csv"
     ref.write_text("time,reference\n0,0\n0.002,100e-6\n")
     out = tmp_path / "run.csv"

@@ -78,22 +78,30 @@ impl Default for AnalogParams {
 impl AnalogParams {
     pub fn validate(&self) -> Result<(), String> {
         if !(self.gain.is_finite() && self.gain > 0.0) {
-            return Err(format!("analog_gain must be > 0, got {}", self.gain));
+            return Err(format!("{} must be > 0, got {}", Self::GAIN.name(), self.gain));
         }
         if !(self.loop_gain > 0.0 && self.loop_gain < 1.0) {
-            return Err(format!("analog_loop_gain must be in (0, 1), got {}", self.loop_gain));
+            return Err(format!(
+                "{} must be in (0, 1), got {}",
+                Self::LOOP_GAIN.name(),
+                self.loop_gain
+            ));
         }
         if !(self.recentre_band >= 0.5 && self.recentre_band < 4.0) {
             return Err(format!(
-                "analog_recentre_band must be in [0.5, 4) V, got {}",
+                "{} must be in [0.5, 4) V, got {}",
+                Self::RECENTRE_BAND.name(),
                 self.recentre_band
             ));
         }
         let reach = (MID - self.recentre_band) * self.gain;
         if !(self.range > 0.0 && 2.0 * self.range < reach) {
             return Err(format!(
-                "analog_range must be > 0 and twice it (the exit threshold) below what the extension reaches from mid-range, (5 V − analog_recentre_band) × analog_gain = {reach:e} m, got {}",
-                self.range
+                "{range} must be > 0 and twice it (the exit threshold) below what the extension reaches from mid-range, (5 V − {band}) × {gain} = {reach:e} m, got {}",
+                self.range,
+                range = Self::RANGE.name(),
+                band = Self::RECENTRE_BAND.name(),
+                gain = Self::GAIN.name(),
             ));
         }
         Ok(())

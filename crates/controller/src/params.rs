@@ -121,60 +121,74 @@ impl Params {
             }
         };
         if !(self.deadband.is_finite() && self.deadband >= 0.0) {
-            return Err(format!("deadband must be >= 0, got {}", self.deadband));
+            return Err(format!("{} must be >= 0, got {}", Params::DEADBAND.name(), self.deadband));
         }
         if !(7..=10_000).contains(&self.samples_per_step) {
             return Err(format!(
-                "samples_per_step must be within 7..10000, got {}",
+                "{} must be within 7..10000, got {}",
+                Params::SAMPLES_PER_STEP.name(),
                 self.samples_per_step
             ));
         }
-        positive("compensator_gain", self.gains.k)?;
+        positive(Gains::K.name(), self.gains.k)?;
         if !(0.0..1.0).contains(&self.gains.a) {
-            return Err(format!("compensator_zero must be in [0, 1), got {}", self.gains.a));
+            return Err(format!("{} must be in [0, 1), got {}", Gains::A.name(), self.gains.a));
         }
         if !(0.0..1.0).contains(&self.gains.prefilter_pole) {
             return Err(format!(
-                "prefilter_pole must be in [0, 1), got {}",
+                "{} must be in [0, 1), got {}",
+                Gains::PREFILTER_POLE.name(),
                 self.gains.prefilter_pole
             ));
         }
         let n = &self.noise;
         for (name, v) in [
-            ("weight_prior", n.weight_prior),
-            ("disturbance_prior", n.disturbance_prior),
-            ("weight_process_noise", n.weight_process),
-            ("disturbance_process_noise", n.disturbance_process),
-            ("ext_cmd_noise", n.ext_cmd_measurement),
-            ("bd_noise", n.bd_measurement),
+            (Noise::WEIGHT_PRIOR, n.weight_prior),
+            (Noise::DISTURBANCE_PRIOR, n.disturbance_prior),
+            (Noise::WEIGHT_PROCESS, n.weight_process),
+            (Noise::DISTURBANCE_PROCESS, n.disturbance_process),
+            (Noise::EXT_CMD_MEASUREMENT, n.ext_cmd_measurement),
+            (Noise::BD_MEASUREMENT, n.bd_measurement),
         ] {
-            positive(name, v)?;
+            positive(name.name(), v)?;
         }
-        Basis::new(self.basis_peaks).map_err(|e| format!("basis_peak: {e}"))?;
+        Basis::new(self.basis_peaks).map_err(|e| format!("{}: {e}", Params::BASIS_PEAKS.name()))?;
         for (i, w) in self.scale_weights_start.iter().enumerate() {
-            finite(&format!("scale_weights_start[{}]", i + 1), *w)?;
+            finite(&format!("{}[{}]", Params::SCALE_WEIGHTS_START.name(), i + 1), *w)?;
         }
-        finite("disturbance_start", self.disturbance_start)?;
-        positive("q_enc", self.q_enc)?;
+        finite(Params::DISTURBANCE_START.name(), self.disturbance_start)?;
+        positive(Params::Q_ENC.name(), self.q_enc)?;
         if self.use_disturbance_map && !(self.disturbance_map && self.use_disturbance_estimate) {
-            return Err(
-                "use_disturbance_map needs disturbance_map and use_disturbance_estimate on".into(),
-            );
+            return Err(format!(
+                "{} needs {} and {} on",
+                Params::USE_DISTURBANCE_MAP.name(),
+                Params::DISTURBANCE_MAP.name(),
+                Params::USE_DISTURBANCE_ESTIMATE.name()
+            ));
         }
         if self.single_integrator {
             if !self.use_disturbance_map {
-                return Err("single_integrator needs use_disturbance_map on (the map's prediction replaces the second integrator)".into());
+                return Err(format!(
+                    "{} needs {} on (the map's prediction replaces the second integrator)",
+                    Params::SINGLE_INTEGRATOR.name(),
+                    Params::USE_DISTURBANCE_MAP.name()
+                ));
             }
             let k = self.single_integrator_gain;
             if !(k > 0.0 && k < 2.0) {
-                return Err(format!("single_integrator_gain must be in (0, 2), got {k}"));
+                return Err(format!(
+                    "{} must be in (0, 2), got {k}",
+                    Params::SINGLE_INTEGRATOR_GAIN.name()
+                ));
             }
         }
         if self.analog {
             self.analog_params.validate()?;
             if self.deadband > 0.0 {
                 return Err(format!(
-                    "deadband must be 0 with analog on (analog mode holds the target instead of parking), got {}",
+                    "{} must be 0 with {} on (analog mode holds the target instead of parking), got {}",
+                    Params::DEADBAND.name(),
+                    Params::ANALOG.name(),
                     self.deadband
                 ));
             }

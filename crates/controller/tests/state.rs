@@ -70,7 +70,7 @@ fn bad_payloads_are_refused_and_change_nothing() {
     trailing.push(0);
     refuse(&mut c, &trailing, "trailing");
     let mut ten = Controller::new(Params { samples_per_step: 10, ..Params::default() }).unwrap();
-    refuse(&mut ten, &good, "samples_per_step");
+    refuse(&mut ten, &good, Params::SAMPLES_PER_STEP.name());
     let mut after = Vec::new();
     c.save_state(&mut after);
     assert_eq!(after, good, "a refused load leaves the controller as it was");

@@ -15,6 +15,7 @@ use inchworm_dos_actors::interface::{TryRead, TryWrite};
 use inchworm_dos_actors::uid::{EncoderCounts, Piston, Reference, RunnerPosition, Tilt, Tip};
 use inchworm_dos_actors::{Inchworm, Logger, MirrorMount, Mount, ReferenceSource, Sampler};
 use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
+use inchworm_fmu_models::ReferenceFmu;
 use tokio::sync::Mutex;
 
 pub type BoxError = Box<dyn std::error::Error + Send + Sync>;
@@ -148,11 +149,16 @@ pub async fn one_client(
 pub fn commands() -> [Vec<(String, f64)>; 3] {
     let z = actuator_positions(30e-6, 4e-6, 0.0, RADIUS, ANGLE_A_DEG);
     std::array::from_fn(|i| {
-        [("n_points", 2.0), ("times[1]", 0.0), ("positions[1]", 30e-6)]
-            .into_iter()
-            .chain([("times[2]", 4.0), ("positions[2]", z[i])])
-            .map(|(n, x)| (n.to_string(), x))
-            .collect()
+        [
+            (ReferenceFmu::N_POINTS, 2.0),
+            (ReferenceFmu::TIMES_1, 0.0),
+            (ReferenceFmu::POSITIONS_1, 30e-6),
+            (ReferenceFmu::TIMES_2, 4.0),
+            (ReferenceFmu::POSITIONS_2, z[i]),
+        ]
+        .into_iter()
+        .map(|(v, x)| (v.name().to_string(), x))
+        .collect()
     })
 }
 

@@ -82,9 +82,10 @@ fn check(logger: &Logger, trace: &inchworm_cosim::Trace) {
     let col = |n: String| trace.column(&n).unwrap();
     let pose = |v: Var<MountFmu>| col(path("mount", v));
     let encoder = |x: &str| col(path(&format!("plant_{x}"), PlantFmu::ENCODER_COUNTS));
-    same_bits("piston", logger.column::<Piston>(), &pose(MountFmu::PISTON));
-    same_bits("tip", logger.column::<Tip>(), &pose(MountFmu::TIP));
-    same_bits("tilt", logger.column::<Tilt>(), &pose(MountFmu::TILT));
+    let (piston, tip, tilt) = (MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT);
+    same_bits(piston.name(), logger.column::<Piston>(), &pose(piston));
+    same_bits(tip.name(), logger.column::<Tip>(), &pose(tip));
+    same_bits(tilt.name(), logger.column::<Tilt>(), &pose(tilt));
     same_bits("encoder a", logger.column::<EncoderCounts<0>>(), &encoder("a"));
     same_bits("encoder b", logger.column::<EncoderCounts<1>>(), &encoder("b"));
     same_bits("encoder c", logger.column::<EncoderCounts<2>>(), &encoder("c"));

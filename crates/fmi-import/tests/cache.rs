@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use common::{dist, entries, scratch, write_zip};
 use inchworm_fmi_import::archive::{cache, Limits};
 use inchworm_fmi_import::{CsFmu, ImportError, VarType};
+use inchworm_fmu_models::{Dac, PlantFmu};
 
 /// Everything in `dir`, sorted by name.
 fn listing(dir: &Path) -> Vec<String> {
@@ -165,8 +166,8 @@ fn a_cache_others_may_write_to_is_refused() {
 /// The bits of the stack's extension after `steps` 2 ms steps of the plant at 10 V on the
 /// extension DAC.
 fn extension_after(fmu: &mut CsFmu, steps: usize) -> u64 {
-    let dac = fmu.vrs_of(&["dac_extension"], VarType::Real).unwrap();
-    let ext = fmu.var_of("extension", VarType::Real).unwrap().vr;
+    let dac = fmu.vrs_of(&[Dac::EXTENSION.name()], VarType::Real).unwrap();
+    let ext = fmu.var_of(PlantFmu::EXTENSION.name(), VarType::Real).unwrap().vr;
     fmu.enter_initialization(None, 0.0, None).unwrap();
     fmu.exit_initialization().unwrap();
     fmu.set_real(&dac, &[10.0]).unwrap();

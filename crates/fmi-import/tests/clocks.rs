@@ -11,11 +11,11 @@ use common::dist;
 use inchworm_fmi_import::{
     Causality, CsFmu, FmuError, Interface, IntervalQualifier, IntervalVariability, SeFmu, VarType,
 };
+use inchworm_fmu_models::{ControllerFmu, ControllerParams};
 
 const H: f64 = 0.002;
 const SAMPLES: usize = 500;
 const REFERENCE: f64 = 30e-6;
-const CODES: [&str; 3] = ["dac_earth_code", "dac_nonearth_code", "dac_extension_code"];
 
 fn controller() -> std::path::PathBuf {
     dist("fmi3/InchwormController.fmu")
@@ -40,7 +40,7 @@ fn the_controller_declares_its_clocks_event_mode_and_scheduled_execution() {
     let sample = md.clock(5).unwrap();
     assert_eq!(
         (sample.name.as_str(), sample.causality, sample.interval_variability),
-        ("sample_clock", Causality::Input, IntervalVariability::Constant)
+        (ControllerFmu::SAMPLE_CLOCK.name(), Causality::Input, IntervalVariability::Constant)
     );
     assert_eq!(
         (sample.interval_decimal, sample.shift_decimal, sample.priority),
@@ -50,17 +50,20 @@ fn the_controller_declares_its_clocks_event_mode_and_scheduled_execution() {
     let gait = md.clock(25).unwrap();
     assert_eq!(
         (gait.name.as_str(), gait.causality, gait.interval_variability, gait.interval_decimal),
-        ("gait_step", Causality::Output, IntervalVariability::Triggered, None)
+        (ControllerFmu::GAIT_STEP.name(), Causality::Output, IntervalVariability::Triggered, None)
     );
     assert!(!gait.is_periodic());
     let clocks = |name: &str| md.variable(name).unwrap().clocks.clone();
-    assert_eq!(clocks("encoder_counts"), [5]);
-    assert_eq!(clocks("dac_extension_code"), [5]);
-    assert_eq!(clocks("disturbance_estimate"), [25]);
-    assert_eq!(clocks("scale_weights[3]"), [25]);
-    assert_eq!(clocks("q_enc"), Vec::<u32>::new());
+    assert_eq!(clocks(ControllerFmu::ENCODER_COUNTS.name()), [5]);
+    assert_eq!(clocks(ControllerFmu::DAC_EXTENSION_CODE.name()), [5]);
+    assert_eq!(clocks(ControllerFmu::DISTURBANCE_ESTIMATE.name()), [25]);
+    assert_eq!(clocks(ControllerFmu::SCALE_WEIGHTS[2].name()), [25]);
+    assert_eq!(clocks(ControllerParams::Q_ENC.name()), Vec::<u32>::new());
     // Clocks are not scalar values: the master addresses them with the clock calls.
-    assert!(matches!(fmu.var("sample_clock"), Err(FmuError::UnknownVariable { .. })));
+    assert!(matches!(
+        fmu.var(ControllerFmu::SAMPLE_CLOCK.name()),
+        Err(FmuError::UnknownVariable { .. })
+    ));
     for i in
         [Interface::CoSimulation, Interface::CoSimulationEventMode, Interface::ScheduledExecution]
     {
@@ -78,13 +81,13 @@ struct Run {
 
 fn initialize(fmu: &mut inchworm_fmi_import::Instance) {
     fmu.enter_initialization(None, 0.0, Some(1.0)).unwrap();
-    let r = fmu.var_of("reference", VarType::Real).unwrap().vr;
+    let r = fmu.var_of(ControllerFmu::REFERENCE.name(), VarType::Real).unwrap().vr;
     fmu.set_real(&[r], &[REFERENCE]).unwrap();
     fmu.exit_initialization().unwrap();
 }
 
 fn codes(fmu: &mut inchworm_fmi_import::Instance) -> [i32; 3] {
-    let vrs = fmu.vrs_of(&CODES, VarType::Integer).unwrap();
+    let vrs = fmu.vrs_of(&ControllerFmu::DAC_CODES.map(|v| v.name()), VarType::Integer).unwrap();
     let mut out = [0; 3];
     fmu.get_integer(&vrs, &mut out).unwrap();
     out
@@ -93,7 +96,7 @@ fn codes(fmu: &mut inchworm_fmi_import::Instance) -> [i32; 3] {
 fn plain(enc: &[i32]) -> Run {
     let mut fmu = CsFmu::load(&controller(), "plain", false).unwrap();
     initialize(&mut fmu);
-    let e = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
+    let e = fmu.var_of(ControllerFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
     let mut run = Run { codes: vec![codes(&mut fmu)], gait: Vec::new() };
     for &counts in &enc[..SAMPLES] {
         fmu.set_integer(&[e], &[counts]).unwrap();
@@ -110,7 +113,7 @@ fn events(enc: &[i32]) -> Run {
     let mut fmu = CsFmu::load_event_mode(&controller(), "events", false).unwrap();
     assert!(fmu.event_mode_used());
     initialize(&mut fmu);
-    let e = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
+    let e = fmu.var_of(ControllerFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
     let interval = fmu.intervals(&[5]).unwrap()[0];
     assert_eq!(interval.value, 0.002);
     assert_eq!(interval.qualifier, IntervalQualifier::Unchanged, "a constant clock's");
@@ -141,7 +144,7 @@ fn events(enc: &[i32]) -> Run {
 fn scheduled(enc: &[i32]) -> (Run, u64) {
     let mut fmu = SeFmu::load(&controller(), "scheduled", false).unwrap();
     initialize(&mut fmu);
-    let e = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
+    let e = fmu.var_of(ControllerFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
     let (mut run, mut locks) = (Run::default(), 0);
     for (k, &counts) in enc.iter().enumerate() {
         fmu.set_integer(&[e], &[counts]).unwrap();

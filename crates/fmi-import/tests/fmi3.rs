@@ -5,6 +5,7 @@ mod common;
 
 use common::dist;
 use inchworm_fmi_import::{CsFmu, FmuError, VarType};
+use inchworm_fmu_models::{ControllerFmu, Dac, PlantFmu, PlantParams};
 
 fn load_pair() -> (CsFmu, CsFmu) {
     let f2 = CsFmu::load(&dist("InchwormPlant.fmu"), "plant2", false).unwrap();
@@ -40,7 +41,7 @@ fn an_fmi3_fmu_loads_with_the_fmi2_variables() {
     );
     assert_eq!(f3.default_step_size(), Some(0.002));
     assert!(matches!(f3.var("time"), Err(FmuError::UnknownVariable { .. })));
-    assert_eq!(f3.var_of("encoder_counts", VarType::Integer).unwrap().vr, 10);
+    assert_eq!(f3.var_of(PlantFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr, 10);
 }
 
 #[test]
@@ -48,13 +49,13 @@ fn the_fmi3_plant_steps_bit_for_bit_like_the_fmi2_plant() {
     let (mut f2, mut f3) = load_pair();
     for f in [&mut f2, &mut f3] {
         f.enter_initialization(None, 0.0, Some(1.0)).unwrap();
-        let tem = f.var_of("T_em", VarType::Real).unwrap().vr;
+        let tem = f.var_of(PlantParams::T_EM.name(), VarType::Real).unwrap().vr;
         f.set_real(&[tem], &[2.5]).unwrap();
         f.exit_initialization().unwrap();
     }
-    let dac = f3.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap();
-    let enc = f3.var_of("encoder_counts", VarType::Integer).unwrap().vr;
-    let closed = f3.var_of("earth_closed", VarType::Boolean).unwrap().vr;
+    let dac = f3.vrs_of(&PlantFmu::DAC_INPUTS.map(|v| v.name()), VarType::Real).unwrap();
+    let enc = f3.var_of(PlantFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
+    let closed = f3.var_of(PlantFmu::EARTH_CLOSED.name(), VarType::Boolean).unwrap().vr;
     for k in 0..400 {
         let phase = (k / 15) % 6;
         let volts = [
@@ -77,7 +78,7 @@ fn the_fmi3_plant_steps_bit_for_bit_like_the_fmi2_plant() {
         }
         assert_eq!(seen[0], seen[1], "sample {k}");
     }
-    assert!(f3.real("runner_position").unwrap() != 0.0, "the gait moved the runner");
+    assert!(f3.real(PlantFmu::RUNNER_POSITION.name()).unwrap() != 0.0, "the gait moved the runner");
     f3.terminate().unwrap();
 }
 
@@ -86,7 +87,7 @@ fn a_refused_fmi3_call_is_an_error_naming_the_call() {
     let (_, mut f3) = load_pair();
     f3.enter_initialization(None, 0.0, None).unwrap();
     f3.exit_initialization().unwrap();
-    let dac = f3.var_of("dac_earth", VarType::Real).unwrap().vr;
+    let dac = f3.var_of(PlantFmu::var(Dac::EARTH).name(), VarType::Real).unwrap().vr;
     let e = f3.set_real(&[dac], &[f64::NAN]).unwrap_err();
     assert!(matches!(e, FmuError::Call { function: "fmi3SetFloat64", .. }), "{e}");
     assert!(e.to_string().contains("fmi3SetFloat64 returned fmi3Error at t = 0 s"), "{e}");
@@ -103,13 +104,17 @@ fn a_refused_fmi3_call_is_an_error_naming_the_call() {
 fn both_fmi3_fmus_of_the_system_load() {
     let c = CsFmu::load(&dist("fmi3/InchwormController.fmu"), "controller3", false).unwrap();
     assert_eq!(c.fmi_version(), "3.0");
-    assert_eq!(c.causality("encoder_counts").as_deref(), Some("input"));
+    assert_eq!(c.causality(ControllerFmu::ENCODER_COUNTS.name()).as_deref(), Some("input"));
 }
 
 #[test]
 fn array_elements_are_got_and_set_by_their_fmi2_names() {
     let (mut f2, mut f3) = load_pair();
-    let names = ["play_radius[2]", "C", "play_weight[5]", "play_radius[4]"];
+    let (radius, weight) =
+        (PlantFmu::var(PlantParams::PLAY_RADIUS), PlantFmu::var(PlantParams::PLAY_WEIGHT));
+    let names =
+        [radius.element(1), PlantFmu::var(PlantParams::C), weight.element(4), radius.element(3)]
+            .map(|v| v.name());
     for f in [&mut f2, &mut f3] {
         f.enter_initialization(None, 0.0, Some(1.0)).unwrap();
         let vrs = f.vrs_of(&names, VarType::Real).unwrap();
@@ -119,15 +124,14 @@ fn array_elements_are_got_and_set_by_their_fmi2_names() {
         f.set_real(&vrs, &[31.0, 5e-6, 0.045, 61.0]).unwrap();
         f.get_real(&vrs, &mut v).unwrap();
         assert_eq!(v, [31.0, 5e-6, 0.045, 61.0]);
-        let all: Vec<u32> =
-            (1..=5).map(|k| f.var(&format!("play_radius[{k}]")).unwrap().vr).collect();
+        let all: Vec<u32> = (0..5).map(|k| f.var(radius.element(k).name()).unwrap().vr).collect();
         let mut radii = [0.0; 5];
         f.get_real(&all, &mut radii).unwrap();
         assert_eq!(radii, [15.0, 31.0, 45.0, 61.0, 75.0], "only the elements named changed");
         f.exit_initialization().unwrap();
     }
     // A NaN element is refused by the FMU, naming the element.
-    let vr = f3.var("play_weight[2]").unwrap().vr;
+    let vr = f3.var(weight.element(1).name()).unwrap().vr;
     let e = f3.set_real(&[vr], &[f64::NAN]).unwrap_err().to_string();
     assert!(e.contains("fmi3SetFloat64"), "{e}");
 }

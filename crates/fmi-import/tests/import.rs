@@ -7,6 +7,7 @@ mod common;
 
 use common::{dist, plant_variant, replace_once, scratch};
 use inchworm_fmi_import::{Causality, CsFmu, FmuError, Status, VarType, Variability};
+use inchworm_fmu_models::{ControllerFmu, ControllerParams, PlantFmu};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
 const H: f64 = 0.002;
@@ -20,30 +21,40 @@ fn both_fmus_load_with_their_variables() {
     assert!(plant.binary_version().starts_with("2."));
     assert_eq!(plant.default_step_size(), Some(0.002));
     assert_eq!(
-        plant.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap(),
+        plant.vrs_of(&PlantFmu::DAC_INPUTS.map(|v| v.name()), VarType::Real).unwrap(),
         [1, 2, 3]
     );
-    assert_eq!(plant.var_of("encoder_counts", VarType::Integer).unwrap().vr, 10);
+    assert_eq!(plant.var_of(PlantFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr, 10);
     // 47 of the interface and 30 locals: the model's states it reports (the stack's nodes,
     // the runner's velocity, the channels), the reduced formulation's two runner states, the
     // 11 derivatives and the 5 event indicators.
     assert_eq!(plant.variables().count(), 77);
     assert_eq!(plant.names_with_causality("local").len(), 30);
-    let dac = plant.variables().find(|v| v.name == "dac_earth").unwrap();
+    let dac = plant.variables().find(|v| v.name == Dac::EARTH.name()).unwrap();
     assert_eq!(
         (dac.causality, dac.variability, dac.start.as_deref()),
         (Causality::Input, Variability::Continuous, Some("0"))
     );
-    assert_eq!(plant.names_with_causality("input"), ["dac_earth", "dac_nonearth", "dac_extension"]);
-    assert_eq!(plant.causality("encoder_counts").as_deref(), Some("output"));
+    assert_eq!(plant.names_with_causality("input"), PlantFmu::DAC_INPUTS.map(|v| v.name()));
+    assert_eq!(plant.causality(PlantFmu::ENCODER_COUNTS.name()).as_deref(), Some("output"));
 
     let ctrl = CsFmu::load(&dist("InchwormController.fmu"), "controller", false).unwrap();
     assert_eq!(ctrl.model_name(), "InchwormController");
     assert_eq!(ctrl.variables().count(), 71);
-    assert_eq!(ctrl.vrs_of(&["reference"], VarType::Real).unwrap(), [2]);
-    assert_eq!(ctrl.vrs_of(&["encoder_counts"], VarType::Integer).unwrap(), [1]);
-    assert_eq!(ctrl.vrs_of(&["feedforward", "prefilter"], VarType::Boolean).unwrap(), [100, 101]);
-    assert_eq!(ctrl.causality("scale_weights[3]").as_deref(), Some("output"));
+    assert_eq!(ctrl.vrs_of(&[ControllerFmu::REFERENCE.name()], VarType::Real).unwrap(), [2]);
+    assert_eq!(
+        ctrl.vrs_of(&[ControllerFmu::ENCODER_COUNTS.name()], VarType::Integer).unwrap(),
+        [1]
+    );
+    assert_eq!(
+        ctrl.vrs_of(
+            &[ControllerParams::FEEDFORWARD.name(), ControllerParams::PREFILTER.name()],
+            VarType::Boolean
+        )
+        .unwrap(),
+        [100, 101]
+    );
+    assert_eq!(ctrl.causality(ControllerFmu::SCALE_WEIGHTS[2].name()).as_deref(), Some("output"));
     // Two instances of one FMU at once, each with its own unpacked copy.
     let plant2 = CsFmu::load(&dist("InchwormPlant.fmu"), "plant2", false).unwrap();
     assert_ne!(plant.unpacked_dir(), plant2.unpacked_dir());
@@ -52,10 +63,9 @@ fn both_fmus_load_with_their_variables() {
 /// Runs the plant FMU `n` steps of 2 ms with `dac` held, returning (encoder counts, runner
 /// position) after every step.
 fn run_fmu(fmu: &mut CsFmu, dac: Dac, n: usize) -> Vec<(i64, f64)> {
-    let inputs =
-        fmu.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap();
-    let enc = fmu.var_of("encoder_counts", VarType::Integer).unwrap().vr;
-    let runner = fmu.var_of("runner_position", VarType::Real).unwrap().vr;
+    let inputs = fmu.vrs_of(&PlantFmu::DAC_INPUTS.map(|v| v.name()), VarType::Real).unwrap();
+    let enc = fmu.var_of(PlantFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
+    let runner = fmu.var_of(PlantFmu::RUNNER_POSITION.name(), VarType::Real).unwrap().vr;
     fmu.enter_initialization(None, 0.0, None).unwrap();
     fmu.exit_initialization().unwrap();
     (0..n)
@@ -356,20 +366,24 @@ fn bad_files_are_refused_clearly() {
     let e = load_err(&bad_vr);
     assert!(
         e.contains("line ")
-            && e.contains(
-                r#"name="dac_extension"> valueReference="three" is not an unsigned 32-bit integer"#
-            ),
+            && e.contains(&format!(
+                r#"name="{}"> valueReference="three" is not an unsigned 32-bit integer"#,
+                Dac::EXTENSION.name()
+            )),
         "{e}"
     );
 
     let dup = plant_variant(
         &dir,
         "dup.fmu",
-        |m| replace_once(m, r#"name="dac_nonearth""#, r#"name="dac_earth""#),
+        |m| {
+            let name = |n: &str| format!(r#"name="{n}""#);
+            replace_once(m, &name(Dac::NONEARTH.name()), &name(Dac::EARTH.name()))
+        },
         |n, b| Some((n.to_owned(), b)),
     );
     let e = load_err(&dup);
-    assert!(e.contains("a second variable named `dac_earth`"), "{e}");
+    assert!(e.contains(&format!("a second variable named `{}`", Dac::EARTH.name())), "{e}");
 
     let no_cs = plant_variant(
         &dir,
@@ -395,10 +409,11 @@ fn bad_names_and_types_are_refused_clearly() {
         e.contains("`nope`") && e.contains("InchwormPlant") && e.contains("no variable named"),
         "{e}"
     );
-    let e = fmu.var_of("dac_earth", VarType::Integer).unwrap_err().to_string();
-    assert!(e.contains("`dac_earth` is Real, expected Integer"), "{e}");
-    let e = fmu.vrs_of(&["dac_earth", "encoder_counts"], VarType::Real).unwrap_err().to_string();
-    assert!(e.contains("`encoder_counts` is Integer, expected Real"), "{e}");
+    let (earth, counts) = (Dac::EARTH.name(), PlantFmu::ENCODER_COUNTS.name());
+    let e = fmu.var_of(earth, VarType::Integer).unwrap_err().to_string();
+    assert!(e.contains(&format!("`{earth}` is Real, expected Integer")), "{e}");
+    let e = fmu.vrs_of(&[earth, counts], VarType::Real).unwrap_err().to_string();
+    assert!(e.contains(&format!("`{counts}` is Integer, expected Real")), "{e}");
     assert!(fmu.real("nope").is_err());
 
     // A refused call: a NaN input is fmi2Error, named with the call and the time.

@@ -8,6 +8,7 @@ use std::sync::Mutex;
 
 use common::dist;
 use inchworm_fmi_import::{CsFmu, VarType};
+use inchworm_fmu_models::Dac;
 
 struct Capture(Mutex<Vec<(log::Level, String, String)>>);
 
@@ -34,7 +35,7 @@ fn the_fmus_messages_arrive_formatted() {
 
     let mut fmu = CsFmu::load(&dist("InchwormPlant.fmu"), "logged plant", true).unwrap();
     fmu.enter_initialization(None, 0.0, None).unwrap();
-    let earth = fmu.var_of("dac_earth", VarType::Real).unwrap().vr;
+    let earth = fmu.var_of(Dac::EARTH.name(), VarType::Real).unwrap().vr;
     assert!(fmu.set_real(&[earth], &[f64::NAN]).is_err());
     let log = records("logged plant");
     let refused = log

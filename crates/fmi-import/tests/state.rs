@@ -6,6 +6,7 @@ mod common;
 
 use common::dist;
 use inchworm_fmi_import::{CsFmu, FmuError, VarType};
+use inchworm_fmu_models::PlantFmu;
 
 const H: f64 = 0.002;
 
@@ -18,10 +19,10 @@ fn started(name: &str) -> CsFmu {
 
 /// `n` steps of the gait from step `k0`; the outputs of each step, as bits.
 fn gait(f: &mut CsFmu, k0: usize, n: usize) -> Vec<(i32, bool, u64, u64)> {
-    let dac = f.vrs_of(&["dac_earth", "dac_nonearth", "dac_extension"], VarType::Real).unwrap();
-    let enc = f.var_of("encoder_counts", VarType::Integer).unwrap().vr;
-    let closed = f.var_of("earth_closed", VarType::Boolean).unwrap().vr;
-    let x = f.var_of("runner_position", VarType::Real).unwrap().vr;
+    let dac = f.vrs_of(&PlantFmu::DAC_INPUTS.map(|v| v.name()), VarType::Real).unwrap();
+    let enc = f.var_of(PlantFmu::ENCODER_COUNTS.name(), VarType::Integer).unwrap().vr;
+    let closed = f.var_of(PlantFmu::EARTH_CLOSED.name(), VarType::Boolean).unwrap().vr;
+    let x = f.var_of(PlantFmu::RUNNER_POSITION.name(), VarType::Real).unwrap().vr;
     (k0..k0 + n)
         .map(|k| {
             let v = [[0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 10.0, 10.0], [0.0, 0.0, 10.0]]

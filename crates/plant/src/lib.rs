@@ -12,7 +12,7 @@ pub mod analog;
 pub mod continuous;
 pub mod hysteresis;
 pub mod linear;
-mod noise;
+pub mod noise;
 mod numerics;
 pub mod params;
 pub mod rk4;

@@ -1,8 +1,8 @@
-//! Seeded encoder noise.
+//! Seeded noise: the encoder's, and the disturbances of the models built on the plant.
 
 /// Standard normal deviate from a splitmix64 stream (Box–Muller): seeded and portable,
 /// so a noisy run replays exactly.
-pub(crate) fn gaussian(state: &mut u64) -> f64 {
+pub fn gaussian(state: &mut u64) -> f64 {
     let mut next = || {
         *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut x = *state;

@@ -28,33 +28,33 @@ fn random_params(state: &mut u64) -> PlantParams {
         (lo, hi)
     };
     let mut p = PlantParams::fia20();
-    for (field, name) in [
-        (&mut p.m_p, "m_p"),
-        (&mut p.k_p, "k_p"),
-        (&mut p.c_p, "c_p"),
-        (&mut p.m_b, "m_b"),
-        (&mut p.k_f, "k_f"),
-        (&mut p.c_f, "c_f"),
-        (&mut p.m_r, "m_r"),
-        (&mut p.k_e, "k_e"),
-        (&mut p.c_e, "c_e"),
-        (&mut p.l_p, "L_p"),
-        (&mut p.l_r, "L_r"),
-        (&mut p.t_em, "T_em"),
-        (&mut p.c, "C"),
-        (&mut p.f_d0, "F_d0"),
-        (&mut p.gamma, "gamma"),
-        (&mut p.v_th, "V_th"),
-        (&mut p.f_bessel, "f_bessel"),
-        (&mut p.amp_gain, "amp_gain"),
-        (&mut p.f_amp, "f_amp"),
-        (&mut p.q_enc, "q_enc"),
-        (&mut p.encoder_noise, "encoder_noise"),
-        (&mut p.rel_tol, "rel_tol"),
+    for (field, id) in [
+        (&mut p.m_p, PlantParams::M_P),
+        (&mut p.k_p, PlantParams::K_P),
+        (&mut p.c_p, PlantParams::C_P),
+        (&mut p.m_b, PlantParams::M_B),
+        (&mut p.k_f, PlantParams::K_F),
+        (&mut p.c_f, PlantParams::C_F),
+        (&mut p.m_r, PlantParams::M_R),
+        (&mut p.k_e, PlantParams::K_E),
+        (&mut p.c_e, PlantParams::C_E),
+        (&mut p.l_p, PlantParams::L_P),
+        (&mut p.l_r, PlantParams::L_R),
+        (&mut p.t_em, PlantParams::T_EM),
+        (&mut p.c, PlantParams::C),
+        (&mut p.f_d0, PlantParams::F_D0),
+        (&mut p.gamma, PlantParams::GAMMA),
+        (&mut p.v_th, PlantParams::V_TH),
+        (&mut p.f_bessel, PlantParams::F_BESSEL),
+        (&mut p.amp_gain, PlantParams::AMP_GAIN),
+        (&mut p.f_amp, PlantParams::F_AMP),
+        (&mut p.q_enc, PlantParams::Q_ENC),
+        (&mut p.encoder_noise, PlantParams::ENCODER_NOISE),
+        (&mut p.rel_tol, PlantParams::REL_TOL),
     ] {
-        *field = draw(state, r(name));
+        *field = draw(state, r(id.name()));
     }
-    let (lo, hi) = r("play_radius");
+    let (lo, hi) = r(PlantParams::PLAY_RADIUS.name());
     let mut radii: Vec<f64> = (0..5).map(|_| draw(state, (lo, hi))).collect();
     radii.sort_by(f64::total_cmp);
     radii.dedup();
@@ -66,7 +66,7 @@ fn random_params(state: &mut u64) -> PlantParams {
     }
     p.play_radius.copy_from_slice(&radii);
     for w in p.play_weight.iter_mut() {
-        *w = draw(state, r("play_weight"));
+        *w = draw(state, r(PlantParams::PLAY_WEIGHT.name()));
     }
     p
 }
@@ -147,14 +147,14 @@ fn random_parameters_inside_the_ranges_run_finite_and_bounded() {
 fn values_just_outside_the_ranges_are_refused_by_name() {
     type Set = fn(&mut PlantParams, f64);
     let cases: [(&str, Set); 8] = [
-        ("k_p", |p, v| p.k_p = v),
-        ("m_p", |p, v| p.m_p = v),
-        ("C", |p, v| p.c = v),
-        ("T_em", |p, v| p.t_em = v),
-        ("k_e", |p, v| p.k_e = v),
-        ("gamma", |p, v| p.gamma = v),
-        ("F_d0", |p, v| p.f_d0 = v),
-        ("rel_tol", |p, v| p.rel_tol = v),
+        (PlantParams::K_P.name(), |p, v| p.k_p = v),
+        (PlantParams::M_P.name(), |p, v| p.m_p = v),
+        (PlantParams::C.name(), |p, v| p.c = v),
+        (PlantParams::T_EM.name(), |p, v| p.t_em = v),
+        (PlantParams::K_E.name(), |p, v| p.k_e = v),
+        (PlantParams::GAMMA.name(), |p, v| p.gamma = v),
+        (PlantParams::F_D0.name(), |p, v| p.f_d0 = v),
+        (PlantParams::REL_TOL.name(), |p, v| p.rel_tol = v),
     ];
     for (name, set) in cases {
         let (lo, hi, _) = range(name).unwrap();
@@ -173,7 +173,7 @@ fn values_just_outside_the_ranges_are_refused_by_name() {
     }
     let mut p = PlantParams::fia20();
     p.play_weight[0] = 1e308;
-    assert_eq!(p.validate().unwrap_err().field, "play_weight[1]");
+    assert_eq!(p.validate().unwrap_err().field, PlantParams::PLAY_WEIGHT.name());
 }
 
 #[test]

@@ -117,14 +117,11 @@ impl Spread {
 mod tests {
     use super::*;
     use crate::closed_loop::{self, DAC, DISTURBANCE_ESTIMATE};
-
-    fn names(v: &[&str]) -> Vec<String> {
-        v.iter().map(|s| s.to_string()).collect()
-    }
+    use inchworm_fmu_models::{MountFmu, ReferenceFmu};
 
     /// The columns an actuator `{a}…{b}` needs for settle, rms and disturbance.
     fn actuator(a: &str, b: &str) -> Vec<String> {
-        let mut v = vec![format!("{a}reference{b}.reference")];
+        let mut v = vec![format!("{a}reference{b}.{}", ReferenceFmu::REFERENCE.name())];
         let own = |n: &str| {
             let (c, var) = n.split_once('.').unwrap();
             format!("{a}{c}{b}.{var}")
@@ -138,7 +135,7 @@ mod tests {
     #[test]
     fn each_actuator_reads_its_own_columns_under_the_loop_names() {
         let metrics = LoopMetrics::parse(&["settle:1e-6", "disturbance"]).unwrap();
-        let mut recorded = names(&["seg0_mount.piston"]);
+        let mut recorded = vec![format!("seg0_mount.{}", MountFmu::PISTON.name())];
         recorded.extend(actuator("seg0_", "_a"));
         recorded.extend(actuator("seg1_", "_a"));
         let mut spread = Spread::new(&metrics, &recorded).unwrap();
@@ -182,7 +179,8 @@ mod tests {
             single.iter().filter(|n| !n.ends_with("estimate")).cloned().collect();
         let e = Spread::new(&metrics, &without).unwrap_err().to_string();
         assert!(e.contains("plant") && e.contains(DISTURBANCE_ESTIMATE), "{e}");
-        let none = Spread::new(&metrics, &names(&["mount.piston"])).unwrap_err().to_string();
+        let mount = [format!("mount.{}", MountFmu::PISTON.name())];
+        let none = Spread::new(&metrics, &mount).unwrap_err().to_string();
         assert!(none.contains("no actuator"), "{none}");
     }
 }

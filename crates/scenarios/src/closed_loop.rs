@@ -15,6 +15,7 @@ use crate::gait::Step;
 use crate::holding::{Held, HoldingRms, Parked, Settle};
 use inchworm_cosim::ssp::Archive;
 use inchworm_cosim::Trace;
+use inchworm_fmu_models::{ControllerFmu, PlantFmu, ReferenceFmu};
 
 /// What a directly coupled run reports: a model crate's error as it is.
 #[derive(Debug, thiserror::Error)]
@@ -49,23 +50,75 @@ pub enum TraceError {
 /// so only the direct coupling records it (see [`LoopView::iterated`]).
 pub const ITERATED: &str = "iterated";
 
+/// `"component.variable"` as a `&'static str` constant, the variable's name read from its
+/// model's table at compile time: the loop's trace names are the declared names.
+/// `recorded_name!(prefix, sep, name)` joins with another separator.
+macro_rules! recorded_name {
+    ($component:expr, $name:expr) => {
+        $crate::closed_loop::recorded_name!($component, ".", $name)
+    };
+    ($component:expr, $sep:expr, $name:expr) => {{
+        const C: &str = $component;
+        const S: &str = $sep;
+        const V: &str = $name;
+        const BYTES: &[u8; C.len() + S.len() + V.len()] = &$crate::closed_loop::join_names(C, S, V);
+        match std::str::from_utf8(BYTES) {
+            Ok(s) => s,
+            Err(_) => panic!("a component or variable name that is not UTF-8"),
+        }
+    }};
+}
+pub(crate) use recorded_name;
+
+/// The bytes of `a`, `sep` and `b` in a row.
+pub(crate) const fn join_names<const N: usize>(a: &str, sep: &str, b: &str) -> [u8; N] {
+    let mut out = [0; N];
+    let mut n = 0;
+    let parts = [a.as_bytes(), sep.as_bytes(), b.as_bytes()];
+    let mut p = 0;
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            out[n] = parts[p][i];
+            n += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    assert!(n == N);
+    out
+}
+
+/// The components of the closed-loop systems (`fmu-build`'s SSPs and the direct coupling).
+pub(crate) const PLANT: &str = "plant";
+const CONTROLLER: &str = "controller";
+
 /// The reference as an open system records it: its system input (`InchwormSystemOpen.ssp`),
 /// or the controller FMU's own input.
-pub const REFERENCE: &str = "reference";
+pub const REFERENCE: &str = ControllerFmu::name_of(ControllerFmu::REFERENCE);
 /// The reference as the closed system (`InchwormSystem.ssp`) records it: the output of its
 /// component `reference`.
-pub const REFERENCE_OUTPUT: &str = "reference.reference";
-const ENCODER_COUNTS: &str = "plant.encoder_counts";
-pub(crate) const ENCODER_POSITION: &str = "plant.encoder_position";
-const RUNNER_POSITION: &str = "plant.runner_position";
-pub(crate) const DAC: [&str; 3] =
-    ["controller.dac_earth", "controller.dac_nonearth", "controller.dac_extension"];
-pub(crate) const DISTURBANCE_ESTIMATE: &str = "controller.disturbance_estimate";
-const N_STEPS: &str = "controller.n_steps";
-const FRACTION: &str = "controller.fraction";
+pub const REFERENCE_OUTPUT: &str =
+    recorded_name!("reference", ReferenceFmu::name_of(ReferenceFmu::REFERENCE));
+pub const ENCODER_COUNTS: &str = recorded_name!(PLANT, PlantFmu::name_of(PlantFmu::ENCODER_COUNTS));
+pub(crate) const ENCODER_POSITION: &str =
+    recorded_name!(PLANT, PlantFmu::name_of(PlantFmu::ENCODER_POSITION));
+const RUNNER_POSITION: &str = recorded_name!(PLANT, PlantFmu::name_of(PlantFmu::RUNNER_POSITION));
+pub(crate) const DAC: [&str; 3] = [
+    recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::DAC_EARTH)),
+    recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::DAC_NONEARTH)),
+    recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::DAC_EXTENSION)),
+];
+pub(crate) const DISTURBANCE_ESTIMATE: &str =
+    recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::DISTURBANCE_ESTIMATE));
+pub(crate) const SLIP_EVENTS: &str =
+    recorded_name!(PLANT, PlantFmu::name_of(PlantFmu::SLIP_EVENTS));
+const N_STEPS: &str = recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::N_STEPS));
+const FRACTION: &str = recorded_name!(CONTROLLER, ControllerFmu::name_of(ControllerFmu::FRACTION));
 
+/// `controller.scale_weights[i + 1]`.
 fn scale_weight(i: usize) -> String {
-    format!("controller.scale_weights[{}]", i + 1)
+    format!("{CONTROLLER}.{}", ControllerFmu::SCALE_WEIGHTS[i].name())
 }
 
 /// The variables of a closed-loop trace, as `component.variable` of the systems (the
@@ -269,7 +322,20 @@ impl LoopView {
 
     /// CSV of the run: one row per communication point.
     pub fn write_csv(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-        writeln!(w, "time,reference,encoder_counts,runner_position,dac_earth,dac_nonearth,dac_extension,disturbance_estimate,n_steps,fraction")?;
+        let [earth, nonearth, extension] = ControllerFmu::DAC_OUTPUTS.map(|v| v.name());
+        let header = [
+            "time",
+            ControllerFmu::REFERENCE.name(),
+            PlantFmu::ENCODER_COUNTS.name(),
+            PlantFmu::RUNNER_POSITION.name(),
+            earth,
+            nonearth,
+            extension,
+            ControllerFmu::DISTURBANCE_ESTIMATE.name(),
+            ControllerFmu::N_STEPS.name(),
+            ControllerFmu::FRACTION.name(),
+        ];
+        writeln!(w, "{}", header.join(","))?;
         for i in 0..self.time.len() {
             let d = self.dac[i];
             writeln!(

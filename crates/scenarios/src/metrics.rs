@@ -19,10 +19,10 @@ use inchworm_cosim::sweep::metrics::{
 };
 use inchworm_cosim::Error;
 
-use crate::closed_loop::{self, DAC, DISTURBANCE_ESTIMATE, ENCODER_POSITION};
+use crate::closed_loop::{
+    self, recorded_name, DAC, DISTURBANCE_ESTIMATE, ENCODER_POSITION, SLIP_EVENTS,
+};
 use crate::holding::{HoldingRms, Parked, Settle};
-
-const SLIP_EVENTS: &str = "plant.slip_events";
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Kind {
@@ -48,7 +48,7 @@ pub struct Metric {
 
 /// What `inchworm sweep` reports without `--metric`.
 pub const DEFAULT: [&str; 4] =
-    ["settle:1e-6", "disturbance", "slips", "final:plant.encoder_position"];
+    ["settle:1e-6", "disturbance", "slips", recorded_name!("final", ":", ENCODER_POSITION)];
 
 fn num(text: &str, what: &str) -> Result<f64, Error> {
     text.trim()

@@ -155,11 +155,23 @@ impl GaitRun {
     /// Writes the run as CSV: one row per communication point, SI units (s, V, m), the
     /// DAC volts being those held from that time on, the outputs those at that time.
     pub fn write_csv(&self, w: &mut dyn Write) -> std::io::Result<()> {
-        writeln!(
-            w,
-            "time,dac_earth,dac_nonearth,dac_extension,encoder_counts,encoder_position,runner_position,extension,\
-             voltage_earth,voltage_nonearth,voltage_extension,mode,slip_events"
-        )?;
+        let mut header = vec!["time"];
+        header.extend(PlantFmu::DAC_INPUTS.map(|v| v.name()));
+        header.extend(
+            [
+                PlantFmu::ENCODER_COUNTS,
+                PlantFmu::ENCODER_POSITION,
+                PlantFmu::RUNNER_POSITION,
+                PlantFmu::EXTENSION,
+                PlantFmu::VOLTAGE_EARTH,
+                PlantFmu::VOLTAGE_NONEARTH,
+                PlantFmu::VOLTAGE_EXTENSION,
+                PlantFmu::MODE,
+                PlantFmu::SLIP_EVENTS,
+            ]
+            .map(|v| v.name()),
+        );
+        writeln!(w, "{}", header.join(","))?;
         for s in &self.samples {
             let o = &s.out;
             writeln!(

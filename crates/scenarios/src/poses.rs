@@ -132,9 +132,11 @@ impl Poses {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use inchworm_fmu_models::PlantFmu;
 
-    fn names(v: &[&str]) -> Vec<String> {
-        v.iter().map(|s| s.to_string()).collect()
+    /// The mount's pose outputs, piston, tip and tilt.
+    fn pose() -> [&'static str; 3] {
+        [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT].map(|v| v.name())
     }
 
     #[test]
@@ -142,11 +144,11 @@ mod tests {
         let mut recorded = Vec::new();
         for k in 0..2 {
             for x in ["a", "b"] {
-                for v in inchworm_fmu_models::ControllerFmu::DAC_OUTPUTS.map(|v| v.name()) {
+                for v in ControllerFmu::DAC_OUTPUTS.map(|v| v.name()) {
                     recorded.push(format!("seg{k}_controller_{x}.{v}"));
                 }
             }
-            for v in ["piston", "tip", "tilt"] {
+            for v in pose() {
                 recorded.push(format!("seg{k}_mount.{v}"));
             }
         }
@@ -158,11 +160,13 @@ mod tests {
         // from row 4 on the DACs alone (parked over the two samples before), but not before
         // row 41: the rule judges no sample of the first 40.
         let mut row = vec![0.0; recorded.len()];
+        let tip = format!("seg1_mount.{}", MountFmu::TIP.name());
+        let extension = format!("seg1_controller_b.{}", ControllerFmu::DAC_EXTENSION.name());
         for k in 0..45 {
             let t = k as f64 * 0.002;
-            let pose = recorded.iter().position(|n| n == "seg1_mount.tip").unwrap();
+            let pose = recorded.iter().position(|n| *n == tip).unwrap();
             row[pose] = -1.5e-6;
-            let dac = recorded.iter().position(|n| n == "seg1_controller_b.dac_extension").unwrap();
+            let dac = recorded.iter().position(|n| *n == extension).unwrap();
             row[dac] = if k < 2 { 3.0 } else { 0.0 };
             p.write_row(&mut out, t, &row).unwrap();
         }
@@ -180,22 +184,20 @@ mod tests {
 
     #[test]
     fn a_run_without_mounts_or_controllers_is_refused() {
-        let e = Poses::new(&names(&["plant.encoder_position"])).unwrap_err().to_string();
+        let [piston, tip, tilt] = pose();
+        let plant = [format!("plant.{}", PlantFmu::ENCODER_POSITION.name())];
+        let e = Poses::new(&plant).unwrap_err().to_string();
         assert!(e.contains("no mount recorded"), "{e}");
-        let e = Poses::new(&names(&["m_mount.piston", "m_mount.tip"])).unwrap_err().to_string();
-        assert!(e.contains("m_mount.tilt"), "{e}");
-        let e = Poses::new(&names(&["mount.piston", "mount.tip", "mount.tilt"]))
+        let e = Poses::new(&[format!("m_mount.{piston}"), format!("m_mount.{tip}")])
             .unwrap_err()
             .to_string();
+        assert!(e.contains(&format!("m_mount.{tilt}")), "{e}");
+        let mount = pose().map(|v| format!("mount.{v}"));
+        let e = Poses::new(&mount).unwrap_err().to_string();
         assert!(e.contains("no controller"), "{e}");
-        let e = Poses::new(&names(&[
-            "mount.piston",
-            "mount.tip",
-            "mount.tilt",
-            "controller_a.dac_earth",
-        ]))
-        .unwrap_err()
-        .to_string();
-        assert!(e.contains("controller_a.dac_nonearth"), "{e}");
+        let mut one_dac = mount.to_vec();
+        one_dac.push(format!("controller_a.{}", ControllerFmu::DAC_EARTH.name()));
+        let e = Poses::new(&one_dac).unwrap_err().to_string();
+        assert!(e.contains(&format!("controller_a.{}", ControllerFmu::DAC_NONEARTH.name())), "{e}");
     }
 }

@@ -92,11 +92,12 @@ pub fn staircase_points() -> Vec<(f64, f64)> {
 
 /// The staircase as the reference table.
 pub fn staircase() -> InputTable {
-    InputTable::steps("reference", &staircase_points()).expect("the staircase times increase")
+    InputTable::steps(closed_loop::REFERENCE, &staircase_points())
+        .expect("the staircase times increase")
 }
 
 fn constant(value: f64) -> InputTable {
-    InputTable::steps("reference", &[(0.0, value)]).expect("one finite row")
+    InputTable::steps(closed_loop::REFERENCE, &[(0.0, value)]).expect("one finite row")
 }
 
 /// Each level from 20 s after its change to its end.
@@ -315,7 +316,7 @@ impl Scenario {
                 let (mut trace, timing) =
                     master::run_timed(ssp, &self.closed_options(&v.plant, p), |_| {})?;
                 for name in trace.names.iter_mut().filter(|n| n.as_str() == REFERENCE_OUTPUT) {
-                    *name = "reference".into();
+                    *name = closed_loop::REFERENCE.into();
                 }
                 Ok((trace, timing))
             }

@@ -27,6 +27,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from .inputs import STEP_S, InputError, Range
+from inchworm_variables import InchwormController as Controller, InchwormMount as Mount, InchwormPlant as Plant
 
 SSD = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
 SSV = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
@@ -213,7 +214,7 @@ class MountCosim:
         """One Jacobi communication step of h."""
         for src, out, dst, inp in self.connections:
             value = self._latest[(src, out)]
-            if inp == "reference" and dst.startswith("controller_"):
+            if inp == Controller.REFERENCE and dst.startswith("controller_"):
                 value += self.offset_m[dst.split("_", 1)[1]]
             self.components[dst].set(inp, value)
         for comp in self.components.values():
@@ -224,10 +225,10 @@ class MountCosim:
     def pose(self):
         """(piston m, tip rad, tilt rad) of the mount output now."""
         m = self.components["mount"]
-        return m.get("piston"), m.get("tip"), m.get("tilt")
+        return m.get(Mount.PISTON), m.get(Mount.TIP), m.get(Mount.TILT)
 
     def encoders(self):
-        return tuple(self.components[f"plant_{x}"].get("encoder_counts") for x in CHAINS)
+        return tuple(self.components[f"plant_{x}"].get(Plant.ENCODER_COUNTS) for x in CHAINS)
 
     def close(self):
         """Terminates and frees the FMUs and removes the unpacked folder."""

@@ -20,6 +20,7 @@ from .guidance import FineGuider
 from .inputs import REGULATION_S, STEP_S, sample_counts
 from .optics import Frame, centroid_px
 from .telescope import MAS_PER_RAD
+from inchworm_variables import InchwormController as Controller
 
 
 @dataclass
@@ -72,7 +73,7 @@ class RunResult:
 def _command(cosim):
     """The commanded tip and tilt: the mount kinematics of the three references (the
     inverse of `MountCosim.set_tip_tilt_offset`), without the guider's offset."""
-    z = [cosim.components[f"reference_{x}"].get("reference") for x in CHAINS]
+    z = [cosim.components[f"reference_{x}"].get(Controller.REFERENCE) for x in CHAINS]
     k = 2.0 / (3.0 * cosim.radius_m)
     tip = k * sum(zi * math.sin(p) for zi, p in zip(z, cosim.angles_rad))
     tilt = k * sum(zi * math.cos(p) for zi, p in zip(z, cosim.angles_rad))

@@ -5,10 +5,18 @@
 use std::path::Path;
 
 use inchworm_cosim::{Coupling, Error, Options, StopFlag, System, Trace};
+use inchworm_fmu_models::{PlantFmu, ReferenceFmu};
 
-const ENCODER_COUNTS: &str = "plant.encoder_counts";
-const ENCODER_POSITION: &str = "plant.encoder_position";
-const REFERENCE: &str = "reference.reference";
+// The recorded names, `component.variable`, the variables' names from the FMUs' tables.
+fn encoder_counts() -> String {
+    format!("plant.{}", PlantFmu::ENCODER_COUNTS.name())
+}
+fn encoder_position() -> String {
+    format!("plant.{}", PlantFmu::ENCODER_POSITION.name())
+}
+fn reference() -> String {
+    format!("reference.{}", ReferenceFmu::REFERENCE.name())
+}
 
 #[test]
 fn fig5_closed_loop_for_two_seconds() {
@@ -21,7 +29,7 @@ fn fig5_closed_loop_for_two_seconds() {
         params: vec![],
         parameter_set: None,
         input: None,
-        outputs: [REFERENCE, ENCODER_COUNTS, ENCODER_POSITION].map(String::from).to_vec(),
+        outputs: vec![reference(), encoder_counts(), encoder_position()],
     };
     let sim = System::load(&ssp).unwrap().initialise(&opts).unwrap();
     assert_eq!(sim.n_steps(), 1000);
@@ -38,10 +46,10 @@ fn fig5_closed_loop_for_two_seconds() {
 
     assert_eq!(trace.rows.len(), 1001);
     assert_eq!(trace.rows.last().unwrap().0, 2.0);
-    let reference = trace.column(REFERENCE).unwrap();
+    let reference = trace.column(&reference()).unwrap();
     assert!(reference.iter().all(|&r| r == 100e-6), "Fig. 5: a 100 µm step from t = 0");
-    let counts = trace.column(ENCODER_COUNTS).unwrap();
-    let position = trace.column(ENCODER_POSITION).unwrap();
+    let counts = trace.column(&encoder_counts()).unwrap();
+    let position = trace.column(&encoder_position()).unwrap();
     assert_eq!(counts[0], 0.0, "the runner starts at rest at 0");
     // Full control settles within 1 µm at 0.788 s (tests/sweep.rs); at 2 s the encoder
     // reads 83340 counts of 1.2 nm: 100.008 µm.

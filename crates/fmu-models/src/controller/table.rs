@@ -58,6 +58,19 @@ impl ControllerFmu {
     /// The DAC codes of the same three channels.
     pub const DAC_CODES: [Var<ControllerFmu>; 3] =
         [Self::DAC_EARTH_CODE, Self::DAC_NONEARTH_CODE, Self::DAC_EXTENSION_CODE];
+    /// The estimated inverse scale factor's ten weights, `scale_weights[1]` first.
+    pub const SCALE_WEIGHTS: [Var<ControllerFmu>; 10] = [
+        Self::SCALE_WEIGHTS_1,
+        Self::SCALE_WEIGHTS_2,
+        Self::SCALE_WEIGHTS_3,
+        Self::SCALE_WEIGHTS_4,
+        Self::SCALE_WEIGHTS_5,
+        Self::SCALE_WEIGHTS_6,
+        Self::SCALE_WEIGHTS_7,
+        Self::SCALE_WEIGHTS_8,
+        Self::SCALE_WEIGHTS_9,
+        Self::SCALE_WEIGHTS_10,
+    ];
 }
 
 pub(super) static UNITS: [Unit; 3] = [

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::holding::{HoldingRms, Settle};
+use inchworm_fmu_models::{MountFmu, PlantFmu};
 
 pub use inchworm_fmu_models::mount::{MIRROR_PISTON, MIRROR_TIP, MIRROR_TIP_TIME};
 /// The mirror run: 10 s, regulation from 8 s.
@@ -14,10 +15,11 @@ pub const MIRROR_POINTING_TOL: f64 = 0.1e-6;
 
 /// What `inchworm scenario mirror` records of `MirrorMount.ssp`.
 pub fn mirror_recorded() -> Vec<String> {
-    let mut v: Vec<String> = ["mount.piston", "mount.tip", "mount.tilt"].map(String::from).to_vec();
+    let pose = [MountFmu::PISTON, MountFmu::TIP, MountFmu::TILT];
+    let mut v: Vec<String> = pose.iter().map(|p| format!("mount.{}", p.name())).collect();
     for x in ["a", "b", "c"] {
-        v.push(format!("plant_{x}.runner_position"));
-        v.push(format!("plant_{x}.encoder_counts"));
+        v.push(format!("plant_{x}.{}", PlantFmu::RUNNER_POSITION.name()));
+        v.push(format!("plant_{x}.{}", PlantFmu::ENCODER_COUNTS.name()));
     }
     v
 }
@@ -41,7 +43,7 @@ pub struct MirrorRun {
 fn parked_rows(trace: &Trace) -> Vec<usize> {
     let enc: Vec<usize> = ["a", "b", "c"]
         .iter()
-        .filter_map(|x| trace.index(&format!("plant_{x}.encoder_counts")))
+        .filter_map(|x| trace.index(&format!("plant_{x}.{}", PlantFmu::ENCODER_COUNTS.name())))
         .collect();
     (7..trace.rows.len())
         .filter(|&i| {

@@ -29,7 +29,7 @@ fn analog_reference() -> InputTable {
     rows.extend((1..=20).map(|k| (12.0 + 0.2 * (k - 1) as f64, 101.1 + k as f64)));
     rows.push((20.0, 161.1));
     let rows: Vec<(f64, f64)> = rows.into_iter().map(|(t, um)| (t, um * 1e-6)).collect();
-    InputTable::steps("reference", &rows).expect("times increase")
+    InputTable::steps(closed_loop::REFERENCE, &rows).expect("times increase")
 }
 
 pub(super) fn controller_options(name: &str) -> Option<Scenario> {
@@ -62,7 +62,7 @@ pub(super) fn controller_options(name: &str) -> Option<Scenario> {
             title: "A 2 mm move, then 100 nm and 1 µm changes: baseline and the 50 Hz gait with analog mode",
             duration: 30.0,
             reference: InputTable::steps(
-                "reference",
+                closed_loop::REFERENCE,
                 &[(0.0, 2e-3), (25.0, 2.0001e-3), (26.0, 2.0011e-3)],
             )
             .expect("times increase"),
