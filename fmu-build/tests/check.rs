@@ -30,10 +30,17 @@ fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
-/// A scratch repository with a copy of the committed `modelDescription/`.
+/// The generated module of the Python packages' variable names.
+const PYTHON_NAMES: &str = "python/inchworm_variables/inchworm_variables/__init__.py";
+
+/// A scratch repository with a copy of the committed generated files: `modelDescription/`
+/// and the Python packages' variable names.
 fn committed_copy() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     copy_tree(&workspace_root().join("modelDescription"), &dir.path().join("modelDescription"));
+    let names = dir.path().join(PYTHON_NAMES);
+    std::fs::create_dir_all(names.parent().unwrap()).unwrap();
+    std::fs::copy(workspace_root().join(PYTHON_NAMES), names).unwrap();
     dir
 }
 
@@ -147,4 +154,15 @@ fn an_oversized_file_is_refused_unread() {
         dir.path(),
         &["modelDescription/InchwormPlant.xml is larger than 1048576 bytes (1 MiB"],
     );
+}
+
+#[test]
+fn an_edited_python_names_module_is_named() {
+    let dir = committed_copy();
+    let path = dir.path().join(PYTHON_NAMES);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let at = text.lines().position(|l| l == "    DAC_EXTENSION = \"dac_extension\"").unwrap();
+    std::fs::write(&path, text.replacen("\"dac_extension\"", "\"dac_extention\"", 1)).unwrap();
+    let line = format!("{PYTHON_NAMES} differs from the generated text from line {}", at + 1);
+    fails_with(dir.path(), &[line.as_str()]);
 }
