@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 mod cmd;
 
 use cmd::bridge::BridgeArgs;
+use cmd::delay_line::DelayLineArgs;
 use cmd::gait::GaitArgs;
 use cmd::replay::ReplayArgs;
 use cmd::run::RunArgs;
@@ -59,6 +60,12 @@ enum Command {
     /// and summary plots. --plan-only writes the plan; --plan PLAN --row K runs one row
     /// and prints its metrics as one JSON line.
     Sweep(SweepArgs),
+    /// An interferometer's delay line on the inchworm (docs/delay-line.md): the sidereal
+    /// path of a baseline on the ground (on a cart) or a drifting path in space, a fringe
+    /// tracker and a fine stage in the loop; write <out>/delay-line.csv and .png and print
+    /// the residual, visibility and null depth. --survey runs the designer's table and the
+    /// largest rate each gait follows.
+    DelayLine(DelayLineArgs),
 }
 
 /// Prints the FMU's logger messages (which the import layer, `inchworm-fmi-import`,
@@ -122,6 +129,7 @@ fn main() -> ExitCode {
         Command::Bridge(args) => cmd::bridge::run(&args),
         Command::Replay(args) => cmd::replay::run(&args),
         Command::Sweep(args) => cmd::sweep::run(&args),
+        Command::DelayLine(args) => cmd::delay_line::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

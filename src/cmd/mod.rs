@@ -8,6 +8,7 @@ use std::path::Path;
 use inchworm_cosim::InputTable;
 
 pub mod bridge;
+pub mod delay_line;
 pub mod gait;
 pub mod replay;
 pub mod run;

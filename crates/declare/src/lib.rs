@@ -223,6 +223,48 @@ pub fn out_of_range<P: Declared>(p: &P) -> Option<(&'static str, String)> {
     })
 }
 
+/// Sets the field of `p` named `name` from `text` (a number for a Real or an Integer,
+/// `true`/`false` or `1`/`0` for a Boolean): what a command line's `--param NAME=VALUE`
+/// does to a declared struct. Refuses an unknown name (listing the known ones), a value
+/// that does not parse as the field's type, and a value outside the declared range.
+pub fn set_named<P: Declared>(p: &mut P, name: &str, text: &str) -> Result<(), String> {
+    let f = field_named::<P>(name).ok_or_else(|| {
+        let known: Vec<&str> = P::FIELDS.iter().map(|f| f.name).collect();
+        format!("unknown parameter `{name}`; known: {}", known.join(", "))
+    })?;
+    let text = text.trim();
+    let range = |v: f64| {
+        let (lo, hi) = (f.min.unwrap_or(f64::NEG_INFINITY), f.max.unwrap_or(f64::INFINITY));
+        if v.is_finite() && (lo..=hi).contains(&v) {
+            Ok(())
+        } else {
+            Err(format!("{name} = {text}: must be finite, within [{lo:e}, {hi:e}]"))
+        }
+    };
+    match f.access {
+        Access::Real { set, .. } => {
+            let v: f64 = text.parse().map_err(|_| format!("{name} = {text}: not a number"))?;
+            range(v)?;
+            set(p, v);
+        }
+        Access::Integer { set, .. } => {
+            let v: i32 =
+                text.parse().map_err(|_| format!("{name} = {text}: not a 32-bit integer"))?;
+            range(f64::from(v))?;
+            set(p, v);
+        }
+        Access::Boolean { set, .. } => {
+            let v = match text {
+                "true" | "1" => true,
+                "false" | "0" => false,
+                _ => return Err(format!("{name} = {text}: not true, false, 1 or 0")),
+            };
+            set(p, v);
+        }
+    }
+    Ok(())
+}
+
 /// The field of `P` named `name` (an array's element as `name[k]`).
 pub fn field_named<P: Declared>(name: &str) -> Option<&'static Field<P>> {
     P::FIELDS.iter().find(|f| f.name == name)

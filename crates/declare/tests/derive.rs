@@ -103,3 +103,31 @@ fn declared_is_every_start_value() {
         ("inner_gain", "must be within [0e0, 1e0] (dimensionless), got 2e0")
     );
 }
+
+#[test]
+fn set_named_parses_each_type_and_refuses_what_is_not_declared() {
+    use inchworm_declare::set_named;
+    let mut o = Outer::declared();
+    set_named(&mut o, "k", "3e4").unwrap();
+    set_named(&mut o, "inner_gain", " 0.25 ").unwrap();
+    set_named(&mut o, "flag", "0").unwrap();
+    set_named(&mut o, "peaks[2]", "7").unwrap();
+    set_named(&mut o, "samples", "40").unwrap();
+    assert_eq!(
+        (o.k, o.inner.gain, o.inner.flag, o.peaks, o.samples),
+        (3e4, 0.25, false, [1.0, 7.0, 3.0], 40)
+    );
+    let before = o.clone();
+    for (name, text, says) in [
+        ("inner_gain", "1.5", "inner_gain = 1.5: must be finite, within [0e0, 1e0]"),
+        ("k", "NaN", "k = NaN: must be finite"),
+        ("k", "ten", "k = ten: not a number"),
+        ("samples", "2.5", "samples = 2.5: not a 32-bit integer"),
+        ("flag", "yes", "flag = yes: not true, false, 1 or 0"),
+        ("nope", "1", "unknown parameter `nope`; known: k, inner_gain, flag, peaks[1]"),
+    ] {
+        let e = set_named(&mut o, name, text).unwrap_err();
+        assert!(e.starts_with(says), "{name}={text}: {e}");
+    }
+    assert_eq!(o, before, "a refused value changes nothing");
+}

@@ -24,6 +24,10 @@
 //! * [`poses`]: every mirror mount's pose of a run and whether all its actuators are held,
 //!   as the poses CSV of python/inchworm_segments.
 //!
+//! **The interferometer's delay line**
+//! * [`delay_line`]: a run of `inchworm_delay_line` as CSV and plots, the designer's
+//!   survey and the largest rate each gait follows.
+//!
 //! **Sweeps and plots**
 //! * [`metrics`]: the sweep metrics of a closed loop (settle time, parked RMS, estimates,
 //!   slips), reduced row by row as a sweep runs them;
@@ -33,6 +37,7 @@ pub mod actuators;
 pub mod bridge;
 pub mod closed_loop;
 pub mod controller;
+pub mod delay_line;
 pub mod gait;
 pub mod holding;
 pub mod metrics;

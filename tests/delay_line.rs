@@ -1,0 +1,73 @@
+//! `inchworm delay-line` (docs/delay-line.md): the command's files and figures, its refusals,
+//! and the largest path rate each gait follows.
+
+use std::process::Command;
+
+use inchworm_controller::Params;
+use inchworm_scenarios::delay_line::{follows, gaits, Following};
+
+const BIN: &str = env!("CARGO_BIN_EXE_inchworm");
+
+#[test]
+fn a_run_writes_its_csv_and_plot_and_says_its_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(BIN)
+        .args(["delay-line", "--controller", "analog", "--duration", "4", "--param", "space=true"])
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("visibility") && stdout.contains("locked throughout"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.path().join("delay-line.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("time,path,cart,inchworm_path,fine_stage,residual,locked"));
+    assert_eq!(lines.count(), 2001, "one row a 2 ms sample from t = 0 to 4 s");
+    let png = std::fs::read(dir.path().join("delay-line.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+#[test]
+fn bad_input_is_refused_by_name_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, says) in [
+        (
+            &["--param", "baseline_length=0"][..],
+            "baseline_length = 0: must be finite, within [1e-3",
+        ),
+        (&["--param", "baseline_length=NaN"], "baseline_length = NaN: must be finite"),
+        (&["--param", "latitude=40", "--param", "declination=-60"], "below the horizon"),
+        (&["--param", "nope=1"], "unknown parameter `nope`"),
+        (&["--controller", "fast"], "unknown controller `fast`; known: stepping, deadband, analog"),
+        (&["--param", "fine_loop_type=3"], "fine_loop_type = 3: must be finite, within [1e0, 2e0]"),
+    ] {
+        let out = Command::new(BIN)
+            .arg("delay-line")
+            .args(args)
+            .arg("--out")
+            .arg(dir.path().join("out"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+        assert!(!dir.path().join("out").join("delay-line.csv").exists(), "{args:?}");
+    }
+}
+
+/// The gait's speed limit: 0.2 s steps of the 20 µm device keep up with 0.1 mm/s of
+/// optical path (0.05 mm/s of runner: a baseline of 1.4 m at most), not with 0.2 mm/s;
+/// 20 ms steps keep up with 0.8 mm/s. Between steps the fringes come back only below
+/// about a third of that: each step's brake disturbance moves the path by micrometres.
+#[test]
+fn each_gait_follows_the_rates_it_can_step() {
+    let [(_, slow), _, (_, fast)] = <[_; 3]>::try_from(gaits()).ok().unwrap();
+    let up = |c: &Params, rate| follows(c, rate, 8.0, Following::KeepsUp).unwrap();
+    assert!(up(&slow, 0.1e-3));
+    assert!(!up(&slow, 0.2e-3));
+    assert!(up(&fast, 0.8e-3));
+    let fringes = |c: &Params, rate| follows(c, rate, 8.0, Following::Fringes).unwrap();
+    assert!(fringes(&slow, 0.03e-3));
+    assert!(!fringes(&slow, 0.1e-3));
+}
