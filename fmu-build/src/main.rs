@@ -25,6 +25,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use inchworm_cosim::output::{self, Pending};
 use inchworm_fmi_abi::platform::Platform;
 use inchworm_fmi_export::{fmi3, model_description, Model};
 
@@ -233,15 +234,16 @@ fn build(
         std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
         let path = out.join("inchworm");
         // Through a new file renamed over the old, so a running `inchworm` is not touched.
-        let tmp = path.with_extension("partial");
         let err = |e: std::io::Error| format!("{}: {e}", path.display());
-        std::fs::write(&tmp, &bin[0]).map_err(err)?;
+        let mut pending = Pending::new(&path).map_err(err)?;
+        pending.write_all(&bin[0]).map_err(err)?;
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&tmp, std::fs::Permissions::from_mode(0o755)).map_err(err)?;
+            let mode = std::fs::Permissions::from_mode(0o755);
+            std::fs::set_permissions(pending.path(), mode).map_err(err)?;
         }
-        std::fs::rename(&tmp, &path).map_err(err)?;
+        pending.commit().map_err(err)?;
         println!("fmu-build: wrote {}", path.display());
     }
     Ok(built)
@@ -314,13 +316,14 @@ fn package(root: &Path, f: &Fmu, index: usize, built: &[Built]) -> Result<PathBu
     Ok(out)
 }
 
-/// Writes `zip` entries to `out` through a temporary file renamed at the end, so a master
-/// never reads a half-written archive.
+/// Writes `zip` entries to `out` through a uniquely named temporary beside it, renamed at
+/// the end (`inchworm_cosim::output`), so a master never reads a half-written archive and
+/// a failed write leaves `out` as it was and no temporary behind.
 fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", out.display());
-    let tmp = out.with_extension("partial");
-    let file = std::fs::File::create(&tmp).map_err(|e| err(&e))?;
-    let mut zip = zip::ZipWriter::new(file);
+    output::check(&[("output", out)], &[]).map_err(|e| e.to_string())?;
+    let mut pending = Pending::new(out).map_err(|e| err(&e))?;
+    let mut zip = zip::ZipWriter::new(pending.file());
     let opts = zip::write::SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated);
     for (name, data) in entries {
@@ -328,7 +331,7 @@ fn write_zip(out: &Path, entries: &[(String, &[u8])]) -> Result<(), String> {
         zip.write_all(data).map_err(|e| err(&e))?;
     }
     zip.finish().map_err(|e| err(&e))?;
-    std::fs::rename(&tmp, out).map_err(|e| err(&e))
+    pending.commit().map_err(|e| err(&e))
 }
 
 /// The `.ssp` of one system: the SSD, each FMU once, every parameter set.

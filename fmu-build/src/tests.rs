@@ -133,3 +133,36 @@ fn every_generated_file_is_far_below_the_bound_of_the_check() {
         text.len()
     );
 }
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// An archive is written through a uniquely named temporary: a user's `<out>.partial` is
+/// not the temporary (it stays), a failed write leaves nothing behind, and an output that
+/// is a folder is refused before anything is written.
+#[test]
+fn an_archive_never_touches_a_user_s_partial_file_nor_leaves_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.ssp");
+    let mine = dir.path().join("m.partial");
+    std::fs::write(&mine, "the user's").unwrap();
+    write_zip(&out, &[("SystemStructure.ssd".into(), b"<x/>".as_slice())]).unwrap();
+    assert_eq!(std::fs::read_to_string(&mine).unwrap(), "the user's");
+    assert_eq!(entries(dir.path()), ["m.partial", "m.ssp"]);
+    // A folder in the way: refused by name, nothing written.
+    let folder = dir.path().join("f.ssp");
+    std::fs::create_dir(&folder).unwrap();
+    let e = write_zip(&folder, &[("a".into(), b"1".as_slice())]).unwrap_err();
+    assert!(e.contains("is a folder, not a file"), "{e}");
+    assert_eq!(entries(dir.path()), ["f.ssp", "m.partial", "m.ssp"]);
+    // Its folder missing: made, the archive written.
+    let deep = dir.path().join("new").join("n.ssp");
+    write_zip(&deep, &[("a".into(), b"1".as_slice())]).unwrap();
+    assert_eq!(entries(&dir.path().join("new")), ["n.ssp"]);
+}

@@ -2,9 +2,10 @@
 //! and saying so, and `--param NAME=VALUE` lists.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 
+use inchworm_cosim::output::{self, Pending};
 use inchworm_cosim::InputTable;
 
 pub mod bridge;
@@ -25,37 +26,49 @@ pub fn create_parent(path: &Path) -> Result<(), String> {
     }
 }
 
-/// Creates `path` (and its folder), writes it through `write`, flushes it and prints
-/// `wrote <path>`: a file is reported only once all of it is on disk, and every error
-/// names the file.
+/// Checks every output of a command before any work (README, "Reliability"): distinct
+/// from each other and from every input, each a file in a folder that is made where
+/// missing ([`inchworm_cosim::output::check`]).
+pub fn check_outputs(outputs: &[(&str, &Path)], inputs: &[&Path]) -> Result<(), String> {
+    output::check(outputs, inputs).map_err(|e| e.to_string())
+}
+
+/// Writes `path` through `write` into a temporary beside it, renamed over it once all of
+/// it is on disk, and prints `wrote <path>`; on an error the file is as it was, no
+/// temporary is left, and the error names the file.
 pub fn write_file(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), String> {
-    create_parent(path)?;
-    let f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut w = BufWriter::new(f);
-    write(&mut w).and_then(|_| w.flush()).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut p = create_file(path)?;
+    write(&mut p).map_err(|e| format!("{}: {e}", path.display()))?;
+    commit(p)?;
     println!("wrote {}", path.display());
     Ok(())
 }
 
-/// Creates `path` (and its folder) for a writer that fills it over time, as `inchworm run`
-/// streams its rows; the caller flushes it and says `wrote`.
-pub fn create_file(path: &Path) -> Result<BufWriter<File>, String> {
+/// A temporary beside `path` (its folder made where missing) for a writer that fills it
+/// over time, as `inchworm run` streams its rows; [`commit`] puts it in place, dropping
+/// it leaves `path` as it was.
+pub fn create_file(path: &Path) -> Result<Pending, String> {
     create_parent(path)?;
-    let f = File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(BufWriter::new(f))
+    Pending::new(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// [`write_file`] for a plot: plotters creates and writes the PNG itself, so this only
-/// makes the folder, draws and reports.
+/// Renames a complete temporary over its target.
+pub fn commit(p: Pending) -> Result<(), String> {
+    let path = p.target().to_path_buf();
+    p.commit().map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// [`write_file`] for a plot: plotters writes the PNG itself, into the temporary.
 pub fn write_png(
     path: &Path,
     draw: impl FnOnce(&Path) -> Result<(), Box<dyn std::error::Error + Send + Sync>>,
 ) -> Result<(), String> {
-    create_parent(path)?;
-    draw(path).map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))?;
+    let p = create_file(path)?;
+    draw(p.path()).map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))?;
+    commit(p)?;
     println!("wrote {}", path.display());
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! variables written as CSV (and a plot).
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
@@ -223,6 +223,12 @@ pub fn run(args: &RunArgs) -> Result<(), String> {
     if args.plot.is_some() || args.spread.is_some() {
         plot::load_font(&args.font).text()?;
     }
+    let mut outputs: Vec<(&str, &Path)> = vec![("--out", &args.out)];
+    outputs.extend(args.poses.as_deref().map(|p| ("--poses", p)));
+    outputs.extend(args.plot.as_deref().map(|p| ("--plot", p)));
+    let mut inputs: Vec<&Path> = vec![&args.file];
+    inputs.extend(args.sim.input.as_deref());
+    super::check_outputs(&outputs, &inputs)?;
     let stop = signals::stop_on_signals();
     let interfaces = args.interfaces()?;
     let load = Instant::now();
@@ -338,15 +344,25 @@ fn write_run(
     let ran = match ran {
         Ok(ran) => ran,
         Err(e) => {
-            return Err(match rows {
-                0 => e,
-                _ => format!("{e} ({} holds the rows to t = {end} s)", out.display()),
-            })
+            // A run that fails keeps the rows it made where that destroys nothing: in a
+            // new file; an existing `--out` (and `--poses`) stays as it was.
+            if rows == 0 {
+                return Err(e);
+            }
+            if out.exists() || flushed.is_err() {
+                return Err(format!(
+                    "{e} ({} is as it was: the rows to t = {end} s are not written over it)",
+                    out.display()
+                ));
+            }
+            super::commit(csv)?;
+            return Err(format!("{e} ({} holds the rows to t = {end} s)", out.display()));
         }
     };
     flushed?;
-    if let Some((p, mut w, path)) = poses {
-        w.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+    super::commit(csv)?;
+    if let Some((p, w, path)) = poses {
+        super::commit(w)?;
         println!("wrote {} ({} mounts)", path.display(), p.mounts());
     }
     let loop_s = wall.elapsed().as_secs_f64();

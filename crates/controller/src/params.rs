@@ -152,9 +152,10 @@ impl Params {
         ] {
             positive(name.name(), v)?;
         }
-        Basis::new(self.basis_peaks).map_err(|e| format!("{}: {e}", Params::BASIS_PEAKS.name()))?;
+        Basis::new(self.basis_peaks)
+            .map_err(|e| format!("{}: {e}", Params::BASIS_PEAKS.base_name()))?;
         for (i, w) in self.scale_weights_start.iter().enumerate() {
-            finite(&format!("{}[{}]", Params::SCALE_WEIGHTS_START.name(), i + 1), *w)?;
+            finite(&format!("{}[{}]", Params::SCALE_WEIGHTS_START.base_name(), i + 1), *w)?;
         }
         finite(Params::DISTURBANCE_START.name(), self.disturbance_start)?;
         positive(Params::Q_ENC.name(), self.q_enc)?;

@@ -68,6 +68,7 @@ pub mod input;
 pub mod limits;
 pub mod master;
 pub mod model_exchange;
+pub mod output;
 pub mod ssp;
 pub mod sweep;
 pub mod trace;

@@ -161,8 +161,18 @@ impl<P: Declared> FieldId<P> {
     pub fn field(self) -> &'static Field<P> {
         &P::FIELDS[self.index]
     }
+    /// The variable's name; an array field's first element's (`basis_peak[1]`).
     pub fn name(self) -> &'static str {
         self.field().name
+    }
+    /// The field's name without an element's index: an array's own name (`basis_peak`),
+    /// a scalar's name.
+    pub fn base_name(self) -> &'static str {
+        let name = self.name();
+        match name.strip_suffix(']').and_then(|n| n.rsplit_once('[')) {
+            Some((base, _)) => base,
+            None => name,
+        }
     }
 }
 

@@ -131,3 +131,10 @@ fn set_named_parses_each_type_and_refuses_what_is_not_declared() {
     }
     assert_eq!(o, before, "a refused value changes nothing");
 }
+
+#[test]
+fn an_array_field_s_base_name_has_no_index() {
+    assert_eq!(Outer::PEAKS.name(), "peaks[1]");
+    assert_eq!(Outer::PEAKS.base_name(), "peaks");
+    assert_eq!(Outer::K.base_name(), "k");
+}

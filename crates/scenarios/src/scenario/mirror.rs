@@ -184,7 +184,7 @@ pub fn mirror(dist: &Path, out: &Path, font: &Path) -> Result<(), super::Error> 
     let mut text = Vec::new();
     let write = |source| super::Error::Write { path: csv.clone(), source };
     run.trace.write_csv(&mut text).map_err(write)?;
-    std::fs::write(&csv, text).map_err(write)?;
+    inchworm_cosim::output::write(&csv, &text).map_err(write)?;
     println!("wrote {}", csv.display());
     let png = out.join("mirror.png");
     crate::plot::trace_png(

@@ -120,7 +120,7 @@ pub fn write_extras(name: &str, out: &Path) -> Result<(), super::Error> {
     for (c, b) in &st.curve {
         text.push_str(&format!("{c},{b:e}\n"));
     }
-    std::fs::write(&csv, text)
+    inchworm_cosim::output::write(&csv, text.as_bytes())
         .map_err(|source| super::Error::Write { path: csv.clone(), source })?;
     println!("wrote {}", csv.display());
     let png = out.join("bdmap_map.png");
