@@ -141,11 +141,17 @@ def test_a_long_run_streams_in_flat_memory_and_a_signal_cleans_up(tmp, tmp_path,
     p = subprocess.Popen([str(BIN), "run", SSP, "--input", ref_csv(tmp_path), "--stop-time", "1e9", "--out", out],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=e)
     try:
+        # The rows stream into a uniquely named temporary beside --out, renamed over it at
+        # the end (here: at the signal).
+        def partial():
+            found = list(tmp_path.glob(".long.*.partial.csv"))
+            return found[0] if found else None
         deadline = time.time() + 60
-        while time.time() < deadline and (not out.exists() or out.stat().st_size < 20_000_000):
+        while time.time() < deadline and (partial() is None or partial().stat().st_size < 20_000_000):
             assert p.poll() is None, p.communicate()
             time.sleep(0.2)
-        assert out.stat().st_size >= 20_000_000, "rows are written as they are computed"
+        assert partial().stat().st_size >= 20_000_000, "rows are written as they are computed"
+        assert not out.exists(), "--out appears only complete"
         unpacked = sorted(p.name.split("-")[1] for p in tmp.iterdir())
         assert unpacked == ["fmu", "fmu", "ssp"], "the SSP and its two FMUs while running"
         assert rss_kib(p.pid) < 100_000, "the run's memory does not grow with its rows"
@@ -160,6 +166,7 @@ def test_a_long_run_streams_in_flat_memory_and_a_signal_cleans_up(tmp, tmp_path,
     assert last.startswith(f"error: interrupted by {name} ({out} holds the rows to t = "), last
     with open(out) as f:
         assert f.readline() == "time,encoder_position,runner_position,disturbance_estimate,servo_error\n"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == [], "no temporary left"
 
 
 # 4. Truncated XML is refused, not run as a smaller system.

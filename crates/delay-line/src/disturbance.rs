@@ -135,6 +135,19 @@ impl GaussMarkov {
         self.value = self.a * self.value + self.b * self.noise.sample();
         self.value
     }
+
+    pub(crate) fn save_state(&self, w: &mut inchworm_state_bytes::Writer) {
+        w.f64(self.value);
+        self.noise.save_state(w);
+    }
+
+    pub(crate) fn load_state(
+        &mut self,
+        r: &mut inchworm_state_bytes::Reader,
+    ) -> Result<(), String> {
+        self.value = crate::optics::finite(r.f64()?)?;
+        self.noise.load_state(r)
+    }
 }
 
 #[cfg(test)]

@@ -127,6 +127,22 @@ impl FineStage {
         }
         self.position += self.alpha * (self.command - self.position);
     }
+
+    pub(crate) fn save_state(&self, w: &mut inchworm_state_bytes::Writer) {
+        [self.command, self.rate, self.position].iter().for_each(|v| w.f64(*v));
+        w.u64(u64::from(self.saturated));
+    }
+
+    pub(crate) fn load_state(
+        &mut self,
+        r: &mut inchworm_state_bytes::Reader,
+    ) -> Result<(), String> {
+        for v in [&mut self.command, &mut self.rate, &mut self.position] {
+            *v = crate::optics::finite(r.f64()?)?;
+        }
+        self.saturated = u32::try_from(r.u64()?).map_err(|_| "delay line state: saturations")?;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -16,4 +16,16 @@ impl Gaussian {
     pub fn sample(&mut self) -> f64 {
         inchworm_plant::noise::gaussian(&mut self.state)
     }
+
+    pub(crate) fn save_state(&self, w: &mut inchworm_state_bytes::Writer) {
+        w.u64(self.state);
+    }
+
+    pub(crate) fn load_state(
+        &mut self,
+        r: &mut inchworm_state_bytes::Reader,
+    ) -> Result<(), String> {
+        self.state = r.u64()?;
+        Ok(())
+    }
 }

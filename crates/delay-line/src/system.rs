@@ -3,19 +3,10 @@
 //! alone in space, a fine stage optional, sampled every 2 ms with the inchworm's own
 //! controller.
 //!
-//! Each sample `k`, at `t = k h`:
-//! 1. the path to add: on the ground the sidereal delay since the start `D(t) − D(0)` plus
-//!    the atmosphere's piston; in space a retargeting move, a slow drift and vibration
-//!    lines (no Earth rotation: the interferometer is one spacecraft);
-//! 2. the cart (ground, where there is one) follows the sidereal delay, rate-limited, with
-//!    its tracking error; its metrology gives the cart's path to the inchworm;
-//! 3. the inchworm's reference is the known model of the path (the sidereal delay, the
-//!    move) less the cart, plus the offload, all halved (the cat's eye doubles the path);
-//!    its controller ticks and the plant steps;
-//! 4. the residual `x = path − cart − 2 runner − fine` at the sample's end is what the
-//!    fringe tracker measures; its estimate drives the fine stage, whose position is
-//!    offloaded to the inchworm's reference by an integrator of time constant
-//!    `offload_time` (without a fine stage the estimate itself is integrated into it).
+//! Each sample the optics ([`crate::optics`]: the path, the cart, the tracker, the fine
+//! stage, the offload) see the runner where it is and give the reference of the
+//! controller's tick; the plant steps on the DAC volts of the tick before, as in the
+//! `InchwormSystem` co-simulation.
 //!
 //! A sample where the tracker sees no fringes holds the fine stage and the offload: the
 //! run reports it as lost lock. A runner beyond half the stroke ends the run early.
@@ -24,11 +15,11 @@ use inchworm_controller::{Controller, Params, SAMPLE_PERIOD};
 use inchworm_declare::{Declare, Declared};
 use inchworm_plant::{Dac, Plant, PlantParams};
 
-use crate::disturbance::{GaussMarkov, Lines, PistonSpectrum};
-use crate::fine_stage::{FineStage, FineStageError, FineStageParams};
+use crate::fine_stage::{FineStageError, FineStageParams};
 use crate::fringes::{self, H_BAND, N_BAND};
-use crate::geometry::{GeometryError, Sidereal};
-use crate::tracker::{FringeTracker, Reading, TrackerError, TrackerParams};
+use crate::geometry::GeometryError;
+use crate::optics::Optics;
+use crate::tracker::{TrackerError, TrackerParams};
 
 /// The delay line, its sky and its disturbances: every parameter declared once on its
 /// field (the start value is the default; docs/delay-line.md §5 lists them with their
@@ -220,22 +211,6 @@ impl Run {
     }
 }
 
-/// The disturbance of the path, by regime.
-enum Disturbance {
-    None,
-    Ground(Lines),
-    Space(Lines),
-}
-
-impl Disturbance {
-    fn at(&self, t: f64) -> f64 {
-        match self {
-            Disturbance::None => 0.0,
-            Disturbance::Ground(lines) | Disturbance::Space(lines) => lines.at(t),
-        }
-    }
-}
-
 /// Runs the delay line for `duration` s with the inchworm's `plant` and `controller`.
 pub fn run(
     p: &DelayLineParams,
@@ -243,115 +218,41 @@ pub fn run(
     controller: Params,
     duration: f64,
 ) -> Result<Run, Error> {
-    if let Some((name, why)) = inchworm_declare::out_of_range(p) {
-        return Err(Error::Range { name, why });
-    }
     if !(duration.is_finite() && duration > 0.0 && duration <= 1e5) {
         return Err(Error::Duration(duration));
     }
-    let h = SAMPLE_PERIOD;
-    let sky = Sidereal::new(
-        p.baseline_length,
-        p.baseline_azimuth,
-        p.baseline_elevation,
-        p.latitude,
-        p.declination,
-    )?;
-    let h0 = p.hour_angle.to_radians();
-    sky.visible(h0)?;
-    let d0 = sky.delay(h0);
-    let sidereal = |t: f64| sky.delay(Sidereal::hour_angle(h0, t)) - d0;
-    let disturbance = match (p.disturbances, p.space) {
-        (false, _) => Disturbance::None,
-        (true, false) => Disturbance::Ground(
-            PistonSpectrum {
-                baseline: p.baseline_length,
-                aperture: p.aperture,
-                wind: p.wind_speed,
-            }
-            .draw(p.piston, 0.01, 250.0, p.seed),
-        ),
-        // Reaction-wheel-like lines: a wheel's fundamental and harmonics, and a cryocooler.
-        (true, true) => Disturbance::Space(
-            Lines::new(&[(0.7, 1.0), (1.4, 0.5), (2.1, 0.3), (7.3, 0.4), (40.0, 0.2)], p.seed)
-                .scaled_to(p.vibration),
-        ),
-    };
-    let mut cart_error = GaussMarkov::new(p.cart_error, p.cart_error_time, h, p.seed ^ 0x5eed);
-    let mut tracker = FringeTracker::new(p.tracker)?;
-    let mut fine = FineStage::new(p.fine, h)?;
+    let mut optics = Optics::new(p)?;
     let mut inchworm = Plant::new(plant)?;
     let mut ctrl = Controller::new(controller).map_err(Error::Controller)?;
-
-    let n = (duration / h).round() as usize;
+    let n = (duration / SAMPLE_PERIOD).round() as usize;
     let mut out =
         Run { settle_time: p.settle_time, science_frame: p.science_frame, ..Run::default() };
-    // The path's known model: the sidereal delay on the ground, the move in space.
-    let model = |t: f64| if p.space { p.retarget } else { sidereal(t) };
-    // The drift (space) is deterministic and unknown to the model: it is not switched
-    // with the random disturbances, a drift_rate of 0 turns it off.
-    let drift = if p.space { p.drift_rate } else { 0.0 };
-    let path = |t: f64| model(t) + drift * t + disturbance.at(t);
-    let (mut cart_cmd, mut cart) = (0.0, 0.0);
-    let mut offload = 0.0;
     let mut held = [0.0; 3];
-    let record = |out: &mut Run, t: f64, cart: f64, runner: f64, fine: f64, locked: bool| {
-        let x = path(t) - cart - 2.0 * runner - fine;
-        out.time.push(t);
-        out.path.push(path(t));
-        out.cart.push(cart);
-        out.runner.push(runner);
-        out.fine.push(fine);
-        out.residual.push(x);
-        out.locked.push(locked);
-        x
-    };
-    let mut x = record(&mut out, 0.0, 0.0, inchworm.outputs().runner_position, 0.0, true);
     let half_stroke = p.stroke / 2.0;
-    for k in 0..n {
-        let (t, t1) = (k as f64 * h, (k + 1) as f64 * h);
-        if !p.space {
-            out.sidereal_rate = out.sidereal_rate.max(sky.rate(Sidereal::hour_angle(h0, t)).abs());
-        }
-        // The cart moves continuously: at the sample's end it is on the sidereal model
-        // (rate-limited), its error on top, and its metrology says where.
-        if !p.space && p.cart {
-            let step = p.cart_rate_limit * h;
-            cart_cmd += (sidereal(t1) - cart_cmd).clamp(-step, step);
-            if p.disturbances {
-                cart_error.step();
-            }
-            cart = cart_cmd + if p.disturbances { cart_error.value() } else { 0.0 };
-        }
-        // The controller's reference is where the path will be at the sample's end: the
-        // model is known ahead, the cart's metrology is read as it moves.
-        let known = if p.feedforward { model(t1) } else { 0.0 };
-        let reference = (known - cart + offload) / 2.0;
-        let s = ctrl.tick(inchworm.outputs().encoder_counts, reference);
-        inchworm.step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, h)?;
-        held = s.dac;
-        // The tracker sees the residual the sample leaves.
-        let reading = tracker.measure(x);
-        let estimate = match reading {
-            Reading::Locked(e) => Some(e),
-            Reading::Lost => None,
-        };
-        if p.fine.enabled {
-            fine.step(estimate);
-            if estimate.is_some() {
-                offload += h / p.offload_time * fine.position();
-            }
-        } else if let Some(e) = estimate {
-            offload += h / p.offload_time * e;
-        }
+    for k in 0..=n {
         let runner = inchworm.outputs().runner_position;
-        let fine_path = if p.fine.enabled { fine.position() } else { 0.0 };
-        x = record(&mut out, t1, cart, runner, fine_path, estimate.is_some());
+        let reference = optics.reference();
+        let s = optics.sample(runner);
+        out.sidereal_rate = out.sidereal_rate.max(optics.sidereal_rate(s.time).abs());
+        out.time.push(s.time);
+        out.path.push(s.path);
+        out.cart.push(s.cart);
+        out.runner.push(runner);
+        out.fine.push(s.fine);
+        out.residual.push(s.residual);
+        out.locked.push(s.locked);
         if runner.abs() > half_stroke {
-            out.end_of_stroke = Some(t1);
+            out.end_of_stroke = Some(s.time);
             break;
         }
+        if k == n {
+            break;
+        }
+        let tick = ctrl.tick(inchworm.outputs().encoder_counts, reference);
+        inchworm
+            .step(Dac { earth: held[0], nonearth: held[1], extension: held[2] }, SAMPLE_PERIOD)?;
+        held = tick.dac;
     }
-    out.fine_saturated = fine.saturated();
+    out.fine_saturated = optics.fine_saturated();
     Ok(out)
 }

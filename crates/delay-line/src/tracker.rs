@@ -119,6 +119,17 @@ impl FringeTracker {
         let fine = lambda * phase / (2.0 * PI);
         Reading::Locked(fine + lambda * ((group - fine) / lambda).round())
     }
+
+    pub(crate) fn save_state(&self, w: &mut inchworm_state_bytes::Writer) {
+        self.noise.save_state(w);
+    }
+
+    pub(crate) fn load_state(
+        &mut self,
+        r: &mut inchworm_state_bytes::Reader,
+    ) -> Result<(), String> {
+        self.noise.load_state(r)
+    }
 }
 
 /// `φ` wrapped into (−π, π].
