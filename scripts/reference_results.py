@@ -18,6 +18,9 @@ The experiments:
   reference, 2 s; the DAC volts and the disturbance estimate out.
 - InchwormReference: no inputs, the default step (Fig. 5), 1 s.
 - InchwormMount: three runner positions on ramps, 1 s; piston, tip and tilt out.
+- InchwormDelayLine: the runner on a ramp of 1 µm, 1 s, in the default (ground, 10 m)
+  atmosphere; the controller's reference, the residual path, the fine stage and the lock
+  out.
 """
 import csv
 import pathlib
@@ -26,7 +29,8 @@ import sys
 import numpy as np
 from fmpy import simulate_fmu
 from fmpy.util import read_ref_opt_file
-from inchworm_variables import InchwormController as Controller, InchwormMount as Mount, InchwormPlant as Plant
+from inchworm_variables import (InchwormController as Controller, InchwormDelayLine as DelayLine,
+                                InchwormMount as Mount, InchwormPlant as Plant)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "fmu-build" / "reference"
@@ -39,8 +43,10 @@ OUTPUTS = {
     "InchwormController": [Plant.DAC_EARTH, Plant.DAC_NONEARTH, Plant.DAC_EXTENSION, Controller.DISTURBANCE_ESTIMATE],
     "InchwormReference": [Controller.REFERENCE],
     "InchwormMount": [Mount.PISTON, Mount.TIP, Mount.TILT],
+    "InchwormDelayLine": [DelayLine.REFERENCE, DelayLine.RESIDUAL, DelayLine.FINE_PATH, DelayLine.LOCKED],
 }
-STOP = {"InchwormPlant": 1.0, "InchwormPlantFull": 1.0, "InchwormController": 2.0, "InchwormReference": 1.0, "InchwormMount": 1.0}
+STOP = {"InchwormPlant": 1.0, "InchwormPlantFull": 1.0, "InchwormController": 2.0, "InchwormReference": 1.0,
+        "InchwormMount": 1.0, "InchwormDelayLine": 1.0}
 
 
 def fmt(x):
@@ -96,6 +102,11 @@ def mount_input():
     return [Mount.POSITION_A, Mount.POSITION_B, Mount.POSITION_C], [[0.0, 0.0, 0.0, 5e-6], [1.0, 30e-6, -10e-6, 5e-6]]
 
 
+def delay_line_input():
+    # The runner from 0 to 1 µm, linear over the second.
+    return [DelayLine.RUNNER_POSITION], [[0.0, 0.0], [1.0, 1e-6]]
+
+
 def simulate(fmu, model_dir, name):
     """FMPy's output of the experiment in `model_dir` (the `_ref.opt` options and the
     `_in.csv` inputs, if any), as a structured array."""
@@ -113,6 +124,7 @@ def record(dist):
         "InchwormPlantFull": plant_input(),
         "InchwormController": controller_input(int(round(STOP["InchwormController"] / H))),
         "InchwormMount": mount_input(),
+        "InchwormDelayLine": delay_line_input(),
     }
     for name in OUTPUTS:
         d = OUT / name

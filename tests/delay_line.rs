@@ -71,3 +71,55 @@ fn each_gait_follows_the_rates_it_can_step() {
     assert!(fringes(&slow, 0.03e-3));
     assert!(!fringes(&slow, 0.1e-3));
 }
+
+/// `InchwormDelayLine.ssp` run by the master on its 2 ms Jacobi grid is the library's loop
+/// (`system::run`): the plant's runner at every communication point and the delay line's
+/// residual one sample later (the FMU shows a sample after the step that takes it), bit
+/// for bit.
+#[test]
+fn the_delay_line_system_runs_the_library_loop_bit_for_bit() {
+    use inchworm_delay_line::system::{self, DelayLineParams};
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("line.csv");
+    let out = Command::new(BIN)
+        .arg("run")
+        .arg(inchworm_dist::path("InchwormDelayLine.ssp"))
+        .args([
+            "--stop-time",
+            "3",
+            "--output",
+            "plant.runner_position",
+            "--output",
+            "delay_line.residual",
+        ])
+        .arg("--out")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("time,plant.runner_position,delay_line.residual"));
+    let rows: Vec<Vec<f64>> =
+        lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    let lib = system::run(
+        &DelayLineParams::default(),
+        inchworm_plant::PlantParams::fia20(),
+        inchworm_controller::Params::default(),
+        3.0,
+    )
+    .unwrap();
+    assert_eq!(rows.len(), lib.time.len(), "one row a sample, t = 0 to 3 s");
+    for k in 0..rows.len() - 1 {
+        assert_eq!(rows[k][1].to_bits(), lib.runner[k].to_bits(), "runner at sample {k}");
+        assert_eq!(rows[k + 1][2].to_bits(), lib.residual[k].to_bits(), "residual of sample {k}");
+    }
+    // The loop takes out the millimetres of sidereal path (the cart and the runner) to
+    // micrometres, and the tracker holds the fringes but while the gait steps.
+    let after = 1000..lib.residual.len();
+    let moved = lib.path.last().unwrap().abs();
+    let rms = inchworm_delay_line::fringes::rms(&lib.residual[after.clone()]);
+    let locked =
+        lib.locked[after.clone()].iter().filter(|l| **l).count() as f64 / after.len() as f64;
+    assert!(moved > 1e-3 && rms < 10e-6 && locked > 0.8, "{moved} {rms} {locked}");
+}

@@ -46,6 +46,10 @@ fn figures(identifier: &str) -> &'static [(&'static str, &'static str)] {
             "mirror.png",
             "Three actuator chains and the mount: piston 30 um, then tip 4 urad (inchworm scenario mirror)",
         )],
+        "InchwormDelayLine" => &[(
+            "delay-line.png",
+            "A 10 m baseline on the ground, analog mode and the fine stage: path, cart, inchworm, fine stage and residual (inchworm delay-line --controller analog --duration 10)",
+        )],
         _ => &[],
     }
 }

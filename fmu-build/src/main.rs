@@ -73,6 +73,8 @@ struct Fmu {
     lib_stem: &'static str,
     model_description: fn() -> String,
     documentation: fn() -> String,
+    /// The table's declarations hold together (names, value references, units).
+    declarations: fn() -> Result<(), String>,
 }
 
 fn fmu<M: Model>(standard: Standard, package: &'static str, lib_stem: &'static str) -> Fmu {
@@ -86,11 +88,14 @@ fn fmu<M: Model>(standard: Standard, package: &'static str, lib_stem: &'static s
             Standard::Fmi3 => fmi3::model_description::model_description::<M>,
         },
         documentation: model_description::documentation::<M>,
+        declarations: model_description::check_declarations::<M>,
     }
 }
 
 fn fmus() -> Vec<Fmu> {
-    use inchworm_fmu_models::{ControllerFmu, MountFmu, PlantFmu, PlantFullFmu, ReferenceFmu};
+    use inchworm_fmu_models::{
+        ControllerFmu, DelayLineFmu, MountFmu, PlantFmu, PlantFullFmu, ReferenceFmu,
+    };
     use Standard::{Fmi2, Fmi3};
     vec![
         fmu::<PlantFmu>(Fmi2, "inchworm-plant-fmu", "inchworm_plant_fmu"),
@@ -98,6 +103,7 @@ fn fmus() -> Vec<Fmu> {
         fmu::<ControllerFmu>(Fmi2, "inchworm-controller-fmu", "inchworm_controller_fmu"),
         fmu::<ReferenceFmu>(Fmi2, "inchworm-reference-fmu", "inchworm_reference_fmu"),
         fmu::<MountFmu>(Fmi2, "inchworm-mount-fmu", "inchworm_mount_fmu"),
+        fmu::<DelayLineFmu>(Fmi2, "inchworm-delay-line-fmu", "inchworm_delay_line_fmu"),
         fmu::<PlantFmu>(Fmi3, "inchworm-plant-fmu3", "inchworm_plant_fmu3"),
         fmu::<PlantFullFmu>(Fmi3, "inchworm-plant-full-fmu3", "inchworm_plant_full_fmu3"),
         fmu::<ControllerFmu>(Fmi3, "inchworm-controller-fmu3", "inchworm_controller_fmu3"),
@@ -120,6 +126,7 @@ fn systems() -> Vec<System> {
         fmi2(ssp::closed_system()),
         fmi2(ssp::open_system()),
         fmi2(ssp::mirror_mount()),
+        fmi2(ssp::delay_line()),
         // Both FMUs FMI 3.0: the open loop (the reference from the system input), the same
         // system as `dist/InchwormSystemOpen.ssp`, under the same name in `dist/fmi3/`.
         System {
@@ -159,7 +166,10 @@ fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
             files.push((dir.join(path), text));
         }
     }
-    files.push((PathBuf::from(python::MODULE), python::module()));
+    let built =
+        |standard| fmus.iter().filter(move |f| f.standard == standard).map(|f| f.identifier);
+    let built = [built(Standard::Fmi2).collect(), built(Standard::Fmi3).collect()];
+    files.push((PathBuf::from(python::MODULE), python::module(&built)));
     files
 }
 
@@ -472,6 +482,10 @@ fn main() -> ExitCode {
         return segmented::main(&argv[1..], |spec, out| write_system(&root, spec, &[], out));
     }
     let (fmus, systems) = (fmus(), systems());
+    if let Some(e) = fmus.iter().find_map(|f| (f.declarations)().err()) {
+        eprintln!("fmu-build: {e}");
+        return ExitCode::FAILURE;
+    }
     let files = committed_files(&fmus, &systems);
     let args = match parse_args(&argv) {
         Ok(a) => a,

@@ -483,3 +483,62 @@ pub fn mirror_mount() -> SystemSpec {
         stop_time: 10.0,
     }
 }
+
+/// The delay line's sets: `default` (every parameter at its start: a 10 m baseline on the
+/// ground, with a cart and the fine stage), and the survey's other cases.
+pub fn delay_line_bindings() -> Vec<Binding> {
+    use inchworm_delay_line::fine_stage::FineStageParams as F;
+    use inchworm_delay_line::system::DelayLineParams as P;
+    use inchworm_fmu_models::DelayLineFmu as D;
+    let set = |f, v: Value| vec![(D::var(f).name().to_string(), v)];
+    vec![
+        binding("default", parameters(&D::new())),
+        binding("baseline-100m", set(P::BASELINE_LENGTH, Value::Real(100.0))),
+        binding("no-fine-stage", set(P::fine(F::ENABLED), Value::Boolean(false))),
+        binding("space", set(P::SPACE, Value::Boolean(true))),
+    ]
+}
+
+/// `InchwormDelayLine.ssp`: an interferometer's delay line (docs/delay-line.md) on one
+/// inchworm. InchwormDelayLine gives the controller its reference from the sidereal path,
+/// the cart and the offload, and reads the plant's runner position.
+pub fn delay_line() -> SystemSpec {
+    use inchworm_fmu_models::DelayLineFmu as D;
+    let mut connections = loop_connections("controller", "plant");
+    connections.push(link(
+        "plant",
+        PlantFmu::RUNNER_POSITION.name(),
+        "delay_line",
+        D::RUNNER_POSITION.name(),
+    ));
+    connections.push(link(
+        "delay_line",
+        D::REFERENCE.name(),
+        "controller",
+        ControllerFmu::REFERENCE.name(),
+    ));
+    let connectors = names(&[
+        D::RUNNER_POSITION,
+        D::REFERENCE,
+        D::PATH,
+        D::CART_PATH,
+        D::FINE_PATH,
+        D::RESIDUAL,
+        D::LOCKED,
+        D::VISIBILITY_H,
+        D::VISIBILITY_N,
+        D::NULL_N,
+    ]);
+    SystemSpec {
+        name: "InchwormDelayLine",
+        description: "Interferometer delay line on the JPL inchworm: InchwormDelayLine (sidereal path, cart, fringe tracker, fine stage, offload) gives InchwormController its reference, which drives InchwormPlant carrying the cat's eye, sampled every 2 ms".into(),
+        components: vec![
+            component("delay_line", fmu::<D>(), connectors, delay_line_bindings()),
+            component("controller", fmu::<ControllerFmu>(), controller_connectors(), controller_bindings()),
+            component("plant", fmu::<PlantFmu>(), plant_connectors(), plant_bindings()),
+        ],
+        connectors: vec![],
+        connections,
+        stop_time: 10.0,
+    }
+}

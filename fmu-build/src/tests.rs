@@ -22,6 +22,13 @@ fn the_committed_files_are_what_the_tables_generate() {
 }
 
 #[test]
+fn every_model_s_declarations_hold_together() {
+    for f in fmus() {
+        assert_eq!((f.declarations)(), Ok(()));
+    }
+}
+
+#[test]
 fn an_edited_description_a_missing_set_and_a_stray_file_are_each_named() {
     let files = committed_files(&fmus(), &systems());
     let dir = committed_copy(&files);

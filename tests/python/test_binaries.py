@@ -9,6 +9,7 @@ import zipfile
 import pytest
 
 from conftest import DIST, built_fmu
+from inchworm_variables import FMI2_FMUS, FMI3_FMUS
 
 # glibc before 2.34 (the floor is 2.17) kept libdl and libpthread apart from libc; every
 # glibc since still ships both names.
@@ -35,9 +36,7 @@ def test_only_fmi2_symbols_and_only_the_c_runtime(name, tmp_path):
 # glibc 2.17 symbol versions (cargo-zigbuild), so it loads on RHEL 7/8, Ubuntu 20.04,
 # Debian 11 and everything newer, not only on the glibc of the machine that built it.
 GLIBC_FLOOR = (2, 17)
-ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController", "InchwormReference",
-                              "InchwormMount")] + [
-    ("fmi3", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController")]
+ALL_FMUS = [("", n) for n in FMI2_FMUS] + [("fmi3", n) for n in FMI3_FMUS]
 
 
 def glibc_versions(path):

@@ -15,6 +15,7 @@ import zipfile
 import pytest
 
 from conftest import DIST, ROOT
+from inchworm_variables import FMI2_FMUS, FMI3_FMUS
 
 sys.path.insert(0, str(ROOT / "tests" / "cross"))
 import cross  # noqa: E402
@@ -26,9 +27,7 @@ AARCH64_SYSROOT = "/usr/aarch64-linux-gnu"  # libc6-arm64-cross
 FMI2_PLATFORMS = {"linux64", "win64", "darwin64"}
 FMI3_PLATFORMS = {"x86_64-linux", "aarch64-linux", "x86_64-windows", "x86_64-darwin", "aarch64-darwin"}
 N_FMI2, N_FMI3 = 44, 75  # functions of fmi2Functions.h (Co-Simulation and Model Exchange) / fmi3Functions.h
-ALL_FMUS = [(2, n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController", "InchwormReference",
-                             "InchwormMount")] + [
-    (3, n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController")]
+ALL_FMUS = [(2, n) for n in FMI2_FMUS] + [(3, n) for n in FMI3_FMUS]
 
 
 def fmu(major, name):

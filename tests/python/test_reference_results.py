@@ -14,15 +14,13 @@ from fmpy import read_model_description
 from fmpy.cross_check.validate_vendor_repo import validate_repo, validate_test_fmu
 
 from conftest import DIST, REFERENCE, ROOT
-from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
+from inchworm_variables import FMI2_FMUS, FMI3_FMUS, InchwormController as Controller, InchwormPlant as Plant
 
 sys.path.insert(0, str(ROOT / "scripts"))
 import reference_results  # noqa: E402
 
 LS_REF = "extra/org.fmi-standard.fmi-ls-ref"
-ALL_FMUS = [("", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController", "InchwormReference",
-                              "InchwormMount")] + [
-    ("fmi3", n) for n in ("InchwormPlant", "InchwormPlantFull", "InchwormController")]
+ALL_FMUS = [("", n) for n in FMI2_FMUS] + [("fmi3", n) for n in FMI3_FMUS]
 TREE = DIST / "cross-check"
 
 

@@ -306,6 +306,12 @@ impl Frame {
         [(a * a + b * b).sqrt() / n, (c * c + d * d).sqrt() / n]
     }
 
+    /// The frame's mean null depth at 10 µm, `mean((1 − cos φ)/2)` (NaN for an empty
+    /// frame).
+    pub fn null_depth(&self) -> f64 {
+        (1.0 - self.sums[2] / f64::from(self.n)) / 2.0
+    }
+
     pub fn save_state(&self, w: &mut Writer) {
         self.sums.iter().for_each(|s| w.f64(*s));
         w.u64(u64::from(self.n));
@@ -359,6 +365,7 @@ mod tests {
         let [vh, vn] = f.visibility();
         assert!((vh - crate::fringes::visibility_of(&x, H_BAND)).abs() < 1e-14);
         assert!((vn - crate::fringes::visibility_of(&x, N_BAND)).abs() < 1e-14);
+        assert!((f.null_depth() - crate::fringes::null_depth_of(&x, N_BAND)).abs() < 1e-14);
         assert_eq!(f.len(), 25);
     }
 }

@@ -311,3 +311,64 @@ pub fn documentation<M: Model>() -> String {
     h.push_str("</table>\n</body></html>\n");
     h
 }
+
+/// Refuses a table no master could load: a name or a value reference declared twice
+/// (FMI 2.0 section 2.2.7, FMI 3.0 section 2.4.7), a unit not among
+/// [`ModelInfo::units`](crate::ModelInfo). fmu-build runs it on every model before it
+/// writes a description.
+pub fn check_declarations<M: Model>() -> Result<(), String> {
+    let vars: Vec<&Variable> = M::variables().collect();
+    let problems = declaration_problems(&vars, M::info().units);
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{}: {}", M::info().model_identifier, problems.join("; ")))
+    }
+}
+
+fn declaration_problems(vars: &[&Variable], units: &[crate::Unit]) -> Vec<String> {
+    let mut problems = Vec::new();
+    for (i, v) in vars.iter().enumerate() {
+        if let Some(first) = vars[..i].iter().find(|w| w.name == v.name) {
+            problems.push(format!(
+                "the name `{}` is declared twice (value references {} and {})",
+                v.name, first.vr, v.vr
+            ));
+        }
+        if let Some(first) = vars[..i].iter().find(|w| w.vr == v.vr) {
+            problems.push(format!(
+                "value reference {} is declared twice (`{}` and `{}`)",
+                v.vr, first.name, v.name
+            ));
+        }
+        if let Some(u) = v.unit.filter(|u| !units.iter().any(|d| d.name == *u)) {
+            problems
+                .push(format!("`{}` has the unit `{u}`, which the model does not define", v.name));
+        }
+    }
+    problems
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Unit;
+
+    #[test]
+    fn a_name_or_value_reference_twice_and_an_undefined_unit_are_each_named() {
+        let m = [Unit { name: "m", kg: 0, m: 1, s: 0, a: 0 }];
+        let a = Variable::input("a", 1, 0.0, Some("m"), "");
+        let b = Variable::output("b", 2, Kind::Real, Some("m"), "");
+        assert!(declaration_problems(&[&a, &b], &m).is_empty());
+        let twice = Variable::output("a", 3, Kind::Real, None, "");
+        let same_vr = Variable::output("c", 2, Kind::Real, Some("Hz"), "");
+        assert_eq!(
+            declaration_problems(&[&a, &b, &twice, &same_vr], &m),
+            [
+                "the name `a` is declared twice (value references 1 and 3)",
+                "value reference 2 is declared twice (`b` and `c`)",
+                "`c` has the unit `Hz`, which the model does not define",
+            ]
+        );
+    }
+}
