@@ -123,3 +123,36 @@ fn the_delay_line_system_runs_the_library_loop_bit_for_bit() {
         lib.locked[after.clone()].iter().filter(|l| **l).count() as f64 / after.len() as f64;
     assert!(moved > 1e-3 && rms < 10e-6 && locked > 0.8, "{moved} {rms} {locked}");
 }
+
+/// Visibility against baseline (the survey's figure): with the cart the baseline does not
+/// matter, the controller mode does; without it the gait's speed limit is the baseline's.
+#[test]
+fn with_the_cart_the_baseline_does_not_matter_without_it_the_gait_s_speed_does() {
+    use inchworm_scenarios::delay_line::{baseline_sweep, visibility_series, BASELINES};
+    let series = visibility_series(&baseline_sweep(8.0).unwrap());
+    let names: Vec<&str> = series.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "stepping, ground",
+            "deadband, ground",
+            "analog, ground",
+            "stepping, ground without cart",
+            "deadband, ground without cart",
+            "analog, ground without cart",
+        ]
+    );
+    let v = |i: usize| -> Vec<f64> { series[i].1.iter().map(|p| p[1]).collect() };
+    for (i, points) in series.iter().map(|(_, p)| p).enumerate() {
+        let baselines: Vec<f64> = points.iter().map(|p| p[0]).collect();
+        assert_eq!(baselines, BASELINES, "{}", names[i]);
+    }
+    for (i, name) in names.iter().enumerate().take(3) {
+        let (lo, hi) = v(i).iter().fold((1.0f64, 0.0f64), |(l, h), x| (l.min(*x), h.max(*x)));
+        assert!(hi - lo < 0.03, "{name}: {:?}", v(i));
+    }
+    assert!(v(2).iter().all(|x| *x > 0.9) && v(0).iter().all(|x| *x < 0.8), "{:?}", v(2));
+    let (stepping, analog) = (v(3), v(5));
+    assert!(analog[0] > 0.85 && stepping[0] < 0.5, "1 m: {analog:?} {stepping:?}");
+    assert!(analog[1] < analog[0] && analog[2] < 0.2, "{analog:?}");
+}

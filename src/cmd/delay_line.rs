@@ -99,6 +99,24 @@ fn survey(args: &DelayLineArgs) -> Result<(), String> {
             fringes / EARTH_ROTATION_RATE
         );
     }
+    let sweep = dl::baseline_sweep(args.duration).text()?;
+    super::write_file(&args.out.join("baselines.csv"), |w| dl::write_survey_csv(&sweep, w))?;
+    let series = dl::visibility_series(&sweep);
+    super::write_png(&args.out.join("visibility.png"), |path| {
+        plot::visibility_png(
+            "Delay line on the ground, fine stage on: visibility and null against baseline",
+            &series,
+            path,
+        )
+    })?;
+    println!(
+        "\nvisibility at 1.65 µm on baselines of {:?} m (fine stage on; 0: the end of the stroke):",
+        dl::BASELINES
+    );
+    for (name, points) in &series {
+        let v: Vec<String> = points.iter().map(|p| format!("{:.3}", p[1])).collect();
+        println!("  {name}: {}", v.join(" "));
+    }
     println!("survey in {:.1} s of wall time", wall.elapsed().as_secs_f64());
     Ok(())
 }

@@ -72,8 +72,8 @@ def test_every_shipped_linux_binary_needs_at_most_glibc_2_17(tmp_path):
     if not shutil.which("readelf"):
         pytest.fail("readelf (Debian binutils) is needed for this check")
     binaries = shipped_linux_binaries(tmp_path)
-    # 5 FMI 2.0 (linux64) + 3 FMI 3.0 x (x86_64-linux, aarch64-linux) + the master.
-    assert len(binaries) == 5 + 3 * 2 + 1, [b[0] for b in binaries]
+    # Each FMI 2.0 FMU's linux64 + each FMI 3.0 FMU's x86_64-linux and aarch64-linux + the master.
+    assert len(binaries) == len(FMI2_FMUS) + 2 * len(FMI3_FMUS) + 1, [b[0] for b in binaries]
     over = {}
     for label, path in binaries:
         versions = glibc_versions(path)

@@ -51,36 +51,89 @@ pub struct Row {
     pub figures: Figures,
 }
 
+/// One run of `duration` s on the ground (`space` false) or in space, on a baseline of
+/// `baseline` m, the controller of `mode`, with the fine stage or without, with the cart
+/// or without (ground), every other parameter at its default.
+fn case(
+    (regime, space, baseline): (&'static str, bool, f64),
+    mode: &'static str,
+    fine: bool,
+    cart: bool,
+    duration: f64,
+) -> Result<Row, Error> {
+    let d = DelayLineParams::default();
+    let p = DelayLineParams {
+        space,
+        baseline_length: baseline,
+        cart,
+        fine: FineStageParams { enabled: fine, ..d.fine },
+        ..d
+    };
+    let c = controller(mode).expect("a survey mode");
+    let r = system::run(&p, PlantParams::fia20(), c, duration)?;
+    Ok(Row {
+        regime,
+        baseline,
+        mode,
+        fine,
+        sidereal_rate: r.sidereal_rate,
+        end_of_stroke: r.end_of_stroke,
+        figures: r.figures(),
+    })
+}
+
 /// The survey's runs, each `duration` s.
 pub fn survey(duration: f64) -> Result<Vec<Row>, Error> {
     let mut rows = Vec::new();
     let regimes: [(&str, bool, f64); 3] =
         [("ground", false, 10.0), ("ground", false, 100.0), ("space", true, 10.0)];
-    for (regime, space, baseline) in regimes {
+    for regime in regimes {
         for mode in MODES {
             for fine in [true, false] {
-                let d = DelayLineParams::default();
-                let p = DelayLineParams {
-                    space,
-                    baseline_length: baseline,
-                    fine: FineStageParams { enabled: fine, ..d.fine },
-                    ..d
-                };
-                let c = controller(mode).expect("a survey mode");
-                let r = system::run(&p, PlantParams::fia20(), c, duration)?;
-                rows.push(Row {
-                    regime,
-                    baseline,
-                    mode,
-                    fine,
-                    sidereal_rate: r.sidereal_rate,
-                    end_of_stroke: r.end_of_stroke,
-                    figures: r.figures(),
-                });
+                rows.push(case(regime, mode, fine, true, duration)?);
             }
         }
     }
     Ok(rows)
+}
+
+/// The baselines of the visibility against baseline (m).
+pub const BASELINES: [f64; 7] = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0];
+
+/// Visibility against baseline on the ground, with the fine stage: each controller mode
+/// with the cart (`regime` "ground") and without ("ground without cart": the inchworm takes the whole
+/// sidereal path), on every baseline of [`BASELINES`], each run `duration` s. A run whose
+/// runner reaches the end of its stroke has lost the fringes for good.
+pub fn baseline_sweep(duration: f64) -> Result<Vec<Row>, Error> {
+    let mut rows = Vec::new();
+    for (regime, cart) in [("ground", true), ("ground without cart", false)] {
+        for mode in MODES {
+            for b in BASELINES {
+                rows.push(case((regime, false, b), mode, true, cart, duration)?);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The series of [`baseline_sweep`]'s rows to draw: one a regime and mode, each point a
+/// baseline with its visibility at 1.65 µm and its null depth at 10 µm (0 and 1 when the
+/// runner reached the end of its stroke: no fringes).
+pub fn visibility_series(rows: &[Row]) -> Vec<(String, Vec<[f64; 3]>)> {
+    let mut out: Vec<(String, Vec<[f64; 3]>)> = Vec::new();
+    for r in rows {
+        let name = format!("{}, {}", r.mode, r.regime);
+        let f = &r.figures;
+        let point = match r.end_of_stroke {
+            Some(_) => [r.baseline, 0.0, 1.0],
+            None => [r.baseline, f.visibility_h, f.null_n],
+        };
+        match out.last_mut() {
+            Some((n, points)) if *n == name => points.push(point),
+            _ => out.push((name, vec![point])),
+        }
+    }
+    out
 }
 
 /// What "follows a rate" asks of the inchworm.

@@ -446,7 +446,15 @@ pub fn trace_png(
         // Values in metres are micro-scale, encoder counts large: either needs exponents.
         let big = hi.abs().max(lo.abs());
         let sci = big != 0.0 && !(1e-2..1e5).contains(&big);
-        let fmt = |v: &f64| if sci { format!("{v:.3e}") } else { format!("{v}") };
+        // A tick a rounding away from zero is zero.
+        let fmt = |v: &f64| {
+            let v = if v.abs() < big * 1e-9 { 0.0 } else { *v };
+            if sci {
+                format!("{v:.3e}")
+            } else {
+                format!("{v}")
+            }
+        };
         chart
             .configure_mesh()
             .light_line_style(WHITE)
@@ -456,6 +464,72 @@ pub fn trace_png(
             .y_label_formatter(&fmt)
             .draw()?;
         chart.draw_series(LineSeries::new(series, BLUE.stroke_width(2)))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Visibility at 1.65 µm (top) and null depth at 10 µm (bottom) against baseline (log),
+/// one line a series of `[baseline m, visibility, null depth]` points.
+pub fn visibility_png(
+    title: &str,
+    series: &[(String, Vec<[f64; 3]>)],
+    path: &Path,
+) -> Result<(), Box<dyn Error + Send + Sync>> {
+    const PALETTE: [RGBColor; 6] = [
+        BLUE,
+        RGBColor(220, 80, 0),
+        RGBColor(0, 140, 0),
+        RGBColor(120, 160, 255),
+        RGBColor(250, 170, 110),
+        RGBColor(110, 200, 110),
+    ];
+    let [root, top, bottom] = canvas(path, title, 50)?;
+    let (lo, hi) = extent(series.iter().flat_map(|(_, p)| p.iter().map(|p| p[0])));
+    let x = (lo.min(hi) * 0.8)..(hi.max(lo) * 1.25);
+    // The null depth as its exponent: decades from 1e-7 to 1.
+    let value = |panel: usize, p: &[f64; 3]| match panel {
+        0 => p[1],
+        _ => p[2].max(1e-7).log10(),
+    };
+    let areas = [
+        (&top, "visibility at 1.65 µm", 0.0..1.05),
+        (&bottom, "log10 of the null depth at 10 µm", -7.2..0.2),
+    ];
+    for (panel, (area, y_desc, y)) in areas.into_iter().enumerate() {
+        let mut chart = ChartBuilder::on(area)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x.clone().log_scale(), y)?;
+        chart
+            .configure_mesh()
+            .light_line_style(WHITE)
+            .x_desc("baseline (m)")
+            .y_desc(y_desc)
+            .label_style((FONT, 16))
+            .draw()?;
+        for (i, (name, points)) in series.iter().enumerate() {
+            let c = PALETTE[i % PALETTE.len()];
+            let pts: Vec<(f64, f64)> = points.iter().map(|p| (p[0], value(panel, p))).collect();
+            chart
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
+            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 4, c.filled())))?;
+        }
+        // Where no line runs: between the two groups on top, under them below.
+        let at = match panel {
+            0 => SeriesLabelPosition::MiddleRight,
+            _ => SeriesLabelPosition::LowerRight,
+        };
+        chart
+            .configure_series_labels()
+            .position(at)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 14))
+            .draw()?;
     }
     root.present()?;
     Ok(())
