@@ -122,19 +122,23 @@ def prescription(tmp, text):
 
 
 @pytest.mark.parametrize("fields,words", [
-    ({"aperture_m": 0}, ["aperture_m 0", "value > 0 m"]),
-    ({"aperture_m": -0.5}, ["aperture_m -0.5", "value > 0 m"]),
-    ({"primary_focal_length_m": 0}, ["primary_focal_length_m 0", "value > 0 m"]),
-    ({"wavelength_m": 0}, ["wavelength_m 0", "value > 0 m"]),
-    ({"wavelength_m": -550e-9}, ["wavelength_m -5.5e-07", "value > 0 m"]),
-    ({"pixel_m": 0}, ["pixel_m 0", "value > 0 m"]),
-    ({"secondary_magnification": 0}, ["secondary_magnification 0", "value > 0"]),
-    ({"secondary_magnification": -5}, ["secondary_magnification -5", "value > 0"]),
+    ({"aperture_m": 0}, ["aperture_m 0", "0.001 ≤ value ≤ 100 m"]),
+    ({"aperture_m": -0.5}, ["aperture_m -0.5", "0.001 ≤ value ≤ 100 m"]),
+    ({"primary_focal_length_m": 0}, ["primary_focal_length_m 0", "0.001 ≤ value ≤ 1000 m"]),
+    ({"wavelength_m": 0}, ["wavelength_m 0", "1e-08 ≤ value ≤ 0.001 m"]),
+    ({"wavelength_m": -550e-9}, ["wavelength_m -5.5e-07", "1e-08 ≤ value ≤ 0.001 m"]),
+    ({"pixel_m": 0}, ["pixel_m 0", "1e-07 ≤ value ≤ 0.01 m"]),
+    ({"secondary_magnification": 0}, ["secondary_magnification 0", "0 < value ≤ 1000"]),
+    ({"secondary_magnification": -5}, ["secondary_magnification -5", "0 < value ≤ 1000"]),
     ({"obscuration_m": 0.5}, ["obscuration_m 0.5", "0 ≤ value < 0.5 m"]),
     ({"obscuration_m": 0.6}, ["obscuration_m 0.6", "0 ≤ value < 0.5 m"]),
     ({"back_focal_distance_m": 5.0}, ["back_focal_distance_m 5", "-1 < value < 5 m"]),
-    ({"aperture_m": "0.5"}, ["aperture_m '0.5'", "value > 0 m"]),
+    ({"aperture_m": "0.5"}, ["aperture_m '0.5'", "0.001 ≤ value ≤ 100 m"]),
     ({"aperture": 0.5}, ["unknown prescription keys ['aperture']"]),
+    # Bounded where a product of them would overflow a float (an OverflowError before).
+    ({"primary_focal_length_m": 1e308}, ["primary_focal_length_m 1e+308", "0.001 ≤ value ≤ 1000 m"]),
+    ({"secondary_magnification": 1e300}, ["secondary_magnification 1e+300", "0 < value ≤ 1000"]),
+    ({"focus_piston_m": 1e300}, ["focus_piston_m 1e+300", "-1 ≤ value ≤ 1 m"]),
 ])
 def test_a_prescription_field_out_of_its_range_is_refused(tmp, fields, words):
     path = prescription(tmp, json.dumps(fields))
@@ -142,7 +146,7 @@ def test_a_prescription_field_out_of_its_range_is_refused(tmp, fields, words):
 
 
 @pytest.mark.parametrize("text,words", [
-    ('{"aperture_m": NaN}', ["aperture_m nan", "value > 0 m"]),
+    ('{"aperture_m": NaN}', ["aperture_m nan", "0.001 ≤ value ≤ 100 m"]),
     ('{"obscuration_m": Infinity}', ["obscuration_m inf"]),
     ("[0.5]", ["not a JSON object"]),
     ('{"aperture_m": ', ["not a JSON object"]),
@@ -185,7 +189,7 @@ def test_a_prescription_is_checked_when_made_in_python_too():
     from inchworm_optics import inputs
     from inchworm_optics.telescope import Prescription
 
-    with pytest.raises(inputs.InputError, match="aperture_m nan: accepted value > 0 m"):
+    with pytest.raises(inputs.InputError, match="aperture_m nan: accepted 0.001 ≤ value ≤ 100 m"):
         Prescription(aperture_m=math.nan)
     with pytest.raises(inputs.InputError, match="obscuration_m 0.5: accepted 0 ≤ value < 0.5 m"):
         Prescription(obscuration_m=0.5)

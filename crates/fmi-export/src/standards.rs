@@ -30,6 +30,8 @@ const FMI2_ONLY: u16 =
 facts! {
     /// For messages.
     VERSION: &'static str = "FMI 2.0", "FMI 3.0";
+    /// The major version, which a serialized state carries.
+    MAJOR: u16 = 2, 3;
     /// The function-name prefix.
     PREFIX: &'static str = "fmi2", "fmi3";
     /// The core states the standard has; a serialized state in another is refused.

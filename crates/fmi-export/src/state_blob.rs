@@ -1,12 +1,16 @@
 //! The serialized FMU state: a frame around the model's bytes that makes a corrupt,
 //! truncated or foreign blob recognisable before any of it is trusted.
 //!
-//! Layout, little-endian: magic `IWFS` (4) | format version u16 | reserved u16 |
-//! GUID length u16 + GUID bytes | FMI state u16 | time f64 | start time f64 |
-//! stop time f64 (NaN = none) | payload length u64 | payload | CRC-32 of all before (u32).
+//! Layout, little-endian: magic `IWFS` (4) | format version u16 | FMI major version u16 |
+//! GUID length u16 + GUID bytes | model identifier length u16 + bytes | FMI state u16 |
+//! time f64 | start time f64 | stop time f64 (NaN = none) | payload length u64 | payload |
+//! CRC-32 of all before (u32).
 //!
 //! The payload is the model's: every parameter in table order as an f64 (see
-//! [`save_model`]), then what [`Model::save_state`] appends.
+//! [`save_model`]), then what [`Model::save_state`] appends. A state says which build
+//! wrote it (standard, model, description digest) so that a state is restored only into
+//! the build that wrote it: the FMI 2.0 and FMI 3.0 builds of a model share its GUID and
+//! payload, but not the states and rules around them.
 
 use inchworm_state_bytes::{Reader, Writer};
 
@@ -16,7 +20,8 @@ use crate::table::{Admission, Causality, Kind};
 use crate::Model;
 
 const MAGIC: &[u8; 4] = b"IWFS";
-pub const FORMAT_VERSION: u16 = 1;
+/// 1: no standard and no model identifier (the field of the standard was reserved).
+pub const FORMAT_VERSION: u16 = 2;
 
 #[derive(Debug)]
 pub struct Header {
@@ -26,13 +31,50 @@ pub struct Header {
     pub stop_time: Option<f64>,
 }
 
-pub fn encode(guid: &str, h: &Header, payload: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(64 + guid.len() + payload.len());
+/// Which build wrote a state: the FMI major version, the model identifier and the GUID
+/// (the digest of the model description).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Build<'a> {
+    pub major: u16,
+    pub model: &'a str,
+    pub guid: &'a str,
+}
+
+impl Build<'_> {
+    /// Refuses a state another build wrote, naming both.
+    pub fn check(&self, wrote: &Build) -> Result<(), String> {
+        if wrote.model != self.model {
+            return Err(format!(
+                "serialized state belongs to another FMU ({}, this FMU is {})",
+                wrote.model, self.model
+            ));
+        }
+        if wrote.major != self.major {
+            return Err(format!(
+                "serialized state was saved by the FMI {}.0 build of {}, this is its FMI {}.0 build: a state does not cross standards",
+                wrote.major, self.model, self.major
+            ));
+        }
+        if wrote.guid != self.guid {
+            return Err(format!(
+                "serialized state belongs to another version of {} (GUID {}, this FMU is {})",
+                self.model, wrote.guid, self.guid
+            ));
+        }
+        Ok(())
+    }
+}
+
+pub fn encode(build: &Build, h: &Header, payload: &[u8]) -> Vec<u8> {
+    let (guid, model) = (build.guid.as_bytes(), build.model.as_bytes());
+    let mut out = Vec::with_capacity(64 + guid.len() + model.len() + payload.len());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&0u16.to_le_bytes());
-    out.extend_from_slice(&(guid.len() as u16).to_le_bytes());
-    out.extend_from_slice(guid.as_bytes());
+    out.extend_from_slice(&build.major.to_le_bytes());
+    for text in [guid, model] {
+        out.extend_from_slice(&(text.len() as u16).to_le_bytes());
+        out.extend_from_slice(text);
+    }
     out.extend_from_slice(&(h.state as u16).to_le_bytes());
     out.extend_from_slice(&h.time.to_le_bytes());
     out.extend_from_slice(&h.start_time.to_le_bytes());
@@ -44,7 +86,10 @@ pub fn encode(guid: &str, h: &Header, payload: &[u8]) -> Vec<u8> {
     out
 }
 
-pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), String> {
+/// The frame of `blob`, checked as bytes (magic, checksum, lengths, format version, a
+/// known FMI state, finite times); which build wrote it is the caller's to check
+/// ([`Build::check`]).
+pub fn decode(blob: &[u8]) -> Result<(Build<'_>, Header, &[u8]), String> {
     if blob.len() < 4 + 2 + 2 + 2 + 4 || &blob[..4] != MAGIC {
         return Err("not a serialized state of this FMU (no IWFS header)".into());
     }
@@ -54,7 +99,7 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
         return Err("serialized state is corrupt (CRC-32 mismatch)".into());
     }
     let mut pos = 4;
-    let mut take = |n: usize| -> Result<&'a [u8], String> {
+    let mut take = |n: usize| -> Result<&[u8], String> {
         let s = body.get(pos..pos + n).ok_or("serialized state is truncated")?;
         pos += n;
         Ok(s)
@@ -65,15 +110,13 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
     if version != FORMAT_VERSION {
         return Err(format!("serialized state has format version {version}, this FMU reads version {FORMAT_VERSION}"));
     }
-    take(2)?;
-    let glen = u16_at(take(2)?) as usize;
-    let g = take(glen)?;
-    if g != guid.as_bytes() {
-        return Err(format!(
-            "serialized state belongs to another FMU (GUID {}, this FMU is {guid})",
-            String::from_utf8_lossy(g)
-        ));
-    }
+    let major = u16_at(take(2)?);
+    let mut text = || -> Result<&str, String> {
+        let n = u16_at(take(2)?) as usize;
+        std::str::from_utf8(take(n)?)
+            .map_err(|_| "serialized state has a name that is not UTF-8".into())
+    };
+    let (guid, model) = (text()?, text()?);
     let state = match u16_at(take(2)?) {
         s if s == State::Instantiated as u16 => State::Instantiated,
         s if s == State::InitializationMode as u16 => State::InitializationMode,
@@ -96,7 +139,8 @@ pub fn decode<'a>(guid: &str, blob: &'a [u8]) -> Result<(Header, &'a [u8]), Stri
     if !time.is_finite() || !start_time.is_finite() {
         return Err("serialized state has a non-finite time".into());
     }
-    Ok((Header { state, time, start_time, stop_time: (!stop.is_nan()).then_some(stop) }, payload))
+    let header = Header { state, time, start_time, stop_time: (!stop.is_nan()).then_some(stop) };
+    Ok((Build { major, model, guid }, header, payload))
 }
 
 fn parameters<M: Model>() -> impl Iterator<Item = &'static Row<M>> {
@@ -181,20 +225,29 @@ mod tests {
     #[test]
     fn round_trip_and_every_kind_of_damage_is_refused() {
         let h = Header { state: State::StepComplete, time: 1.5, start_time: 0.0, stop_time: None };
-        let blob = encode("{guid-a}", &h, b"payload bytes");
-        let (back, payload) = decode("{guid-a}", &blob).unwrap();
+        let a = Build { major: 2, model: "Toy", guid: "{guid-a}" };
+        let blob = encode(&a, &h, b"payload bytes");
+        let (wrote, back, payload) = decode(&blob).unwrap();
+        assert_eq!(wrote, a);
         assert_eq!(
             (back.state, back.time, back.stop_time, payload),
             (State::StepComplete, 1.5, None, &b"payload bytes"[..])
         );
-        assert!(decode("{guid-b}", &blob).unwrap_err().contains("another FMU"));
+        assert_eq!(a.check(&wrote), Ok(()));
+        let other = |major, model, guid| Build { major, model, guid }.check(&wrote).unwrap_err();
+        assert_eq!(
+            other(3, "Toy", "{guid-a}"),
+            "serialized state was saved by the FMI 2.0 build of Toy, this is its FMI 3.0 build: a state does not cross standards"
+        );
+        assert!(other(2, "Plant", "{guid-a}").contains("another FMU (Toy, this FMU is Plant)"));
+        assert!(other(2, "Toy", "{guid-b}").contains("another version of Toy"));
         for i in 0..blob.len() {
             let mut bad = blob.clone();
             bad[i] ^= 0x40;
-            assert!(decode("{guid-a}", &bad).is_err(), "flipped byte {i} accepted");
+            assert!(decode(&bad).is_err(), "flipped byte {i} accepted");
         }
         for n in 0..blob.len() {
-            assert!(decode("{guid-a}", &blob[..n]).is_err(), "truncation to {n} bytes accepted");
+            assert!(decode(&blob[..n]).is_err(), "truncation to {n} bytes accepted");
         }
     }
 }

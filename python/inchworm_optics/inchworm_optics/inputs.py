@@ -126,17 +126,19 @@ def memory_bytes(runs, samples, per_frame, per_guide, pupil, fov):
 
 
 # ---- the prescription ----
-LENGTH = Range(0.0, lo_open=True, unit="m")
 #: The prescription's fields with a range of their own; `back_focal_distance_m` and
 #: `obscuration_m` depend on the others (`back_focal_range`, `obscuration_range`).
+#: Each bounded to what a telescope can be, so that no product of them overflows a float
+#: (a focal length of 1e308 m would): from a finder to past an ELT's 39 m, from the far
+#: ultraviolet to the submillimetre.
 PRESCRIPTION = {
-    "aperture_m": LENGTH,
-    "primary_focal_length_m": LENGTH,
-    "secondary_magnification": Range(0.0, lo_open=True,
+    "aperture_m": Range(1e-3, 100.0, unit="m", why="a finder to past an ELT's 39 m"),
+    "primary_focal_length_m": Range(1e-3, 1e3, unit="m"),
+    "secondary_magnification": Range(0.0, 1e3, lo_open=True,
                                      why="the secondary sits before the primary focus and images it beyond"),
-    "wavelength_m": LENGTH,
-    "pixel_m": LENGTH,
-    "focus_piston_m": Range(unit="m"),
+    "wavelength_m": Range(1e-8, 1e-3, unit="m", why="far ultraviolet to submillimetre"),
+    "pixel_m": Range(1e-7, 1e-2, unit="m"),
+    "focus_piston_m": Range(-1.0, 1.0, unit="m"),
 }
 
 

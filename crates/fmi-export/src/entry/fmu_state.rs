@@ -93,7 +93,16 @@ pub unsafe fn free_fmu_state<S: Standard, M: Model>(
     })
 }
 
-fn encode<M: Model>(s: &Snapshot<M>) -> Result<Vec<u8>, String> {
+/// This build of `M` under standard `S`, as its states carry it.
+fn build<S: Standard, M: Model>() -> state_blob::Build<'static> {
+    state_blob::Build {
+        major: S::MAJOR,
+        model: M::info().model_identifier,
+        guid: model_description::guid::<M>(),
+    }
+}
+
+fn encode<S: Standard, M: Model>(s: &Snapshot<M>) -> Result<Vec<u8>, String> {
     let payload = state_blob::save_model(&s.model)?;
     let h = state_blob::Header {
         state: s.state,
@@ -101,7 +110,7 @@ fn encode<M: Model>(s: &Snapshot<M>) -> Result<Vec<u8>, String> {
         start_time: s.start_time,
         stop_time: s.stop_time,
     };
-    Ok(state_blob::encode(model_description::guid::<M>(), &h, &payload))
+    Ok(state_blob::encode(&build::<S, M>(), &h, &payload))
 }
 
 /// Serializes the snapshot behind `state` and hands the bytes to `out`.
@@ -113,7 +122,7 @@ unsafe fn with_blob<S: Standard, M: Model>(
 ) -> Status {
     with_instance::<S, M>(c, func, STATE_CALLS, |inst| {
         let Some(s) = inst.own_snapshot(state) else { return inst.not_ours(func) };
-        match encode(s) {
+        match encode::<S, M>(s) {
             Ok(blob) => out(inst, blob),
             Err(why) => inst.refuse(func, format_args!("{why}")),
         }
@@ -167,10 +176,13 @@ pub unsafe fn deserialize<S: Standard, M: Model>(
         let (Some(blob), false) = (slice(bytes, size), slot.is_null()) else {
             return inst.refuse(func, format_args!("serializedState or {} is NULL", S::FMU_STATE));
         };
-        let (header, payload) = match state_blob::decode(model_description::guid::<M>(), blob) {
-            Ok(x) => x,
-            Err(why) => return inst.refuse(func, format_args!("{why}")),
-        };
+        let (header, payload) =
+            match state_blob::decode(blob).and_then(|(wrote, header, payload)| {
+                build::<S, M>().check(&wrote).map(|()| (header, payload))
+            }) {
+                Ok(x) => x,
+                Err(why) => return inst.refuse(func, format_args!("{why}")),
+            };
         if header.state as u16 & S::STATES == 0 {
             let (s, v) = (header.state.name(), S::VERSION);
             return inst.refuse(

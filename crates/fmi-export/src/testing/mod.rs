@@ -28,12 +28,15 @@ type C = *mut c_void;
 
 /// The model's payload inside a serialized FMU state of `M`.
 pub fn payload_of<M: Model>(blob: &[u8]) -> Vec<u8> {
-    state_blob::decode(guid::<M>(), blob).expect("a blob of M").1.to_vec()
+    let (build, _, payload) = state_blob::decode(blob).expect("a blob of M");
+    assert_eq!(build.guid, guid::<M>(), "a blob of M");
+    payload.to_vec()
 }
 
 /// `blob` with its payload replaced and its CRC made right again, to test how a model
 /// payload that passes the frame's checks is read.
 pub fn with_payload<M: Model>(blob: &[u8], payload: &[u8]) -> Vec<u8> {
-    let (header, _) = state_blob::decode(guid::<M>(), blob).expect("a blob of M");
-    state_blob::encode(guid::<M>(), &header, payload)
+    let (build, header, _) = state_blob::decode(blob).expect("a blob of M");
+    assert_eq!(build.guid, guid::<M>(), "a blob of M");
+    state_blob::encode(&build, &header, payload)
 }
