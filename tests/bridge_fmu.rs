@@ -718,3 +718,60 @@ fn without_real_time_privileges_the_bridge_warns_and_runs() {
         "{board_text}"
     );
 }
+
+/// The run log and the CSV are checked before any work: neither may be an input (the FMU,
+/// the reference table) or the other, and a refused run leaves every file as it was, with
+/// no temporary beside it. A failed run (no board answers) leaves an earlier log as it
+/// was.
+#[test]
+fn a_log_or_csv_over_an_input_or_each_other_is_refused_before_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let reference = d.join("reference.csv");
+    std::fs::write(&reference, "time,reference\n0,100e-6\n").unwrap();
+    let old_log = d.join("old.log");
+    std::fs::write(&old_log, "an earlier run's log").unwrap();
+    let fmu_copy = d.join("InchwormController.fmu");
+    std::fs::copy(fmu("InchwormController.fmu"), &fmu_copy).unwrap();
+    let fmu_bytes = std::fs::read(&fmu_copy).unwrap();
+    let log = std::ffi::OsStr::new("--log");
+    let csv = std::ffi::OsStr::new("--out");
+    let cases: [(Vec<&std::ffi::OsStr>, &str); 3] = [
+        (vec![log, fmu_copy.as_os_str()], "would overwrite the input"),
+        (vec![log, reference.as_os_str()], "would overwrite the input"),
+        (vec![log, old_log.as_os_str(), csv, old_log.as_os_str()], "written over each other"),
+    ];
+    for (extra, says) in cases {
+        let out = Command::new(BIN)
+            .args(["bridge", "--role", "controller", "--lockstep", "--addr", "127.0.0.1:9"])
+            .args(["--duration", "0.1"])
+            .arg("--fmu")
+            .arg(&fmu_copy)
+            .arg("--reference")
+            .arg(&reference)
+            .args(&extra)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(says), "{extra:?}: {stderr}");
+    }
+    let failed = Command::new(BIN)
+        .args(["bridge", "--role", "controller", "--addr", "127.0.0.1:9", "--duration", "0.1"])
+        .args(["--dead-after", "5"])
+        .arg("--fmu")
+        .arg(&fmu_copy)
+        .arg("--log")
+        .arg(&old_log)
+        .output()
+        .unwrap();
+    assert!(!failed.status.success(), "{}", String::from_utf8_lossy(&failed.stdout));
+    assert_eq!(std::fs::read(&fmu_copy).unwrap(), fmu_bytes);
+    assert_eq!(std::fs::read_to_string(&old_log).unwrap(), "an earlier run's log");
+    assert_eq!(std::fs::read_to_string(&reference).unwrap(), "time,reference\n0,100e-6\n");
+    let mut names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["InchwormController.fmu", "old.log", "reference.csv"]);
+}

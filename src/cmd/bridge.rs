@@ -137,7 +137,35 @@ extern "C" fn request_stop(_: libc::c_int) {
     STOP.store(true, Ordering::Relaxed);
 }
 
+/// The bridge with its run log (`--log`) and CSV (`--out`) under the output discipline:
+/// checked before any work (distinct, and not the FMU, the reference table or the serial
+/// device). The log streams record by record, readable while the run goes and after a
+/// kill: a new log at its own name (nothing there to destroy), a log over an earlier one
+/// into a temporary beside it, renamed over the earlier log only when the run completes
+/// (a failed run leaves the earlier log as it was).
 pub fn run(args: &BridgeArgs) -> Result<(), String> {
+    let inputs: Vec<&std::path::Path> = [&args.fmu, &args.reference, &args.serial]
+        .into_iter()
+        .flatten()
+        .map(|p| p.as_path())
+        .collect();
+    let outputs: Vec<(&str, &std::path::Path)> = [("--log", &args.log), ("--out", &args.out)]
+        .into_iter()
+        .filter_map(|(role, p)| p.as_deref().map(|p| (role, p)))
+        .collect();
+    inchworm_cosim::output::check(&outputs, &inputs).map_err(|e| e.to_string())?;
+    let Some(path) = &args.log else { return session(args, None) };
+    let over_earlier = path.exists().then(|| super::create_file(path)).transpose()?;
+    let at = over_earlier.as_ref().map_or(path.as_path(), |p| p.path());
+    let log = LogWriter::create(at).map_err(|e| format!("run log: {e}"))?;
+    let result = session(args, Some(log));
+    if let (Some(pending), Ok(())) = (over_earlier, &result) {
+        super::commit(pending)?;
+    }
+    result
+}
+
+fn session(args: &BridgeArgs, mut log: Option<LogWriter>) -> Result<(), String> {
     // SAFETY: the handler only stores to an atomic.
     unsafe {
         libc::signal(libc::SIGINT, request_stop as *const () as libc::sighandler_t);
@@ -172,15 +200,6 @@ pub fn run(args: &BridgeArgs) -> Result<(), String> {
             UdpTransport::connect(&args.addr)
                 .map_err(|e| format!("board address {}: {e}", args.addr))?,
         ),
-    };
-    // The run log streams record by record (crash-proof), so the bridge crate's writer
-    // keeps it open rather than the one-shot `write_file`.
-    let mut log = match &args.log {
-        Some(p) => {
-            super::create_parent(p)?;
-            Some(LogWriter::create(p).map_err(|e| format!("run log: {e}"))?)
-        }
-        None => None,
     };
     if !args.lockstep {
         let rt = enter_real_time(args.rt_priority);

@@ -94,8 +94,8 @@ fn panel<'a, 'b>(
 }
 
 /// The legend box of the series labelled so far, at `position`.
-fn legend<'a, 'b: 'a>(
-    chart: &mut Chart<'a, 'b>,
+fn legend<'a, 'b: 'a, C: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'b>, C>,
     position: SeriesLabelPosition,
 ) -> Result<(), Box<dyn Error + Send + Sync>> {
     chart
@@ -523,13 +523,7 @@ pub fn visibility_png(
             0 => SeriesLabelPosition::MiddleRight,
             _ => SeriesLabelPosition::LowerRight,
         };
-        chart
-            .configure_series_labels()
-            .position(at)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 14))
-            .draw()?;
+        legend(&mut chart, at)?;
     }
     root.present()?;
     Ok(())

@@ -21,6 +21,7 @@ import tempfile
 from typing import Iterable, Sequence
 
 import pandas as pd
+from inchworm_output import check, replacing
 
 from .system import join_parts, run_part, run_system, show_split
 
@@ -90,6 +91,8 @@ def run_plan(plan: str | os.PathLike, system: str | os.PathLike, *, client=None,
     """
     from distributed import get_client
 
+    if out is not None:  # before any work: `out` neither the plan nor the system
+        check({"out": out}, [plan, system])
     client = client or get_client()
     header, rows = read_plan(plan)
     names = header.split(",")[2:]
@@ -104,5 +107,7 @@ def run_plan(plan: str | os.PathLike, system: str | os.PathLike, *, client=None,
 
 
 def write_results(df: pd.DataFrame, path: str | os.PathLike) -> None:
-    """The results table as CSV, one row per run, floats in their shortest exact text."""
-    df.to_csv(path, index=False, float_format=None)
+    """The results table as CSV, one row per run, floats in their shortest exact text;
+    written beside `path` and renamed over it when complete."""
+    with replacing(path) as f:
+        df.to_csv(f, index=False, float_format=None)

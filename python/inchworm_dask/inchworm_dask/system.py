@@ -17,6 +17,7 @@ import os
 import subprocess
 import tempfile
 from typing import Sequence
+from inchworm_output import check, replacing
 
 __all__ = ["show_split", "run_part", "join_parts", "run_system"]
 
@@ -109,12 +110,14 @@ def run_system(system: str | os.PathLike, parts: int, *, client=None, inchworm: 
     `--param`, `--output`, …). Returns the joined CSV text (written to `out` if given)."""
     from distributed import get_client
 
+    if out is not None:  # before any work: `out` is not the system
+        check({"out": out}, [system])
     client = client or get_client()
     split = show_split(inchworm, str(system), parts, args)
     futures = client.map(run_part, [inchworm] * parts, [str(system)] * parts,
                          range(1, parts + 1), [parts] * parts, [list(args)] * parts, pure=False)
     text = join_parts(split, client.gather(futures))
     if out is not None:
-        with open(out, "w", newline="") as f:
+        with replacing(out) as f:
             f.write(text)
     return text

@@ -12,6 +12,7 @@ import pathlib
 import signal
 import sys
 import time
+from inchworm_output import OutputError, check, replacing
 
 from .inputs import (ANGLE, BOUND, DURATION, GAIN, GRID, MEMORY_BYTES, PHOTONS, RATE, RATE_OF_ANGLE, READ_NOISE,
                      REGULATION_S, SECONDS, SEED, STEP_S, InputError, check_pupil_grid, memory_bytes, sample_counts,
@@ -264,6 +265,10 @@ def _main(argv):
 
     params = parse_params(ssp, a.param)
     out = output_folder(a.out)  # the last check: it creates the folder
+    try:  # none of its files the prescription or the system it reads
+        check({f"--out {out / n}": out / n for n in OUTPUTS}, [ssp, *([a.prescription] if a.prescription else [])])
+    except OutputError as e:
+        raise InputError(str(e)) from None
     from . import figures
     from .optics import Instrument
     from .scenario import figures as run_figures, held, run, ssp_params
@@ -338,13 +343,14 @@ def _main(argv):
         if set(DRIFT_RUNS) & set(results):
             figures.guidance_png(out / "optics-guidance.png", out / "optics-guidance.csv", results, inst, a.bound,
                                  a.held_from, a.guide_rate)
-        with open(out / "optics-summary.csv", "w", newline="") as f:
+        with replacing(out / "optics-summary.csv") as f:
             w = csv.writer(f)
             w.writerow(["run", "figure", "value"])
             for name, fig in numbers.items():
                 for k, v in fig.items():
                     w.writerow([name, k, "" if v is None else v])  # empty: a window with no samples
-        (out / "optics-prescription.json").write_text(json.dumps({**rx.as_dict(), **{"derived": s}}, indent=2))
+        with replacing(out / "optics-prescription.json") as f:
+            f.write(json.dumps({**rx.as_dict(), **{"derived": s}}, indent=2))
     except OSError as e:
         raise RunError(f"writing the results into {out}: {e}") from None
     print(f"wrote {out}/optics-*.csv, optics-*.png")

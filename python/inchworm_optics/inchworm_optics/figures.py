@@ -8,6 +8,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from inchworm_output import replacing, replacing_path
 
 
 def _frame_rows(name, result, instrument):
@@ -25,7 +26,7 @@ FRAME_HEADER = ["run", "t_start_s", "t_end_s", "centroid_x_px", "centroid_y_px",
 
 
 def write_frames_csv(path, results, instrument):
-    with open(path, "w", newline="") as f:
+    with replacing(path) as f:
         w = csv.writer(f)
         w.writerow(FRAME_HEADER)
         for name, r in results.items():
@@ -33,7 +34,7 @@ def write_frames_csv(path, results, instrument):
 
 
 def write_samples_csv(path, results):
-    with open(path, "w", newline="") as f:
+    with replacing(path) as f:
         w = csv.writer(f)
         w.writerow(["run", "t_s", "piston_m", "tip_rad", "tilt_rad", "tip_command_rad", "tilt_command_rad",
                     "parked", "centroid_x_px", "centroid_y_px", "target_x_px", "target_y_px"])
@@ -85,7 +86,8 @@ def timeseries_png(path, results, instrument, names=("stepping", "analog")):
         for ax in row:
             ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with replacing_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -105,7 +107,7 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
     every pixel of every frame shown."""
     names = [n for n in names if n in results]
     fig, axes = plt.subplots(len(names), len(times_s), figsize=(1.9 * len(times_s), 2.5 * len(names)), squeeze=False)
-    with open(csv_path, "w", newline="") as out:  # row by row: a 1024-px frame is a million rows
+    with replacing(csv_path) as out:  # row by row: a 1024-px frame is a million rows
         w = csv.writer(out)
         w.writerow(["run", "frame", "t_start_s", "t_end_s", "y_px", "x_px", "fraction_of_light"])
         for j, name in enumerate(names):
@@ -123,7 +125,8 @@ def psf_strip_png(path, csv_path, results, instrument, times_s, names=("stepping
                                 for x in range(img.shape[1]))
     fig.suptitle("Detector frames (log10 of the frame's peak-normalised intensity, 4 decades)", fontsize=9)
     fig.tight_layout(h_pad=1.5)
-    fig.savefig(path, dpi=110)
+    with replacing_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -154,9 +157,10 @@ def guidance_png(path, csv_path, results, instrument, bound_mas, from_s, guide_r
     axes[1].grid(True, alpha=0.3)
     fig.suptitle(f"Fine guidance at {guide_rate_hz:g} Hz against a line-of-sight drift the mount cannot see", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with replacing_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
-    with open(csv_path, "w", newline="") as f:
+    with replacing(csv_path) as f:
         w = csv.writer(f)
         w.writerow(FRAME_HEADER)
         for name in names:

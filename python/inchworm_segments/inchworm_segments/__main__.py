@@ -9,6 +9,7 @@ import os
 import pathlib
 import sys
 import time
+from inchworm_output import OutputError, check, replacing
 
 from .config import RANGES, SAMPLE_S, InputError, Telescope, check_range, rings_for
 
@@ -99,7 +100,9 @@ def run(args):
 
     tel, t, poses, parked, frame_samples = prepare(args)
     out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    # Before any work: every file it writes in --out, none of them the --poses it reads.
+    names = [*(() if args.poses else ("segments-poses.csv",)), *OUTPUTS]
+    check({f"--out {out / n}": out / n for n in names}, [args.poses] if args.poses else [])
     if not args.poses:
         P.write_csv(out / "segments-poses.csv", t, poses, parked)
     start = time.time()
@@ -116,8 +119,9 @@ def run(args):
     figures.strip(out / "segments-strip.png", out / "segments-strip.csv", result, optics)
     figures.piston_map(out / "segments-piston-map.png", out / "segments-piston-map.csv", result, optics)
     figures.write_summary_csv(out / "segments-summary.csv", numbers)
-    (out / "segments-telescope.json").write_text(json.dumps({**tel.as_dict(), "diameter_m": tel.diameter_m,
-                                                              "segment_count": tel.segment_count}, indent=1) + "\n")
+    with replacing(out / "segments-telescope.json") as f:
+        f.write(json.dumps({**tel.as_dict(), "diameter_m": tel.diameter_m,
+                            "segment_count": tel.segment_count}, indent=1) + "\n")
     for k, v in numbers.items():
         print(f"{k:28s} {'—' if v is None else format(v, '.4g') if isinstance(v, float) else v}")
     print(f"{'optics_s':28s} {elapsed:.3g} ({args.workers} worker{'s' if args.workers > 1 else ''})")
@@ -128,7 +132,7 @@ def main(argv=None):
     try:
         args = parse_args(sys.argv[1:] if argv is None else argv)
         return run(args)
-    except InputError as e:
+    except (InputError, OutputError) as e:
         print(f"inchworm-segments: error: {e}", file=sys.stderr)
         return 2
     except OSError as e:

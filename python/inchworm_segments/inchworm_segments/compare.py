@@ -7,6 +7,7 @@ import argparse
 import csv
 import pathlib
 import sys
+from inchworm_output import replacing, replacing_path
 
 #: The table's rows: (summary name, label, format).
 ROWS = (
@@ -59,7 +60,7 @@ def figure(png, csv_path, runs):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(2, figsize=(8, 6), sharex=True)
-    with open(csv_path, "w", newline="") as f:
+    with replacing(csv_path) as f:
         w = csv.writer(f)
         w.writerow(["run", "kind", "t_s", "cophasing_rms_nm", "contrast"])
         for name, folder in runs:
@@ -81,7 +82,8 @@ def figure(png, csv_path, runs):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
-    fig.savefig(png, dpi=90)
+    with replacing_path(png) as tmp:
+        fig.savefig(tmp, dpi=90)
     plt.close(fig)
 
 
@@ -108,7 +110,7 @@ def main(argv=None):
         return 2
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "cophase-table.csv", "w", newline="") as f:
+    with replacing(out / "cophase-table.csv") as f:
         w = csv.writer(f)
         w.writerow(["name"] + [n for n, _ in summaries])
         for key, _, _ in ROWS:

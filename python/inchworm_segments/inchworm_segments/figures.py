@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Circle, RegularPolygon  # noqa: E402
 import numpy as np  # noqa: E402
+from inchworm_output import replacing, replacing_path
 
 
 def _rms(x):
@@ -65,7 +66,7 @@ def summary(result, regulation_from_s=None):
 
 
 def write_summary_csv(path, numbers):
-    with open(path, "w", newline="") as f:
+    with replacing(path) as f:
         w = csv.writer(f)
         w.writerow(["name", "value"])
         w.writerows([k, "" if v is None else v] for k, v in numbers.items())
@@ -77,13 +78,13 @@ def timeseries(png, samples_csv, frames_csv, result):
     r = result
     t0, t1 = r.frame_start_s(), r.frame_end_s()
     fp = r.frame_parked()
-    with open(samples_csv, "w", newline="") as f:
+    with replacing(samples_csv) as f:
         w = csv.writer(f)
         w.writerow(["t_s", "parked", "cophasing_rms_nm", "wfe_rms_nm", "strehl", "contrast"])
         w.writerows([f"{r.t_s[i]:.4f}", int(r.parked[i]), r.cophasing_rms_m[i] * 1e9, r.wfe_rms_m[i] * 1e9,
                      r.strehl[i], r.contrast[i]] for i in range(len(r.t_s)))
     n = r.frame_samples
-    with open(frames_csv, "w", newline="") as f:
+    with replacing(frames_csv) as f:
         w = csv.writer(f)
         w.writerow(["frame", "t_start_s", "t_end_s", "parked", "contrast", "strehl_mean", "cophasing_rms_nm"])
         w.writerows([k, f"{t0[k]:.4f}", f"{t1[k]:.4f}", int(fp[k]), r.frame_contrast[k],
@@ -111,7 +112,8 @@ def timeseries(png, samples_csv, frames_csv, result):
         ax.legend(loc="upper right", fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(png, dpi=110)
+    with replacing_path(png) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -135,7 +137,7 @@ def strip(png, csv_path, result, optics, count=6):
     tel = result.telescope
     fig, axes = plt.subplots(1, len(frames), figsize=(2.3 * len(frames), 2.9), squeeze=False)
     t0, t1 = result.frame_start_s(), result.frame_end_s()
-    with open(csv_path, "w", newline="") as f:
+    with replacing(csv_path) as f:
         w = csv.writer(f)
         w.writerow(["frame", "t_start_s", "t_end_s", "x_lambda_d", "y_lambda_d", "contrast"])
         for ax, k in zip(axes[0], frames):
@@ -150,7 +152,8 @@ def strip(png, csv_path, result, optics, count=6):
             ax.set_yticks([])
     fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="log10 contrast")
     fig.suptitle("Perfect coronagraph's frames (every 2 ms sample of the exposure); dashed: the dark zone", fontsize=9)
-    fig.savefig(png, dpi=110)
+    with replacing_path(png) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -166,7 +169,7 @@ def piston_map(png, csv_path, result, optics):
     maps = [(f"at the worst sample, t = {r.t_s[worst]:.3f} s", rel[worst] * 1e9),
             ("mean over the parked samples" if r.parked.any() else "mean over the run", rel[held].mean(axis=0) * 1e9),
             ("RMS over the run", np.sqrt(np.mean(rel**2, axis=0)) * 1e9)]
-    with open(csv_path, "w", newline="") as f:
+    with replacing(csv_path) as f:
         w = csv.writer(f)
         w.writerow(["segment", "x_m", "y_m", "weight", "piston_worst_nm", "piston_parked_mean_nm", "piston_rms_nm"])
         for k, (x, y) in enumerate(optics.segment_centres_m):
@@ -190,5 +193,6 @@ def piston_map(png, csv_path, result, optics):
         fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(lo, lim), cmap=cmap), ax=ax, shrink=0.8, label="nm")
     fig.subplots_adjust(wspace=0.5)
     fig.suptitle("Segment piston (surface, about the aperture mean): segment number and nm", fontsize=9)
-    fig.savefig(png, dpi=110)
+    with replacing_path(png) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)

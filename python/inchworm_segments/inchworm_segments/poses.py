@@ -10,6 +10,7 @@ import csv
 import math
 
 import numpy as np
+from inchworm_output import replacing
 
 from .config import SAMPLE_S, InputError
 
@@ -23,7 +24,7 @@ def header(segment_count, with_parked=True):
 
 def write_csv(path, t_s, poses, parked=None):
     poses = np.asarray(poses, dtype=float)
-    with open(path, "w", newline="") as f:
+    with replacing(path) as f:
         w = csv.writer(f)
         w.writerow(header(poses.shape[1], parked is not None))
         for i in range(len(t_s)):
