@@ -1,8 +1,9 @@
-"""InchwormDelayLine.ssp, unchanged, in `inchworm run`, Ecos (ecospy) and OSP libcosim
-(libcosimpy): over 3 s of the default (ground, 10 m baseline) each master gives the same
+"""InchwormDelayLine.ssp, unchanged, in `inchworm run`, Ecos (ecospy), OSP libcosim
+(libcosimpy) and FMPy (`fmpy.ssp`): over 3 s of the default (ground, 10 m baseline) each master gives the same
 residual optical path and runner position, sample for sample: Ecos to the bit, libcosim
 to 1e-15 m (libcosim keeps time in integer nanoseconds, and the plant's steps from its
-times differ from the others' in the last bits, as in InchwormSystem.ssp); the
+times differ from the others' in the last bits, as in InchwormSystem.ssp); FMPy, whose connectors start at 0 (the controller's first
+reference), to the bit until the gait's first step and to 1 % in the residual's RMS; the
 `no-fine-stage` set leaves the inchworm alone behind the tracker, with a larger residual.
 How each master labels its rows is in ssp_masters.py."""
 import numpy as np
@@ -67,3 +68,19 @@ def test_without_the_fine_stage_the_inchworm_is_alone(ssp, ours):
     after = t >= 1.0
     rms = [np.sqrt(np.mean(r["delay_line.residual"][after] ** 2)) for r in (ours[1], alone)]
     assert rms[1] > rms[0], rms
+
+
+def test_fmpy_runs_it_to_the_same_figures(ssp, ours):
+    labels, r = m.fmpy(ssp, STOP, NAMES)
+    t, mine = ours
+    # FMPy's row k is labelled k h and holds the values at (k + 1) h: inchworm's row k + 1
+    # (its last row is one step past the stop time).
+    np.testing.assert_allclose(labels[:-1] + m.H, t[1:], rtol=0, atol=1e-9)
+    x, y = mine["delay_line.residual"][1:], np.asarray(r["delay_line.residual"])[:-1]
+    # Its controller's first tick saw a reference of 0, not the delay line's: the runner
+    # is the same until the gait's first step, and the loop's figures after it.
+    first = int(np.argmax(x != y))
+    assert first > 20 and np.array_equal(x[:first], y[:first]), first
+    after = t[1:] >= 1.0
+    rms = [np.sqrt(np.mean(v[after] ** 2)) for v in (x, y)]
+    assert abs(rms[1] / rms[0] - 1) < 0.01, rms
