@@ -22,7 +22,7 @@ fn a_run_writes_its_csv_and_plot_and_says_its_figures() {
     assert!(stdout.contains("visibility") && stdout.contains("locked throughout"), "{stdout}");
     let csv = std::fs::read_to_string(dir.path().join("delay-line.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("time,path,cart,inchworm_path,fine_stage,residual,locked"));
+    assert_eq!(lines.next(), Some("time,path,cart_path,inchworm_path,fine_path,residual,locked"));
     assert_eq!(lines.count(), 2001, "one row a 2 ms sample from t = 0 to 4 s");
     let png = std::fs::read(dir.path().join("delay-line.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");

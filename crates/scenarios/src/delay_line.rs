@@ -269,10 +269,11 @@ pub fn survey_table(rows: &[Row]) -> String {
     s
 }
 
-/// A run as a trace for the plots and the CSV: the path, the inchworm's, the cart's and
-/// the fine stage's optical paths and the residual (m), and the lock (1 locked).
+/// A run as a trace for the plots and the CSV, named as InchwormDelayLine.fmu's outputs:
+/// the path, the cart's, the inchworm's and the fine stage's optical paths and the
+/// residual (m), and the lock (1 locked).
 pub fn trace(run: &Run) -> Trace {
-    let names = ["path", "cart", "inchworm_path", "fine_stage", "residual", "locked"];
+    let names = ["path", "cart_path", "inchworm_path", "fine_path", "residual", "locked"];
     let mut t = Trace::new(names.iter().map(|s| s.to_string()).collect());
     for k in 0..run.time.len() {
         t.push(
