@@ -269,3 +269,74 @@ fn a_reset_repeats_a_clocked_run_and_a_checkpoint_is_refused() {
         assert_eq!(rows(&mut sim), first, "se {se}: the run after the reset");
     }
 }
+
+/// `inchworm run` of the clocked controller with `fmu=cs-events` or `fmu=se` bounds its work
+/// by the rules of the plain driver: steps of 1e17 s and 1e300 s (5e19 and 5e302 ticks of
+/// the 2 ms sample clock) are refused at once with the reason and write nothing, and a run
+/// of a million ticks a step stops within 1 s of SIGTERM or SIGINT (the master checks the
+/// run's stop flag between two ticks), saying so, with exit status 128 + the signal's
+/// number and nothing left in its TMPDIR. A run refused before its first step writes no
+/// CSV; one interrupted writes the rows it computed (the output contract of a new file).
+#[test]
+fn inchworm_run_bounds_the_clocked_drivers_and_honours_signals_inside_a_step() {
+    let dir = std::env::temp_dir().join(format!("inchworm-clocked-{}-bounds", std::process::id()));
+    let tmp = dir.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let fmu = dist("fmi3/InchwormController.fmu");
+    let out = dir.join("out.csv");
+    let run = |interface: &str, stop: &str, step: &str| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_inchworm"));
+        cmd.arg("run").arg(&fmu).args(["--interface", interface, "--stop-time", stop]);
+        cmd.args(["--step-size", step]).arg("--out").arg(&out);
+        cmd.env("TMPDIR", &tmp).env("INCHWORM_FMU_CACHE", "off");
+        cmd.stderr(std::process::Stdio::piped()).stdout(std::process::Stdio::null());
+        cmd
+    };
+    let leftovers = || std::fs::read_dir(&tmp).unwrap().count();
+    let wait = |child: &mut std::process::Child, limit: f64| {
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break (s, start.elapsed().as_secs_f64());
+            }
+            if start.elapsed().as_secs_f64() > limit {
+                let _ = child.kill();
+                panic!("the run went on for {limit} s");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    };
+    let stderr = |child: &mut std::process::Child| {
+        let mut s = String::new();
+        child.stderr.take().unwrap().read_to_string(&mut s).unwrap();
+        s
+    };
+    for interface in ["fmu=cs-events", "fmu=se"] {
+        for stop in ["1e17", "1e300"] {
+            let mut child = run(interface, stop, stop).spawn().unwrap();
+            let (status, _) = wait(&mut child, 60.0);
+            let e = stderr(&mut child);
+            assert_eq!(status.code(), Some(1), "{interface} {stop}: {e}");
+            assert!(e.contains("past the 2^53 ticks this master counts exactly"), "{e}");
+            assert!(!out.exists() && leftovers() == 0, "{interface} {stop}: left files");
+        }
+        for (signal, name) in [(libc::SIGTERM, "SIGTERM"), (libc::SIGINT, "SIGINT")] {
+            // Ten steps of 2000 s, each a million ticks.
+            let mut child = run(interface, "20000", "2000").spawn().unwrap();
+            // The run takes about 6 s; its handlers are installed first thing.
+            std::thread::sleep(std::time::Duration::from_millis(700));
+            assert!(child.try_wait().unwrap().is_none(), "{interface}: ended before the signal");
+            // SAFETY: a plain kill(2) of the child this test spawned.
+            assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+            let (status, after) = wait(&mut child, 60.0);
+            let e = stderr(&mut child);
+            assert_eq!(status.code(), Some(128 + signal), "{interface} {name}: {e}");
+            assert!(e.contains(&format!("interrupted by {name}")), "{e}");
+            assert!(after < 1.0, "{interface}: {after:.3} s from {name} to the exit");
+            eprintln!("{interface}: {name} to the exit: {:.1} ms", after * 1e3);
+            assert_eq!(leftovers(), 0, "{interface} {name}: left files in TMPDIR");
+            std::fs::remove_file(&out).unwrap();
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -3,8 +3,9 @@
 driving its clocks in Co-Simulation with event mode and in Scheduled Execution gives the
 plain Co-Simulation DAC codes at all 500 samples of the check trace's encoder input;
 importers that enter event mode but activate no clock (FMPy's `simulate_fmu(...,
-use_event_mode=True)`, fmusim's `--event-mode-used`) get a refusal with the reason; the
-description passes FMPy's validation, its clocked-variable rules included."""
+use_event_mode=True)`, fmusim's `--event-mode-used`) get the same codes, the FMU running
+each tick itself when the event is left, with one warning saying so; the description
+passes FMPy's validation, its clocked-variable rules included."""
 import copy
 import zipfile
 from xml.etree import ElementTree
@@ -12,7 +13,6 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu, validate_model_description
 
 import clocked_drivers as drv
@@ -20,10 +20,15 @@ from conftest import DIST
 from inchworm_variables import InchwormController as Controller, InchwormPlant as Plant
 
 FMU = DIST / "fmi3" / "InchwormController.fmu"
-# What the FMU logs when an importer leaves the event at a tick without activating the
-# clock (crates/fmi-export/src/entry/clocks.rs).
-NOT_ACTIVATED = ("fmi3EnterStepMode: sample_clock ticks at 0 s and was not activated in this event: "
-                 "the importer activates a time-based input clock at each of its ticks")
+# What the FMU logs, once, when an importer leaves the event at a tick without activating
+# the clock (crates/fmi-export/src/entry/clocks.rs, `run_unhandled_ticks`).
+NOT_ACTIVATED = ("fmi3EnterStepMode: sample_clock ticks at 0 s and the importer did not activate it "
+                 "(fmi3SetClock, then fmi3UpdateDiscreteStates, before leaving the event: FMI 3.0 "
+                 "section 2.2.8.2); the FMU runs the tick itself")
+
+
+def warnings(log):
+    return [m for s, _, m in log.lines if s == 1]
 # The outputs gait_step clocks; every other output is clocked by sample_clock.
 GAIT_CLOCKED = {Controller.DISTURBANCE_ESTIMATE, "scale_weights"}
 
@@ -86,71 +91,77 @@ def test_scheduled_execution_driver_gives_the_plain_dac_codes(controller, encode
     assert schedule.preemption == ["lock", "unlock"] * (drv.SAMPLES + 1)
 
 
-def test_simulate_fmu_with_event_mode_is_refused_with_the_reason(encoder, plain_run):
+def test_simulate_fmu_with_event_mode_gives_the_plain_codes_with_one_warning(encoder, plain_run):
     """FMPy 0.3.32's `simulateCS` (fmpy/simulation.py) with use_event_mode: after
     fmi3ExitInitializationMode it calls fmi3UpdateDiscreteStates until no update is needed
     and fmi3EnterStepMode; at each step that ends with eventHandlingNeeded it calls
     fmi3EnterEventMode, applies its inputs, fmi3UpdateDiscreteStates, fmi3EnterStepMode. It
-    never calls fmi3SetClock, so the tick at t = 0 never runs and leaving its event is
-    refused."""
+    never calls fmi3SetClock: the FMU runs each tick at fmi3EnterStepMode with the inputs
+    the event was given, so the DAC codes after each event are plain Co-Simulation's at all
+    501 instants, and the first tick is logged as a warning, the only message."""
     log = drv.Log()
-    with pytest.raises(FMICallException) as refused:
-        simulate_fmu(str(FMU), use_event_mode=True, logger=log.callback,
-                     start_values={Controller.REFERENCE: drv.REFERENCE})
-    assert refused.value.function == "fmi3EnterStepMode"
-    assert refused.value.status == 3
-    [error] = log.errors()
-    assert error.startswith(f"InchwormController: {NOT_ACTIVATED}"), error
-    assert "instantiates without eventModeUsed" in error
-
-    # The way on the message names: without event mode each fmi3DoStep runs its tick, and
-    # simulate_fmu fed the same encoder gives the drivers' DAC codes at all 501 instants.
     signals = np.array([(k * drv.H, counts) for k, counts in enumerate(encoder)],
                        dtype=[("time", np.float64), (Plant.ENCODER_COUNTS, np.int32)])
-    result = simulate_fmu(str(FMU), input=signals, output=drv.CODES, stop_time=drv.STOP_TIME,
-                          output_interval=drv.H, start_values={Controller.REFERENCE: drv.REFERENCE})
-    codes = [tuple(int(c) for c in row) for row in zip(*(result[n] for n in drv.CODES))]
-    assert codes == plain_run.codes
+    result = simulate_fmu(str(FMU), use_event_mode=True, input=signals, output=drv.CODES,
+                          stop_time=drv.STOP_TIME, output_interval=drv.H, logger=log.callback,
+                          start_values={Controller.REFERENCE: drv.REFERENCE})
+    # FMPy records each event's time twice, before and after it: the later row is kept.
+    after = {}
+    for t, *codes in zip(result["time"], *(result[n] for n in drv.CODES)):
+        after[round(t / drv.H)] = tuple(int(c) for c in codes)
+    assert sorted(after) == list(range(drv.SAMPLES + 1))
+    assert [after[k] for k in range(drv.SAMPLES + 1)] == plain_run.codes
+    assert log.errors() == []
+    [warning] = warnings(log)
+    assert warning.startswith(f"InchwormController: {NOT_ACTIVATED}"), warning
 
 
-def test_fmusim_event_mode_loop_is_refused_and_the_event_stays_open(controller):
+def test_fmusim_event_mode_loop_runs_every_sample(controller):
     """fmusim 0.8.0's `--event-mode-used`: fmusim/src/simulate/fmi3.rs hands the run to
     fmi-rs's `sim::fmi3::cs::simulate` (fmi-rs/src/sim/fmi3/cs.rs at the submodule's
     commit d94fd12), reproduced here call for call: fmi3InstantiateCoSimulation with
     eventModeUsed, fmi3EnterInitializationMode (no stop time without --set-stop-time),
     fmi3ExitInitializationMode, fmi3UpdateDiscreteStates until discreteStatesNeedUpdate is
     false (an error if nextEventTime <= time), fmi3EnterStepMode; then fmi3DoStep and, at
-    eventHandlingNeeded, fmi3EnterEventMode, fmi3UpdateDiscreteStates, fmi3EnterStepMode.
-    No fmi3SetClock: fmi3EnterStepMode is refused (fmusim's `call(...)?` ends the run with
-    the error), the instance stays in the event, and activating the clock there lets it
-    go on."""
+    eventHandlingNeeded, fmi3EnterEventMode, fmi3UpdateDiscreteStates, fmi3EnterStepMode;
+    no inputs (fmusim without an input file), no fmi3SetClock, and any status above OK
+    ends the run (its `call(...)?`). Every call returns OK; the DAC codes at each of the
+    501 samples are those of plain Co-Simulation with the encoder at its start value 0,
+    and the first tick is logged as a warning."""
     log = drv.Log()
     fmu = controller.slave("fmusim", log, event_mode=True, early_return=False)
     fmu.enterInitializationMode(startTime=0.0)
+    fmu.setFloat64([controller.vr[Controller.REFERENCE]], [drv.REFERENCE])
     fmu.exitInitializationMode()
-    time = 0.0
-    while True:
-        need_update, terminate, _, _, next_defined, next_time = fmu.updateDiscreteStates()
-        assert not (next_defined and next_time <= time), "fmusim: NextEventTime error"
-        assert not terminate
-        if not need_update:
-            break
-    assert (next_defined, next_time) == (True, drv.H)
-    with pytest.raises(FMICallException) as refused:
-        fmu.enterStepMode()
-    assert refused.value.function == "fmi3EnterStepMode"
-    [error] = log.errors()
-    assert error.startswith(f"fmusim: {NOT_ACTIVATED}"), error
 
-    # Nothing changed: still in the event at t = 0, which the activation completes.
-    fmu.setClock([controller.vr[Controller.SAMPLE_CLOCK]], [True])
-    fmu.updateDiscreteStates()
+    def settle(time):
+        while True:
+            need_update, terminate, _, _, next_defined, next_time = fmu.updateDiscreteStates()
+            assert not (next_defined and next_time <= time), "fmusim: NextEventTime error"
+            assert not terminate
+            if not need_update:
+                return next_defined, next_time
+
+    assert settle(0.0) == (True, drv.H)
     fmu.enterStepMode()
-    event, terminate, early, last = fmu.doStep(0.0, drv.H)
-    assert (event, terminate, early, last) == (True, False, False, drv.H)
+    run = drv.Run()
+    controller.record(fmu, run)
+    for k in range(drv.SAMPLES):
+        event, terminate, early, last = fmu.doStep(k * drv.H, drv.H)
+        assert (event, terminate, early) == (True, False, False), f"step {k}"
+        fmu.enterEventMode()
+        settle(last)
+        fmu.enterStepMode()
+        controller.record(fmu, run)
     fmu.terminate()
     fmu.freeInstance()
-    assert len(log.errors()) == 1
+    assert log.errors() == []
+    [warning] = warnings(log)
+    assert warning.startswith(f"fmusim: {NOT_ACTIVATED}"), warning
+
+    zero = drv.plain(controller, [0] * (drv.SAMPLES + 1), drv.Log())
+    assert run.codes == zero.codes
+    assert len(set(run.codes)) > 10, "the gait ran"
 
 
 def test_validation_includes_the_clocked_variable_rules():

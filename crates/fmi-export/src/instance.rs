@@ -280,6 +280,12 @@ pub struct Instance<S: Standard, M: Model> {
     /// Scheduled Execution: the last partition's activation time, which no later one may
     /// precede.
     pub last_activation: Option<f64>,
+    /// Co-Simulation with `eventModeUsed`: the last step ended at a tick with
+    /// `eventHandlingNeeded` and the importer has not entered event mode since.
+    pub tick_pending: bool,
+    /// Ticks whose partitions the FMU ran itself because the importer did not activate
+    /// their clocks (`entry::clocks::run_unhandled_ticks`); the first is logged.
+    pub unhandled_ticks: u64,
 }
 
 /// The clamps of one input into its declared range since instantiation or reset.
@@ -424,6 +430,8 @@ impl<S: Standard, M: Model> Instance<S, M> {
                 vars.iter().filter(|r| r.var.kind == Kind::Clock).count(),
             ),
             last_activation: None,
+            tick_pending: false,
+            unhandled_ticks: 0,
         }
     }
 
@@ -490,6 +498,7 @@ impl<S: Standard, M: Model> Instance<S, M> {
         // activates again from the restored time on.
         self.active_clocks.clear();
         self.ran_clocks.clear();
+        self.tick_pending = false;
         self.last_activation = match self.interface {
             Interface::ScheduledExecution => Some(self.time),
             _ => None,

@@ -235,40 +235,77 @@ fn event_mode_call_order_is_checked() {
     assert!(plain.saw(&["fmi3EnterEventMode: not supported: this Co-Simulation instance was instantiated without eventModeUsed"]));
 }
 
-/// The event at a tick is left only once the tick ran: `fmi3EnterStepMode` is refused,
-/// the instance staying in the event, when the importer entered it at a tick without
-/// activating `tick` (the loops of FMPy's `simulate_fmu(use_event_mode=True)` and fmusim's
-/// `--event-mode-used`) or activated it without the update that runs it. An event at a
-/// time that is no tick (an input event) is left without one.
+/// An importer that does not activate the input clock at its ticks: one that leaves the
+/// event at a tick without `fmi3SetClock` (the loops of FMPy's
+/// `simulate_fmu(use_event_mode=True)` and fmusim's `--event-mode-used`), or activates it
+/// without the update that runs it. `fmi3EnterStepMode` runs the tick itself with the
+/// inputs set, as a plain Co-Simulation step would, and returns OK; the first such tick of
+/// the instance is logged as a warning with its time, the later ones are not. An event at
+/// a time that is no tick (an input event) runs nothing.
 #[test]
-fn an_event_at_a_tick_is_left_only_once_the_tick_ran() {
-    let why = "tick ticks at 0 s and was not activated in this event: the importer activates a time-based input clock at each of its ticks (fmi3SetClock, then fmi3UpdateDiscreteStates) before it leaves the event";
+fn a_tick_the_importer_did_not_activate_runs_when_the_event_is_left_logged_once() {
+    let why = "fmi3EnterStepMode: tick ticks at 0 s and the importer did not activate it (fmi3SetClock, then fmi3UpdateDiscreteStates, before leaving the event: FMI 3.0 section 2.2.8.2); the FMU runs the tick itself";
     let i = Inst::new(Kind::Cs(true, false));
     assert_eq!(i.set_u(2.0), fmi3OK);
     assert_eq!(i.update().0, fmi3OK, "an update without clocks");
-    assert_eq!(i.enter_step_mode(), fmi3Error);
-    assert!(i.saw(&["fmi3EnterStepMode: ", why, "instantiates without eventModeUsed"]));
-    assert_eq!(i.real(SUM), 0.0, "the tick did not run");
-    assert_eq!(i.set_clock(TICK, true), fmi3OK, "still in the event");
-    assert_eq!(i.enter_step_mode(), fmi3Error, "activated, but not run by an update");
-    i.run_tick();
-    assert_eq!(i.real(SUM), 2.0);
-    assert_eq!(i.enter_step_mode(), fmi3OK, "the tick ran");
+    assert_eq!(i.real(SUM), 0.0, "the update ran no partition");
+    assert_eq!(i.enter_step_mode(), fmi3OK);
+    assert_eq!(i.real(SUM), 2.0, "the tick ran on leaving the event");
+    let warned = |i: &Inst| -> Vec<String> {
+        i.logged().into_iter().filter(|m| m.contains("did not activate")).collect()
+    };
+    assert!(
+        warned(&i)[0].starts_with(&format!("1|logStatusWarning|clocked: {why}")),
+        "{:?}",
+        i.logged()
+    );
 
-    // The next tick: the event the step's eventHandlingNeeded asked for.
+    // The next tick: activated, but not run by an update. It runs once, not logged again.
     assert_eq!(i.step(0.0, PERIOD), (fmi3OK, [true, false, false], PERIOD));
     assert_eq!(unsafe { fmi3EnterEventMode::<M>(i.c) }, fmi3OK);
-    assert_eq!(i.update().0, fmi3OK);
-    assert_eq!(i.enter_step_mode(), fmi3Error);
-    assert!(i.saw(&["fmi3EnterStepMode: tick ticks at 0.1 s and was not activated"]));
+    assert_eq!((i.set_u(3.0), i.set_clock(TICK, true)), (fmi3OK, fmi3OK));
+    assert_eq!((i.enter_step_mode(), i.real(SUM)), (fmi3OK, 5.0));
+    // The third: run by the importer, so not again on leaving.
+    assert_eq!(i.step(PERIOD, PERIOD).0, fmi3OK);
+    assert_eq!(unsafe { fmi3EnterEventMode::<M>(i.c) }, fmi3OK);
     i.run_tick();
-    assert_eq!((i.enter_step_mode(), i.real(SUM)), (fmi3OK, 4.0));
+    assert_eq!((i.enter_step_mode(), i.real(SUM)), (fmi3OK, 8.0));
+    assert_eq!(warned(&i).len(), 1, "logged once per instance: {:?}", i.logged());
 
-    // An event between ticks needs no activation.
-    assert_eq!(i.step(PERIOD, 0.05), (fmi3OK, [false, false, false], PERIOD + 0.05));
+    // An event between ticks runs nothing.
+    assert_eq!(i.step(2.0 * PERIOD, 0.05), (fmi3OK, [false, false, false], 2.0 * PERIOD + 0.05));
     assert_eq!(unsafe { fmi3EnterEventMode::<M>(i.c) }, fmi3OK);
     assert_eq!(i.update().0, fmi3OK);
+    assert_eq!((i.enter_step_mode(), i.real(SUM)), (fmi3OK, 8.0));
+}
+
+/// An importer that ignores `eventHandlingNeeded` and steps on from the tick without
+/// entering event mode: the tick runs at the start of the next step, so every sample
+/// runs, as without `eventModeUsed` (the toy sums its input at each tick); logged once.
+#[test]
+fn a_tick_stepped_past_without_an_event_runs_at_the_next_step_logged_once() {
+    let i = Inst::new(Kind::Cs(true, false));
+    assert_eq!(i.set_u(1.0), fmi3OK);
+    i.run_tick();
     assert_eq!(i.enter_step_mode(), fmi3OK);
+    let mut sum = 1.0;
+    for k in 0..5 {
+        let t = k as f64 * PERIOD;
+        let u = 10.0 + k as f64;
+        assert_eq!(i.set_u(u), fmi3OK);
+        assert_eq!(i.step(t, PERIOD), (fmi3OK, [true, false, false], t + PERIOD));
+        if k > 0 {
+            sum += u;
+        }
+        assert_eq!(i.real(SUM), sum, "step {k}: the tick at {t} s ran at its start, with u = {u}");
+    }
+    let warned: Vec<_> =
+        i.logged().into_iter().filter(|m| m.contains("did not activate")).collect();
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(
+        warned[0].starts_with("1|logStatusWarning|clocked: fmi3DoStep: tick ticks at 0.1 s"),
+        "{warned:?}"
+    );
 }
 
 /// A failing partition moves the instance to Error with `terminateSimulation`, as a

@@ -63,13 +63,15 @@ struct Due {
 }
 
 impl Simulation {
-    /// Reads every clocked component's clock schedule (after initialization).
+    /// Reads every clocked component's clock schedule (after initialization), and refuses
+    /// a run whose ticks it could not count or run.
     pub(super) fn schedule_clocks(&mut self, start: f64) -> Result<(), Error> {
+        let (h, stop) = (self.h, start + self.n_steps as f64 * self.h);
         for c in self.components.iter_mut() {
             let name = c.name.clone();
             let scheduled = match &mut c.fmu {
-                Fmu::Events(e) => e.schedule(start),
-                Fmu::Se(s) => s.schedule(start),
+                Fmu::Events(e) => e.schedule(start).and_then(|()| e.check_run(h, stop)),
+                Fmu::Se(s) => s.schedule(start).and_then(|()| s.check_run(h, stop)),
                 _ => Ok(()),
             };
             scheduled.map_err(|e| e.context(format!("component {name}")))?;
@@ -181,6 +183,11 @@ impl Simulation {
         }
         .map_err(here)?;
         for tick in ticks {
+            // A step may hold up to a million ticks: the run's stop flag is honoured
+            // between two of them, as between two steps.
+            if let Some(flag) = &self.stop {
+                flag.check()?;
+            }
             let due = match &mut self.components[ci].fmu {
                 Fmu::Events(e) => {
                     let ended = e.fmu.do_step_to(tick).map_err(|e| here(e.into()))?;

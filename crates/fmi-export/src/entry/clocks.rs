@@ -287,32 +287,62 @@ pub unsafe fn enter_step_mode<S: Standard, M: Model>(c: *mut c_void, func: &str)
             let why = format_args!("illegal call sequence: not allowed in state {state}");
             return inst.refuse(func, why);
         }
-        if let Some(why) = skipped_tick(inst) {
-            return inst.refuse(func, format_args!("{why}"));
+        let status = run_unhandled_ticks(inst, func);
+        if status > WARNING {
+            return status;
         }
         leave_event(inst);
         inst.state = State::StepComplete;
-        OK
+        status
     })
 }
 
-/// Why leaving the current event would skip a tick: an input clock ticks at the
-/// instance's time and its partition has not run in this event. A time-based clock is the
-/// importer's to activate at every tick (FMI 3.0 section 2.2.8.2, "the importer must
-/// activate the Clock"), and with `eventModeUsed` the model computes its clocked variables
-/// only at the activations (`step_between_ticks`), so an event left without one would
-/// hold them silently; an importer that activates no clocks instantiates without
-/// `eventModeUsed`, and the model's `do_step` runs the ticks inside the step.
-fn skipped_tick<S: Standard, M: Model>(inst: &Instance<S, M>) -> Option<String> {
+/// Runs the partitions of the input clocks that tick at the instance's time and have not
+/// run in this event, and returns the status of the call that found them: OK, or what
+/// the partitions reported. A time-based clock is the importer's to activate at each of
+/// its ticks (FMI 3.0 section 2.2.8.2: `fmi3SetClock`, then `fmi3UpdateDiscreteStates`),
+/// and with `eventModeUsed` the model computes its clocked variables only then
+/// (`step_between_ticks`). An importer that does not (one that leaves the event without
+/// activating, or steps on past `eventHandlingNeeded` without entering event mode) would
+/// otherwise hold them silently; so the FMU runs the tick itself, with the inputs it has,
+/// as a Co-Simulation instance without `eventModeUsed` runs it inside `fmi3DoStep`. The
+/// first such tick of an instance is logged with fmi3Warning, with its time and what the
+/// importer skipped; the call still returns OK, since the FMU did compute the tick (an
+/// importer that stops at a Warning, as fmusim does, would otherwise not run at all).
+pub(crate) fn run_unhandled_ticks<S: Standard, M: Model>(
+    inst: &mut Instance<S, M>,
+    func: &str,
+) -> Status {
     let (start, t) = (inst.start_time, inst.time);
-    let (v, _) = clocks::<M>()
+    let inputs = clocks::<M>()
         .filter(|r| r.var.causality == Causality::Input)
-        .filter_map(|r| interval(&r.var).map(|dt| (&r.var, dt)))
-        .find(|&(v, dt)| is_tick(start, dt, t) && !inst.ran_clocks.contains(&v.vr))?;
-    Some(format!(
-        "{name} ticks at {t} s and was not activated in this event: the importer activates a time-based input clock at each of its ticks (fmi3SetClock, then fmi3UpdateDiscreteStates) before it leaves the event (FMI 3.0 section 2.2.8.2); an importer that does not activate clocks instantiates without eventModeUsed, and each fmi3DoStep then runs the ticks it passes",
-        name = v.name
-    ))
+        .filter_map(|r| interval(&r.var).map(|dt| (&r.var, dt)));
+    let mut status = OK;
+    for (v, dt) in inputs {
+        if !is_tick(start, dt, t) || inst.ran_clocks.contains(&v.vr) {
+            continue;
+        }
+        if inst.unhandled_ticks == 0 {
+            let why = format_args!(
+                "{func}: {name} ticks at {t} s and the importer did not activate it (fmi3SetClock, then fmi3UpdateDiscreteStates, before leaving the event: FMI 3.0 section 2.2.8.2); the FMU runs the tick itself, with the inputs it has, as a Co-Simulation instance without eventModeUsed does in fmi3DoStep. Logged for the first such tick of this instance only",
+                name = v.name
+            );
+            inst.log(WARNING, LogCategory::StatusWarning, why);
+        }
+        inst.unhandled_ticks += 1;
+        inst.model.clear_output_clocks();
+        match inst.with_step_log(|model, log| model.activate_clock(v.vr, t, log)) {
+            Ok(()) => {
+                inst.ran_clocks.push(v.vr);
+                status = status.max(inst.report_step_log(func));
+            }
+            Err(why) => {
+                inst.state = State::Error;
+                return inst.refuse(func, format_args!("{why}"));
+            }
+        }
+    }
+    status
 }
 
 /// Deactivates the event's clocks, input and output.

@@ -128,6 +128,16 @@ pub unsafe fn do_step<S: Standard, M: Model>(
             }
             _ => (t + h, Ending::default()),
         };
+        // The step before ended at a tick the importer stepped past without entering
+        // event mode: the tick runs here, before the step, as it would have in the event.
+        let mut status = OK;
+        if inst.modes.event_mode && std::mem::take(&mut inst.tick_pending) {
+            status = super::clocks::run_unhandled_ticks(inst, func);
+            if status > WARNING {
+                return status;
+            }
+            super::clocks::leave_event(inst);
+        }
         let result = match inst.modes.event_mode {
             true => inst.with_step_log(|model, log| model.step_between_ticks(t, end - t, log)),
             false => inst.with_step_log(|model, log| model.do_step(t, h, log)),
@@ -137,10 +147,11 @@ pub unsafe fn do_step<S: Standard, M: Model>(
                 // The master's clock is the reference: following it keeps t and the FMU
                 // time equal however the master accumulates it.
                 inst.time = end;
+                inst.tick_pending = ending.event;
                 if let Some(o) = &outputs {
                     o.report(ending, inst.time);
                 }
-                let status = inst.report_step_log(func);
+                let status = status.max(inst.report_step_log(func));
                 inst.last_step_status = status;
                 status
             }

@@ -226,6 +226,7 @@ pub unsafe fn reset<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status
         inst.active_clocks.clear();
         inst.ran_clocks.clear();
         inst.last_activation = None;
+        (inst.tick_pending, inst.unhandled_ticks) = (false, 0);
         for c in inst.clamps.iter_mut() {
             (c.count, c.logged, c.summarized) = (0, 0, 0);
         }

@@ -221,6 +221,7 @@ unsafe fn with_events<S: Standard, M: Model>(
 /// account); both are allowed in event mode too.
 pub unsafe fn enter_event_mode<S: Standard, M: Model>(c: *mut c_void, func: &str) -> Status {
     with_events::<S, M>(c, func, (TIMED, STEPPING | EVENT_MODE), |inst| {
+        inst.tick_pending = false;
         inst.state = State::EventMode;
         OK
     })
