@@ -98,9 +98,11 @@ pub fn decode(blob: &[u8]) -> Result<(Build<'_>, Header, &[u8]), String> {
     if crc32fast::hash(body) != crc {
         return Err("serialized state is corrupt (CRC-32 mismatch)".into());
     }
-    let mut pos = 4;
+    let mut pos: usize = 4;
     let mut take = |n: usize| -> Result<&[u8], String> {
-        let s = body.get(pos..pos + n).ok_or("serialized state is truncated")?;
+        // A length field may say anything: its end is checked, never overflowed.
+        let end = pos.checked_add(n).ok_or("serialized state is truncated")?;
+        let s = body.get(pos..end).ok_or("serialized state is truncated")?;
         pos += n;
         Ok(s)
     };

@@ -8,6 +8,7 @@ use quick_xml::Reader;
 
 use super::xml::{attr, line_of, required, Open};
 use super::Archive;
+use crate::archive::cut;
 use crate::Error;
 
 /// Parses an `.ssv` parameter set into `component.variable` → value text.
@@ -40,7 +41,15 @@ pub fn parse_ssv_typed(xml: &str) -> Result<BTreeMap<String, TypedValue>, Error>
                 "Parameter" => current = Some(required(&e, "name")?),
                 kind @ ("Real" | "Integer" | "Boolean" | "String" | "Enumeration") => {
                     if let Some(name) = current.take() {
-                        out.insert(name, (kind.to_string(), required(&e, "value")?));
+                        let value = (kind.to_string(), required(&e, "value")?);
+                        if out.contains_key(&name) {
+                            return Err(Error::Ssp(format!(
+                                "line {}: parameter `{}` is set twice in this parameter set: which value holds is not said",
+                                line_of(xml, reader.buffer_position()),
+                                cut(&name, 80)
+                            )));
+                        }
+                        out.insert(name, value);
                     }
                 }
                 _ => {}
@@ -212,6 +221,15 @@ pub fn first_bindings_typed(a: Option<&Archive>) -> Result<Vec<(String, TypedVal
 mod tests {
     use super::*;
     use crate::ssp::{parse_component_outputs, System};
+
+    /// A set naming a parameter twice is refused: the property tests' generated sets have
+    /// distinct names, and an edit that repeats one took the later value silently.
+    #[test]
+    fn a_parameter_set_twice_in_one_set_is_refused() {
+        let xml = "<ssv:ParameterSet name='s'><ssv:Parameters>\n<ssv:Parameter name='k'><ssv:Real value='1'/></ssv:Parameter>\n<ssv:Parameter name='k'><ssv:Real value='2'/></ssv:Parameter>\n</ssv:Parameters></ssv:ParameterSet>";
+        let e = parse_ssv_typed(xml).unwrap_err().to_string();
+        assert_eq!(e, "line 3: parameter `k` is set twice in this parameter set: which value holds is not said");
+    }
 
     #[test]
     fn component_and_system_parameter_bindings_in_order() {

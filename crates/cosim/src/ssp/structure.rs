@@ -7,6 +7,7 @@ use quick_xml::events::Event;
 use quick_xml::Reader;
 
 use super::xml::{attr, line_of, required, Open};
+use crate::archive::cut;
 use crate::Error;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -124,25 +125,15 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
                 ));
             }
             "DefaultExperiment" => {
-                let num = |n: &str| -> Result<Option<f64>, Error> {
-                    attr(&e, n)?
-                        .map(|v| {
-                            v.trim().parse::<f64>().map_err(|_| {
-                                Error::Ssp(format!("DefaultExperiment {n}=\"{v}\" is not a number"))
-                            })
-                        })
-                        .transpose()
-                };
-                sys.stop_time = num("stopTime")?;
+                sys.stop_time = attr(&e, "stopTime")?
+                    .map(|v| duration("DefaultExperiment stopTime", &v))
+                    .transpose()?;
             }
             // The project's own annotation carries the communication step.
             "CommunicationStep" => {
-                if let Some(v) = attr(&e, "stepSize")? {
-                    sys.step_size =
-                        Some(v.trim().parse().map_err(|_| {
-                            Error::Ssp(format!("stepSize \"{v}\" is not a number"))
-                        })?);
-                }
+                sys.step_size = attr(&e, "stepSize")?
+                    .map(|v| duration("CommunicationStep stepSize", &v))
+                    .transpose()?;
             }
             _ => {}
         }
@@ -154,6 +145,19 @@ pub fn parse_ssd(xml: &str) -> Result<System, Error> {
         return Err(Error::Ssp("SystemStructure.ssd has no <System>".into()));
     }
     Ok(sys)
+}
+
+/// A stop time or step of the SSD: a finite number of seconds above 0 (a NaN, an infinity,
+/// 0 or a negative time would reach the master as a run of no or endless steps).
+fn duration(what: &str, v: &str) -> Result<f64, Error> {
+    match v.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t > 0.0 => Ok(t),
+        Ok(_) => Err(Error::Ssp(format!(
+            "{what}=\"{}\" refused: a time in seconds, finite and > 0",
+            cut(v, 40)
+        ))),
+        Err(_) => Err(Error::Ssp(format!("{what}=\"{}\" is not a number", cut(v, 40)))),
+    }
 }
 
 /// The output connectors of the SSD's components, as `component.connector` in document
@@ -230,5 +234,32 @@ mod tests {
              expected </ssd:SystemStructureDescription> (a truncated file?)"
         );
         assert!(parse_ssd(&format!("\u{feff}{xml}")).is_ok(), "a BOM is skipped");
+    }
+
+    /// Found by the property tests (tests/properties.rs): a stop time or step of 0 parsed,
+    /// and a NaN, an infinity or a negative one as well.
+    #[test]
+    fn a_stop_time_or_step_that_is_no_duration_is_refused() {
+        let ssd = |experiment: &str| {
+            format!("<ssd:SystemStructureDescription name='s'><ssd:System name='s'>{experiment}</ssd:System></ssd:SystemStructureDescription>")
+        };
+        for v in ["0", "-1", "NaN", "inf", "1e309"] {
+            let e = parse_ssd(&ssd(&format!("<ssd:DefaultExperiment stopTime='{v}'/>")));
+            assert_eq!(
+                e.unwrap_err().to_string(),
+                format!(
+                    "DefaultExperiment stopTime=\"{v}\" refused: a time in seconds, finite and > 0"
+                )
+            );
+            let step = format!("<ssd:Annotations><ssc:Annotation type='x'><iw:CommunicationStep stepSize='{v}'/></ssc:Annotation></ssd:Annotations>");
+            let e = parse_ssd(&ssd(&step)).unwrap_err().to_string();
+            assert!(e.contains("CommunicationStep stepSize"), "{e}");
+        }
+        let e = parse_ssd(&ssd("<ssd:DefaultExperiment stopTime='soon'/>")).unwrap_err();
+        assert!(e.to_string().contains("stopTime=\"soon\" is not a number"), "{e}");
+        assert_eq!(
+            parse_ssd(&ssd("<ssd:DefaultExperiment stopTime='2e-3'/>")).unwrap().stop_time,
+            Some(2e-3)
+        );
     }
 }
