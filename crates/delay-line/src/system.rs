@@ -110,6 +110,14 @@ impl Default for DelayLineParams {
     }
 }
 
+impl DelayLineParams {
+    /// The 2 ms samples of one science frame (at least one): the run's figures and the
+    /// FMU's frame outputs both count frames of this many samples.
+    pub fn frame_samples(&self) -> u32 {
+        ((self.science_frame / SAMPLE_PERIOD).round() as u32).max(1)
+    }
+}
+
 /// What refuses a run before it starts.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -155,7 +163,8 @@ pub struct Run {
     /// The largest sidereal rate over the run (m/s).
     pub sidereal_rate: f64,
     pub settle_time: f64,
-    pub science_frame: f64,
+    /// Samples of a science frame ([`DelayLineParams::frame_samples`]).
+    pub frame_samples: u32,
 }
 
 /// The figures a designer asks of a run (after `settle_time`).
@@ -186,7 +195,7 @@ impl Run {
     pub fn figures(&self) -> Figures {
         let from = self.window();
         let x = &self.residual[from..];
-        let per_frame = ((self.science_frame / SAMPLE_PERIOD).round() as usize).max(1);
+        let per_frame = self.frame_samples.max(1) as usize;
         let (mut jitter, mut offset, mut vh, mut vn, mut frames) = (0.0, 0.0, 0.0, 0.0, 0);
         for f in x.chunks_exact(per_frame) {
             let mean = f.iter().sum::<f64>() / f.len() as f64;
@@ -226,7 +235,7 @@ pub fn run(
     let mut ctrl = Controller::new(controller).map_err(Error::Controller)?;
     let n = (duration / SAMPLE_PERIOD).round() as usize;
     let mut out =
-        Run { settle_time: p.settle_time, science_frame: p.science_frame, ..Run::default() };
+        Run { settle_time: p.settle_time, frame_samples: p.frame_samples(), ..Run::default() };
     let mut held = [0.0; 3];
     let half_stroke = p.stroke / 2.0;
     for k in 0..=n {

@@ -120,10 +120,6 @@ impl DelayLineFmu {
         }
         Ok(n as u64)
     }
-
-    fn frame_samples(&self) -> u32 {
-        ((self.params.science_frame / SAMPLE).round() as u32).max(1)
-    }
 }
 
 impl Model for DelayLineFmu {
@@ -173,7 +169,7 @@ impl Model for DelayLineFmu {
 
     fn do_step(&mut self, t: f64, h: f64, _log: &mut StepLog) -> Result<(), String> {
         let n = Self::samples_of(h)?;
-        let per_frame = self.frame_samples();
+        let per_frame = self.params.frame_samples();
         let optics = self.optics.as_mut().ok_or("the delay line is not initialized")?;
         let half_stroke = self.params.stroke / 2.0;
         if self.runner.abs() > half_stroke {
