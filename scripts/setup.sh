@@ -20,7 +20,7 @@ bash scripts/setup-run.sh libclang-dev binutils libtbb12 \
     rustc-web cargo-web rust-web-src gcc-mingw-w64-x86-64 gcc-aarch64-linux-gnu \
     libc6-dev-arm64-cross wine64 qemu-user
 
-PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1"
+PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1 hypothesis==6.170.27"
 [ -x .venv/bin/python ] || python3 -m venv .venv
 # Each pin checked on its installed version, so a venv made before a pin was added (or
 # with another version) gets exactly the pinned one, and a complete venv is left alone.
@@ -43,6 +43,8 @@ install_pins $PY_REQS
 # The packages' output discipline (python/inchworm_output: check, then write beside and
 # rename), the standard library only.
 .venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_output
+# The packages' input discipline (python/inchworm_inputs: Range, InputError, bounded reading), the standard library only.
+.venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_inputs
 
 # Sweeps on a dask.distributed cluster (python/inchworm_dask): dask, distributed and
 # pandas pinned, then the local package itself (reinstalled every time, so the venv has

@@ -189,7 +189,7 @@ def test_a_prescription_is_checked_when_made_in_python_too():
     from inchworm_optics import inputs
     from inchworm_optics.telescope import Prescription
 
-    with pytest.raises(inputs.InputError, match="aperture_m nan: accepted 0.001 ≤ value ≤ 100 m"):
+    with pytest.raises(inputs.InputError, match="aperture_m nan: accepted a finite number, 0.001 ≤ value ≤ 100 m"):
         Prescription(aperture_m=math.nan)
     with pytest.raises(inputs.InputError, match="obscuration_m 0.5: accepted 0 ≤ value < 0.5 m"):
         Prescription(obscuration_m=0.5)

@@ -226,3 +226,16 @@ def test_a_bad_poses_csv_is_one_line_and_exit_2(tmp_path, capsys, text, message)
     assert err.count("\n") == 1 and message in err, err
     with pytest.raises(InputError):
         Telescope(rings=3, pupil_px=16)  # a segment under 4 pixels across
+
+
+def test_the_optics_refuse_poses_outside_their_ranges(optics):
+    from inchworm_segments.optics import SegmentedOptics
+
+    with pytest.raises(InputError, match="poses: sample 0: seg0_piston_m nan: accepted a finite number"):
+        optics.opd_m(np.full((1, 7, 3), np.nan))
+    with pytest.raises(InputError, match="seg6_tilt_rad 2: accepted -1 ≤ value ≤ 1 rad"):
+        optics.cophasing_rms_m(one_segment(7, 6, tilt=2.0))
+    with pytest.raises(InputError, match=r"poses of shape \(1, 6, 3\): accepted \(samples, 7, 3\)"):
+        optics.opd_m(np.zeros((1, 6, 3)))
+    with pytest.raises(InputError, match="accepted a config.Telescope"):
+        SegmentedOptics("7 segments")

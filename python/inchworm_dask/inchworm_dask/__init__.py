@@ -11,10 +11,13 @@ error.
 
 Every worker needs the `inchworm` binary and the system file (and any `--input` CSV) at the
 paths given, e.g. on a shared file system or installed at the same place on every node.
+
+Every argument, the plan and whatever the binary prints back are checked (`inputs`): a bad
+input is an `InputError` (a ValueError) before any work, a binary that fails or prints what
+cannot be read a `BinaryError` (a RuntimeError).
 """
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import tempfile
@@ -23,41 +26,56 @@ from typing import Iterable, Sequence
 import pandas as pd
 from inchworm_output import check, replacing
 
+from .inputs import (ROWS_PER_TASK, BinaryError, InputError, parse_plan, parse_records, plan_values,
+                     read_plan)
 from .system import join_parts, run_part, run_system, show_split
 
 __all__ = [
-    "read_plan", "run_rows", "run_plan", "write_results",
-    "show_split", "run_part", "join_parts", "run_system",
+    "read_plan", "parse_plan", "run_rows", "run_plan", "write_results",
+    "show_split", "run_part", "join_parts", "run_system", "InputError", "BinaryError",
 ]
 
 
-def read_plan(path: str | os.PathLike) -> tuple[str, list[str]]:
-    """The plan's header line and its row lines (text as written, so values stay exact)."""
-    with open(path, newline="") as f:
-        lines = [line.strip() for line in f if line.strip()]
-    if not lines or not lines[0].startswith("run,sample"):
-        raise ValueError(f"{path}: not a sweep plan (header `run,sample,<parameter>,…`)")
-    return lines[0], lines[1:]
+def _strings(what, values):
+    values = list(values)
+    if not all(isinstance(v, str) for v in values):
+        raise InputError(f"{what}: accepted a sequence of strings")
+    return values
 
 
 def run_rows(inchworm: str, system: str, header: str, rows: Sequence[str],
              args: Sequence[str] = ()) -> list[dict]:
-    """Runs plan rows through the binary on this machine; one dict per row (the JSON line).
+    """Runs plan rows through the binary on this machine; one dict per row (the JSON line,
+    decoded and checked by `inputs.parse_records`).
 
-    A row that fails (an FMU error, a value out of range) is a dict with status "failed"
-    and its error; a binary that cannot run at all (missing, bad system file) raises.
+    The rows are checked as `parse_plan` checks a plan first (an InputError). A row that
+    fails (an FMU error, a value out of range) is a dict with status "failed" and its error;
+    a binary that cannot run at all (missing, bad system file), or prints what is not one
+    run's JSON line for each row, raises a `BinaryError`.
     """
+    header, rows = parse_plan("\n".join(_strings("plan rows", [header, *rows])).encode("utf-8"), "plan rows")
+    args = _strings("args", args)
     fd, path = tempfile.mkstemp(prefix="inchworm-plan-", suffix=".csv")
     try:
-        with os.fdopen(fd, "w") as f:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(header + "\n" + "".join(r + "\n" for r in rows))
         cmd = [inchworm, "sweep", str(system), "--plan", path, "--json", "--jobs", "1", *args]
-        p = subprocess.run(cmd, capture_output=True, text=True)
+        p = subprocess.run(cmd, capture_output=True)
     finally:
         os.unlink(path)
+    where = " ".join(cmd)
     if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} exited with {p.returncode}: {p.stderr.strip()}")
-    return [json.loads(line) for line in p.stdout.splitlines() if line.startswith("{")]
+        raise BinaryError(f"{where} exited with {p.returncode}: {p.stderr.decode('utf-8', 'replace').strip()}")
+    try:
+        out = p.stdout.decode("utf-8")
+    except UnicodeDecodeError:
+        raise BinaryError(f"{where}: printed what is not UTF-8 text") from None
+    records = parse_records(out, header.split(",")[2:], where)
+    want = sorted(run for run, _, _ in plan_values(header, rows))
+    if sorted(r["run"] for r in records) != want:
+        raise BinaryError(f"{where}: printed runs {sorted(r['run'] for r in records)[:10]}…, not the rows' "
+                          f"{want[:10]}…")
+    return records
 
 
 def _frame(records: Iterable[dict], names: Sequence[str]) -> pd.DataFrame:
@@ -87,16 +105,20 @@ def run_plan(plan: str | os.PathLike, system: str | os.PathLike, *, client=None,
     `args` are the `inchworm sweep` options every run shares (`--input`, `--parameter-set`,
     `--param`, `--metric`, `--stop-time`, …), exactly as for a local sweep. The rows go out
     in slices of `rows_per_task`; the result is the results table as a DataFrame (written
-    to `out` as CSV too if given).
+    to `out` as CSV too if given). Before any work (and before the cluster is asked for):
+    `out` neither the plan nor the system, the plan read and checked (`read_plan`),
+    `rows_per_task` in its range.
     """
     from distributed import get_client
 
     if out is not None:  # before any work: `out` neither the plan nor the system
         check({"out": out}, [plan, system])
-    client = client or get_client()
     header, rows = read_plan(plan)
+    rows_per_task = ROWS_PER_TASK.check("rows_per_task", rows_per_task)
+    args = _strings("args", args)
+    client = client or get_client()
     names = header.split(",")[2:]
-    slices = [rows[i:i + rows_per_task] for i in range(0, len(rows), max(1, rows_per_task))]
+    slices = [rows[i:i + rows_per_task] for i in range(0, len(rows), rows_per_task)]
     futures = client.map(run_rows, [inchworm] * len(slices), [str(system)] * len(slices),
                          [header] * len(slices), slices, [list(args)] * len(slices), pure=False)
     records = [r for chunk in client.gather(futures) for r in chunk]

@@ -15,12 +15,15 @@ The guidance loop reaches the mount through the references: `offset_m[x]` is add
 `reference_x.reference` on its way to `controller_x.reference`, for x = a, b, c.
 """
 import io
+import lzma
 import math
 import pathlib
 import shutil
+import struct
 import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
+import zlib
 
 import numpy as np
 from fmpy import extract, read_model_description
@@ -44,28 +47,69 @@ def _typed(tag, text):
     return float(text)
 
 
+#: The largest member of an SSP read to find the variables (an FMU inside it, the SSD, a
+#: model description), bytes, by its declared size: zipfile stops at the declared size, so
+#: a member that inflates past it (a zip bomb) is not read.
+MAX_MEMBER_BYTES = 256 << 20
+#: What a damaged or hostile archive raises while it is read: zipfile's own errors, the
+#: decompressors' (zlib, bz2's OSError, lzma, a truncated stream's EOFError), a compression
+#: or encryption zipfile has not (NotImplementedError, RuntimeError), a name that is not
+#: UTF-8 (a ValueError), a missing member (KeyError) or name (TypeError), XML that does not
+#: parse or names an unknown encoding (ParseError, LookupError), a component or variable
+#: without a name or a bound that is no number (ValueError), and struct's and the recursion
+#: limit's.
+_ARCHIVE_ERRORS = (OSError, EOFError, KeyError, TypeError, ValueError, LookupError, RuntimeError,
+                   NotImplementedError, RecursionError, struct.error, zlib.error, lzma.LZMAError,
+                   zipfile.BadZipFile, zipfile.LargeZipFile, ET.ParseError)
+
+
+def _member(z, name):
+    """A member's bytes, refused past MAX_MEMBER_BYTES by its declared size."""
+    info = z.getinfo(name)
+    if info.file_size > MAX_MEMBER_BYTES:
+        raise ValueError(f"{name} declares {info.file_size} bytes, more than {MAX_MEMBER_BYTES}")
+    return z.read(info)
+
+
 def ssp_variables(ssp_path):
     """{component: {variable: (type, min, max)}} of an SSP's FMUs, from the SSD and each
     FMU's modelDescription.xml read inside the archive (nothing unpacked); min and max are
-    None where the FMU declares none. An `InputError` if the file is not such an SSP."""
+    None where the FMU declares none. An `InputError` if the file is not such an SSP, or a
+    member is larger than MAX_MEMBER_BYTES."""
     try:
         with zipfile.ZipFile(ssp_path) as z:
-            ssd = ET.fromstring(z.read("SystemStructure.ssd"))
+            ssd = ET.fromstring(_member(z, "SystemStructure.ssd"))
             out = {}
             for c in ssd.iter(f"{SSD}Component"):
-                with zipfile.ZipFile(io.BytesIO(z.read(c.get("source")))) as fmu:
-                    md = ET.fromstring(fmu.read("modelDescription.xml"))
+                if c.get("name") is None:
+                    raise ValueError("a component without a name")
+                with zipfile.ZipFile(io.BytesIO(_member(z, c.get("source")))) as fmu:
+                    md = ET.fromstring(_member(fmu, "modelDescription.xml"))
                 out[c.get("name")] = {
-                    v.get("name"): (t.tag, _bound(t.get("min")), _bound(t.get("max")))
+                    _named(v): (t.tag, _bound(t.get("min")), _bound(t.get("max")))
                     for v in md.iter("ScalarVariable") for t in v[:1]
                 }
-    except (OSError, KeyError, TypeError, zipfile.BadZipFile, ET.ParseError) as e:
-        raise InputError(f"{ssp_path}: not a readable SSP of FMUs ({e})") from None
+    except _ARCHIVE_ERRORS as e:
+        kind = type(e).__name__ if type(e).__module__ == "builtins" else f"{type(e).__module__}.{type(e).__name__}"
+        raise InputError(f"{ssp_path}: not a readable SSP of FMUs ({kind}: {str(e)[:200]})") from None
     return out
 
 
+def _named(variable):
+    name = variable.get("name")
+    if name is None:
+        raise ValueError("a ScalarVariable without a name")
+    return name
+
+
 def _bound(text):
-    return None if text is None else float(text)
+    """A declared min or max: None where none is declared, else a number (not NaN)."""
+    if text is None:
+        return None
+    value = float(text)
+    if math.isnan(value):
+        raise ValueError(f"a declared bound {text[:40]!r} is not a number")
+    return value
 
 
 def parse_params(ssp_path, params):

@@ -1,62 +1,18 @@
 """The accepted range of every input, each stated once: the CLI's arguments (`__main__`)
 and the prescription's fields (`telescope.Prescription`) are checked against these before
 the first run, and `docs/optics.md` ("Accepted inputs") lists them. A value outside its
-range is an `InputError` whose message names the input and the range.
+range is an `InputError` whose message names the input and the range. `Range` and
+`InputError` are `inchworm_inputs`' (python/inchworm_inputs), the one implementation the
+packages share.
 
 No numpy, poppy or FMPy here: the CLI refuses a bad argument before importing them.
 """
-from dataclasses import dataclass
-import math
+from inchworm_inputs import InputError, Range  # noqa: F401 (InputError: this package's, for its callers)
 
 #: The SSP's communication step: one sample of the mount's pose every 2 ms.
 STEP_S = 0.002
 #: Regulation: from this time on, as `inchworm scenario mirror` measures it.
 REGULATION_S = 8.0
-
-
-class InputError(ValueError):
-    """An input the run cannot use; the message names it and what is accepted."""
-
-
-def _g(x):
-    return f"{x:g}" if isinstance(x, float) else str(x)
-
-
-@dataclass(frozen=True)
-class Range:
-    """lo ≤ value ≤ hi (`<` where `lo_open`/`hi_open`), finite, in `unit`; `why` says where
-    the bounds come from."""
-
-    lo: float = -math.inf
-    hi: float = math.inf
-    lo_open: bool = False
-    hi_open: bool = False
-    unit: str = ""
-    why: str = ""
-    integer: bool = False
-
-    def __str__(self):
-        lo = "" if self.lo == -math.inf else f"{_g(self.lo)} {'<' if self.lo_open else '≤'} "
-        hi = "" if self.hi == math.inf else f" {'<' if self.hi_open else '≤'} {_g(self.hi)}"
-        if lo and not hi:  # "value > 0" reads better than "0 < value"
-            lo, hi = "", f" {'>' if self.lo_open else '≥'} {_g(self.lo)}"
-        kind = "an integer" if self.integer else "a finite number"
-        if not (lo or hi):
-            return kind + (f", in {self.unit}" if self.unit else "")
-        return (f"{kind}, " if self.integer else "") + f"{lo}value{hi}" + (f" {self.unit}" if self.unit else "")
-
-    def check(self, name, value, shown=None):
-        """`value` if it is in the range, else an `InputError` naming `name` and the value
-        (as `shown`, if given: the text the user wrote)."""
-        number = isinstance(value, (int, float)) and not isinstance(value, bool)
-        ok = number and (isinstance(value, int) or (math.isfinite(value) and (not self.integer or value.is_integer())))
-        if ok:
-            ok = (self.lo < value if self.lo_open else self.lo <= value) and (
-                value < self.hi if self.hi_open else value <= self.hi)
-        if not ok:
-            shown = shown if shown is not None else _g(value) if number else repr(value)
-            raise InputError(f"{name} {shown}: accepted {self}" + (f" ({self.why})" if self.why else ""))
-        return value
 
 
 # ---- the command line ----
@@ -126,6 +82,8 @@ def memory_bytes(runs, samples, per_frame, per_guide, pupil, fov):
 
 
 # ---- the prescription ----
+#: The largest prescription file read, bytes: its eight fields take a few hundred.
+MAX_PRESCRIPTION_BYTES = 1 << 20
 #: The prescription's fields with a range of their own; `back_focal_distance_m` and
 #: `obscuration_m` depend on the others (`back_focal_range`, `obscuration_range`).
 #: Each bounded to what a telescope can be, so that no product of them overflows a float

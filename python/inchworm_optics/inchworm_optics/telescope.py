@@ -31,7 +31,9 @@ from dataclasses import asdict, dataclass, fields
 import json
 import math
 
-from .inputs import InputError, check_prescription
+from inchworm_inputs import read_bounded
+
+from .inputs import MAX_PRESCRIPTION_BYTES, InputError, check_prescription
 
 MAS_PER_RAD = 180.0 / math.pi * 3600e3
 
@@ -60,24 +62,36 @@ class Prescription:
 
     @classmethod
     def load(cls, path):
-        """A prescription from a JSON file of any of the fields (the rest default); an
-        `InputError` naming the file if it is not JSON, not an object of known fields or
-        has a field out of its range. (An unreadable file is the OSError of `open`.)"""
-        with open(path) as f:
-            try:
-                data = json.load(f)
-            except ValueError as e:  # JSONDecodeError, UnicodeDecodeError
-                raise InputError(f"{path}: not a JSON object of prescription fields ({e})") from None
-        known = {f.name for f in fields(cls)}
-        if not isinstance(data, dict):
-            raise InputError(f"{path}: not a JSON object of prescription fields (known: {sorted(known)})")
-        unknown = set(data) - known
-        if unknown:
-            raise InputError(f"{path}: unknown prescription keys {sorted(unknown)} (known: {sorted(known)})")
+        """A prescription from a JSON file of any of the fields (the rest default), read up
+        to `inputs.MAX_PRESCRIPTION_BYTES` (`inchworm_inputs.read_bounded`: an
+        `InputError` for a larger file, unread, or a stream past the bound); an
+        `InputError` as `parse` says. (An unreadable file is the OSError of `open`.)"""
+        return cls.parse(read_bounded(path, MAX_PRESCRIPTION_BYTES, "a JSON object of prescription fields"), path)
+
+    @classmethod
+    def parse(cls, data, name="prescription"):
+        """A prescription from the bytes (or text) of a JSON object of any of the fields;
+        an `InputError` naming `name` if it is longer than `inputs.MAX_PRESCRIPTION_BYTES`,
+        not JSON (or nested past the parser's depth), not an object of known fields, or has
+        a field out of its range."""
+        if len(data) > MAX_PRESCRIPTION_BYTES:
+            raise InputError(f"{name}: longer than {MAX_PRESCRIPTION_BYTES} bytes: accepted a JSON object of "
+                             "prescription fields")
         try:
-            return cls(**data)
+            obj = json.loads(data)
+        except (ValueError, RecursionError) as e:  # JSONDecodeError, UnicodeDecodeError, a nesting too deep
+            raise InputError(f"{name}: not a JSON object of prescription fields ({e})") from None
+        known = {f.name for f in fields(cls)}
+        if not isinstance(obj, dict):
+            raise InputError(f"{name}: not a JSON object of prescription fields (known: {sorted(known)})")
+        unknown = set(obj) - known
+        if unknown:
+            shown = sorted(unknown)[:5]
+            raise InputError(f"{name}: unknown prescription keys {shown} (known: {sorted(known)})")
+        try:
+            return cls(**obj)
         except InputError as e:
-            raise InputError(f"{path}: {e}") from None
+            raise InputError(f"{name}: {e}") from None
 
     def as_dict(self):
         return asdict(self)

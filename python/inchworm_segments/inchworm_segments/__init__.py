@@ -5,6 +5,8 @@ Every segment's pose (piston, tip, tilt) at every 2 ms sample goes through hcipy
 segmented aperture and segmented mirror (`optics`) to the co-phasing error, the wavefront
 error, the Strehl ratio and a perfect coronagraph's image; frames integrate every sample
 of their exposure and run in parallel, bit-identical to serial (`frames`). `config` holds
-the telescope's parameters and closed forms, `poses` the input CSV and a seeded synthetic
-run, `figures` the PNGs and CSVs, `__main__` the command (docs/segments.md).
+the telescope's parameters and closed forms and the accepted range of every input,
+`poses` the input CSV, the poses' check and a seeded synthetic run, `files` the bounded
+reading of the CSVs, `figures` the PNGs and CSVs, `__main__` the command
+(docs/segments.md).
 """

@@ -11,7 +11,12 @@ import sys
 import time
 from inchworm_output import OutputError, check, replacing
 
-from .config import RANGES, SAMPLE_S, InputError, Telescope, check_range, rings_for
+from .config import (FRAME_MS, RANGES, SAMPLE_S, SEED, SYNTHETIC_S, WORKERS, InputError, Range, Telescope,
+                     check_memory, rings_for)
+
+#: The telescope's fields the command takes as options (`--flat-to-flat-m`, ...).
+GEOMETRY = ("flat_to_flat_m", "gap_m", "wavelength_m", "pupil_px", "supersampling", "q", "fov_lambda_d",
+            "dark_inner_lambda_d", "dark_outer_lambda_d")
 
 #: What the command writes into --out.
 OUTPUTS = ("segments-samples.csv", "segments-frames.csv", "segments-timeseries.png", "segments-strip.png",
@@ -31,65 +36,87 @@ def parse_args(argv):
                                      "for every segment, then optionally parked (0/1)")
     src.add_argument("--synthetic", type=float, metavar="SECONDS", default=None,
                      help="no CSV: the seeded synthetic co-phasing run of this many seconds (written to "
-                          "--out/segments-poses.csv)")
-    p.add_argument("--rings", type=int, help="rings of segments round the centre with --synthetic (default 1: 7 segments; 2: 19; 3: 37)")
+                          f"--out/segments-poses.csv), {SYNTHETIC_S}")
+    p.add_argument("--rings", type=int, help="rings of segments round the centre with --synthetic (default 1: 7 "
+                                             f"segments; 2: 19; 3: 37), {RANGES['rings']}")
     p.add_argument("--no-centre", action="store_true",
                    help="with --synthetic: leave the central segment out (with --poses the count of segments says)")
-    p.add_argument("--seed", type=int, default=2026, help="the synthetic run's seed")
+    p.add_argument("--seed", type=int, default=2026, help=f"the synthetic run's seed, {SEED}")
     p.add_argument("--out", default="out/segments", help="folder for the CSVs and PNGs")
     p.add_argument("--regulation-from", type=float, metavar="SECONDS", default=None,
                    help="also the regulation's numbers: every sample from this time on, its parked samples, and "
-                        "the frames that start then or later")
-    p.add_argument("--frame-ms", type=float, default=50.0, help="frame exposure, ms (a whole number of 2 ms samples)")
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                   help="local processes for the frames (1: serial; the numbers are the same bit for bit)")
-    for name in ("flat_to_flat_m", "gap_m", "wavelength_m", "pupil_px", "supersampling", "q", "fov_lambda_d",
-                 "dark_inner_lambda_d", "dark_outer_lambda_d"):
+                        "the frames that start then or later; 0 ≤ value ≤ the run's last time, s")
+    p.add_argument("--frame-ms", type=float, default=50.0,
+                   help=f"frame exposure, {FRAME_MS} (a whole number of 2 ms samples)")
+    p.add_argument("--workers", type=int, default=min(os.cpu_count() or 1, WORKERS.hi),
+                   help=f"local processes for the frames (1: serial; the numbers are the same bit for bit), {WORKERS}")
+    for name in GEOMETRY:
         default = getattr(Telescope, name)
         p.add_argument("--" + name.replace("_", "-"), type=type(default), default=default,
-                       help=f"telescope: default {default:g}, accepted {RANGES[name][0]:g}..{RANGES[name][1]:g} "
-                            f"({RANGES[name][3]})")
+                       help=f"telescope: default {default:g}, accepted {RANGES[name]} ({RANGES[name].why})")
     return p.parse_args(argv)
 
 
+def option(name):
+    return "--" + name.replace("_", "-")
+
+
 def _frame_samples(frame_ms):
+    frame_ms = FRAME_MS.check("--frame-ms", frame_ms)
     n = frame_ms * 1e-3 / SAMPLE_S
-    if not (n >= 1 and abs(n - round(n)) < 1e-9 and n <= 1e6):
-        raise InputError(f"--frame-ms {frame_ms:g}: accepted a whole number of {SAMPLE_S * 1e3:g} ms samples, at least one")
+    if abs(n - round(n)) >= 1e-9 or round(n) < 1:
+        raise InputError(f"--frame-ms {frame_ms:g}: accepted a whole number of {SAMPLE_S * 1e3:g} ms samples, at "
+                         f"least one ({FRAME_MS})")
     return int(round(n))
 
 
-def prepare(args):
-    """(telescope, t, poses, parked, frame_samples) from the arguments, or an InputError."""
-    from . import poses as P
-
+def check_options(args):
+    """Every numeric option in its range (`config`), before any file is read: (frame
+    samples, {telescope field: value})."""
     frame_samples = _frame_samples(args.frame_ms)
-    if args.workers < 1:
-        raise InputError(f"--workers {args.workers}: accepted an integer ≥ 1")
-    geometry = {k: getattr(args, k) for k in ("flat_to_flat_m", "gap_m", "wavelength_m", "pupil_px", "supersampling",
-                                              "q", "fov_lambda_d", "dark_inner_lambda_d", "dark_outer_lambda_d")}
+    WORKERS.check("--workers", args.workers)
+    geometry = {k: RANGES[k].check(option(k), getattr(args, k)) for k in GEOMETRY}
     if args.poses:
-        t, poses, parked = P.read_csv(args.poses)
-        rings, centre = rings_for(poses.shape[1])
         if args.rings is not None or args.no_centre:
             raise InputError("--rings and --no-centre are for --synthetic; with --poses the CSV's segment count says")
     else:
+        if args.synthetic is not None:
+            SYNTHETIC_S.check("--synthetic", args.synthetic)
+        if args.rings is not None:
+            RANGES["rings"].check("--rings", args.rings)
+    SEED.check("--seed", args.seed)
+    if args.regulation_from is not None:
+        Range(0.0, unit="s").check("--regulation-from", args.regulation_from)
+    return frame_samples, geometry
+
+
+def prepare(args):
+    """(telescope, t, poses, parked, frame_samples) from the arguments, or an InputError:
+    every option in its range, then the poses (read and checked, or drawn), then what
+    depends on both (--regulation-from within the run, a frame, the memory bound)."""
+    from . import poses as P
+
+    frame_samples, geometry = check_options(args)
+    if args.poses:
+        t, poses, parked = P.read_csv(args.poses)
+        rings, centre = rings_for(poses.shape[1])
+        tel = Telescope(rings=rings, centre=centre, **geometry)
+    else:
         duration = 2.0 if args.synthetic is None else args.synthetic
-        if not 0 < duration <= 3600:
-            raise InputError(f"--synthetic {duration:g}: accepted 0 < seconds ≤ 3600")
         rings, centre = (1 if args.rings is None else args.rings), not args.no_centre
-        check_range("rings", rings)
-        count = Telescope(rings=rings, centre=centre, **geometry).segment_count
-        t, poses, parked = P.synthetic(count, duration, seed=args.seed)
-    tel = Telescope(rings=rings, centre=centre, **geometry)
+        tel = Telescope(rings=rings, centre=centre, **geometry)
+        check_memory(tel, max(1, int(round(duration / SAMPLE_S))), frame_samples, args.workers)
+        t, poses, parked = P.synthetic(tel.segment_count, duration, seed=args.seed)
     if parked is None:
         import numpy as np
 
         parked = np.zeros(len(t), dtype=bool)
-    if args.regulation_from is not None and not 0 <= args.regulation_from <= t[-1]:
-        raise InputError(f"--regulation-from {args.regulation_from:g}: accepted 0 to the run's last time, {t[-1]:g} s")
+    if args.regulation_from is not None:
+        Range(0.0, float(t[-1]), unit="s", why="the run's last time").check("--regulation-from", args.regulation_from)
     if len(t) < frame_samples:
-        raise InputError(f"{len(t)} samples: accepted at least one frame ({frame_samples} samples of --frame-ms {args.frame_ms:g})")
+        raise InputError(f"{len(t)} samples: accepted at least one frame ({frame_samples} samples of --frame-ms "
+                         f"{args.frame_ms:g})")
+    check_memory(tel, len(t), frame_samples, args.workers)
     return tel, t, poses, parked, frame_samples
 
 

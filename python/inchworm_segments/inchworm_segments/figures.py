@@ -12,6 +12,8 @@ from matplotlib.patches import Circle, RegularPolygon  # noqa: E402
 import numpy as np  # noqa: E402
 from inchworm_output import replacing, replacing_path
 
+from .config import STRIP_FRAMES, InputError, Range
+
 
 def _rms(x):
     x = np.asarray(x)
@@ -27,6 +29,8 @@ def summary(result, regulation_from_s=None):
     """The run's numbers: name → value (None where a window is empty, e.g. no parked sample).
     With `regulation_from_s`, also the regulation's: every sample from that time on, its
     parked samples, and the frames that start at it or later."""
+    if regulation_from_s is not None:
+        regulation_from_s = Range(unit="s").check("regulation_from_s", regulation_from_s)
     r = result
     fp = r.frame_parked()
     numbers = {
@@ -65,11 +69,23 @@ def summary(result, regulation_from_s=None):
     return numbers
 
 
+def write_summary(f, numbers):
+    """`numbers` (name → value or None) as the summary CSV into the text file `f`: a float
+    in its shortest exact text, None an empty cell (what `compare.summary` reads back).
+    Each name a text and each value None or a finite number, checked first."""
+    for k, v in numbers.items():
+        if not isinstance(k, str) or not k:
+            raise InputError(f"summary name {k!r:.80}: accepted a text, not empty")
+        if v is not None:
+            Range().check(f"summary {k[:80]}", v)
+    w = csv.writer(f)
+    w.writerow(["name", "value"])
+    w.writerows([k, "" if v is None else v] for k, v in numbers.items())
+
+
 def write_summary_csv(path, numbers):
     with replacing(path) as f:
-        w = csv.writer(f)
-        w.writerow(["name", "value"])
-        w.writerows([k, "" if v is None else v] for k, v in numbers.items())
+        write_summary(f, numbers)
 
 
 def timeseries(png, samples_csv, frames_csv, result):
@@ -125,7 +141,8 @@ def _shade(ax, t, parked):
 
 
 def strip_frames(result, count):
-    """`count` frames evenly spread over the run, first and last included."""
+    """`count` frames (1 to 64) evenly spread over the run, first and last included."""
+    count = STRIP_FRAMES.check("count", count)
     return sorted({int(round(i)) for i in np.linspace(0, result.frame_count - 1, min(count, result.frame_count))})
 
 

@@ -12,13 +12,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import SAMPLE_S, Telescope
+from .config import FRAME_SAMPLES, FRAMES_PER_TASK, SAMPLE_S, InputError, Telescope, check_memory
+from .poses import check_pose_values, check_poses
 
 #: One optics per process and telescope: a worker builds it at its first chunk.
 _OPTICS = {}
 
 
 def optics_for(telescope: Telescope):
+    if not isinstance(telescope, Telescope):
+        raise InputError(f"telescope {telescope!r:.80}: accepted a config.Telescope")
     from .optics import SegmentedOptics  # hcipy is imported by the process that computes
 
     if telescope not in _OPTICS:
@@ -29,7 +32,13 @@ def optics_for(telescope: Telescope):
 def frame_batch(optics, poses):
     """One frame from its samples' poses (samples, N, 3): per sample the Strehl ratio and
     dark-zone contrast and the wavefront's RMS; the frame's image (the mean of its samples'
-    coronagraphic images, in contrast units) and its dark-zone contrast."""
+    coronagraphic images, in contrast units) and its dark-zone contrast. The poses are
+    checked first: finite and in their ranges, one per segment of the telescope."""
+    poses = np.asarray(poses, dtype=float)
+    n = optics.telescope.segment_count
+    if poses.ndim != 3 or poses.shape[0] < 1 or poses.shape[1:] != (n, 3):
+        raise InputError(f"a frame's poses of shape {poses.shape}: accepted (samples ≥ 1, {n}, 3)")
+    check_pose_values(poses, lambda i: f"a frame's sample {i}")
     opd = optics.opd_m(poses)
     fields = optics.fields(opd)
     images = optics.coronagraphic_images(fields)
@@ -82,13 +91,24 @@ class Result:
 
 def run(telescope, t_s, poses, parked, frame_samples, executor=None, frames_per_task=4):
     """The figures of every whole frame of `poses` (samples, N, 3), serially or on
-    `executor`; `parked` (samples,) marks the samples whose segments are all parked."""
-    poses = np.asarray(poses, dtype=float)
+    `executor`; `parked` (samples,) marks the samples whose segments are all parked (None:
+    none is). Every argument is checked before any optics: the poses as `poses.check_poses`
+    does, one per segment of `telescope`, the frame and task sizes in their ranges, at least
+    one frame, the run's arrays within the memory bound (as one process computes them)."""
+    if not isinstance(telescope, Telescope):
+        raise InputError(f"telescope {telescope!r:.80}: accepted a config.Telescope")
+    t_s, poses, parked = check_poses(t_s, poses, parked)
+    if poses.shape[1] != telescope.segment_count:
+        raise InputError(f"poses of {poses.shape[1]} segments: the telescope has {telescope.segment_count}")
+    parked = np.zeros(len(t_s), dtype=bool) if parked is None else parked
+    frame_samples = FRAME_SAMPLES.check("frame_samples", frame_samples)
+    frames_per_task = FRAMES_PER_TASK.check("frames_per_task", frames_per_task)
     frames = len(poses) // frame_samples
     if frames == 0:
-        raise ValueError(f"{len(poses)} samples: less than one frame of {frame_samples}")
+        raise InputError(f"{len(poses)} samples: accepted at least one frame of {frame_samples}")
+    check_memory(telescope, len(poses), frame_samples)
     n = frames * frame_samples
-    poses, t_s, parked = poses[:n], np.asarray(t_s[:n], dtype=float), np.asarray(parked[:n], dtype=bool)
+    poses, t_s, parked = poses[:n], t_s[:n], parked[:n]
     step = frames_per_task * frame_samples
     chunks = [poses[i:i + step] for i in range(0, n, step)]
     if executor is None:

@@ -26,7 +26,8 @@ import hcipy
 import numpy as np
 import scipy.sparse
 
-from .config import Telescope
+from .config import InputError, Telescope
+from .poses import check_pose_values
 
 
 class SegmentedOptics:
@@ -35,6 +36,8 @@ class SegmentedOptics:
     a perfect coronagraph (order 2) for this aperture and the dark zone's pixels."""
 
     def __init__(self, telescope: Telescope):
+        if not isinstance(telescope, Telescope):
+            raise InputError(f"telescope {telescope!r:.80}: accepted a config.Telescope")
         tel = self.telescope = telescope
         self.wavelength_m = tel.wavelength_m
         aperture, segments = hcipy.make_hexagonal_segmented_aperture(
@@ -80,10 +83,20 @@ class SegmentedOptics:
         return int(np.argmin(np.hypot(self.fx, self.fy)))
 
     # ---- a batch of samples ----
+    def _poses(self, poses):
+        """`poses` (samples, N, 3) of this telescope's N, in the poses' ranges, or an
+        InputError."""
+        p = np.asarray(poses, dtype=float)
+        n = self.telescope.segment_count
+        if p.ndim != 3 or p.shape[1:] != (n, 3):
+            raise InputError(f"poses of shape {p.shape}: accepted (samples, {n}, 3)")
+        check_pose_values(p, lambda i: f"poses: sample {i}")
+        return p
+
     def opd_m(self, poses):
         """OPD (samples, pieces) of poses (samples, N, 3): −2 × each piece's surface,
         z = piston + tip (y − y_k) + tilt (x − x_k)."""
-        p = np.asarray(poses, dtype=float)[:, self._piece_segment]  # (samples, pieces, 3)
+        p = self._poses(poses)[:, self._piece_segment]  # (samples, pieces, 3)
         return -2.0 * (p[..., 0] + p[..., 1] * self._piece_dy + p[..., 2] * self._piece_dx)
 
     def fields(self, opd_m, only=None):
@@ -112,7 +125,7 @@ class SegmentedOptics:
         """Co-phasing error: RMS over the aperture of the segments' piston in the wavefront
         (OPD −2 piston_k on segment k), about its aperture mean, each segment weighed by its
         share of the aperture."""
-        opd = -2.0 * np.asarray(poses, dtype=float)[..., 0]
+        opd = -2.0 * self._poses(poses)[..., 0]
         w = self.segment_weights
         mean = opd @ w
         return np.sqrt(((opd - mean[..., None]) ** 2) @ w)
