@@ -69,3 +69,9 @@ install_pins $OPTICS_REQS
 SEGMENTS_REQS="hcipy==0.7.1 asdf==6.0.0 imageio==2.38.2 xxhash==4.1.0 tqdm==4.70.1 pyyaml==6.0.4 pillow==13.0.0 importlib-metadata==10.2.0"
 install_pins $SEGMENTS_REQS
 .venv/bin/pip install -q --disable-pip-version-check --no-deps ./python/inchworm_segments
+
+# The Modelica compiler that checks modelica/Inchworm (docs/modelica.md): rumoca, a
+# Modelica compiler written in Rust, as its PyPI wheel (its Python API is its only
+# interface there); numpy is pinned above.
+MODELICA_REQS="rumoca==0.10.2"
+install_pins $MODELICA_REQS

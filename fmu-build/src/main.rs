@@ -31,6 +31,7 @@ use inchworm_fmi_export::{fmi3, model_description, Model};
 
 mod check;
 mod evidence;
+mod modelica;
 mod platforms;
 mod python;
 mod segmented;
@@ -149,8 +150,8 @@ fn systems() -> Vec<System> {
 /// Every file that is generated and committed, as (path relative to the workspace root,
 /// text): the model descriptions of both standards, and for each FMI 2.0 system its
 /// `SystemStructure.ssd` and parameter sets (the FMI 3.0 systems reuse those
-/// specifications unchanged, so their texts are the same), and the Python packages'
-/// variable names.
+/// specifications unchanged, so their texts are the same), the Python packages'
+/// variable names, and the Modelica package's declarations and example.
 fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
     let mut files = Vec::new();
     for f in fmus {
@@ -170,6 +171,8 @@ fn committed_files(fmus: &[Fmu], systems: &[System]) -> Vec<(PathBuf, String)> {
         |standard| fmus.iter().filter(move |f| f.standard == standard).map(|f| f.identifier);
     let built = [built(Standard::Fmi2).collect(), built(Standard::Fmi3).collect()];
     files.push((PathBuf::from(python::MODULE), python::module(&built)));
+    files.push((PathBuf::from(modelica::INTERFACE), modelica::interface()));
+    files.push((PathBuf::from(modelica::EXAMPLES), modelica::examples()));
     files
 }
 

@@ -33,14 +33,20 @@ fn copy_tree(from: &Path, to: &Path) {
 /// The generated module of the Python packages' variable names.
 const PYTHON_NAMES: &str = "python/inchworm_variables/inchworm_variables/__init__.py";
 
-/// A scratch repository with a copy of the committed generated files: `modelDescription/`
-/// and the Python packages' variable names.
+/// The Modelica package's generated declarations and example.
+const MODELICA: [&str; 2] =
+    ["modelica/Inchworm/PlantInterface.mo", "modelica/Inchworm/Examples.mo"];
+
+/// A scratch repository with a copy of the committed generated files: `modelDescription/`,
+/// the Python packages' variable names and the Modelica package's generated files.
 fn committed_copy() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     copy_tree(&workspace_root().join("modelDescription"), &dir.path().join("modelDescription"));
-    let names = dir.path().join(PYTHON_NAMES);
-    std::fs::create_dir_all(names.parent().unwrap()).unwrap();
-    std::fs::copy(workspace_root().join(PYTHON_NAMES), names).unwrap();
+    for file in std::iter::once(PYTHON_NAMES).chain(MODELICA) {
+        let copy = dir.path().join(file);
+        std::fs::create_dir_all(copy.parent().unwrap()).unwrap();
+        std::fs::copy(workspace_root().join(file), copy).unwrap();
+    }
     dir
 }
 
@@ -164,5 +170,16 @@ fn an_edited_python_names_module_is_named() {
     let at = text.lines().position(|l| l == "    DAC_EXTENSION = \"dac_extension\"").unwrap();
     std::fs::write(&path, text.replacen("\"dac_extension\"", "\"dac_extention\"", 1)).unwrap();
     let line = format!("{PYTHON_NAMES} differs from the generated text from line {}", at + 1);
+    fails_with(dir.path(), &[line.as_str()]);
+}
+
+#[test]
+fn a_modelica_declaration_edited_away_from_the_table_is_named() {
+    let dir = committed_copy();
+    let path = dir.path().join(MODELICA[0]);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let at = text.lines().position(|l| l.contains(" k_p(")).unwrap();
+    std::fs::write(&path, text.replacen("= 3e7 ", "= 3.1e7 ", 1)).unwrap();
+    let line = format!("{} differs from the generated text from line {}", MODELICA[0], at + 1);
     fails_with(dir.path(), &[line.as_str()]);
 }
