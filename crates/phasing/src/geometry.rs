@@ -160,12 +160,40 @@ mod tests {
             let (a, b) = (m.centres()[e.a], m.centres()[e.b]);
             assert!(((b[0] - a[0]).hypot(b[1] - a[1]) - 1.1).abs() < 1e-12);
         }
-        // hcipy 0.7.1, make_hexagonal_segmented_aperture(1, 1.0, 0.0): segment 1 at
-        // (√3/2, -1/2), segment 2 at (√3/2, 1/2).
-        let c = Mirror::new(1, true, 1.0, 0.0).unwrap();
+        // hcipy 0.7.1's segment centres of make_hexagonal_segmented_aperture(2, 1.0, 0.0)
+        // (its make_hexagonal_grid(1.0, 2, pointy_top=False)), in its order.
         let h = 3f64.sqrt() / 2.0;
-        assert!((c.centres()[1][0] - h).abs() < 1e-15 && (c.centres()[1][1] + 0.5).abs() < 1e-15);
-        assert!((c.centres()[2][0] - h).abs() < 1e-15 && (c.centres()[2][1] - 0.5).abs() < 1e-15);
+        let hcipy = [
+            [0.0, 0.0],
+            [h, -0.5],
+            [h, 0.5],
+            [0.0, 1.0],
+            [-h, 0.5],
+            [-h, -0.5],
+            [0.0, -1.0],
+            [2.0 * h, -1.0],
+            [2.0 * h, 0.0],
+            [2.0 * h, 1.0],
+            [h, 1.5],
+            [0.0, 2.0],
+            [-h, 1.5],
+            [-2.0 * h, 1.0],
+            [-2.0 * h, 0.0],
+            [-2.0 * h, -1.0],
+            [-h, -1.5],
+            [0.0, -2.0],
+            [h, -1.5],
+        ];
+        let c = Mirror::new(2, true, 1.0, 0.0).unwrap();
+        for (k, (ours, theirs)) in c.centres().iter().zip(&hcipy).enumerate() {
+            assert!(
+                (ours[0] - theirs[0]).abs() < 1e-15 && (ours[1] - theirs[1]).abs() < 1e-15,
+                "segment {k}: {ours:?}"
+            );
+        }
+        // Without the centre, the same segments from 1 on (hcipy's starting_ring = 1).
+        let hole = Mirror::new(2, false, 1.0, 0.0).unwrap();
+        assert_eq!(hole.centres(), &c.centres()[1..]);
     }
 
     #[test]

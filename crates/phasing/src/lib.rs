@@ -11,7 +11,9 @@
 //! A segment's pose is the `InchwormMount`'s: its surface is
 //! `z = piston + tip (y − y_k) + tilt (x − x_k)` about its centre `(x_k, y_k)`.
 
+pub mod cophasing;
 pub mod geometry;
+pub mod mount;
 pub mod reconstructor;
 pub mod sensors;
 
@@ -28,6 +30,8 @@ pub enum PhasingError {
     Geometry(String),
     #[error("{0}")]
     Threshold(String),
+    #[error("{0}")]
+    Loop(String),
 }
 
 /// A finite value within `[lo, hi]`, or the error naming it.
