@@ -1,6 +1,6 @@
-//! `cargo run --release -p inchworm-phasing --example noise_multiplier [MAX_RINGS]`: the
-//! edge-sensor reconstructor's modes and noise multiplier against mirror size (rings 1 to
-//! MAX_RINGS, default 8: 217 segments), as the markdown table of docs/phasing.md: the
+//! `cargo run --release -p inchworm-phasing --example noise_multiplier [MAX_RINGS [MIN_RINGS]]`:
+//! the edge-sensor reconstructor's modes and noise multiplier against mirror size (rings
+//! MIN_RINGS, default 1, to MAX_RINGS, default 8: 217 segments), as the markdown table of docs/phasing.md: the
 //! piston, tip and tilt reconstructor's multiplier with a power law fitted to it, and the
 //! multiplier of pistons alone (tips and tilts known) with the logarithmic law
 //! `α² = a + b ln N` of least-squares reconstruction from differences fitted to it.
@@ -31,12 +31,15 @@ fn line(points: &[(f64, f64)]) -> (f64, f64) {
 }
 
 fn main() {
-    let max_rings: u32 =
-        std::env::args().nth(1).map_or(8, |a| a.parse().expect("MAX_RINGS: a number of rings"));
+    let rings = |i: usize, default: u32| {
+        std::env::args().nth(i).map_or(default, |a| a.parse().expect("a number of rings"))
+    };
+    let (max_rings, min_rings) = (rings(1, 8), rings(2, 1));
     println!("| segments | sensors | unseen σ/σmax (largest) | focus σ/σmax | next σ/σmax | α, all seen modes | α, focus excluded | the same from 2000 draws | α, pistons alone |");
     println!("|---|---|---|---|---|---|---|---|---|");
     let (mut power, mut log) = (Vec::new(), Vec::new());
-    for rings in 1..=max_rings {
+    for rings in min_rings..=max_rings {
+        let started = std::time::Instant::now();
         let m = Mirror::new(rings, true, 1.44, 0.004).expect("a mirror");
         let s = EdgeSensors::new(&m, 0.005).expect("its sensors");
         let a = s.interaction(m.centres());
@@ -56,6 +59,10 @@ fn main() {
             m.segments(),
             s.len()
         );
+        eprintln!("{} segments in {:.1} s", m.segments(), started.elapsed().as_secs_f64());
+    }
+    if power.len() < 2 {
+        return;
     }
     let (c, p) = line(&power);
     let worst =
