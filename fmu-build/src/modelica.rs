@@ -153,7 +153,8 @@ pub fn examples() -> String {
     let mut lines = CHECK_TRACE.lines();
     let header: Vec<&str> = lines.next().expect("the trace has a header").split(',').collect();
     let column = |name: &str| header.iter().position(|h| *h == name).expect(name);
-    let columns = [column("dac_earth"), column("dac_nonearth"), column("dac_extension")];
+    // The trace's DAC columns are named after the FMU's inputs (earth, non-earth, extension).
+    let columns = PlantFmu::DAC_INPUTS.map(|v| column(PlantFmu::name_of(v)));
     let mut volts: [Vec<&str>; 3] = Default::default();
     for line in lines.filter(|l| !l.is_empty()) {
         let fields: Vec<&str> = line.split(',').collect();

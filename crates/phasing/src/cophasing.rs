@@ -41,13 +41,17 @@ pub struct Run {
     pub updates: usize,
 }
 
-/// The segments' surface RMS with the global modes removed (m), of poses given as a pose
-/// vector of `sensors`' coordinates.
+/// The segments' surface RMS with the global modes removed (m), of poses `[piston, tip,
+/// tilt]`.
 pub fn cophasing_rms(mirror: &Mirror, sensors: &EdgeSensors, poses: &[[f64; 3]]) -> f64 {
+    rms_without(&global_modes(mirror), sensors, poses)
+}
+
+/// The same with the global modes' orthonormal basis `g` given (computed once per run).
+fn rms_without(g: &nalgebra::DMatrix<f64>, sensors: &EdgeSensors, poses: &[[f64; 3]]) -> f64 {
     let u = nalgebra::DVector::from_vec(sensors.coordinates(poses));
-    let g = global_modes(mirror);
-    let r = &u - &g * (g.transpose() * &u);
-    r.norm() / (mirror.segments() as f64).sqrt()
+    let r = &u - g * (g.transpose() * &u);
+    r.norm() / (poses.len() as f64).sqrt()
 }
 
 /// Runs `duration` seconds from the runners at rest, the segments at `errors` (each its
@@ -104,12 +108,13 @@ pub fn run(
             .collect()
     };
     let interaction = sensors.interaction(mirror.centres());
+    let globals = global_modes(mirror);
     let samples = (duration / SAMPLE_PERIOD).round() as usize;
     let mut out = Run { parked: vec![[0.0; 3]; n], ..Run::default() };
     let averaged = samples.min((1.0 / SAMPLE_PERIOD) as usize);
     for k in 0..samples {
         let now = poses(&actuators);
-        out.cophasing_rms.push(cophasing_rms(mirror, sensors, &now));
+        out.cophasing_rms.push(rms_without(&globals, sensors, &now));
         if k >= samples - averaged {
             for (mean, p) in out.parked.iter_mut().zip(&now) {
                 for j in 0..3 {
@@ -140,6 +145,6 @@ pub fn run(
         }
     }
     out.poses = poses(&actuators);
-    out.cophasing_rms.push(cophasing_rms(mirror, sensors, &out.poses));
+    out.cophasing_rms.push(rms_without(&globals, sensors, &out.poses));
     Ok(out)
 }

@@ -57,8 +57,8 @@ impl EdgeSensors {
         Ok(EdgeSensors { sensors, dihedral, lever: mirror.lever(), segments: mirror.segments() })
     }
 
-    /// Checks a sensor list given from outside: every sensor on an edge the two segments
-    /// share (`centres` the mirror's), within the edge's length.
+    /// Checks a sensor list given from outside: every sensor on an edge its two segments
+    /// share, within the edge's length.
     pub fn check_layout(mirror: &Mirror, sensors: &[Sensor]) -> Result<(), PhasingError> {
         let edges = mirror.edges();
         for (i, s) in sensors.iter().enumerate() {
