@@ -20,7 +20,7 @@ bash scripts/setup-run.sh libclang-dev binutils libtbb12 \
     rustc-web cargo-web rust-web-src gcc-mingw-w64-x86-64 gcc-aarch64-linux-gnu \
     libc6-dev-arm64-cross wine64 qemu-user
 
-PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1 hypothesis==6.170.27"
+PY_REQS="fmpy==0.3.32 pytest==9.2.0 pythonfmu==0.7.0 ecospy==0.7.2 libcosimpy==0.0.6 ziglang==0.15.2 cargo-zigbuild==0.20.1 hypothesis==6.170.27 pytest-xdist==3.8.0 execnet==2.1.2"
 [ -x .venv/bin/python ] || python3 -m venv .venv
 # Each pin checked on its installed version, so a venv made before a pin was added (or
 # with another version) gets exactly the pinned one, and a complete venv is left alone.

@@ -55,13 +55,22 @@ part "fmu-build --check" cargo run --release -q -p fmu-build -- --check
 # Every platform's binaries: tests/python (test_platforms, test_binaries, the reference
 # results) and tests/cross load them, and dist/bin/inchworm against glibc 2.17.
 part "fmu-build" cargo run --release -q -p fmu-build -- --all-platforms
-part "cargo test" cargo test --release --workspace
+# Every test target and the doc tests; the examples, which clippy has compiled above, are
+# not linked again (the dos-actors examples alone took 44 s of a core).
+cargo_test() {
+    cargo test --release --workspace --tests
+    cargo test --release --workspace --doc
+}
+part "cargo test" cargo_test
 # The engine from outside the workspace (its own Cargo.lock, the same target folder).
 part "engine-api test" cargo test --release --manifest-path tests/engine-api/Cargo.toml \
     --target-dir "${CARGO_TARGET_DIR:-target}"
 # A parameter added as one row of a variable table reaches everything (scratch copy).
 part "one-row" bash scripts/one-row.sh
+# Two workers, each taking whole files (their module fixtures, such as the Modelica
+# package's compilation, made once): the suite is mostly one core's work.
 pytest_all() {
-    .venv/bin/python -m pytest tests/python -q -p no:cacheprovider | tee "$pytest_log"
+    .venv/bin/python -m pytest tests/python -q -p no:cacheprovider -n 2 --dist loadfile |
+        tee "$pytest_log"
 }
 part pytest pytest_all

@@ -19,9 +19,9 @@
 
 use inchworm_fmi_export::{Kind, Model, ModelInfo, Reader, Row, StepLog, Unit, Variable, Writer};
 
-/// The kinematics, plain Rust in `inchworm-phasing` (which the segmented mirror's loops
-/// share): the default geometry, the pose of three positions and its inverse.
-pub use inchworm_phasing::mount::{actuator_positions, angles, pose, ANGLE_A_DEG, RADIUS};
+/// The kinematics, plain Rust in `inchworm-mount` (which the segmented mirror's loops in
+/// `inchworm-phasing` share): the default geometry, the pose of three positions and its inverse.
+pub use inchworm_mount::{actuator_positions, angles, pose, ANGLE_A_DEG, RADIUS};
 
 /// The mirror mount's command, which `fmu-build` writes into `MirrorMount.ssp` and the
 /// segmented mirrors (each reference's default binding) and `inchworm scenario mirror`

@@ -12,8 +12,8 @@
 //! `z = piston + tip (y − y_k) + tilt (x − x_k)` about its centre `(x_k, y_k)`.
 
 pub mod cophasing;
+pub mod disturbances;
 pub mod geometry;
-pub mod mount;
 pub mod reconstructor;
 pub mod sensors;
 

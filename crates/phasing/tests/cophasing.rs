@@ -3,7 +3,8 @@
 //! perfect-knowledge run parks it (docs/phasing.md).
 
 use inchworm_controller::Params;
-use inchworm_phasing::cophasing::{self, Knowledge};
+use inchworm_phasing::cophasing::{self, GlobalLoop, Knowledge, Setup};
+use inchworm_phasing::disturbances::Disturbances;
 use inchworm_phasing::{EdgeSensors, Mirror, Reconstructor, DEFAULT_THRESHOLD};
 use inchworm_plant::PlantParams;
 
@@ -16,31 +17,28 @@ fn errors(n: usize, seed: u64) -> Vec<[f64; 3]> {
     (0..n).map(|_| [uniform(10e-6), uniform(5e-6), uniform(5e-6)]).collect()
 }
 
-#[test]
-fn the_edge_sensor_loop_parks_the_37_segment_mirror_where_perfect_knowledge_does() {
+/// The 37-segment mirror of 0.15 m segments, 3 mm gaps, 5 mm dihedral gain, every
+/// actuator fia20, from the errors of seed 42.
+fn setup(controller: Params, disturbances: Disturbances) -> Setup {
     let mirror = Mirror::new(3, true, 0.15, 0.003).unwrap();
     let sensors = EdgeSensors::new(&mirror, 0.005).unwrap();
-    let reconstructor =
-        Reconstructor::new(&mirror, &sensors.interaction(mirror.centres()), DEFAULT_THRESHOLD)
-            .unwrap();
     let errors = errors(mirror.segments(), 42);
     let plants = vec![PlantParams::fia20(); 3 * mirror.segments()];
-    let controller = Params { analog: true, ..Params::default() };
+    Setup { mirror, sensors, errors, plants, controller, disturbances }
+}
+
+fn reconstructor(setup: &Setup) -> Knowledge {
+    let a = setup.sensors.interaction(setup.mirror.centres());
+    Knowledge::EdgeSensors(Reconstructor::new(&setup.mirror, &a, DEFAULT_THRESHOLD).unwrap())
+}
+
+#[test]
+fn the_edge_sensor_loop_parks_the_37_segment_mirror_where_perfect_knowledge_does() {
+    let setup = setup(Params { analog: true, ..Params::default() }, Disturbances::OFF);
     let duration = 6.0;
-    let perfect = cophasing::run(
-        &mirror,
-        &sensors,
-        &errors,
-        &plants,
-        &controller,
-        &Knowledge::Perfect,
-        duration,
-    )
-    .unwrap();
-    let global = Knowledge::EdgeSensors { reconstructor, period: 500, gain: 1.0 };
-    let sensed =
-        cophasing::run(&mirror, &sensors, &errors, &plants, &controller, &global, duration)
-            .unwrap();
+    let global = GlobalLoop::DEFAULT;
+    let perfect = cophasing::run(&setup, &Knowledge::Perfect, global, duration).unwrap();
+    let sensed = cophasing::run(&setup, &reconstructor(&setup), global, duration).unwrap();
     let start = perfect.cophasing_rms[0];
     let (p_end, s_end) =
         (*perfect.cophasing_rms.last().unwrap(), *sensed.cophasing_rms.last().unwrap());
@@ -50,7 +48,7 @@ fn the_edge_sensor_loop_parks_the_37_segment_mirror_where_perfect_knowledge_does
         .zip(&sensed.parked)
         .map(|(a, b)| std::array::from_fn(|j| a[j] - b[j]))
         .collect();
-    let apart = cophasing::cophasing_rms(&mirror, &sensors, &diff);
+    let apart = cophasing::cophasing_rms(&setup.mirror, &diff);
     println!(
         "37 segments from {:.3} µm: parked at {:.3} nm (perfect knowledge), {:.3} nm (edge sensors, {} updates), {:.3} nm apart",
         start * 1e6,
@@ -72,4 +70,28 @@ fn the_edge_sensor_loop_parks_the_37_segment_mirror_where_perfect_knowledge_does
         apart <= 1e-9,
         "the edge-sensor loop parks {apart:e} m RMS from the perfect-knowledge run"
     );
+}
+
+#[test]
+fn a_global_loop_that_cannot_run_is_refused() {
+    let setup = setup(Params::default(), Disturbances::OFF);
+    for (global, why) in [
+        (GlobalLoop { period: 0, ..GlobalLoop::DEFAULT }, "period 0"),
+        (GlobalLoop { average: 0, ..GlobalLoop::DEFAULT }, "averaging 0"),
+        (GlobalLoop { average: 501, ..GlobalLoop::DEFAULT }, "averaging 501"),
+        (GlobalLoop { gain: f64::NAN, ..GlobalLoop::DEFAULT }, "gain NaN"),
+        (GlobalLoop { gain: 2.5, ..GlobalLoop::DEFAULT }, "gain 2.5"),
+    ] {
+        let err = cophasing::run(&setup, &Knowledge::Perfect, global, 0.01).unwrap_err();
+        assert!(err.to_string().contains(why), "{why}: {err}");
+    }
+    let mut short = setup.clone();
+    short.errors.pop();
+    let err = cophasing::run(&short, &Knowledge::Perfect, GlobalLoop::DEFAULT, 0.01).unwrap_err();
+    assert!(err.to_string().contains("need 37 errors"), "{err}");
+    for bad in [f64::NAN, 0.0, -1.0] {
+        let err =
+            cophasing::run(&setup, &Knowledge::Perfect, GlobalLoop::DEFAULT, bad).unwrap_err();
+        assert!(err.to_string().starts_with("duration = "), "{err}");
+    }
 }

@@ -1,5 +1,5 @@
 //! The kinematics of a three-actuator mirror mount (the `InchwormMount` FMU's, which
-//! re-exports these): three runners push the optic at points 120° apart on a circle of
+//! re-exports these, and the segmented mirror's in `inchworm-phasing`): three runners push the optic at points 120° apart on a circle of
 //! radius `radius`, actuator a at `angle_a` from the x axis; for small angles the optic's
 //! plane is `z(x, y) = piston + tip y + tilt x`.
 
