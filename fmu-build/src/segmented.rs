@@ -17,11 +17,11 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use inchworm_cosim::sweep::plan::{self, SplitMix64};
 use inchworm_fmi_export::{Value, Var};
 use inchworm_fmu_models::mount::{actuator_positions, ANGLE_A_DEG, RADIUS};
 use inchworm_fmu_models::{ControllerFmu, ControllerParams, MountFmu, PlantFmu};
-use inchworm_plant::PlantParams;
+// The seeded draws, shared with the plain-Rust loop of `inchworm-phasing`'s examples.
+use inchworm_scenarios::segmented::{draws, errors, Draw};
 
 use crate::ssp::{self, binding, Binding, SystemSpec};
 
@@ -91,27 +91,9 @@ impl Control {
     }
 }
 
-/// The deadband of [`Control::Deadband`]: 5 nm, about 4 encoder counts of 1.2 nm, wider
-/// than the count or two a parked runner's reading moves, so the gait halts once there and
-/// stays halted (docs/segments.md has what it leaves the coronagraph).
-pub const DEADBAND: f64 = 5e-9;
-
-/// The co-phasing errors (docs/segmented.md §5): piston uniform within ±[`PISTON_ERROR`],
-/// tip and tilt each within ±[`ANGLE_ERROR`].
-pub const PISTON_ERROR: f64 = 10e-6;
-pub const ANGLE_ERROR: f64 = 5e-6;
-
-/// The errors' splitmix64 stream is seeded with `seed ^ ERROR_STREAM`, apart from the
-/// actuators' draws, so that neither depends on the other's count.
-pub const ERROR_STREAM: u64 = 1 << 63;
-
-/// `n` segments' initial errors (piston m, tip rad, tilt rad) from `seed`, segment by
-/// segment: a mirror's first segments draw the same whatever its ring count.
-pub fn errors(seed: u64, n: usize) -> Vec<[f64; 3]> {
-    let mut rng = SplitMix64::new(seed ^ ERROR_STREAM);
-    let mut within = |half: f64| half * (2.0 * rng.uniform() - 1.0);
-    (0..n).map(|_| [within(PISTON_ERROR), within(ANGLE_ERROR), within(ANGLE_ERROR)]).collect()
-}
+/// The deadband of [`Control::Deadband`], the segmented mirrors' (docs/segments.md has
+/// what it leaves the coronagraph).
+pub use inchworm_phasing::cophasing::DEADBAND;
 
 impl Mirror {
     /// 3R(R+1) + 1 segments with the centre, 3R(R+1) without: the count of
@@ -120,55 +102,6 @@ impl Mirror {
         let r = self.rings as usize;
         3 * r * (r + 1) + usize::from(self.centre)
     }
-}
-
-/// One actuator's draw.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Draw {
-    /// Brake disturbance force in DRIVE (N).
-    pub f_d0: f64,
-    /// Electromechanical transformer ratio (N/V): the scale factor's spread.
-    pub t_em: f64,
-    /// Environment stiffness on the runner (N/m).
-    pub k_e: f64,
-}
-
-/// The spreads, seeded (docs/segmented.md §2). The paper's two devices (docs/model.md
-/// §2.8) bound the first; the others are design decisions, the paper publishing none:
-/// * `F_d0` uniform between fia6's 105 N and fia20's 175 N: brake disturbances of about
-///   3 µm to 5 µm, the range the paper reports for its two devices;
-/// * `T_em` normal about fia20's 8.8 N/V, standard deviation [`T_EM_SIGMA`] (5 %), cut at
-///   [`T_EM_CUT`] σ (redrawn beyond): a production lot of the 20 µm device, whose scale
-///   factor (µm a full step) follows `T_em` and the controller's estimator tracks;
-/// * `k_e` log-uniform over a factor 2 each side of fia20's 2·10^4 N/m (10^4 to
-///   4·10^4 N/m): the stiffness of what the runner pushes against, mount to mount.
-///
-/// The draws take splitmix64 with the sweep plan's own logarithm, cosine and exponential
-/// (`inchworm_cosim::sweep::plan`), so a seed gives the same bits on every machine.
-pub const F_D0_RANGE: (f64, f64) = (105.0, 175.0);
-pub const T_EM_SIGMA: f64 = 0.05;
-pub const T_EM_CUT: f64 = 3.0;
-pub const K_E_RANGE: (f64, f64) = (1.0e4, 4.0e4);
-
-/// `n` actuators' draws from `seed`, actuator by actuator (segment 0's a, b, c, then
-/// segment 1's, …): a mirror's first segments are the same whatever its ring count.
-pub fn draws(seed: u64, n: usize) -> Vec<Draw> {
-    let nominal = PlantParams::fia20();
-    let mut rng = SplitMix64::new(seed);
-    let k_e_decades = plan::ln(K_E_RANGE.1 / K_E_RANGE.0);
-    (0..n)
-        .map(|_| {
-            let f_d0 = F_D0_RANGE.0 + (F_D0_RANGE.1 - F_D0_RANGE.0) * rng.uniform();
-            let t_em = loop {
-                let z = rng.normal();
-                if z.abs() <= T_EM_CUT {
-                    break nominal.t_em * (1.0 + T_EM_SIGMA * z);
-                }
-            };
-            let k_e = K_E_RANGE.0 * plan::exp(k_e_decades * rng.uniform());
-            Draw { f_d0, t_em, k_e }
-        })
-        .collect()
 }
 
 /// The mirror's system: one mount a segment, each plant bound to its draw.
@@ -337,6 +270,7 @@ pub fn main(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use inchworm_scenarios::segmented::{ANGLE_ERROR, PISTON_ERROR};
 
     /// One ring with the centre, the mount's command, the stepping gait.
     fn mirror(seed: u64) -> Mirror {
@@ -348,29 +282,6 @@ mod tests {
         let count = |rings, centre| Mirror { rings, centre, ..mirror(1) }.segments();
         assert_eq!([count(1, true), count(2, true), count(3, true)], [7, 19, 37]);
         assert_eq!([count(2, false), count(16, true)], [18, 817]);
-    }
-
-    #[test]
-    fn draws_are_seeded_within_their_ranges_and_spread() {
-        let d = draws(7, 3000);
-        assert_eq!(d, draws(7, 3000));
-        assert_ne!(d[0], draws(8, 1)[0]);
-        // A mirror's first actuators are the same whatever its size.
-        assert_eq!(&d[..21], &draws(7, 21)[..]);
-        let nominal = PlantParams::fia20().t_em;
-        let mean = |f: &dyn Fn(&Draw) -> f64| d.iter().map(f).sum::<f64>() / d.len() as f64;
-        for x in &d {
-            assert!((F_D0_RANGE.0..=F_D0_RANGE.1).contains(&x.f_d0));
-            assert!((x.t_em / nominal - 1.0).abs() <= T_EM_CUT * T_EM_SIGMA + 1e-12);
-            assert!((K_E_RANGE.0..=K_E_RANGE.1).contains(&x.k_e));
-        }
-        // Uniform mean 140 N (sd of the mean 0.37 N), normal mean 8.8 (sd of the mean
-        // 0.008), log-uniform geometric mean 2e4 (log sd of the mean 0.007).
-        assert!((mean(&|x| x.f_d0) - 140.0).abs() < 2.0);
-        assert!((mean(&|x| x.t_em) - nominal).abs() < 0.04);
-        let sd = (mean(&|x| (x.t_em - nominal).powi(2))).sqrt() / nominal;
-        assert!((sd - T_EM_SIGMA).abs() < 0.004, "{sd}");
-        assert!((mean(&|x| x.k_e.ln()) - 2.0e4_f64.ln()).abs() < 0.03);
     }
 
     #[test]

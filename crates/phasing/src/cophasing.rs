@@ -19,6 +19,26 @@ use crate::PhasingError;
 /// The local loops' sample period (s).
 pub const SAMPLE_PERIOD: f64 = 0.002;
 
+/// The controller modes of a segmented mirror's actuators.
+pub const MODES: [&str; 3] = ["stepping", "deadband", "analog"];
+
+/// The deadband of the `deadband` mode: 5 nm, about 4 encoder counts of 1.2 nm, wider than
+/// the count or two a parked runner's reading moves, so the gait halts once there and
+/// stays halted.
+pub const DEADBAND: f64 = 5e-9;
+
+/// The controller of mode `name` of [`MODES`]: the paper's stepping gait, the same with no
+/// step while the error is within [`DEADBAND`], or analog mode near the target.
+pub fn controller(name: &str) -> Option<Params> {
+    let d = Params::default();
+    match name {
+        "stepping" => Some(d),
+        "deadband" => Some(Params { deadband: DEADBAND, ..d }),
+        "analog" => Some(Params { analog: true, ..d }),
+        _ => None,
+    }
+}
+
 /// How the global loop knows the segments' poses.
 #[derive(Clone, Debug)]
 pub enum Knowledge {
@@ -31,8 +51,11 @@ pub enum Knowledge {
 
 /// The global loop: every `period` local samples it takes the mean of its knowledge over
 /// the last `average` samples (the hold's dither and the sensors' white noise averaged
-/// down), and moves every segment's actuator targets against it, `gain` times: an
-/// integrator at `1 / (period × 2 ms)`.
+/// down) and the mean of every actuator's encoder over the same samples. Each actuator's
+/// wanted position is its encoder's less its share of the segment's known error, and its
+/// target moves `gain` of the way there: an integrator at `1 / (period × 2 ms)` once the
+/// runners are at their targets, and no wind-up while a stepping actuator is still on
+/// its way (what the sensors see of the way left is in its encoder too).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GlobalLoop {
     pub period: usize,
@@ -89,6 +112,28 @@ pub fn cophasing_rms(mirror: &Mirror, poses: &[[f64; 3]]) -> f64 {
     rms_without(&global_modes(mirror), mirror.lever(), poses)
 }
 
+/// The telescope's pointing and focus stage: what takes the whole mirror's piston, tip and
+/// tilt out of the segments' poses, which the edge sensors cannot see and a telescope
+/// corrects by pointing (the optics' input: a coronagraph's star on its mask).
+#[derive(Clone, Debug)]
+pub struct Pointing {
+    globals: DMatrix<f64>,
+    lever: f64,
+}
+
+impl Pointing {
+    pub fn new(mirror: &Mirror) -> Pointing {
+        Pointing { globals: global_modes(mirror), lever: mirror.lever() }
+    }
+
+    /// `poses` less their projection on the whole mirror's piston, tip and tilt.
+    pub fn correct(&self, poses: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let u = coordinates(self.lever, poses);
+        let r = &u - &self.globals * (self.globals.transpose() * &u);
+        r.as_slice().chunks_exact(3).map(|c| [c[0], c[1] / self.lever, c[2] / self.lever]).collect()
+    }
+}
+
 /// Pose vector (the interaction matrix's coordinates) of poses, `lever` the segments'.
 fn coordinates(lever: f64, poses: &[[f64; 3]]) -> DVector<f64> {
     DVector::from_iterator(
@@ -110,6 +155,18 @@ pub fn run(
     knowledge: &Knowledge,
     global: GlobalLoop,
     duration: f64,
+) -> Result<Run, PhasingError> {
+    run_observed(setup, knowledge, global, duration, |_, _| {})
+}
+
+/// [`run`], calling `observe(t, poses)` with every segment's pose at every local sample
+/// (and at the end): the traces a caller keeps, at the cost it chooses.
+pub fn run_observed(
+    setup: &Setup,
+    knowledge: &Knowledge,
+    global: GlobalLoop,
+    duration: f64,
+    mut observe: impl FnMut(f64, &[[f64; 3]]),
 ) -> Result<Run, PhasingError> {
     let Setup { mirror, sensors, errors, plants, controller, disturbances } = setup;
     let n = mirror.segments();
@@ -153,7 +210,7 @@ pub fn run(
             })
             .collect::<Vec<[f64; 3]>>()
     };
-    let interaction = sensors.interaction(mirror.centres());
+    let interaction = sensors.sparse(mirror.centres());
     let globals = global_modes(mirror);
     let samples = (duration / SAMPLE_PERIOD).round() as usize;
     let mut out = Run { parked: vec![[0.0; 3]; n], ..Run::default() };
@@ -165,9 +222,12 @@ pub fn run(
         Knowledge::EdgeSensors(_) => sensors.len(),
     };
     let (mut sum, mut count) = (DVector::zeros(width), 0usize);
+    // And the mean of every actuator's encoder over the same samples.
+    let mut encoders = vec![0.0; 3 * n];
     for k in 0..samples {
         let t = k as f64 * SAMPLE_PERIOD;
         let now = poses(&actuators, t, &wind);
+        observe(t, &now);
         out.cophasing_rms.push(rms_without(&globals, lever, &now));
         if k >= samples - parked_over {
             for (mean, p) in out.parked.iter_mut().zip(&now) {
@@ -185,12 +245,15 @@ pub fn run(
             match knowledge {
                 Knowledge::Perfect => sum += &u - &globals * (globals.transpose() * &u),
                 Knowledge::EdgeSensors(_) => {
-                    let mut readings = &interaction * u;
+                    let mut readings = interaction.apply(&u);
                     if let Some(e) = &mut sensor_errors {
                         e.corrupt(readings.as_mut_slice());
                     }
                     sum += readings;
                 }
+            }
+            for (mean, (plant, _, _)) in encoders.iter_mut().zip(&actuators) {
+                *mean += plant.outputs().encoder_position;
             }
             count += 1;
         }
@@ -202,11 +265,14 @@ pub fn run(
             };
             for (s, e) in sensors.poses(estimate.as_slice()).iter().enumerate() {
                 let dz = actuator_positions(e[0], e[1], e[2], RADIUS, ANGLE_A_DEG);
-                for i in 0..3 {
-                    targets[3 * s + i] -= global.gain * dz[i];
+                for (i, dz) in dz.iter().enumerate() {
+                    let a = 3 * s + i;
+                    let wanted = encoders[a] / count as f64 - dz;
+                    targets[a] += global.gain * (wanted - targets[a]);
                 }
             }
             sum.fill(0.0);
+            encoders.fill(0.0);
             count = 0;
             out.updates += 1;
         }
@@ -221,7 +287,9 @@ pub fn run(
             w.advance(SAMPLE_PERIOD);
         }
     }
-    out.poses = poses(&actuators, samples as f64 * SAMPLE_PERIOD, &wind);
+    let end = samples as f64 * SAMPLE_PERIOD;
+    out.poses = poses(&actuators, end, &wind);
+    observe(end, &out.poses);
     out.cophasing_rms.push(rms_without(&globals, lever, &out.poses));
     Ok(out)
 }

@@ -19,7 +19,7 @@ pub mod sensors;
 
 pub use geometry::{Edge, Mirror};
 pub use reconstructor::{Mode, Reconstructor, DEFAULT_THRESHOLD};
-pub use sensors::{EdgeSensors, Sensor};
+pub use sensors::{EdgeSensors, Interaction, Sensor};
 
 /// A mirror, sensor layout or reconstructor that cannot be built, with what is wrong.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -5,27 +5,14 @@
 //! dihedral term the focus mode) read zero and are exactly the near-zero singular modes; the noise multiplier from Monte Carlo is
 //! the reconstructor's analytic figure.
 
-use inchworm_phasing::reconstructor::{focus_mode, global_modes};
+use inchworm_phasing::reconstructor::unseen_modes;
 use inchworm_phasing::{EdgeSensors, Mirror, Reconstructor, Sensor, DEFAULT_THRESHOLD};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 const MIRRORS: [(u32, bool); 5] = [(1, true), (2, false), (2, true), (3, true), (5, true)];
 /// Heights alone (the focus mode unseen too), and the default 5 mm dihedral gain.
 const DIHEDRAL: [f64; 2] = [0.0, 0.005];
 const THRESHOLD: f64 = DEFAULT_THRESHOLD;
-
-/// An orthonormal basis of the modes no sensor sees: the global piston, tip and tilt,
-/// and without the dihedral term the focus mode.
-fn unseen(m: &Mirror, dihedral: f64) -> DMatrix<f64> {
-    let g = global_modes(m);
-    if dihedral > 0.0 {
-        return g;
-    }
-    let mut basis = DMatrix::zeros(g.nrows(), 4);
-    basis.columns_mut(0, 3).copy_from(&g);
-    basis.set_column(3, &focus_mode(m));
-    basis.qr().q()
-}
 
 fn setup(rings: u32, centre: bool, dihedral: f64) -> (Mirror, EdgeSensors, Reconstructor) {
     let m = Mirror::new(rings, centre, 1.44, 0.004).unwrap();
@@ -41,7 +28,7 @@ fn one_pistoned_segment_reads_on_exactly_its_sensors_and_reconstructs_to_itself(
         for h in DIHEDRAL {
             let (m, s, r) = setup(rings, centre, h);
             let a = s.interaction(m.centres());
-            let g = unseen(&m, h);
+            let g = unseen_modes(&m, h);
             for k in [0, m.segments() / 2, m.segments() - 1] {
                 let mut poses = vec![[0.0; 3]; m.segments()];
                 poses[k][0] = delta;
@@ -82,7 +69,7 @@ fn the_whole_mirrors_piston_tip_and_tilt_read_zero_and_are_the_unseen_modes() {
         for h in DIHEDRAL {
             let (m, s, r) = setup(rings, centre, h);
             let a = s.interaction(m.centres());
-            let basis = unseen(&m, h);
+            let basis = unseen_modes(&m, h);
             let readings = &a * &basis;
             assert!(
                 readings.amax() < 1e-13 * a.amax(),
@@ -159,4 +146,28 @@ fn bad_thresholds_and_sensors_are_refused_with_a_message() {
         .to_string()
         .starts_with("sensor 1 at ("));
     EdgeSensors::check_layout(&m, &s.sensors).unwrap();
+}
+
+#[test]
+fn the_normal_equations_reconstruct_as_the_svd_does() {
+    for (rings, centre) in MIRRORS {
+        for dihedral in DIHEDRAL {
+            let (m, s, svd) = setup(rings, centre, dihedral);
+            let normal =
+                Reconstructor::normal_equations(&m, &s.sparse(m.centres()), dihedral).unwrap();
+            let mut state = 11;
+            let y: Vec<f64> =
+                (0..s.len()).map(|_| inchworm_plant::noise::gaussian(&mut state)).collect();
+            let (a, b) =
+                (DVector::from_vec(svd.reconstruct(&y)), DVector::from_vec(normal.reconstruct(&y)));
+            let rel = (&a - &b).norm() / a.norm();
+            let (alpha, beta) = (svd.noise_multiplier(), normal.noise_multiplier());
+            println!(
+                "{} segments, h = {dihedral} m: normal equations {rel:.1e} from the SVD, noise multiplier {alpha:.6} and {beta:.6}",
+                m.segments()
+            );
+            assert!(rel < 1e-8, "{rel:e}");
+            assert!((alpha / beta - 1.0).abs() < 1e-8, "{alpha} against {beta}");
+        }
+    }
 }

@@ -45,6 +45,7 @@ pub mod plant;
 pub mod plot;
 pub mod poses;
 pub mod scenario;
+pub mod segmented;
 pub mod sweep_plots;
 
 /// Every parameter of `model` as `<component>.<name>` values for the master, from the

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from inchworm_inputs import command
 from inchworm_output import OutputError, check
 
 from .inputs import PARTS, ROWS_PER_TASK, BinaryError, InputError, read_plan
@@ -38,14 +39,8 @@ def parse_args(argv):
 
 
 def main(argv=None) -> int:
-    try:
-        return _main(list(sys.argv[1:] if argv is None else argv))
-    except (InputError, OutputError) as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr)
-        return 2
-    except (BinaryError, OSError) as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr)
-        return 1
+    return command(PROG, lambda: _main(list(sys.argv[1:] if argv is None else argv)),
+                   refused=(InputError, OutputError), failed=(BinaryError, OSError))
 
 
 def _main(argv: list[str]) -> int:

@@ -13,6 +13,9 @@ discipline:
   unread, `read_bounded` reads a whole file and `bounded_lines` its lines, each refusing
   what goes past its bound as it is read, so that /dev/zero or a FIFO that never ends is
   refused instead of hanging the command or filling the memory.
+* `command(prog, body, refused, failed)`: a command's `main`, one shape for all of them:
+  `body()`'s exit code, or a one-line `prog: error: …` and 2 for a refused input or output,
+  1 for a failure of the system (`OSError` and the like).
 
 The standard library only: the commands check their arguments with it before importing
 numpy, poppy, hcipy or dask.
@@ -153,3 +156,19 @@ def bounded_lines(stream, name, max_bytes, max_line):
         if total > max_bytes:
             raise InputError(f"{name}: longer than {max_bytes} bytes")
         yield number, line
+
+
+def command(prog, body, refused=(InputError,), failed=(OSError,)):
+    """`body()`'s exit code; an exception of `refused` (the inputs or outputs a command
+    refuses) prints `prog: error: <message>` on stderr and gives 2, one of `failed` (the
+    system's failures) the same and 1."""
+    import sys
+
+    try:
+        return body()
+    except refused as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 2
+    except failed as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return 1

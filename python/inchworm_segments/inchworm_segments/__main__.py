@@ -9,6 +9,7 @@ import os
 import pathlib
 import sys
 import time
+from inchworm_inputs import command
 from inchworm_output import OutputError, check, replacing
 
 from .config import (FRAME_MS, RANGES, SAMPLE_S, SEED, SYNTHETIC_S, WORKERS, InputError, Range, Telescope,
@@ -156,15 +157,8 @@ def run(args):
 
 
 def main(argv=None):
-    try:
-        args = parse_args(sys.argv[1:] if argv is None else argv)
-        return run(args)
-    except (InputError, OutputError) as e:
-        print(f"inchworm-segments: error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"inchworm-segments: error: {e}", file=sys.stderr)
-        return 1
+    return command("inchworm-segments", lambda: run(parse_args(sys.argv[1:] if argv is None else argv)),
+                   refused=(InputError, OutputError))
 
 
 if __name__ == "__main__":

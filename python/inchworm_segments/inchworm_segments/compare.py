@@ -8,7 +8,7 @@ import csv
 import io
 import pathlib
 import sys
-from inchworm_inputs import open_bounded
+from inchworm_inputs import command, open_bounded
 from inchworm_output import OutputError, replacing, replacing_path
 
 from .config import TIME_S, InputError, Range
@@ -177,14 +177,7 @@ PROG = "inchworm_segments.compare"
 
 
 def main(argv=None):
-    try:
-        return _main(argv)
-    except (InputError, OutputError) as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"{PROG}: error: {e}", file=sys.stderr)
-        return 1
+    return command(PROG, lambda: _main(argv), refused=(InputError, OutputError))
 
 
 def _main(argv):
