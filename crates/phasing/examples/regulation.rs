@@ -274,14 +274,8 @@ fn study(
             let tail = &result.cophasing_rms[from..];
             let every_sample = (tail.iter().map(|r| r * r).sum::<f64>() / tail.len() as f64).sqrt();
             let parked = cophasing::cophasing_rms(&mirror, &result.parked);
-            let apart = perfect_parked.as_ref().map(|p| {
-                let d: Vec<[f64; 3]> = p
-                    .iter()
-                    .zip(&result.parked)
-                    .map(|(a, b)| std::array::from_fn(|j| a[j] - b[j]))
-                    .collect();
-                cophasing::cophasing_rms(&mirror, &d)
-            });
+            let apart =
+                perfect_parked.as_ref().map(|p| cophasing::apart(&mirror, p, &result.parked));
             if perfect_parked.is_none() {
                 perfect_parked = Some(result.parked.clone());
             }

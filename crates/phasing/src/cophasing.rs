@@ -134,6 +134,13 @@ impl Pointing {
     }
 }
 
+/// How far apart two sets of poses are: the co-phasing error of their difference (m).
+pub fn apart(mirror: &Mirror, a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    let d: Vec<[f64; 3]> =
+        a.iter().zip(b).map(|(p, q)| std::array::from_fn(|j| p[j] - q[j])).collect();
+    cophasing_rms(mirror, &d)
+}
+
 /// Pose vector (the interaction matrix's coordinates) of poses, `lever` the segments'.
 fn coordinates(lever: f64, poses: &[[f64; 3]]) -> DVector<f64> {
     DVector::from_iterator(

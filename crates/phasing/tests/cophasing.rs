@@ -41,13 +41,7 @@ fn the_edge_sensor_loop_parks_the_37_segment_mirror_where_perfect_knowledge_does
     let start = perfect.cophasing_rms[0];
     let (p_end, s_end) =
         (*perfect.cophasing_rms.last().unwrap(), *sensed.cophasing_rms.last().unwrap());
-    let diff: Vec<[f64; 3]> = perfect
-        .parked
-        .iter()
-        .zip(&sensed.parked)
-        .map(|(a, b)| std::array::from_fn(|j| a[j] - b[j]))
-        .collect();
-    let apart = cophasing::cophasing_rms(&setup.mirror, &diff);
+    let apart = cophasing::apart(&setup.mirror, &perfect.parked, &sensed.parked);
     println!(
         "37 segments from {:.3} µm: parked at {:.3} nm (perfect knowledge), {:.3} nm (edge sensors, {} updates), {:.3} nm apart",
         start * 1e6,
@@ -114,13 +108,7 @@ fn the_edge_sensor_loop_parks_off_perfect_knowledge_by_the_reconstructed_sensor_
         cophasing::cophasing_rms(&setup.mirror, &setup.sensors.poses(&r.reconstruct(&bias)));
     let perfect = cophasing::run(&setup, &Knowledge::Perfect, TEN_HZ, 6.0).unwrap();
     let sensed = cophasing::run(&setup, &Knowledge::EdgeSensors(r), TEN_HZ, 6.0).unwrap();
-    let diff: Vec<[f64; 3]> = perfect
-        .parked
-        .iter()
-        .zip(&sensed.parked)
-        .map(|(a, b)| std::array::from_fn(|j| a[j] - b[j]))
-        .collect();
-    let apart = cophasing::cophasing_rms(&setup.mirror, &diff);
+    let apart = cophasing::apart(&setup.mirror, &perfect.parked, &sensed.parked);
     println!(
         "sensor bias 2 nm RMS: parked {:.3} nm off perfect knowledge, R b predicts {:.3} nm",
         apart * 1e9,

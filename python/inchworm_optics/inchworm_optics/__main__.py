@@ -12,6 +12,8 @@ import pathlib
 import signal
 import sys
 import time
+
+from inchworm_inputs import command
 from inchworm_output import OutputError, check, replacing
 
 from .inputs import (ANGLE, BOUND, DURATION, GAIN, GRID, MEMORY_BYTES, PHOTONS, RATE, RATE_OF_ANGLE, READ_NOISE,
@@ -237,13 +239,8 @@ def main(argv=None):
     or SIGHUP. Every path removes the runs' unpacked SSP folders."""
     try:
         with _signals_raise():
-            return _main(sys.argv[1:] if argv is None else argv)
-    except InputError as e:
-        print(f"inchworm-optics: error: {e}", file=sys.stderr)
-        return 2
-    except RunError as e:
-        print(f"inchworm-optics: error: {e}", file=sys.stderr)
-        return 1
+            return command("inchworm-optics", lambda: _main(sys.argv[1:] if argv is None else argv),
+                           refused=(InputError,), failed=(RunError,))
     except KeyboardInterrupt:
         print("inchworm-optics: interrupted", file=sys.stderr)
         return 130
