@@ -29,6 +29,7 @@ use inchworm_cosim::output::{self, Pending};
 use inchworm_fmi_abi::platform::Platform;
 use inchworm_fmi_export::{fmi3, model_description, Model};
 
+mod cache_key;
 mod check;
 mod evidence;
 mod modelica;

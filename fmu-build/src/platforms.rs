@@ -15,20 +15,20 @@
 //!   has no other target's standard library here.
 //!
 //! A platform's libraries are cached outside the clone under a key that hashes everything
-//! that goes into them: the recipe below, the toolchain's versions, `Cargo.lock`, the
-//! workspace manifest, `.cargo/config.toml` and every file of the packages in the
-//! libraries' dependency tree. A cache hit copies the libraries and runs no compiler; any
-//! change to one of those inputs misses and builds that platform once.
+//! that goes into them (`cache_key.rs`): the recipe below, the toolchain's versions, the
+//! lock entries and manifest lines of the libraries' dependency tree, `.cargo/config.toml`
+//! and every file of the workspace packages in that tree. A cache hit copies the libraries
+//! and runs no compiler; any change to one of those inputs misses and builds that platform
+//! once.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use inchworm_fmi_abi::platform::{self, Platform};
-use sha2::{Digest, Sha256};
 
 /// Bumped whenever the build commands below change, so no cached library of an older
 /// recipe is reused.
-const RECIPE: &str = "fmu-build platforms 3";
+pub(crate) const RECIPE: &str = "fmu-build platforms 3";
 
 /// The glibc whose symbol versions the Linux libraries and binary are linked against:
 /// glibc 2.17 (RHEL/CentOS 7, 2012) is the oldest that zig links for both x86-64 and
@@ -80,7 +80,7 @@ impl Target {
         }
     }
 
-    fn cargo(&self) -> String {
+    pub(crate) fn cargo(&self) -> String {
         if self.build_std {
             DEBIAN_CARGO.into()
         } else {
@@ -90,7 +90,7 @@ impl Target {
 }
 
 const DEBIAN_CARGO: &str = "/usr/bin/cargo";
-const DEBIAN_RUSTC: &str = "/usr/bin/rustc";
+pub(crate) const DEBIAN_RUSTC: &str = "/usr/bin/rustc";
 
 fn row(fmi3: &str) -> &'static Platform {
     platform::PLATFORMS.iter().find(|p| p.fmi3 == fmi3).expect("a row of the platform table")
@@ -116,7 +116,7 @@ pub fn host_target() -> Option<Target> {
 
 /// The environment of every build command: the venv's `bin/` (cargo-zigbuild, and the
 /// python that has `ziglang`) ahead of the caller's PATH.
-fn path_with_venv(root: &Path) -> std::ffi::OsString {
+pub(crate) fn path_with_venv(root: &Path) -> std::ffi::OsString {
     let venv = root.join(".venv").join("bin");
     let mut paths = vec![venv];
     if let Some(p) = std::env::var_os("PATH") {
@@ -205,7 +205,7 @@ pub fn build(
     outputs: &[Output],
 ) -> Result<Vec<Vec<u8>>, String> {
     let files: Vec<String> = outputs.iter().map(|o| file_name(target, o)).collect();
-    let key = cache_key(root, target, outputs)?;
+    let key = crate::cache_key::cache_key(root, target, outputs)?;
     let entry =
         cache_dir().map(|d| d.join(format!("{}-{label}-{}", target.platform.fmi3, &key[..16])));
     if let Some(entry) = &entry {
@@ -352,110 +352,6 @@ fn store(entry: &Path, files: &[String], data: &[Vec<u8>]) {
     }
 }
 
-/// The first line of what `program args` prints, or why it could not run.
-fn version(program: &str, args: &[&str], path: &std::ffi::OsStr) -> String {
-    match Command::new(program).args(args).env("PATH", path).output() {
-        Ok(o) => String::from_utf8_lossy(&o.stdout).trim().to_string(),
-        Err(e) => format!("{program}: {e}"),
-    }
-}
-
-/// The SHA-256 of everything that goes into `outputs` for `target`, in hex.
-pub fn cache_key(root: &Path, target: &Target, outputs: &[Output]) -> Result<String, String> {
-    let mut h = Sha256::new();
-    let mut put = |label: &str, bytes: &[u8]| {
-        h.update((label.len() as u64).to_le_bytes());
-        h.update(label.as_bytes());
-        h.update((bytes.len() as u64).to_le_bytes());
-        h.update(bytes);
-    };
-    put("recipe", RECIPE.as_bytes());
-    put("target", format!("{target:?} {}", target.cargo_target()).as_bytes());
-    put("outputs", format!("{outputs:?}").as_bytes());
-    let path = path_with_venv(root);
-    let rustc = if target.build_std {
-        DEBIAN_RUSTC.to_string()
-    } else {
-        std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into())
-    };
-    put("rustc", version(&rustc, &["-vV"], &path).as_bytes());
-    put("cargo", version(&target.cargo(), &["-V"], &path).as_bytes());
-    match target.linker {
-        Linker::Host => put("linker", version("cc", &["--version"], &path).as_bytes()),
-        Linker::Zig => {
-            put("cargo-zigbuild", version("cargo-zigbuild", &["-V"], &path).as_bytes());
-            put("zig", version("python-zig", &["version"], &path).as_bytes());
-        }
-        Linker::Gcc(gcc) => put("linker", version(gcc, &["--version"], &path).as_bytes()),
-    }
-    for name in ["Cargo.lock", "Cargo.toml", ".cargo/config.toml"] {
-        put(name, &std::fs::read(root.join(name)).unwrap_or_default());
-    }
-    let mut files = Vec::new();
-    for dir in package_dirs(root, outputs)? {
-        if dir == root {
-            // The root package: its manifest (hashed above) and its sources.
-            list(&root.join("src"), &mut files);
-            list(&root.join("build.rs"), &mut files);
-        } else {
-            list(&dir, &mut files);
-        }
-    }
-    files.sort();
-    files.dedup();
-    for f in files {
-        let rel = f.strip_prefix(root).unwrap_or(&f).to_string_lossy().into_owned();
-        put(&rel, &std::fs::read(&f).map_err(|e| format!("{}: {e}", f.display()))?);
-    }
-    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
-}
-
-/// Every file under `p` (or `p` itself), skipping build output and hidden folders.
-fn list(p: &Path, out: &mut Vec<PathBuf>) {
-    if p.is_file() {
-        out.push(p.to_path_buf());
-        return;
-    }
-    let Ok(entries) = std::fs::read_dir(p) else { return };
-    for e in entries.filter_map(Result::ok) {
-        let name = e.file_name();
-        let name = name.to_string_lossy();
-        if name.starts_with('.') || name == "target" {
-            continue;
-        }
-        list(&e.path(), out);
-    }
-}
-
-/// The folders of the workspace packages `outputs` are built from, with all their path
-/// dependencies (normal and build), as `cargo tree` lists them.
-fn package_dirs(root: &Path, outputs: &[Output]) -> Result<Vec<PathBuf>, String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.current_dir(root).args(["tree", "--prefix", "none", "-e", "normal,build", "--locked"]);
-    cmd.args(["--target", "all"]);
-    for o in outputs {
-        let (Output::Library { package, .. } | Output::Binary { package, .. }) = o;
-        cmd.args(["-p", package]);
-    }
-    let out = cmd.output().map_err(|e| format!("cannot run cargo tree: {e}"))?;
-    if !out.status.success() {
-        return Err(format!("cargo tree failed: {}", String::from_utf8_lossy(&out.stderr)));
-    }
-    let mut dirs: Vec<PathBuf> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| {
-            let start = l.find(" (/")? + 2;
-            let end = start + l[start..].find(')')?;
-            Some(PathBuf::from(&l[start..end]))
-        })
-        .filter(|d| d.starts_with(root))
-        .collect();
-    dirs.sort();
-    dirs.dedup();
-    Ok(dirs)
-}
-
 /// A Mach-O universal ("fat") file of thin 64-bit Mach-O `slices`: FMI 2.0 has one macOS
 /// folder, `darwin64`, for both processors. Each slice is aligned to 2^14 bytes (the arm64
 /// page size), as Apple's `lipo` does.
@@ -543,19 +439,5 @@ mod tests {
         assert_eq!(&fat[16384..36384], &x86[..]);
         assert_eq!(&fat[49152..], &arm[..]);
         assert!(universal_macho(&[b"not a mach-o file"]).is_err());
-    }
-
-    #[test]
-    fn the_key_is_stable_and_covers_the_dependency_tree_only() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let t = targets()[0];
-        let out = [Output::Library { package: "inchworm-plant-fmu", stem: "inchworm_plant_fmu" }];
-        let a = cache_key(root, &t, &out).unwrap();
-        assert_eq!(a, cache_key(root, &t, &out).unwrap());
-        let dirs = package_dirs(root, &out).unwrap();
-        assert!(dirs.contains(&root.join("crates/plant")), "{dirs:?}");
-        assert!(!dirs.contains(&root.join("crates/bridge")), "{dirs:?}");
-        let other = [Output::Library { package: "inchworm-mount-fmu", stem: "inchworm_mount_fmu" }];
-        assert_ne!(a, cache_key(root, &t, &other).unwrap());
     }
 }
